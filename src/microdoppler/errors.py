@@ -1,0 +1,25 @@
+"""Errors that name the file, the field and what was expected."""
+
+from __future__ import annotations
+
+
+class InputError(ValueError):
+    """Bad input: a file or store that breaks its contract.
+
+    The message is one line: ``<source>: <field>: <problem> (expected <expected>)``.
+    The command-line interface prints it without a traceback and exits non-zero.
+    """
+
+    def __init__(self, source, field: str, problem: str, expected: str | None = None):
+        self.source = str(source)
+        self.field = field
+        self.problem = problem
+        self.expected = expected
+        msg = f"{self.source}: {field}: {problem}"
+        if expected:
+            msg += f" (expected {expected})"
+        super().__init__(msg)
+
+
+class ConfigError(InputError):
+    """A configuration value is invalid."""

@@ -1,0 +1,278 @@
+"""The flight-zarr/1 exchange format (``shared/formats/flight-zarr.md``).
+
+One measured flight is one Zarr group. :func:`read_flight` validates a store and
+returns a :class:`Flight`; :func:`write_flight` writes one atomically (to a sibling
+temporary directory, then renamed), so an interrupted write never leaves a
+half-written store under the final name.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import zarr
+
+from .errors import InputError
+
+SCHEMA = "flight-zarr/1"
+TARGETS = ("drone", "bird", "none")
+FLIGHT_ID_RE = re.compile(r"^[A-Za-z0-9_.-]+$")
+
+#: path -> (dtype, ndim); ``None`` ndim means "checked separately"
+ARRAYS = {
+    "iq": (np.complex64, 1),
+    "track/time_s": (np.float64, 1),
+    "track/range_m": (np.float64, 1),
+    "track/radial_velocity_mps": (np.float64, 1),
+    "motors/time_s": (np.float64, 1),
+    "motors/rpm": (np.float32, 2),
+    "background/iq": (np.complex64, 1),
+}
+REQUIRED = ("iq", "track/time_s", "track/range_m", "track/radial_velocity_mps")
+DRONE_ATTRS = {"drone_model": str, "n_motors": int, "n_blades": int, "blade_length_m": float}
+
+
+@dataclass
+class Flight:
+    """One flight in memory.
+
+    Attributes
+    ----------
+    attrs : dict
+        Group attributes (``schema``, ``flight_id``, ``target``, ``radar_id``,
+        ``prf_hz``, ``carrier_hz`` and, for drones, the rotor geometry). Unknown
+        attributes are preserved.
+    iq : ndarray, complex64 [n_pulses]
+    track_time_s, track_range_m, track_radial_velocity_mps : ndarray, float64 [n_track]
+    motors_time_s : ndarray, float64 [n_log] or None
+    motors_rpm : ndarray, float32 [n_log, n_motors] or None
+    background_iq : ndarray, complex64 [n_pulses] or None
+    """
+
+    attrs: dict
+    iq: np.ndarray
+    track_time_s: np.ndarray
+    track_range_m: np.ndarray
+    track_radial_velocity_mps: np.ndarray
+    motors_time_s: np.ndarray | None = None
+    motors_rpm: np.ndarray | None = None
+    background_iq: np.ndarray | None = None
+    extra_arrays: dict = field(default_factory=dict)
+
+    @property
+    def flight_id(self) -> str:
+        return self.attrs["flight_id"]
+
+    @property
+    def prf_hz(self) -> float:
+        return float(self.attrs["prf_hz"])
+
+    @property
+    def carrier_hz(self) -> float:
+        return float(self.attrs["carrier_hz"])
+
+    @property
+    def wavelength_m(self) -> float:
+        return 299_792_458.0 / self.carrier_hz
+
+    @property
+    def duration_s(self) -> float:
+        return len(self.iq) / self.prf_hz
+
+    @property
+    def has_motor_log(self) -> bool:
+        return self.motors_time_s is not None and self.motors_rpm is not None
+
+    def arrays(self) -> dict:
+        out = {
+            "iq": self.iq,
+            "track/time_s": self.track_time_s,
+            "track/range_m": self.track_range_m,
+            "track/radial_velocity_mps": self.track_radial_velocity_mps,
+        }
+        if self.motors_time_s is not None:
+            out["motors/time_s"] = self.motors_time_s
+        if self.motors_rpm is not None:
+            out["motors/rpm"] = self.motors_rpm
+        if self.background_iq is not None:
+            out["background/iq"] = self.background_iq
+        out.update(self.extra_arrays)
+        return out
+
+
+def _check_attrs(store, attrs: dict) -> None:
+    def need(name, typ, expected):
+        if name not in attrs:
+            raise InputError(store, f"attrs.{name}", "missing", expected)
+        val = attrs[name]
+        ok = isinstance(val, typ) and not (typ in (int, float) and isinstance(val, bool))
+        if typ is float and isinstance(val, int) and not isinstance(val, bool):
+            ok = True
+        if not ok:
+            raise InputError(store, f"attrs.{name}", f"has type {type(val).__name__}", expected)
+        return val
+
+    schema = attrs.get("schema")
+    if schema != SCHEMA:
+        raise InputError(store, "attrs.schema", f"is {schema!r}", repr(SCHEMA))
+    fid = need("flight_id", str, "a string")
+    if not FLIGHT_ID_RE.match(fid):
+        raise InputError(store, "attrs.flight_id", f"is {fid!r}", "[A-Za-z0-9_.-]+")
+    target = need("target", str, "a string")
+    if target not in TARGETS:
+        raise InputError(store, "attrs.target", f"is {target!r}", " or ".join(TARGETS))
+    need("radar_id", str, "a string")
+    for name in ("prf_hz", "carrier_hz"):
+        v = need(name, float, "a positive number [Hz]")
+        if not (np.isfinite(v) and v > 0):
+            raise InputError(store, f"attrs.{name}", f"is {v}", "a positive number [Hz]")
+    if target == "drone":
+        for name, typ in DRONE_ATTRS.items():
+            v = need(name, typ, f"a {typ.__name__}")
+            if typ is not str and not v > 0:
+                raise InputError(store, f"attrs.{name}", f"is {v}", "> 0")
+
+
+def _check_array(store, path, arr: np.ndarray) -> None:
+    dtype, ndim = ARRAYS[path]
+    if arr.dtype != dtype:
+        raise InputError(store, path, f"has dtype {arr.dtype}", np.dtype(dtype).name)
+    if arr.ndim != ndim:
+        raise InputError(store, path, f"has {arr.ndim} dimensions", f"{ndim}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(store, path, "contains NaN or infinite values", "finite values")
+
+
+def _check_consistency(store, attrs, arrs: dict) -> None:
+    n = len(arrs["iq"])
+    if n == 0:
+        raise InputError(store, "iq", "is empty", "at least one pulse")
+    t = arrs["track/time_s"]
+    for p in ("track/range_m", "track/radial_velocity_mps"):
+        if len(arrs[p]) != len(t):
+            raise InputError(store, p, f"has length {len(arrs[p])}", f"length of track/time_s ({len(t)})")
+    if len(t) < 2:
+        raise InputError(store, "track/time_s", f"has {len(t)} rows", "at least 2")
+    if np.any(np.diff(t) <= 0):
+        raise InputError(store, "track/time_s", "is not strictly increasing", "increasing times [s]")
+    if np.any(arrs["track/range_m"] <= 0):
+        raise InputError(store, "track/range_m", "has non-positive ranges", "ranges > 0 m")
+    has_t, has_r = "motors/time_s" in arrs, "motors/rpm" in arrs
+    if has_t != has_r:
+        missing = "motors/rpm" if has_t else "motors/time_s"
+        raise InputError(store, missing, "missing while its partner is present", "both motors arrays or neither")
+    if has_t:
+        mt, mr = arrs["motors/time_s"], arrs["motors/rpm"]
+        if attrs.get("target") != "drone":
+            raise InputError(store, "motors", "present on a non-drone flight", "motor logs only for drones")
+        if len(mt) < 2 or np.any(np.diff(mt) <= 0):
+            raise InputError(store, "motors/time_s", "is not strictly increasing", "increasing times [s], >= 2 rows")
+        if mr.shape[0] != len(mt):
+            raise InputError(store, "motors/rpm", f"has {mr.shape[0]} rows", f"{len(mt)} rows (motors/time_s)")
+        if mr.shape[1] != attrs.get("n_motors"):
+            raise InputError(store, "motors/rpm", f"has {mr.shape[1]} columns", f"n_motors={attrs.get('n_motors')}")
+        if np.any(mr < 0) or np.any(mr > 60000):
+            raise InputError(store, "motors/rpm", "has speeds outside 0-60000", "rev/min")
+    if "background/iq" in arrs and len(arrs["background/iq"]) != n:
+        raise InputError(store, "background/iq", f"has length {len(arrs['background/iq'])}", f"len(iq)={n}")
+
+
+def read_flight(path, *, load_iq: bool = True) -> Flight:
+    """Open, validate and load a flight-zarr/1 store.
+
+    Raises
+    ------
+    InputError
+        Naming the store, the field and what was expected.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "store", "does not exist", "a flight-zarr/1 directory")
+    try:
+        g = zarr.open_group(str(path), mode="r")
+    except Exception as exc:  # zarr raises several types for non-stores
+        raise InputError(path, "store", f"is not a Zarr group ({type(exc).__name__})", "a flight-zarr/1 group") from None
+    attrs = dict(g.attrs)
+    _check_attrs(path, attrs)
+    arrs = {}
+    for p in ARRAYS:
+        try:
+            node = g[p]
+        except KeyError:
+            if p in REQUIRED:
+                raise InputError(path, p, "missing", f"{np.dtype(ARRAYS[p][0]).name} array") from None
+            continue
+        if not isinstance(node, zarr.Array):
+            raise InputError(path, p, "is a group", "an array")
+        if p in ("iq", "background/iq") and not load_iq:
+            arrs[p] = np.zeros(node.shape, node.dtype)
+            if node.dtype != ARRAYS[p][0]:
+                raise InputError(path, p, f"has dtype {node.dtype}", np.dtype(ARRAYS[p][0]).name)
+            continue
+        arrs[p] = np.asarray(node[...])
+        _check_array(path, p, arrs[p])
+    _check_consistency(path, attrs, arrs)
+    return Flight(
+        attrs=attrs,
+        iq=arrs["iq"],
+        track_time_s=arrs["track/time_s"],
+        track_range_m=arrs["track/range_m"],
+        track_radial_velocity_mps=arrs["track/radial_velocity_mps"],
+        motors_time_s=arrs.get("motors/time_s"),
+        motors_rpm=arrs.get("motors/rpm"),
+        background_iq=arrs.get("background/iq"),
+    )
+
+
+def validate_store(path) -> Flight:
+    """Validate a store (raises :class:`InputError`); returns the flight without IQ."""
+    return read_flight(path, load_iq=False)
+
+
+def atomic_dir(final: Path):
+    """Temporary sibling directory for an atomic write of ``final``."""
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    return final.parent / f".{final.name}.tmp-{uuid.uuid4().hex[:8]}"
+
+
+def commit_dir(tmp: Path, final: Path) -> None:
+    """Replace ``final`` by ``tmp`` (rename; the old one is removed first)."""
+    final = Path(final)
+    if final.exists():
+        shutil.rmtree(final)
+    os.replace(tmp, final)
+
+
+def write_flight(path, flight: Flight, *, chunk_pulses: int = 1 << 18) -> Path:
+    """Write ``flight`` as a flight-zarr/1 store, atomically. Validates first."""
+    path = Path(path)
+    attrs = dict(flight.attrs)
+    attrs.setdefault("schema", SCHEMA)
+    arrs = {p: np.asarray(a) for p, a in flight.arrays().items()}
+    for p, a in arrs.items():
+        if p in ARRAYS:
+            dt = ARRAYS[p][0]
+            arrs[p] = a.astype(dt, copy=False)
+            _check_array(path, p, arrs[p])
+    _check_attrs(path, attrs)
+    _check_consistency(path, attrs, arrs)
+    tmp = atomic_dir(path)
+    try:
+        g = zarr.open_group(str(tmp), mode="w", zarr_format=3)
+        g.attrs.update(attrs)
+        for p, a in arrs.items():
+            chunks = (min(chunk_pulses, max(1, a.shape[0])),) + a.shape[1:]
+            z = g.create_array(p, shape=a.shape, dtype=a.dtype, chunks=chunks)
+            z[...] = a
+        commit_dir(tmp, path)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return path

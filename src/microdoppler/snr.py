@@ -1,0 +1,54 @@
+"""The one SNR measure of the project (Table III's definition).
+
+Per spectrogram timestep: the target line's peak power over the spectrogram's median
+noise floor, in dB. The target line is searched within ``search_hz`` of an expected
+Doppler (the body Doppler from the track) or, without one, anywhere outside the
+high-pass notch. The floor is the median over all bins of that timestep (robust to
+the few bins a target occupies).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .spectrogram import Spectrogram
+
+
+def noise_floor_db(spec: Spectrogram) -> np.ndarray:
+    """Median power of each timestep [dB], float [n_timesteps]."""
+    return np.median(spec.power_db, axis=1)
+
+
+def line_snr_db(spec: Spectrogram, expected_hz: np.ndarray | float | None = None, *, search_hz: float = 10.0,
+                notch_hz: float = 20.0) -> np.ndarray:
+    """Peak of the line near ``expected_hz`` over the median floor, per timestep [dB].
+
+    Parameters
+    ----------
+    spec : Spectrogram
+    expected_hz : float or ndarray [n_timesteps], optional
+        Doppler where the line is expected. ``None`` takes the strongest bin outside
+        ±``notch_hz``.
+    search_hz : float
+        Half-width of the search window around ``expected_hz``.
+    """
+    p = spec.power_db
+    f = spec.doppler_hz
+    floor = noise_floor_db(spec)
+    if expected_hz is None:
+        mask = np.abs(f) > notch_hz
+        peak = p[:, mask].max(axis=1)
+    else:
+        e = np.broadcast_to(np.asarray(expected_hz, dtype=np.float64), (p.shape[0],))
+        peak = np.empty(p.shape[0])
+        for i in range(p.shape[0]):
+            sel = np.abs(f - e[i]) <= search_hz
+            peak[i] = p[i, sel].max() if sel.any() else -np.inf
+    return peak - floor
+
+
+def flight_snr_db(spec: Spectrogram, expected_hz=None, **kw) -> tuple[float, float]:
+    """Mean and standard deviation over timesteps of :func:`line_snr_db` [dB]."""
+    s = line_snr_db(spec, expected_hz, **kw)
+    s = s[np.isfinite(s)]
+    return float(np.mean(s)), float(np.std(s))
