@@ -183,6 +183,7 @@ def synthesize(
     margin: int = 4096,
     blade_hook: Hook | None = None,
     body_hook: Hook | None = None,
+    envelope: Callable[[np.ndarray], np.ndarray] | None = None,
     out: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> np.ndarray:
@@ -207,6 +208,9 @@ def synthesize(
     blade_hook, body_hook : callable, optional
         ``hook(i0, i1, t_s, x)`` modifies the blade signal (after the envelope) or the
         body amplitude of pulses [i0, i1) in place; model extensions use these.
+    envelope : callable, optional
+        ``envelope(f_hz) -> gain`` multiplies H(f) (f relative to the body Doppler,
+        on the FFT grid); e.g. an asymmetric gain for upper vs lower sidebands.
     out : ndarray, complex64 [n_pulses], optional
         Output buffer.
 
@@ -223,7 +227,7 @@ def synthesize(
     rng = np.random.default_rng(seed)
     start = (np.asarray(initial_cycles, np.float64) if initial_cycles is not None
              else rng.uniform(0, 1, n_motors))
-    use_filter = scaling.alpha_s > 0 and scaling.s_blade > 0
+    use_filter = (scaling.alpha_s > 0 or envelope is not None) and scaling.s_blade > 0
     mg = margin if use_filter else 0
     c_i0 = start.copy()  # rotor angle [rev] at the first pulse of the chunk
     nfft = None
@@ -244,6 +248,8 @@ def synthesize(
             n = sfft.next_fast_len(b - a)
             if n != nfft:
                 nfft, H = n, envelope_response(n, prf_hz, scaling.alpha_s)
+                if envelope is not None:
+                    H = (H * envelope(sfft.fftfreq(n, 1.0 / prf_hz))).astype(np.complex64)
             M = sfft.fft(m, n, workers=1)
             M *= H
             m = sfft.ifft(M, workers=1)[: b - a].astype(np.complex64)
