@@ -1,0 +1,39 @@
+if MEASURED_SOURCE == "emulator":
+
+    rule emulate_measurements:
+        output:
+            measured=directory(MEASURED_DIR),
+            key="results/emulator/key.json",
+        log:
+            "results/logs/emulate_measurements.log",
+        benchmark:
+            "results/benchmarks/emulate_measurements.tsv"
+        params:
+            profile=config["emulator"]["profile"],
+            seed=config["emulator"]["seed"],
+            code=code_version("emulator", "synthesis.py"),
+        threads: 2
+        resources:
+            mem_mb=4000,
+        script:
+            "../scripts/emulate_measurements.py"
+
+
+rule ingest_motor_logs:
+    input:
+        measured=MEASURED_DIR,
+    output:
+        logs=directory("results/motors/logs.zarr"),
+        status="results/motors/ingest.csv",
+    log:
+        "results/logs/ingest_motor_logs.log",
+    benchmark:
+        "results/benchmarks/ingest_motor_logs.tsv"
+    params:
+        table=motor_logs_table(),
+        code=code_version("motorlog.py", "inventory.py"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+    script:
+        "../scripts/ingest_motor_logs.py"

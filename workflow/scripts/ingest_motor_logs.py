@@ -1,0 +1,13 @@
+"""Rule ingest_motor_logs: every drone flight's motor log into results/motors/logs.zarr."""
+
+from microdoppler.inventory import ingest_flight_logs
+from microdoppler.runlog import log_to
+
+with log_to(snakemake.log[0]):
+    status = ingest_flight_logs(
+        snakemake.input.measured,
+        snakemake.output.logs,
+        snakemake.output.status,
+        table_path=snakemake.params.table or None,
+    )
+    print(status.status.value_counts().to_string())

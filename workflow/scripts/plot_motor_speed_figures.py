@@ -1,0 +1,19 @@
+"""Rule plot_motor_speed_figures: paper Fig. 2 and a Fig. 8-style sampling comparison."""
+
+import pandas as pd
+
+from microdoppler import figures
+from microdoppler.inventory import read_ingested_log
+from microdoppler.runlog import log_to
+
+with log_to(snakemake.log[0]):
+    figures.fig2(snakemake.output.fig2, ulog_path=snakemake.params.ulog)
+    status = pd.read_csv(snakemake.input.status)
+    ingested = status[status.status == "ingested"]
+    if len(ingested):
+        log = read_ingested_log(snakemake.input.logs, ingested.flight_id.iloc[0])
+    else:
+        from microdoppler.motorlog import read_ulog
+
+        log = read_ulog(snakemake.params.ulog)
+    figures.fig8(snakemake.output.fig8, motor_log=log)
