@@ -166,6 +166,51 @@ def envelope_response(n: int, prf_hz: float, alpha_s: float) -> np.ndarray:
 
 Hook = Callable[[int, int, np.ndarray, np.ndarray], None]
 
+#: fixed-point phase: one revolution (or one carrier cycle) = 2**32, so uint32
+#: arithmetic wraps modulo one revolution for free
+PHASE_ONE = 1 << 32
+#: pulses per lookup sub-block (tuned on one core: buffers stay in L2/L3)
+SUB_BLOCK = 1 << 16
+#: the track range is evaluated every CARRIER_STEP pulses and the carrier phase
+#: interpolated linearly in between (error <= a dt^2 / 8 for acceleration a:
+#: 10 m/s^2 and 64 pulses at 7.3 kHz give 1e-4 m, 0.006 rad at L-band)
+CARRIER_STEP = 64
+
+
+def _fixed_phase(cycles) -> np.ndarray:
+    """Revolutions -> uint32 fixed-point phase (fraction of a revolution * 2**32)."""
+    c = np.asarray(cycles, np.float64)
+    frac = c - np.floor(c)
+    return (np.floor(frac * PHASE_ONE).astype(np.uint64) & np.uint64(PHASE_ONE - 1)).astype(np.uint32)
+
+
+def _increments(rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """Per-pulse phase increments ``rates * scale`` as uint32 modulo 2**32."""
+    n = rates.shape[0]
+    f = np.multiply(rates, scale, out=f64[:n])
+    if n and (f.max() >= PHASE_ONE or f.min() < 0):  # |rate| >= prf or reverse rotation
+        np.copyto(out[:n], np.mod(np.floor(f), PHASE_ONE).astype(np.int64), casting="unsafe")
+    else:
+        np.copyto(out[:n], f, casting="unsafe")  # truncation: bias 2**-33 rev per pulse
+    return out[:n]
+
+
+def _carrier_phase(track: "Track", a: int, b: int, prf_hz: float, wavelength_m: float, half: int,
+                   out: np.ndarray) -> np.ndarray:
+    """uint32 fixed-point phase of 2 R(t) / lambda [cycles] at pulses [a, b) (+ ``half``
+    for nearest-neighbour rounding in the table lookup)."""
+    n = b - a
+    step = CARRIER_STEP
+    n_seg = -(-n // step)
+    t_nodes = (a + np.arange(n_seg + 1, dtype=np.float64) * step) / prf_hz
+    cyc = 2.0 * track.range_at(t_nodes) / wavelength_m
+    base = _fixed_phase(cyc[:-1]) + np.uint32(half)
+    slope = np.round(np.diff(cyc) / step * PHASE_ONE).astype(np.int64).astype(np.uint32)
+    ph = out[: n_seg * step].reshape(n_seg, step)
+    np.multiply(slope[:, None], np.arange(step, dtype=np.uint32)[None, :], out=ph)
+    ph += base[:, None]
+    return out[:n]
+
 
 def synthesize(
     rev_s,
@@ -179,7 +224,7 @@ def synthesize(
     n_pulses: int | None = None,
     initial_cycles: Sequence[float] | None = None,
     seed: int = 0,
-    chunk: int = 1 << 17,
+    chunk: int | None = None,
     margin: int = 4096,
     blade_hook: Hook | None = None,
     body_hook: Hook | None = None,
@@ -201,10 +246,18 @@ def synthesize(
     blade_length_m : float
     scaling : Scaling
         S_body, S_blade and alpha.
+    n_pulses : int, optional
+        Pulses to synthesise (default ``rev_s.shape[0]``).
     initial_cycles : sequence of float, optional
         Initial rotor angles [rev]; default drawn from ``seed``.
-    chunk, margin : int
-        Pulses per chunk and filter margin [pulses] on each side.
+    seed : int
+        Seed of the initial rotor angles.
+    chunk : int, optional
+        Output pulses per chunk (default: 2**17 minus the two filter margins, so the
+        envelope FFT has a power-of-two length). The result does not depend on it
+        beyond the envelope filter's truncation at ``margin``.
+    margin : int
+        Envelope filter margin [pulses] on each side of a chunk (overlap-save).
     blade_hook, body_hook : callable, optional
         ``hook(i0, i1, t_s, x)`` modifies the blade signal (after the envelope) or the
         body amplitude of pulses [i0, i1) in place; model extensions use these.
@@ -213,37 +266,101 @@ def synthesize(
         on the FFT grid); e.g. an asymmetric gain for upper vs lower sidebands.
     out : ndarray, complex64 [n_pulses], optional
         Output buffer.
+    progress : callable, optional
+        ``progress(done, total)`` after each chunk [pulses].
 
     Returns
     -------
     iq : ndarray, complex64 [n_pulses]
+
+    Notes
+    -----
+    Rotor angles and the carrier phase are carried as uint32 fixed-point fractions
+    of a revolution/cycle (2**-32 rev resolution; wrap-around is modulo one turn for
+    free); each pulse's increment ``rev_s / prf_hz`` is truncated to 2**-32 rev, a
+    frequency error below 1e-5 Hz. The table index is the top ``log2(TABLE_SIZE)``
+    bits (nearest neighbour). Memory beyond ``out`` is O(chunk).
     """
-    n_total = rev_s.shape[0] if n_pulses is None else n_pulses
+    if not prf_hz > 0:
+        raise ValueError(f"prf_hz={prf_hz} must be > 0")
+    if not wavelength_m > 0:
+        raise ValueError(f"wavelength_m={wavelength_m} must be > 0")
+    n_total = rev_s.shape[0] if n_pulses is None else int(n_pulses)
     n_motors = rev_s.shape[1]
+    if n_total > rev_s.shape[0]:
+        raise ValueError(f"n_pulses={n_total} exceeds the {rev_s.shape[0]} rows of rev_s")
+    if margin < 0:
+        raise ValueError(f"margin={margin} must be >= 0")
     if out is None:
         out = np.empty(n_total, np.complex64)
     table = _rotor_table(n_blades, blade_length_m, wavelength_m, TABLE_SIZE)
     carrier = _carrier_table()
+    shift = 32 - (TABLE_SIZE.bit_length() - 1)
+    half = 1 << (shift - 1)  # rounds the top bits to the nearest table entry
     rng = np.random.default_rng(seed)
     start = (np.asarray(initial_cycles, np.float64) if initial_cycles is not None
              else rng.uniform(0, 1, n_motors))
+    if start.shape != (n_motors,):
+        raise ValueError(f"initial_cycles has shape {start.shape}, expected ({n_motors},)")
     use_filter = (scaling.alpha_s > 0 or envelope is not None) and scaling.s_blade > 0
     mg = margin if use_filter else 0
-    c_i0 = start.copy()  # rotor angle [rev] at the first pulse of the chunk
+    if chunk is None:
+        chunk = (1 << 17) - 2 * mg if mg < (1 << 15) else 1 << 17
+    if chunk < 1:
+        raise ValueError(f"chunk={chunk} must be >= 1")
+    scale = PHASE_ONE / prf_hz
+    # phase at the first pulse of the current chunk, with the rounding half-step
+    ph_i0 = [(int(v) + half) & (PHASE_ONE - 1) for v in _fixed_phase(start)]
+    blk = min(chunk, n_total) + 2 * mg
+    sub = min(SUB_BLOCK, blk)
+    f64 = np.empty(sub, np.float64)
+    inc = np.empty(sub, np.uint32)
+    ph = np.empty(sub, np.uint32)
+    idx = np.empty(sub, np.intp)
+    tmp = np.empty(sub, np.complex64)
+    mbuf = np.empty(blk, np.complex64)
+    cph = np.empty(-(-min(chunk, n_total) // CARRIER_STEP) * CARRIER_STEP, np.uint32)
+    cidx = np.empty(cph.shape[0], np.intp)
+    car = np.empty(cph.shape[0], np.complex64)
     nfft = None
     H = None
     for i0 in range(0, n_total, chunk):
         i1 = min(i0 + chunk, n_total)
         a, b = max(0, i0 - mg), min(n_total, i1 + mg)
-        rates = np.asarray(rev_s[a:b], dtype=np.float64)
-        c_a = c_i0 - rates[: i0 - a].sum(axis=0) / prf_hz
-        cyc = rotor_cycles(rates, prf_hz, c_a)
-        c_i0 = c_a + rates[: i1 - a].sum(axis=0) / prf_hz
-        m = np.zeros(b - a, np.complex64)
+        m = mbuf[: b - a]
         if scaling.s_blade > 0:
-            for k in range(n_motors):
-                m += lookup(table, cyc[:, k])
-        t = np.arange(a, b, dtype=np.float64) / prf_hz
+            # rotor phase at pulse a: step back over the margin (exact modulo 2**32)
+            cur = [int(v) for v in ph_i0]  # Python ints: wrap explicitly, no overflow warnings
+            for s0 in range(a, i0, sub):
+                r = np.asarray(rev_s[s0:min(s0 + sub, i0)])
+                for k in range(n_motors):
+                    d = _increments(r[:, k], scale, f64, inc)
+                    cur[k] = (cur[k] - int(d.sum(dtype=np.uint64))) & (PHASE_ONE - 1)
+            bounds = ([(s0, min(s0 + sub, i0)) for s0 in range(a, i0, sub)]
+                      + [(s0, min(s0 + sub, i1)) for s0 in range(i0, i1, sub)]
+                      + [(s0, min(s0 + sub, b)) for s0 in range(i1, b, sub)])
+            for s0, s1 in bounds:
+                if s0 == i1:
+                    ph_i0 = list(cur)  # phase at the next chunk's first pulse
+                r = np.asarray(rev_s[s0:s1])
+                n = s1 - s0
+                for k in range(n_motors):
+                    d = _increments(r[:, k], scale, f64, inc)
+                    p = ph[:n]
+                    p[0] = 0
+                    np.cumsum(d[:-1], out=p[1:])
+                    p += np.uint32(cur[k])
+                    cur[k] = (int(p[-1]) + int(d[-1])) & (PHASE_ONE - 1)
+                    np.right_shift(p, shift, out=idx[:n], casting="unsafe")
+                    if k == 0:
+                        np.take(table, idx[:n], out=m[s0 - a:s1 - a])
+                    else:
+                        np.take(table, idx[:n], out=tmp[:n])
+                        m[s0 - a:s1 - a] += tmp[:n]
+            if b == i1:
+                ph_i0 = cur
+        else:
+            m[:] = 0
         if use_filter:
             n = sfft.next_fast_len(b - a)
             if n != nfft:
@@ -252,19 +369,25 @@ def synthesize(
                     H = (H * envelope(sfft.fftfreq(n, 1.0 / prf_hz))).astype(np.complex64)
             M = sfft.fft(m, n, workers=1)
             M *= H
-            m = sfft.ifft(M, workers=1)[: b - a].astype(np.complex64)
+            m = sfft.ifft(M, workers=1, overwrite_x=True)[: b - a]
         s, e = i0 - a, i1 - a
         blade = m[s:e]
-        tt = t[s:e]
+        tt = (np.arange(i0, i1, dtype=np.float64) / prf_hz
+              if (blade_hook is not None or body_hook is not None) else None)
         if scaling.s_blade != 1:
             blade *= np.float32(scaling.s_blade)
         if blade_hook is not None:
             blade_hook(i0, i1, tt, blade)
-        body = np.full(e - s, scaling.s_body, np.complex64)
         if body_hook is not None:
+            body = np.full(e - s, scaling.s_body, np.complex64)
             body_hook(i0, i1, tt, body)
-        car = lookup(carrier, 2.0 * track.range_at(tt) / wavelength_m)
-        np.multiply(body + blade, car, out=out[i0:i1])
+            blade += body
+        elif scaling.s_body != 0:
+            blade += np.float32(scaling.s_body)
+        cp = _carrier_phase(track, i0, i1, prf_hz, wavelength_m, half, cph)
+        ci = np.right_shift(cp, shift, out=cidx[: i1 - i0], casting="unsafe")
+        c = np.take(carrier, ci, out=car[: i1 - i0])
+        np.multiply(blade, c, out=out[i0:i1])
         if progress is not None:
             progress(i1, n_total)
     return out

@@ -100,7 +100,9 @@ def read_tiles(path) -> TileSet:
         raise InputError(path, "images", f"has shape {images.shape} for {len(labels)} labels",
                          "float32 [n, n_timesteps, n_bins], one per labels.csv row")
     if "index" in labels.columns:
-        images = images[labels["index"].to_numpy()]
+        idx = labels["index"].to_numpy()
+        if np.array_equal(np.sort(idx), np.arange(len(idx))):
+            images = images[idx]  # rows of labels.csv may be in any order
     return TileSet(images, labels)
 
 
@@ -131,3 +133,66 @@ def load_trainset(name: str, tiles_dir) -> tuple[TileSet, TileSet, TileSet]:
     except ImportError:
         return local_trainset(name, tiles_dir)
     return tuple(as_tileset(p) for p in _load(name, tiles_dir))
+
+
+def toy_tiles(n: int, *, seed: int, sets=("train",), n_timesteps: int = 20, n_bins: int = 480,
+              flight_tiles: int = 4) -> TileSet:
+    """Toy dB tiles for tests and benchmarks (not physics; a stand-in for tile stores).
+
+    Noise floor (exponential power, random level) plus a drifting body line; large
+    drones add symmetric HERM-like lines at a random spacing, birds a wing-beat
+    spread of the body line, Mini drones only the body line. Classes are balanced;
+    ``flight_tiles`` consecutive tiles share a flight, set and radar.
+
+    Returns
+    -------
+    TileSet with images float32 [n, n_timesteps, n_bins] and labels as ``labels.csv``.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(n_timesteps)[:, None]
+    d = np.arange(n_bins)[None, :]
+    images = np.empty((n, n_timesteps, n_bins), np.float32)
+    rows = []
+    models = ("inspire2", "matrice300", "mini2")
+    for i in range(n):
+        f = i // flight_tiles
+        frng = np.random.default_rng([seed, f])
+        target = "drone" if f % 2 else "bird"
+        model = models[frng.integers(3)] if target == "drone" else ""
+        floor = rng.exponential(1.0, (n_timesteps, n_bins)) * 10 ** (frng.uniform(-2, 1))
+        b0 = rng.uniform(0.25, 0.75) * n_bins + rng.normal(0, 1.5, n_timesteps).cumsum()[:, None]
+        snr = 10 ** (rng.uniform(1.0, 3.0))
+        width = 1.5 + (rng.uniform(2, 6) * np.abs(np.sin(2 * np.pi * t / rng.uniform(2, 6))) if target == "bird" else 0)
+        p = snr * np.exp(-0.5 * ((d - b0) / width) ** 2)
+        if model in ("inspire2", "matrice300"):
+            spacing = rng.uniform(15, 40) + rng.normal(0, 0.5, n_timesteps).cumsum()[:, None]
+            for k in range(1, 6):
+                amp = snr * 10 ** (-1.5 - 0.3 * k) * rng.uniform(0.3, 1.0)
+                p = p + amp * (np.exp(-0.5 * ((d - b0 - k * spacing) / 1.5) ** 2)
+                               + np.exp(-0.5 * ((d - b0 + k * spacing) / 1.5) ** 2))
+        images[i] = 10 * np.log10(floor + p)
+        rows.append(dict(index=i, flight_id=f"toy{f:04d}", set=sets[f % len(sets)], target=target,
+                         drone_model=model, radar_id=f"radar{1 + f % 2}", snr_db=10 * np.log10(snr)))
+    return TileSet(images, pd.DataFrame(rows))
+
+
+def write_tiles(path, tiles: TileSet) -> Path:
+    """Write a tile store (``images`` + ``labels.csv``) atomically (tests, benchmarks)."""
+    import shutil
+
+    import zarr
+
+    from ..flightzarr import atomic_dir, commit_dir
+
+    path = Path(path)
+    tmp = atomic_dir(path)
+    try:
+        g = zarr.open_group(str(tmp), mode="w", zarr_format=3)
+        g.create_array("images", data=tiles.images.astype(np.float32), chunks=(256,) + tiles.images.shape[1:])
+        g.attrs.update({"units": "dB"})
+        tiles.labels.to_csv(tmp / "labels.csv", index=False)
+        commit_dir(tmp, path)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return path

@@ -1,0 +1,246 @@
+"""Training procedure (paper §IV) with a deterministic, seeded implementation.
+
+SGD with momentum and L2 (weight decay), step learning-rate decay, mini-batches
+reshuffled every epoch. After every epoch the model is evaluated on the training
+and validation sets. Training stops once the validation loss has exceeded the
+training loss ``exceed_limit`` times (or at ``max_epochs``); the kept model is the
+one of the epoch with the largest sum of training and validation accuracy.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import pandas as pd
+import torch
+from torch.nn import functional as F
+
+from ..errors import ConfigError
+from .data import TileSet
+from .models import Normalisation, build_model
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Classifier and training settings (config ``classifier:``; see the schema).
+
+    Parameters
+    ----------
+    architecture : {'compact', 'alexnet'}
+    compact : dict
+        CompactCNN keyword arguments (channels, doppler_pool, dropout).
+    alexnet_weights : str
+        Local torchvision AlexNet state_dict; empty trains AlexNet from scratch.
+    colormap : str
+        AlexNet false-colour map.
+    learning_rate : float
+        Initial learning rate (paper 1.5e-4 for pretrained AlexNet).
+    momentum : float
+        SGD momentum (paper 0.98).
+    weight_decay : float
+        L2 regularisation (paper 2e-4).
+    batch_size : int
+        Mini-batch size (paper 16).
+    lr_step_epochs : int
+        Epochs between learning-rate decays (paper 10).
+    lr_gamma : float
+        Decay factor (paper 0.1).
+    max_epochs : int
+        Epoch cap (time budget).
+    exceed_limit : int
+        Stop after the validation loss exceeded the training loss this many times (paper 10).
+    reevaluate_train : bool
+        Evaluate the end-of-epoch model on the whole training set (paper); False uses
+        the running mini-batch loss and accuracy of the epoch (cheaper).
+    normalisation : Normalisation
+    """
+
+    architecture: str = "compact"
+    compact: dict = field(default_factory=dict)
+    alexnet_weights: str = ""
+    colormap: str = "jet"
+    learning_rate: float = 0.01
+    momentum: float = 0.9
+    weight_decay: float = 2e-4
+    batch_size: int = 16
+    lr_step_epochs: int = 10
+    lr_gamma: float = 0.1
+    max_epochs: int = 15
+    exceed_limit: int = 10
+    reevaluate_train: bool = True
+    normalisation: Normalisation = Normalisation()
+
+    def __post_init__(self):
+        checks = [("learning_rate", self.learning_rate > 0, "> 0"), ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
+                  ("weight_decay", self.weight_decay >= 0, ">= 0"), ("batch_size", self.batch_size >= 1, ">= 1"),
+                  ("lr_step_epochs", self.lr_step_epochs >= 1, ">= 1"), ("lr_gamma", 0 < self.lr_gamma <= 1, "in (0, 1]"),
+                  ("max_epochs", self.max_epochs >= 1, ">= 1"), ("exceed_limit", self.exceed_limit >= 1, ">= 1")]
+        for name, ok, want in checks:
+            if not ok:
+                raise ConfigError("classifier", name, f"{name}={getattr(self, name)} must be {want}")
+
+    @classmethod
+    def from_config(cls, cfg: dict) -> "TrainConfig":
+        """From the config's ``classifier:`` mapping (unknown keys are ignored)."""
+        cfg = dict(cfg or {})
+        norm = Normalisation(**cfg.pop("normalisation", {}) or {})
+        names = {f for f in cls.__dataclass_fields__} - {"normalisation"}
+        return cls(normalisation=norm, **{k: v for k, v in cfg.items() if k in names})
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["normalisation"] = asdict(self.normalisation)
+        return d
+
+
+def setup_determinism(seed: int, threads: int = 1) -> torch.Generator:
+    """Seed torch, force deterministic kernels, set the thread count; return a shuffling generator."""
+    torch.set_num_threads(max(1, int(threads)))
+    torch.use_deterministic_algorithms(True)
+    torch.manual_seed(seed)
+    return torch.Generator().manual_seed(seed)
+
+
+def stop_epoch(val_loss, train_loss, exceed_limit: int) -> int | None:
+    """Epoch (0-based) at which training stops: the ``exceed_limit``-th epoch whose
+    validation loss exceeds its training loss; None if that never happens."""
+    exceed = np.cumsum(np.asarray(val_loss) > np.asarray(train_loss))
+    hit = np.flatnonzero(exceed >= exceed_limit)
+    return int(hit[0]) if len(hit) else None
+
+
+def best_epoch(train_accuracy, val_accuracy) -> int:
+    """Epoch (0-based) with the largest train + validation accuracy (first one on ties)."""
+    return int(np.argmax(np.asarray(train_accuracy) + np.asarray(val_accuracy)))
+
+
+@torch.no_grad()
+def _evaluate(model, x: torch.Tensor, y: torch.Tensor, batch_size: int) -> tuple[float, float]:
+    """(mean cross-entropy loss, accuracy) of ``model`` on normalised ``x``."""
+    model.eval()
+    loss, correct = 0.0, 0
+    for i in range(0, len(x), batch_size):
+        logits = model(x[i:i + batch_size])
+        loss += F.cross_entropy(logits, y[i:i + batch_size], reduction="sum").item()
+        correct += (logits.argmax(1) == y[i:i + batch_size]).sum().item()
+    return loss / len(x), correct / len(x)
+
+
+@dataclass
+class TrainResult:
+    """A trained classifier.
+
+    Attributes
+    ----------
+    model : torch.nn.Module
+        The model of the best epoch, in eval mode.
+    history : DataFrame
+        One row per epoch: epoch (1-based), learning_rate, train_loss, train_accuracy,
+        val_loss, val_accuracy, val_exceeds_train, selected, seconds.
+    best_epoch : int
+        1-based epoch of the kept model.
+    """
+
+    model: torch.nn.Module
+    history: pd.DataFrame
+    best_epoch: int
+
+
+def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig(), *, seed: int,
+          threads: int = 1, logger: logging.Logger | None = None) -> TrainResult:
+    """Train one classifier with seed ``seed`` (same seed and threads => same result).
+
+    Parameters
+    ----------
+    train_set, val_set : TileSet
+        Images float32 [n, T, D] in dB, targets bird/drone.
+    cfg : TrainConfig
+    seed : int
+        Seeds initialisation, dropout and shuffling.
+    threads : int
+        torch intra-op threads.
+    """
+    logger = logger or log
+    gen = setup_determinism(seed, threads)
+    model = build_model(cfg.architecture, compact=cfg.compact, colormap=cfg.colormap,
+                        alexnet_weights=cfg.alexnet_weights, normalisation=cfg.normalisation)
+    xt = torch.from_numpy(cfg.normalisation(train_set.images))
+    yt = torch.from_numpy(train_set.y)
+    xv = torch.from_numpy(cfg.normalisation(val_set.images))
+    yv = torch.from_numpy(val_set.y)
+    params = [p for p in model.parameters() if p.requires_grad]
+    opt = torch.optim.SGD(params, lr=cfg.learning_rate, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
+    sched = torch.optim.lr_scheduler.StepLR(opt, step_size=cfg.lr_step_epochs, gamma=cfg.lr_gamma)
+    logger.info("training %s: %d train (%d drone), %d validation tiles, %d trainable parameters, seed %d",
+                cfg.architecture, len(xt), int(yt.sum()), len(xv), sum(p.numel() for p in params), seed)
+    rows, states = [], []
+    for epoch in range(cfg.max_epochs):
+        t0 = time.perf_counter()
+        model.train()
+        lr = opt.param_groups[0]["lr"]
+        order = torch.randperm(len(xt), generator=gen)
+        run_loss, run_correct = 0.0, 0
+        for i in range(0, len(xt), cfg.batch_size):
+            idx = order[i:i + cfg.batch_size]
+            logits = model(xt[idx])
+            loss = F.cross_entropy(logits, yt[idx])
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            run_loss += loss.item() * len(idx)
+            run_correct += (logits.argmax(1) == yt[idx]).sum().item()
+        sched.step()
+        if cfg.reevaluate_train:
+            tr_loss, tr_acc = _evaluate(model, xt, yt, 256)
+        else:
+            tr_loss, tr_acc = run_loss / len(xt), run_correct / len(xt)
+        va_loss, va_acc = _evaluate(model, xv, yv, 256)
+        states.append(copy.deepcopy(model.state_dict()))
+        rows.append(dict(epoch=epoch + 1, learning_rate=lr, train_loss=tr_loss, train_accuracy=tr_acc,
+                         val_loss=va_loss, val_accuracy=va_acc, val_exceeds_train=va_loss > tr_loss,
+                         seconds=time.perf_counter() - t0))
+        logger.info("epoch %3d  lr %.2e  train loss %.4f acc %.3f  val loss %.4f acc %.3f  (%.1f s)",
+                    epoch + 1, lr, tr_loss, tr_acc, va_loss, va_acc, rows[-1]["seconds"])
+        hist = pd.DataFrame(rows)
+        if stop_epoch(hist["val_loss"], hist["train_loss"], cfg.exceed_limit) is not None:
+            logger.info("stopping: validation loss exceeded training loss %d times", cfg.exceed_limit)
+            break
+    hist = pd.DataFrame(rows)
+    best = best_epoch(hist["train_accuracy"], hist["val_accuracy"])
+    hist["selected"] = hist.index == best
+    model.load_state_dict(states[best])
+    model.eval()
+    logger.info("kept epoch %d (train acc %.3f + val acc %.3f)", best + 1,
+                hist["train_accuracy"][best], hist["val_accuracy"][best])
+    return TrainResult(model, hist, best + 1)
+
+
+def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trainset: str) -> None:
+    """Save the kept model, its config and provenance to ``path`` (atomically)."""
+    import os
+    from pathlib import Path
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    torch.save({"state_dict": result.model.state_dict(), "config": cfg.to_dict(), "seed": int(seed),
+                "trainset": trainset, "best_epoch": int(result.best_epoch)}, tmp)
+    os.replace(tmp, path)
+
+
+def load_model(path) -> tuple[torch.nn.Module, TrainConfig]:
+    """Load a model saved by :func:`save_model` (eval mode) and its config."""
+    blob = torch.load(path, map_location="cpu", weights_only=False)
+    cfg = TrainConfig.from_config(blob["config"])
+    # pretrained conv weights are in the state_dict: do not need the original file
+    model = build_model(cfg.architecture, compact=cfg.compact, colormap=cfg.colormap, alexnet_weights="",
+                        normalisation=cfg.normalisation)
+    model.load_state_dict(blob["state_dict"])
+    model.eval()
+    return model, cfg

@@ -1,0 +1,204 @@
+"""``microdoppler simulate --out STORE.zarr``: write a synthetic flight-zarr/1 store.
+
+The echo is eq. (2) of the paper (thin-wire blades of eq. 1 summed over motors and
+blades, body return, alpha envelope) from :func:`microdoppler.synthesis.synthesize`,
+driven by constant per-motor speeds (``--motor-hz``) or a motor log (``--motor-log``,
+resampled to the PRF with ``--variant``), along a constant-velocity track or a track
+CSV (``time_s``, ``range_m``).
+
+SNR (``--snr-db``): body power per pulse over noise power per pulse,
+``SNR = S_body**2 / sigma**2`` (the body amplitude is S_body; complex white Gaussian
+noise of total power sigma**2 per pulse). A spectrogram line gains the coherent
+integration of one CPI on top (about 10 log10(4096) - 1.5 dB for a Blackman-Harris
+window, ~34.6 dB). Without ``--snr-db`` the store is noise-free.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError
+from ..flightzarr import Flight, write_flight
+from ..motorlog import read_motor_log, read_motor_store
+from ..radar import Radar
+from ..sampling import VARIANTS, SamplingConfig, resample
+from ..synthesis import Scaling, Track, add_noise, synthesize
+
+SRC = "simulate"
+PROGRESS_MIN_PULSES = 1 << 21  # report progress on stderr for longer runs
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "simulate", help="simulate a drone flight (eq. 1/2) into a flight-zarr/1 store",
+        description=__doc__.split("\n\n")[1] + " SNR = body power per pulse / noise power per pulse.")
+    p.add_argument("--out", required=True, help="output flight-zarr/1 store (directory)")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--motor-hz", help="constant per-motor speeds [rev/s], comma-separated, e.g. 85,90,95,100")
+    src.add_argument("--motor-log", help="motor log: .ulg, .csv (time_s + one column per motor, rpm) or a Zarr "
+                                         "store with motors/time_s, motors/rpm")
+    p.add_argument("--variant", choices=VARIANTS, default="sub_cpi", help="sampling of the motor log (default sub_cpi)")
+    p.add_argument("--window-pulses", type=int, default=2500, help="sub_cpi rolling-average length [pulses]")
+    p.add_argument("--typical-hz", type=float, default=80.0, help="fixed_speeds: typical rotor speed [rev/s]")
+    p.add_argument("--range-m", type=float, default=500.0, help="initial range [m] (default 500)")
+    p.add_argument("--radial-velocity-mps", type=float, default=-5.0,
+                   help="constant dR/dt [m/s], negative = approaching (default -5)")
+    p.add_argument("--track", help="track CSV with columns time_s, range_m (replaces --range-m/--radial-velocity-mps)")
+    p.add_argument("--prf-hz", type=float, default=7300.0, help="pulse repetition frequency [Hz] (default 7300)")
+    p.add_argument("--carrier-hz", type=float, default=1.35e9, help="carrier frequency [Hz] (default 1.35e9)")
+    p.add_argument("--blade-length-m", type=float, default=0.19, help="blade length, hub to tip [m] (default 0.19)")
+    p.add_argument("--n-blades", type=int, default=2, help="blades per rotor (default 2)")
+    p.add_argument("--drone-model", default="inspire2", help="drone_model attribute (default inspire2)")
+    p.add_argument("--duration-s", type=float, default=None,
+                   help="flight duration [s] (default: the motor log's or track's span, else 10 s)")
+    p.add_argument("--alpha", type=float, default=0.0, help="sideband envelope alpha_s [s = 1/Hz] (default 0)")
+    p.add_argument("--s-body", type=float, default=1.0, help="body amplitude S_body (default 1)")
+    p.add_argument("--s-blade", type=float, default=1.0, help="blade amplitude scale S_blade (default 1)")
+    p.add_argument("--seed", type=int, default=0, help="seed of rotor angles, fixed_speeds draw and noise")
+    p.add_argument("--snr-db", type=float, default=None,
+                   help="body power per pulse / noise power per pulse [dB]; noise-free if omitted")
+    p.add_argument("--flight-id", default=None, help="flight_id attribute (default: the store's name)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=run)
+
+
+def _check(ok: bool, field: str, value, expected: str) -> None:
+    if not ok:
+        raise InputError(SRC, field, f"is {value}", expected)
+
+
+def read_track_csv(path) -> Track:
+    """Track CSV (``time_s``, ``range_m``) -> :class:`Track`; bad files raise InputError."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "file", "does not exist", "a track CSV with columns time_s, range_m")
+    try:
+        df = pd.read_csv(path)
+    except Exception as exc:
+        raise InputError(path, "file", f"cannot be parsed as CSV ({type(exc).__name__})",
+                         "a track CSV with columns time_s, range_m") from None
+    cols = {}
+    for c in ("time_s", "range_m"):
+        if c not in df.columns:
+            raise InputError(path, c, "column missing", "columns time_s [s], range_m [m]")
+        v = pd.to_numeric(df[c], errors="coerce").to_numpy(np.float64)
+        if not np.all(np.isfinite(v)):
+            raise InputError(path, c, "has non-numeric, NaN or infinite values", "finite numbers")
+        cols[c] = v
+    t, r = cols["time_s"], cols["range_m"]
+    if len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise InputError(path, "time_s", "is not strictly increasing with >= 2 rows", "increasing times [s]")
+    if np.any(r <= 0):
+        raise InputError(path, "range_m", "has non-positive ranges", "ranges > 0 m")
+    return Track(t - t[0], r)
+
+
+def _load_log(path):
+    p = Path(path)
+    if p.is_dir():
+        return read_motor_store(p)
+    return read_motor_log(p)
+
+
+def run(args) -> int:
+    _check(args.prf_hz > 0, "--prf-hz", args.prf_hz, "> 0 Hz")
+    _check(args.carrier_hz > 0, "--carrier-hz", args.carrier_hz, "> 0 Hz")
+    _check(0 < args.blade_length_m < 5, "--blade-length-m", args.blade_length_m, "in (0, 5) m")
+    _check(args.n_blades >= 1, "--n-blades", args.n_blades, ">= 1")
+    _check(args.alpha >= 0, "--alpha", args.alpha, ">= 0 s")
+    _check(args.s_body >= 0, "--s-body", args.s_body, ">= 0")
+    _check(args.s_blade >= 0, "--s-blade", args.s_blade, ">= 0")
+    _check(args.duration_s is None or args.duration_s > 0, "--duration-s", args.duration_s, "> 0 s")
+    if args.snr_db is not None:
+        _check(args.s_body > 0, "--s-body", args.s_body, "> 0 when --snr-db is given (SNR is relative to the body)")
+    radar = Radar(prf_hz=args.prf_hz, carrier_hz=args.carrier_hz)
+    flight_id = args.flight_id or re.sub(r"[^A-Za-z0-9_.-]", "_", Path(args.out).name.removesuffix(".zarr"))
+
+    log = None
+    if args.motor_log:
+        log = _load_log(args.motor_log)
+        log = log.shifted(-float(log.time_s[0]))
+    else:
+        try:
+            motor_hz = [float(v) for v in args.motor_hz.split(",")]
+        except ValueError:
+            raise InputError(SRC, "--motor-hz", f"is {args.motor_hz!r}", "comma-separated speeds [rev/s]") from None
+        _check(len(motor_hz) >= 1 and all(np.isfinite(v) and 0 <= v < args.prf_hz for v in motor_hz),
+               "--motor-hz", args.motor_hz, f"speeds in [0, {args.prf_hz:g}) rev/s")
+    track = read_track_csv(args.track) if args.track else None
+
+    duration = args.duration_s
+    if duration is None:
+        duration = log.duration_s if log is not None else (float(track.time_s[-1]) if track is not None else 10.0)
+    n_pulses = int(round(duration * args.prf_hz))
+    _check(n_pulses >= 2, "--duration-s", duration, f">= 2 pulses at {args.prf_hz:g} Hz")
+    if track is None:
+        end_range = args.range_m + args.radial_velocity_mps * duration
+        _check(args.range_m > 0 and end_range > 0, "--range-m/--radial-velocity-mps",
+               f"{args.range_m} m at {args.radial_velocity_mps} m/s (range {end_range:.1f} m at the end)",
+               "a range > 0 m over the whole flight")
+        track = Track.constant_velocity(args.range_m, args.radial_velocity_mps, duration)
+    elif track.time_s[-1] < (n_pulses - 1) / args.prf_hz:
+        raise InputError(args.track, "time_s", f"ends at {track.time_s[-1]:g} s",
+                         f"a track covering the flight's {duration:g} s")
+
+    if log is not None:
+        cfg = SamplingConfig(n_fft=radar.n_fft, window_pulses=args.window_pulses)
+        rev_s = resample(args.variant, log, n_pulses, args.prf_hz, typical_hz=args.typical_hz,
+                         seed=args.seed, cfg=cfg)
+        motors_time_s, motors_rpm = log.time_s, log.rpm
+    else:
+        rev_s = np.broadcast_to(np.asarray(motor_hz, np.float32), (n_pulses, len(motor_hz)))
+        motors_time_s = np.array([0.0, duration])
+        motors_rpm = np.tile(np.asarray(motor_hz, np.float32) * 60, (2, 1))
+    n_motors = rev_s.shape[1]
+
+    t0 = time.monotonic()
+    last = [0.0]
+
+    def progress(done, total):
+        now = time.monotonic()
+        if args.quiet or total < PROGRESS_MIN_PULSES or (now - last[0] < 2.0 and done < total):
+            return
+        last[0] = now
+        rate = done / max(now - t0, 1e-9)
+        print(f"simulate: {done / total:6.1%} ({done / 1e6:.1f} of {total / 1e6:.1f} M pulses, "
+              f"{rate / 1e6:.1f} M pulses/s)", file=sys.stderr, flush=True)
+
+    scaling = Scaling(s_body=args.s_body, s_blade=args.s_blade, alpha_s=args.alpha)
+    iq = synthesize(rev_s, track, prf_hz=args.prf_hz, wavelength_m=radar.wavelength_m, n_blades=args.n_blades,
+                    blade_length_m=args.blade_length_m, scaling=scaling, seed=args.seed, progress=progress)
+    noise_power = None
+    if args.snr_db is not None:
+        noise_power = args.s_body ** 2 / 10 ** (args.snr_db / 10)
+        noise_seed = int(np.random.SeedSequence([args.seed, 1]).generate_state(1)[0])
+        add_noise(iq, noise_power, noise_seed)
+
+    t_track = np.arange(0.0, duration, 0.1)
+    if len(t_track) < 2 or t_track[-1] < duration:
+        t_track = np.append(t_track, duration)
+    sim_log = ({"motor_log": str(args.motor_log), "variant": args.variant} if log is not None
+               else {"motor_hz": [float(v) for v in motor_hz]})
+    attrs = {
+        "schema": "flight-zarr/1", "flight_id": flight_id, "target": "drone", "radar_id": "simulated",
+        "prf_hz": float(args.prf_hz), "carrier_hz": float(args.carrier_hz), "drone_model": args.drone_model,
+        "n_motors": int(n_motors), "n_blades": int(args.n_blades), "blade_length_m": float(args.blade_length_m),
+        "simulation": {"alpha_s": args.alpha, "s_body": args.s_body, "s_blade": args.s_blade, "seed": args.seed,
+                       "snr_db": args.snr_db, "snr_definition": "body power per pulse / noise power per pulse",
+                       "noise_power": noise_power, **sim_log},
+    }
+    flight = Flight(attrs=attrs, iq=iq, track_time_s=t_track, track_range_m=track.range_at(t_track),
+                    track_radial_velocity_mps=track.radial_velocity_at(t_track),
+                    motors_time_s=motors_time_s if n_motors == motors_rpm.shape[1] else None,
+                    motors_rpm=motors_rpm if n_motors == motors_rpm.shape[1] else None)
+    write_flight(args.out, flight)
+    if not args.quiet:
+        print(f"{args.out}: {n_pulses} pulses ({duration:.2f} s), {n_motors} motors, "
+              f"{time.monotonic() - t0:.1f} s", file=sys.stderr)
+    return 0

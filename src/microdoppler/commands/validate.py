@@ -1,0 +1,32 @@
+"""``microdoppler validate STORE.zarr...``: check flight-zarr/1 stores.
+
+Prints ``ok <store>`` per valid store (stdout) and one line per bad store naming the
+store, the field and what was expected (stderr); exit status 2 if any store is bad.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import InputError
+from ..flightzarr import validate_store
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("validate", help="validate flight-zarr/1 stores",
+                              description="Validate flight-zarr/1 stores against shared/formats/flight-zarr.md.")
+    p.add_argument("stores", nargs="+", help="flight-zarr/1 stores (directories)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    bad = 0
+    for store in args.stores:
+        try:
+            f = validate_store(store)
+        except InputError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            bad += 1
+            continue
+        print(f"ok {store} ({f.attrs['target']}, {len(f.iq)} pulses, {f.duration_s:.2f} s)")
+    return 2 if bad else 0
