@@ -62,8 +62,13 @@ class MotorLog:
         return MotorLog(self.time_s + offset_s, self.rpm, self.source)
 
 
-def check_motor_log(source, time_s, rpm, *, unit: str = "rpm", time_field="time", speed_field="rpm") -> MotorLog:
-    """Validate arrays of a motor log and return a :class:`MotorLog` in rpm."""
+def check_motor_log(source, time_s, rpm, *, unit: str = "rpm", time_field="time", speed_field="rpm",
+                    motor_names: list[str] | None = None) -> MotorLog:
+    """Validate arrays of a motor log and return a :class:`MotorLog` in rpm.
+
+    ``motor_names`` (optional, one per column) name the motor in errors about a
+    single motor (e.g. a NaN); default ``<speed_field>[motor j]``.
+    """
     time_s = np.asarray(time_s, dtype=np.float64)
     speeds = np.asarray(rpm, dtype=np.float64)
     if time_s.size == 0:
@@ -78,7 +83,8 @@ def check_motor_log(source, time_s, rpm, *, unit: str = "rpm", time_field="time"
     bad = ~np.isfinite(speeds)
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        raise InputError(source, f"{speed_field}[motor {j}]", f"row {i} is NaN or infinite", "finite speeds")
+        name = motor_names[j] if motor_names is not None and j < len(motor_names) else f"{speed_field}[motor {j}]"
+        raise InputError(source, name, f"row {i} is NaN or infinite", "finite speeds")
     d = np.diff(time_s)
     if np.any(d == 0):
         i = int(np.flatnonzero(d == 0)[0]) + 1
@@ -173,7 +179,8 @@ def read_ulog(path, *, topic: str = "esc_status") -> MotorLog:
     if t_us.size == 0:
         raise InputError(path, f"{topic}.timestamp", "has no rows", "at least 2 rows")
     log = check_motor_log(path, (t_us - t_us[0]) * 1e-6, rpm, unit="rpm",
-                          time_field=f"{topic}.timestamp", speed_field=f"{topic}.esc_rpm")
+                          time_field=f"{topic}.timestamp", speed_field=f"{topic}.esc_rpm",
+                          motor_names=[f"{topic}.{c}" for c in cols])
     return log
 
 
@@ -225,7 +232,8 @@ def read_csv(path, *, unit: str = "rpm", time_column: str = "time_s", time_unit:
         except (ValueError, TypeError):
             raise InputError(path, c, "has non-numeric values", f"numbers [{unit}]") from None
     return check_motor_log(path, t, np.column_stack(cols), unit=unit, time_field=time_column,
-                           speed_field=",".join(motor_columns) if len(motor_columns) < 2 else "motor columns")
+                           speed_field=",".join(motor_columns) if len(motor_columns) < 2 else "motor columns",
+                           motor_names=list(motor_columns))
 
 
 def read_motor_log(path, fmt: str | None = None, **csv_options) -> MotorLog:

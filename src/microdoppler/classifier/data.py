@@ -74,6 +74,8 @@ def as_tileset(obj) -> TileSet:
     """Coerce what ``microdoppler.datasets`` returns (TileSet-like or (images, labels))."""
     if isinstance(obj, TileSet):
         return obj
+    if hasattr(obj, "images") and hasattr(obj, "table"):  # microdoppler.datasets.TileSet
+        return TileSet(np.asarray(obj.images, dtype=np.float32), pd.DataFrame(obj.table))
     if hasattr(obj, "images") and hasattr(obj, "labels"):
         return TileSet(np.asarray(obj.images, dtype=np.float32), pd.DataFrame(obj.labels))
     images, labels = obj
@@ -177,7 +179,7 @@ def toy_tiles(n: int, *, seed: int, sets=("train",), n_timesteps: int = 20, n_bi
 
 
 def write_tiles(path, tiles: TileSet) -> Path:
-    """Write a tile store (``images`` + ``labels.csv``) atomically (tests, benchmarks)."""
+    """Write a ``tiles/1`` store (``images`` + ``labels.csv``) atomically (tests, benchmarks)."""
     import shutil
 
     import zarr
@@ -189,7 +191,7 @@ def write_tiles(path, tiles: TileSet) -> Path:
     try:
         g = zarr.open_group(str(tmp), mode="w", zarr_format=3)
         g.create_array("images", data=tiles.images.astype(np.float32), chunks=(256,) + tiles.images.shape[1:])
-        g.attrs.update({"units": "dB"})
+        g.attrs.update({"schema": "tiles/1", "unit": "dB", "n_images": len(tiles)})
         tiles.labels.to_csv(tmp / "labels.csv", index=False)
         commit_dir(tmp, path)
     finally:

@@ -65,8 +65,8 @@ class TrainConfig:
     compact: dict = field(default_factory=dict)
     alexnet_weights: str = ""
     colormap: str = "jet"
-    learning_rate: float = 0.01
-    momentum: float = 0.9
+    learning_rate: float = 0.005
+    momentum: float = 0.98
     weight_decay: float = 2e-4
     batch_size: int = 16
     lr_step_epochs: int = 10

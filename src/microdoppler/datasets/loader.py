@@ -1,0 +1,71 @@
+"""Training sets for the classifier (paper §V.B).
+
+``real``: the measured train and validation tiles. A variant: the measured bird and
+Mini tiles of train and validation plus the variant's twin tiles of the Inspire and
+Matrice train and validation flights. Test is always the measured test tiles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError
+from .split import TWIN_MODELS
+from .tiles import read_tiles
+
+
+@dataclass
+class TileSet:
+    """Images and labels of one part of a training set.
+
+    Attributes
+    ----------
+    images : ndarray, float32 [n, T, n_bins] (dB)
+    labels : ndarray, int64 [n]
+        0 bird, 1 drone.
+    table : DataFrame
+        The tiles' rows of ``labels.csv`` (index, flight_id, set, target, ...) plus
+        ``source`` (``real`` or the variant).
+    """
+
+    images: np.ndarray
+    labels: np.ndarray
+    table: pd.DataFrame
+
+    def __len__(self) -> int:
+        return len(self.labels)
+
+
+def _part(images, table, mask, source) -> TileSet:
+    t = table[mask].copy()
+    t["source"] = source
+    return TileSet(images[mask.to_numpy()], (t.target == "drone").to_numpy().astype(np.int64), t.reset_index(drop=True))
+
+
+def _concat(a: TileSet, b: TileSet) -> TileSet:
+    return TileSet(np.concatenate([a.images, b.images]), np.concatenate([a.labels, b.labels]),
+                   pd.concat([a.table, b.table], ignore_index=True))
+
+
+def load_trainset(name: str, tiles_dir="results/tiles") -> tuple[TileSet, TileSet, TileSet]:
+    """(train, validation, test) of training set ``name`` (``real`` or a variant)."""
+    tiles_dir = Path(tiles_dir)
+    images, table = read_tiles(tiles_dir / "real.zarr")
+    parts = {s: _part(images, table, table.set == s, "real") for s in ("train", "validation", "test")}
+    if name == "real":
+        return parts["train"], parts["validation"], parts["test"]
+    path = tiles_dir / f"{name}.zarr"
+    if not path.exists():
+        raise InputError(path, "store", "does not exist", f"tiles of variant {name!r} (rule tile_spectrograms)")
+    v_images, v_table = read_tiles(path)
+    if not set(v_table.drone_model) <= set(TWIN_MODELS) | {""}:
+        raise InputError(path, "labels.csv", f"has drone models {sorted(set(v_table.drone_model))}", f"only {TWIN_MODELS}")
+    out = []
+    for s in ("train", "validation"):
+        keep = (table.set == s) & ~table.drone_model.isin(TWIN_MODELS)
+        out.append(_concat(_part(images, table, keep, "real"), _part(v_images, v_table, v_table.set == s, name)))
+    return out[0], out[1], parts["test"]

@@ -1,0 +1,114 @@
+"""Table III (composition of the sets) and Table IV (fitted simulation parameters).
+
+SNR is :func:`microdoppler.snr.line_snr_db` of the body line (expected Doppler from
+the track), per spectrogram timestep, as everywhere in the project.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..flightzarr import Flight
+from ..spectrogram import SpectrogramConfig, spectrogram
+from .lines import body_doppler_hz, measure_lines
+from .split import CLASSES, SETS, n_images
+
+
+def flight_body_snr_db(flight: Flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig,
+                       search_hz: float = 10.0) -> np.ndarray:
+    """Body-line SNR of every spectrogram timestep of ``iq`` (default the flight's) [dB]."""
+    iq = flight.iq if iq is None else iq
+    if len(iq) < spec_cfg.n_fft:
+        return np.empty(0)
+    spec = spectrogram(iq, flight.prf_hz, spec_cfg)
+    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
+    return measure_lines(spec, body, None, search_hz=search_hz).body_db
+
+
+def flight_snr_row(flight: Flight, *, spec_cfg: SpectrogramConfig, search_hz: float = 10.0) -> dict:
+    """images, SNR mean and std over timesteps, and the per-timestep SNRs of one flight."""
+    s = flight_body_snr_db(flight, spec_cfg=spec_cfg, search_hz=search_hz)
+    f = s[np.isfinite(s)]
+    return dict(images=n_images(len(flight.iq), spec_cfg), snr_mean_db=float(np.mean(f)) if f.size else np.nan,
+                snr_std_db=float(np.std(f)) if f.size else np.nan, snr_db=f)
+
+
+def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray]) -> pd.DataFrame:
+    """Composition of the sets (paper Table III).
+
+    Parameters
+    ----------
+    split : DataFrame
+        flight_id, set, class, radar_id, images.
+    snr : dict flight_id -> ndarray
+        Per-timestep body SNR [dB] of each flight.
+
+    Returns
+    -------
+    DataFrame, one row per set and class plus a row ``all`` per set: flights, images,
+    pct_radar_<id> (share of the set's images from that radar [%]), snr_mean_db,
+    snr_std_db (over the timesteps of all its flights), flight_snr_std_mean_db,
+    flight_snr_std_std_db (mean and spread over flights of each flight's SNR std).
+    """
+    radars = sorted(split.radar_id.astype(str).unique())
+    rows = []
+    for s in SETS:
+        in_set = split[split.set == s]
+        set_images = max(int(in_set.images.sum()), 1)
+        classes = [c for c in CLASSES if c in set(split["class"])] + sorted(set(split["class"]) - set(CLASSES))
+        for cls in classes + ["all"]:
+            part = in_set if cls == "all" else in_set[in_set["class"] == cls]
+            vals = [snr.get(f, np.empty(0)) for f in part.flight_id]
+            pooled = np.concatenate(vals) if vals else np.empty(0)
+            stds = np.array([np.std(v) for v in vals if len(v) > 1])
+            row = dict(set=s, **{"class": cls}, flights=len(part), images=int(part.images.sum()))
+            for r in radars:
+                row[f"pct_radar_{r}"] = round(100.0 * part.images[part.radar_id.astype(str) == r].sum() / set_images, 1)
+            row.update(
+                snr_mean_db=float(np.mean(pooled)) if pooled.size else np.nan,
+                snr_std_db=float(np.std(pooled)) if pooled.size else np.nan,
+                flight_snr_std_mean_db=float(np.mean(stds)) if stds.size else np.nan,
+                flight_snr_std_std_db=float(np.std(stds)) if stds.size else np.nan,
+            )
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+TABLE_IV_COLUMNS = [
+    "flight_id", "variant", "drone_model", "radar_id", "status", "window_pulses", "fixed_rev_s",
+    "alpha_s", "s_body", "s_blade", "n_pairs_measured", "n_pairs_twin",
+    "body_snr_measured_db", "body_snr_twin_db", "body_error_db",
+    "sideband1_snr_measured_db", "sideband1_snr_twin_db", "sideband1_error_db", "fit_seconds",
+]
+
+
+def aggregate_table_iv(paths) -> pd.DataFrame:
+    """Paper-style Table IV from the per-variant tables: min/max of S_body, S_blade and
+    alpha per variant, drone model and radar, with flight counts and the worst errors."""
+    df = pd.concat([pd.read_csv(p, dtype={"flight_id": str, "radar_id": str}) for p in paths], ignore_index=True)
+    fit = df[df.status.isin(["ok", "missed"])]
+    if fit.empty:
+        return pd.DataFrame(columns=["variant", "drone_model", "radar_id", "flights", "missed"])
+    g = fit.groupby(["variant", "drone_model", "radar_id"])
+    out = g.agg(flights=("flight_id", "size"), missed=("status", lambda s: int((s == "missed").sum())),
+                s_body_min=("s_body", "min"), s_body_max=("s_body", "max"),
+                s_blade_min=("s_blade", "min"), s_blade_max=("s_blade", "max"),
+                alpha_s_min=("alpha_s", "min"), alpha_s_max=("alpha_s", "max"),
+                max_abs_body_error_db=("body_error_db", lambda s: float(np.max(np.abs(s)))),
+                max_abs_sideband1_error_db=("sideband1_error_db", lambda s: float(np.nanmax(np.abs(s))) if s.notna().any() else np.nan))
+    skipped = df[~df.status.isin(["ok", "missed"])].groupby("variant").size().rename("skipped")
+    out = out.reset_index().merge(skipped, on="variant", how="left").fillna({"skipped": 0})
+    return out
+
+
+def write_csv(df: pd.DataFrame, path) -> Path:
+    """Write a CSV atomically (temporary file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    df.to_csv(tmp, index=False)
+    tmp.replace(path)
+    return path

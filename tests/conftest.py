@@ -1,0 +1,48 @@
+"""Shared fixtures: a seeded rng, the real PX4 motor log, small flight stores."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+#: the real PX4 log, referenced relative to the repository root
+ULOG_FIXTURE = REPO / ".." / "shared" / "data" / "motor-logs" / "px4_esc_status.ulg"
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20260521)
+
+
+@pytest.fixture
+def ulog_path():
+    if not ULOG_FIXTURE.exists():
+        pytest.skip(f"real motor log not found at {ULOG_FIXTURE} (needs ../shared next to the repository)")
+    return ULOG_FIXTURE
+
+
+def make_flight(fid="f1", n=4096, rng=None, with_log=True):
+    """A small valid drone flight (flight-zarr/1) in memory."""
+    from microdoppler.flightzarr import Flight
+
+    rng = rng if rng is not None else np.random.default_rng(0)
+    attrs = dict(schema="flight-zarr/1", flight_id=fid, target="drone", radar_id="radar1", prf_hz=7300.0,
+                 carrier_hz=1.35e9, drone_model="inspire2", n_motors=4, n_blades=2, blade_length_m=0.19)
+    iq = (rng.standard_normal(n) + 1j * rng.standard_normal(n)).astype(np.complex64)
+    f = Flight(attrs=attrs, iq=iq, track_time_s=np.array([0.0, 0.5, 1.0]),
+               track_range_m=np.array([1000.0, 1002.5, 1005.0]),
+               track_radial_velocity_mps=np.array([5.0, 5.0, 5.0]))
+    if with_log:
+        f.motors_time_s = np.arange(20) / 30.0
+        f.motors_rpm = np.full((20, 4), 4800.0, np.float32)
+    return f
+
+
+@pytest.fixture
+def good_store(tmp_path, rng):
+    from microdoppler.flightzarr import write_flight
+
+    return write_flight(tmp_path / "good.zarr", make_flight(rng=rng))

@@ -1,0 +1,82 @@
+"""``microdoppler simulate``: stores, speeds, noise, tracks and one-line errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from microdoppler.cli import main
+from microdoppler.flightzarr import read_flight
+from microdoppler.spectrogram import SpectrogramConfig, spectrogram
+
+LAM = 299792458 / 1.35e9
+
+
+def _sim(tmp_path, name, *extra):
+    out = tmp_path / f"{name}.zarr"
+    rc = main(["simulate", "--out", str(out), "--quiet", *extra])
+    assert rc == 0
+    return read_flight(out)
+
+
+def test_simulate_constant_speeds_writes_valid_store_with_lines(tmp_path):
+    f = _sim(tmp_path, "c", "--motor-hz", "85,90,95,100", "--duration-s", "1.5", "--range-m", "400",
+             "--radial-velocity-mps", "-4", "--seed", "3")
+    assert f.attrs["n_motors"] == 4 and f.attrs["target"] == "drone"
+    assert len(f.iq) == int(round(1.5 * 7300))
+    spec = spectrogram(f.iq, f.prf_hz, SpectrogramConfig(n_bins=0, highpass_hz=0))
+    p = spec.power_db.mean(axis=0)
+    f_body = 2 * 4 / LAM
+    assert abs(spec.doppler_hz[np.argmax(p)] - f_body) <= spec.bin_hz
+    np.testing.assert_allclose(f.motors_rpm[0], [85 * 60, 90 * 60, 95 * 60, 100 * 60])
+    np.testing.assert_allclose(f.track_radial_velocity_mps, -4.0, atol=1e-9)
+
+
+def test_simulate_same_seed_reproducible(tmp_path):
+    a = _sim(tmp_path, "a", "--motor-hz", "80,80", "--duration-s", "0.6", "--snr-db", "10", "--seed", "9")
+    b = _sim(tmp_path, "b", "--motor-hz", "80,80", "--duration-s", "0.6", "--snr-db", "10", "--seed", "9")
+    np.testing.assert_array_equal(a.iq, b.iq)
+
+
+def test_snr_is_body_power_over_noise_power_per_pulse(tmp_path):
+    args = ["--motor-hz", "90", "--duration-s", "2", "--s-body", "0.5", "--s-blade", "0", "--seed", "4"]
+    clean = _sim(tmp_path, "clean", *args)
+    noisy = _sim(tmp_path, "noisy", *args, "--snr-db", "6")
+    noise = noisy.iq.astype(np.complex128) - clean.iq
+    snr = 10 * np.log10(np.mean(np.abs(clean.iq) ** 2) / np.mean(np.abs(noise) ** 2))
+    assert abs(snr - 6.0) < 0.1
+    assert noisy.attrs["simulation"]["snr_db"] == 6.0
+
+
+def test_simulate_from_motor_log_and_track(tmp_path, ulog_path):
+    track = tmp_path / "track.csv"
+    t = np.linspace(0, 6, 13)
+    np.savetxt(track, np.column_stack([t, 900 - 3 * t + 0.2 * t ** 2]), delimiter=",", header="time_s,range_m",
+               comments="")
+    f = _sim(tmp_path, "log", "--motor-log", str(ulog_path), "--track", str(track), "--duration-s", "5",
+             "--variant", "per_cpi", "--alpha", "0.005")
+    assert len(f.iq) == 5 * 7300 and f.motors_rpm.shape == (127, 4)
+    np.testing.assert_allclose(f.track_range_m, 900 - 3 * f.track_time_s + 0.2 * f.track_time_s ** 2, atol=0.05)
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--motor-hz", "85,x"], "--motor-hz"),
+    (["--motor-hz", "85", "--alpha", "-1"], "--alpha"),
+    (["--motor-hz", "85", "--range-m", "10", "--radial-velocity-mps", "-20", "--duration-s", "1"], "--range-m"),
+    (["--motor-hz", "85", "--snr-db", "10", "--s-body", "0"], "--s-body"),
+    (["--motor-log", "nonexistent.csv"], "file"),
+])
+def test_simulate_bad_input_one_line_nothing_written(tmp_path, capsys, args, field):
+    out = tmp_path / "bad.zarr"
+    rc = main(["simulate", "--out", str(out), "--quiet", *args])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and field in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+def test_simulate_bad_track(tmp_path, capsys):
+    track = tmp_path / "t.csv"
+    track.write_text("time_s,range_m\n0,500\n1,nan\n")
+    rc = main(["simulate", "--out", str(tmp_path / "x.zarr"), "--motor-hz", "80", "--track", str(track)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and str(track) in err and "range_m" in err

@@ -1,0 +1,113 @@
+# Classifier stage (issue 5): train over seeds per training set, evaluate on the
+# measured test tiles, report Table V, the mean confusion matrices (Fig. 6) and
+# the Fig. 12 box plot.
+
+CLASSIFIER = config.get("classifier", {})
+TRAINSETS = CLASSIFIER.get("trainsets") or ["real"] + VARIANTS
+SEEDS = [int(s) for s in CLASSIFIER.get("seeds", list(range(1, 10)))]
+
+
+def classifier_tiles(wildcards):
+    """Tile stores a training set needs: the measured one, plus the variant's twins."""
+    stores = {"real": "results/tiles/real.zarr"}
+    if wildcards.trainset != "real":
+        stores["variant"] = f"results/tiles/{wildcards.trainset}.zarr"
+    return stores
+
+
+def classifier_predictions():
+    return expand(
+        "results/eval/{trainset}/seed{seed}.csv", trainset=TRAINSETS, seed=SEEDS
+    )
+
+
+def classifier_targets():
+    return [
+        "results/reports/metrics.csv",
+        "results/reports/table_v.csv",
+        "results/reports/fig12_boxplot.png",
+    ]
+
+
+rule train_classifier:
+    input:
+        unpack(classifier_tiles),
+    output:
+        model="results/models/{trainset}/seed{seed}.pt",
+        history="results/models/{trainset}/seed{seed}_history.csv",
+    log:
+        "results/logs/train_classifier/{trainset}_seed{seed}.log",
+    benchmark:
+        "results/benchmarks/train_classifier/{trainset}_seed{seed}.tsv"
+    wildcard_constraints:
+        trainset="|".join(TRAINSETS),
+        seed=r"\d+",
+    params:
+        classifier=CLASSIFIER,
+        code=code_version("classifier"),
+    threads: CLASSIFIER.get("threads", 1)
+    resources:
+        mem_mb=2000,
+    script:
+        "../scripts/train_classifier.py"
+
+
+rule evaluate_classifier:
+    input:
+        model="results/models/{trainset}/seed{seed}.pt",
+        real="results/tiles/real.zarr",
+    output:
+        predictions="results/eval/{trainset}/seed{seed}.csv",
+    log:
+        "results/logs/evaluate_classifier/{trainset}_seed{seed}.log",
+    wildcard_constraints:
+        trainset="|".join(TRAINSETS),
+        seed=r"\d+",
+    params:
+        code=code_version("classifier"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+    script:
+        "../scripts/evaluate_classifier.py"
+
+
+rule report_metrics:
+    input:
+        predictions=classifier_predictions(),
+    output:
+        metrics=report(
+            "results/reports/metrics.csv",
+            caption="../report/metrics.rst",
+            category="Classifier",
+        ),
+        table_v=report(
+            "results/reports/table_v.csv",
+            caption="../report/table_v.rst",
+            category="Classifier",
+        ),
+        confusion_csv=expand(
+            "results/reports/confusion_{trainset}.csv", trainset=TRAINSETS
+        ),
+        confusion_png=report(
+            expand("results/reports/confusion_{trainset}.png", trainset=TRAINSETS),
+            caption="../report/fig6.rst",
+            category="Classifier",
+            subcategory="Fig. 6 confusion matrices",
+        ),
+        fig12=report(
+            "results/reports/fig12_boxplot.png",
+            caption="../report/fig12.rst",
+            category="Classifier",
+        ),
+    log:
+        "results/logs/report_metrics.log",
+    params:
+        trainsets=TRAINSETS,
+        seeds=SEEDS,
+        code=code_version("classifier"),
+    threads: 1
+    resources:
+        mem_mb=1000,
+    script:
+        "../scripts/report_metrics.py"
