@@ -80,3 +80,23 @@ def test_simulate_bad_track(tmp_path, capsys):
     rc = main(["simulate", "--out", str(tmp_path / "x.zarr"), "--motor-hz", "80", "--track", str(track)])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and str(track) in err and "range_m" in err
+
+
+def test_figures_write_pngs(tmp_path, rng, ulog_path):
+    import matplotlib.pyplot as plt
+
+    from microdoppler import figures
+    from microdoppler.motorlog import MotorLog
+
+    t = np.arange(0, 6, 1 / 30)
+    log = MotorLog(t, (4800 + np.cumsum(rng.normal(0, 20, (len(t), 4)), axis=0)).astype(np.float32), "synthetic")
+    out8 = figures.fig8(tmp_path / "f8.png", motor_log=log)
+    out2 = figures.fig2(tmp_path / "f2.png", ulog_path=ulog_path, duration_s=3.0)
+    for p in (out8, out2):
+        assert p.exists() and p.stat().st_size > 10_000 and p.read_bytes()[:4] == b"\x89PNG"
+    fig, ax = plt.subplots()
+    spec = spectrogram(np.exp(2j * np.pi * 100 * np.arange(8192) / 7300).astype(np.complex64), 7300.0)
+    im = figures.plot_spectrogram(ax, spec, dynamic_range_db=40, title="x")
+    lo, hi = im.get_clim()
+    assert hi - lo == 40 and ax.get_ylabel().startswith("Doppler")
+    plt.close(fig)

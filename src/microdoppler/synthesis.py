@@ -13,7 +13,11 @@ chirps once the speed varies.
 Fast kernel: the blade sum G(phi) = sum_b g(phi + 2 pi b / B) depends on the rotor
 angle only, so it is tabulated once over one revolution (``table_size`` points,
 nearest lookup; phase error < pi/table_size rad). A pulse then costs one table
-lookup per motor. The body carrier exp(-j 4 pi R / lambda) is looked up the same way.
+lookup per motor. Rotor angles are uint32 fixed-point fractions of a revolution
+accumulated from per-pulse increments rev_s / prf (wrap-around modulo one turn is
+free; the table index is the top 16 bits). The body carrier exp(-j 4 pi R / lambda)
+is looked up the same way, its phase 2R/lambda evaluated on a global grid every
+``CARRIER_STEP`` pulses and interpolated linearly in between.
 
 Eq. (2): x = S_body b(t) + S_blade [h * m](t) b(t) (+ background), where b(t) is the
 body carrier, m(t) = sum over motors of G(phi_m(t)) is the blade signal relative to
@@ -24,7 +28,11 @@ linear filter with frequency response H(f) = exp(-alpha |f|) applied to m(t), i.
 in the frame that moves with the body, so the envelope is centred on the body
 Doppler as it changes. Larger alpha [s] leaves fewer sideband pairs (see NOTES.md).
 The filter is applied per chunk by FFT with a margin of ``margin`` pulses on each
-side (overlap-save), so memory does not grow with flight length.
+side (overlap-save), so memory does not grow with flight length; outside the
+record the blade signal is taken as zero (the first and last chunks are zero-padded
+by the margin), so the result does not depend on the chunk size beyond the
+truncation of the envelope's Lorentzian impulse response at ``margin`` (relative
+error ~ alpha prf / (pi^2 margin)).
 """
 
 from __future__ import annotations
@@ -332,8 +340,9 @@ def synthesize(
         if scaling.s_blade > 0:
             # rotor phase at pulse a: step back over the margin (exact modulo 2**32)
             cur = [int(v) for v in ph_i0]  # Python ints: wrap explicitly, no overflow warnings
+            r_all = np.asarray(rev_s[a:b])  # one read per chunk (Zarr: each stored chunk decoded once)
             for s0 in range(a, i0, sub):
-                r = np.asarray(rev_s[s0:min(s0 + sub, i0)])
+                r = r_all[s0 - a:min(s0 + sub, i0) - a]
                 for k in range(n_motors):
                     d = _increments(r[:, k], scale, f64, inc)
                     cur[k] = (cur[k] - int(d.sum(dtype=np.uint64))) & (PHASE_ONE - 1)
@@ -343,7 +352,7 @@ def synthesize(
             for s0, s1 in bounds:
                 if s0 == i1:
                     ph_i0 = list(cur)  # phase at the next chunk's first pulse
-                r = np.asarray(rev_s[s0:s1])
+                r = r_all[s0 - a:s1 - a]
                 n = s1 - s0
                 for k in range(n_motors):
                     d = _increments(r[:, k], scale, f64, inc)

@@ -65,13 +65,13 @@ class TrainConfig:
     compact: dict = field(default_factory=dict)
     alexnet_weights: str = ""
     colormap: str = "jet"
-    learning_rate: float = 0.005
-    momentum: float = 0.98
+    learning_rate: float = 0.01
+    momentum: float = 0.9
     weight_decay: float = 2e-4
     batch_size: int = 16
     lr_step_epochs: int = 10
     lr_gamma: float = 0.1
-    max_epochs: int = 15
+    max_epochs: int = 12
     exceed_limit: int = 10
     reevaluate_train: bool = True
     normalisation: Normalisation = Normalisation()

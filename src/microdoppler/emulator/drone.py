@@ -69,9 +69,9 @@ class DroneDynamics:
 
 
 DYNAMICS = {
-    "inspire2": DroneDynamics(80.0, 3.4, 0.09, 0.035, 0.012, 30.0),
-    "matrice300": DroneDynamics(60.0, 6.3, 0.14, 0.03, 0.010, 20.0),
-    "mini2": DroneDynamics(165.0, 0.25, 0.012, 0.04, 0.015, 0.0, hand_flown=True),
+    "inspire2": DroneDynamics(80.0, 3.4, 0.09, 0.08, 0.02, 30.0),
+    "matrice300": DroneDynamics(60.0, 6.3, 0.14, 0.07, 0.018, 20.0),
+    "mini2": DroneDynamics(165.0, 0.25, 0.012, 0.06, 0.025, 0.0, hand_flown=True),
 }
 
 #: arm angles (X frame) and spin directions of the four motors
@@ -107,9 +107,10 @@ def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_
     centre = mean_range_m * np.array([np.cos(az0), np.sin(az0)])
     radius = rng.uniform(40.0, 120.0)
     leg = rng.uniform(100.0, 400.0)
-    orient = rng.uniform(0, np.pi)
+    # legs laid out roughly along the line of sight (trials want a Doppler signature)
+    orient = az0 + rng.uniform(-0.6, 0.6)
     perim = 2 * leg + 2 * np.pi * radius
-    vs = speed_mps * (1 + ou_process(n, dt, 0.15 if hand_flown else 0.03, 3.0, rng))
+    vs = speed_mps * (1 + _smooth(ou_process(n, dt, 0.15 if hand_flown else 0.06, 3.0, rng), 2.0))
     vs = np.maximum(vs, 0.5)
     s = rng.uniform(0, perim) + direction * np.cumsum(vs) * dt
     s = np.mod(s, perim)
@@ -126,13 +127,15 @@ def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_
     a4 = s >= 2 * leg + np.pi * radius
     th = (s[a4] - 2 * leg - np.pi * radius) / radius + np.pi / 2
     x[a4], y[a4] = -leg / 2 + radius * np.cos(th), radius * np.sin(th)
-    if hand_flown:
-        x += ou_process(n, dt, 8.0, 6.0, rng)
-        y += ou_process(n, dt, 8.0, 6.0, rng)
+    if hand_flown:  # the pilot's wander: smooth (2 s) deviations of ~8 m from the plan
+        kw = np.hanning(int(2.0 * CONTROL_HZ) | 1)
+        kw /= kw.sum()
+        x += np.convolve(ou_process(n, dt, 9.0, 6.0, rng), kw, mode="same")
+        y += np.convolve(ou_process(n, dt, 9.0, 6.0, rng), kw, mode="same")
     c, sn = np.cos(orient), np.sin(orient)
     px = centre[0] + c * x - sn * y
     py = centre[1] + sn * x + c * y
-    pz = height_m + ou_process(n, dt, 3.0 if hand_flown else 0.5, 4.0, rng)
+    pz = height_m + _smooth(ou_process(n, dt, 3.0 if hand_flown else 1.5, 4.0, rng), 2.0)
     pos = np.column_stack([px, py, pz])
     # smooth the corners of the piecewise path (and the wrap), as the autopilot does
     k = int(0.5 * CONTROL_HZ)
@@ -164,10 +167,13 @@ def motor_speeds(path: DronePath, dyn: DroneDynamics, *, wind_mps: float, rng: n
     dt = 1.0 / CONTROL_HZ
     wdir = rng.uniform(0, 2 * np.pi)
     gust_sd = 0.3 + 0.25 * wind_mps
+    def gust(sd, tau):  # OU smoothed over 0.5 s: gusts have no infinitely fast edges
+        return _smooth(ou_process(n, dt, sd, tau, rng), 0.5)
+
     wind = np.column_stack([
-        wind_mps * np.cos(wdir) + ou_process(n, dt, gust_sd, 2.0, rng),
-        wind_mps * np.sin(wdir) + ou_process(n, dt, gust_sd, 2.0, rng),
-        ou_process(n, dt, 0.4 * gust_sd, 1.0, rng),
+        wind_mps * np.cos(wdir) + gust(gust_sd, 3.0),
+        wind_mps * np.sin(wdir) + gust(gust_sd, 3.0),
+        gust(0.4 * gust_sd, 1.5),
     ])
     v_air = path.vel_mps - wind
     sp_air = np.linalg.norm(v_air, axis=1, keepdims=True)
@@ -183,8 +189,8 @@ def motor_speeds(path: DronePath, dyn: DroneDynamics, *, wind_mps: float, rng: n
     # moments: angular acceleration of the attitude, a forward-flight trim (rear motors
     # work harder), turbulence and controller jitter
     k_att = 0.002
-    pdd = np.gradient(np.gradient(pitch, dt), dt)
-    rdd = np.gradient(np.gradient(roll, dt), dt)
+    pdd = np.gradient(np.gradient(_smooth(pitch, 0.3), dt), dt)
+    rdd = np.gradient(np.gradient(_smooth(roll, 0.3), dt), dt)
     fwd = ch * v_air[:, 0] + sh * v_air[:, 1]
     turb = dyn.turbulence * gust_sd
     p_mom = k_att * pdd + 0.004 * fwd + ou_process(n, dt, turb, 0.4, rng) + ou_process(n, dt, 0.004, 0.03, rng)
@@ -201,6 +207,13 @@ def motor_speeds(path: DronePath, dyn: DroneDynamics, *, wind_mps: float, rng: n
     zi = cmd[0] * a
     rev = lfilter([1 - a], [1, -a], cmd, axis=0, zi=zi[None, :])[0]
     return MotorTruth(t, rev)
+
+
+def _smooth(x: np.ndarray, window_s: float) -> np.ndarray:
+    k = max(1, int(window_s * CONTROL_HZ / 2))
+    w = np.hanning(2 * k + 1)
+    w /= w.sum()
+    return np.convolve(np.pad(x, k, mode="edge"), w, mode="valid")
 
 
 def write_log(truth: MotorTruth, duration_s: float, rate_hz: float, rng: np.random.Generator, *,

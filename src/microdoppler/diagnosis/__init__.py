@@ -1,0 +1,12 @@
+"""Diagnosis: what the paper's simulation gets wrong about a measured drone flight.
+
+``diagnose_flight(flight, *, motor_log=None, config=None) -> dict`` returns one report
+entry (``shared/formats/flight-zarr.md``); ``diagnose(paths, out_json)`` writes the
+report; ``aggregate(report) -> ExtensionSet`` turns the training flights' diagnosis
+into the ``extended`` synthetic variant.
+"""
+
+from .core import DiagnosisConfig, decide, diagnose, diagnose_flight, run_tests, write_json
+from .aggregate import aggregate
+
+__all__ = ["DiagnosisConfig", "diagnose_flight", "diagnose", "aggregate", "run_tests", "decide", "write_json"]

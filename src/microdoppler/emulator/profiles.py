@@ -1,0 +1,221 @@
+"""Profiles (``test``, ``default``, ``paper``) and writing a whole world.
+
+``test``     6 flights of 30-40 s (CI; seconds to emulate).
+``default``  48 flights: 24 birds (10 single, 6 pairs, 5 small and 3 large flocks) of
+             30-45 s, 9 Inspire, 8 Matrice, 7 Mini flights of 40-60 s (about 35 min of
+             flight), both radars; sideband asymmetry (|a| 3-6 dB) on a third and sideband
+             fading (3-6 dB, 1-2 s) on another third of the Inspire/Matrice flights.
+``paper``    Table III: 491 bird, 69 Inspire, 52 Matrice, 62 Mini flights with
+             durations that give Table III's image counts per class (5814, 2183, 1899,
+             1709 tiles of 20 timesteps), ~50:50 radars. Large: planned on demand.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..flightzarr import write_flight
+from ..spectrogram import SpectrogramConfig
+from .world import FlightSpec, emulate_flight, measured_snr_db
+
+PROFILES = ("test", "default", "paper")
+PRF_HZ = 7300.0
+#: Table III totals per class: (flights, images)
+PAPER_COUNTS = {"bird": (491, 5814), "inspire2": (69, 2183), "matrice300": (52, 1899), "mini2": (62, 1709)}
+PAPER_RADAR1 = {"bird": 0.5, "inspire2": 0.5, "matrice300": 0.55, "mini2": 0.4}
+
+
+def _tile_duration_s(n_tiles: int, cfg=SpectrogramConfig()) -> float:
+    """Shortest flight giving ``n_tiles`` tiles of ``cfg.tile_timesteps`` timesteps."""
+    steps = n_tiles * cfg.tile_timesteps
+    return (cfg.n_fft + (steps - 1) * cfg.hop) / PRF_HZ
+
+
+def _drone_spec(fid, model, rng, seed, duration_s, radar_id, effects=None) -> FlightSpec:
+    mini = model == "mini2"
+    return FlightSpec(
+        flight_id=fid, target="drone", drone_model=model, radar_id=radar_id, duration_s=float(duration_s),
+        mean_range_m=float(rng.uniform(1000, 3000)), height_m=float(rng.choice([60.0, 80.0, 100.0])),
+        speed_mps=float(rng.uniform(3, 8) if mini else rng.uniform(3, 12)), effects=effects or {},
+        seed=int(seed), direction=int(rng.choice([1, -1])))
+
+
+def _bird_spec(fid, kind, rng, seed, duration_s, radar_id) -> FlightSpec:
+    return FlightSpec(
+        flight_id=fid, target="bird", bird_kind=kind, radar_id=radar_id, duration_s=float(duration_s),
+        mean_range_m=float(rng.uniform(700, 2500)), height_m=float(rng.uniform(20, 120)),
+        speed_mps=float(rng.uniform(5, 20)), seed=int(seed))
+
+
+def _world_effects(rng, model) -> dict:
+    if model not in ("inspire2", "matrice300"):
+        return {}
+    u = rng.uniform()
+    if u < 1 / 3:
+        return {"sideband_asymmetry": {"asymmetry_db": float(rng.choice([-1, 1]) * rng.uniform(3, 6))}}
+    if u < 2 / 3:
+        return {"sideband_fading": {"fading_std_db": float(rng.uniform(3, 6)), "timescale_s": float(rng.uniform(1, 2))}}
+    return {}
+
+
+def plan_world(profile: str, seed: int) -> list[FlightSpec]:
+    """The flights of ``profile`` (``test``, ``default`` or ``paper``), deterministic in ``seed``."""
+    if profile not in PROFILES:
+        raise ValueError(f"profile={profile!r} must be one of {PROFILES}")
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 999])
+    specs: list[FlightSpec] = []
+
+    def nxt():
+        return int(rng.integers(2 ** 31))
+
+    if profile == "test":
+        plan = [("drone", "inspire2", "radar1", 36.0), ("drone", "matrice300", "radar2", 36.0),
+                ("drone", "inspire2", "radar2", 32.0), ("drone", "mini2", "radar1", 32.0),
+                ("bird", "single", "radar1", 32.0), ("bird", "small_flock", "radar2", 32.0)]
+        for i, (tg, what, rid, dur) in enumerate(plan):
+            fid = f"t{i:02d}_{what}"
+            if tg == "drone":
+                eff = {"sideband_asymmetry": {"asymmetry_db": 4.0}} if i == 2 else {}
+                specs.append(_drone_spec(fid, what, rng, nxt(), dur, rid, eff))
+            else:
+                specs.append(_bird_spec(fid, what, rng, nxt(), dur, rid))
+        return [replace(s, site_seed=int(seed)) for s in specs]
+    if profile == "default":
+        classes = ([("bird", k) for k in ["single"] * 10 + ["pair"] * 6 + ["small_flock"] * 5 + ["large_flock"] * 3]
+                   + [("drone", "inspire2")] * 9 + [("drone", "matrice300")] * 8 + [("drone", "mini2")] * 7)
+        for i, (tg, what) in enumerate(classes):
+            rid = "radar1" if i % 2 == 0 else "radar2"
+            if tg == "bird":
+                specs.append(_bird_spec(f"d{i:03d}_bird", what, rng, nxt(), rng.uniform(30, 45), rid))
+            else:
+                specs.append(_drone_spec(f"d{i:03d}_{what}", what, rng, nxt(), rng.uniform(40, 60), rid,
+                                         _world_effects(rng, what)))
+        return [replace(s, site_seed=int(seed)) for s in specs]
+    # paper
+    kinds = ["single"] * 50 + ["pair"] * 25 + ["small_flock"] * 17 + ["large_flock"] * 8
+    i = 0
+    for cls, (n_fl, n_img) in PAPER_COUNTS.items():
+        tiles = np.full(n_fl, n_img // n_fl)
+        tiles[: n_img - tiles.sum()] += 1
+        rng.shuffle(tiles)
+        # spread the tile counts (shorter and longer flights), keeping the total
+        spread = rng.integers(-(tiles.min() - 1) // 2, (tiles.min() - 1) // 2 + 1, n_fl)
+        spread -= int(np.round(spread.mean()))
+        tiles = np.maximum(1, tiles + spread)
+        tiles[-1] = max(1, tiles[-1] + n_img - tiles.sum())
+        for k in range(n_fl):
+            dur = _tile_duration_s(int(tiles[k])) + rng.uniform(0, 1.0)
+            rid = "radar1" if rng.uniform() < PAPER_RADAR1[cls] else "radar2"
+            fid = f"p{i:04d}_{cls}"
+            if cls == "bird":
+                specs.append(_bird_spec(fid, kinds[int(rng.integers(len(kinds)))], rng, nxt(), dur, rid))
+            else:
+                specs.append(_drone_spec(fid, cls, rng, nxt(), dur, rid, _world_effects(rng, cls)))
+            i += 1
+    return [replace(s, site_seed=int(seed)) for s in specs]
+
+
+def _spec_json(spec: FlightSpec) -> dict:
+    d = asdict(spec)
+    d["effects"] = {k: dict(v) for k, v in dict(spec.effects).items()}
+    return d
+
+
+def _emulate_one(spec: FlightSpec, out_dir: str) -> dict:
+    t0 = time.perf_counter()
+    flight, truth = emulate_flight(spec)
+    write_flight(Path(out_dir) / f"{spec.flight_id}.zarr", flight)
+    snr_mean, snr_std = measured_snr_db(flight)
+    log_rel = ""
+    if flight.has_motor_log:
+        log_rel = f"motor_logs/{spec.flight_id}.csv"
+        path = Path(out_dir) / log_rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
+        with open(tmp, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["time_s"] + [f"motor{m + 1}_rpm" for m in range(flight.motors_rpm.shape[1])])
+            for ti, row in zip(flight.motors_time_s, flight.motors_rpm):
+                w.writerow([f"{ti:.4f}"] + [f"{v:.0f}" for v in row])
+        os.replace(tmp, path)
+    return {"spec": spec, "truth": truth, "snr_mean": snr_mean, "snr_std": snr_std, "log": log_rel,
+            "mean_range_m": float(np.mean(flight.track_range_m)), "seconds": time.perf_counter() - t0,
+            "duration_s": flight.duration_s}
+
+
+def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: bool = True,
+                  workers: int | None = None, specs: list[FlightSpec] | None = None) -> list[dict]:
+    """Emulate every flight of ``profile`` into ``out_dir``.
+
+    Writes ``{flight_id}.zarr`` (flight-zarr/1), ``flights.csv`` (flight_id, target,
+    drone_model, bird_kind, radar_id, duration_s, mean_range_m, mean_snr_db),
+    ``motor_logs/{flight_id}.csv`` (time_s + one rpm column per motor),
+    ``motor_logs.tsv`` (flight_id, motor_log, format, unit, time_offset_s) and, with
+    ``key_path``, the key (effects and truth per flight; never read downstream).
+    ``specs`` overrides the plan (e.g. a subsample of the paper profile).
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    specs = plan_world(profile, seed) if specs is None else list(specs)
+    workers = workers or min(2, os.cpu_count() or 1)
+    t0 = time.perf_counter()
+    results = []
+    if workers > 1:
+        with ProcessPoolExecutor(workers) as ex:
+            futs = [ex.submit(_emulate_one, s, str(out)) for s in specs]
+            for k, f in enumerate(futs):
+                results.append(f.result())
+                if progress:
+                    print(f"[{k + 1}/{len(specs)}] {specs[k].flight_id}", file=sys.stderr, flush=True)
+    else:
+        for k, s in enumerate(specs):
+            results.append(_emulate_one(s, str(out)))
+            if progress:
+                print(f"[{k + 1}/{len(specs)}] {s.flight_id}", file=sys.stderr, flush=True)
+    rows = []
+    for r in results:
+        s = r["spec"]
+        rows.append({"flight_id": s.flight_id, "target": s.target, "drone_model": s.drone_model,
+                     "bird_kind": s.bird_kind, "radar_id": s.radar_id, "duration_s": round(r["duration_s"], 4),
+                     "mean_range_m": round(r["mean_range_m"], 1), "mean_snr_db": round(r["snr_mean"], 2)})
+    _write_table(out / "flights.csv", rows, ",")
+    _write_table(out / "motor_logs.tsv",
+                 [{"flight_id": r["spec"].flight_id, "motor_log": r["log"], "format": "csv", "unit": "rpm",
+                   "time_offset_s": 0} for r in results if r["log"]], "\t",
+                 header=["flight_id", "motor_log", "format", "unit", "time_offset_s"])
+    wall = time.perf_counter() - t0
+    flown = sum(r["duration_s"] for r in results)
+    if key_path is not None:
+        key = {"profile": profile, "seed": int(seed), "note": "hidden truth of the emulated world; never read downstream",
+               "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"], "spec": _spec_json(r["spec"]),
+                                                 "truth": r["truth"], "measured_snr_db": r["snr_mean"],
+                                                 "measured_snr_std_db": r["snr_std"]} for r in results}}
+        kp = Path(key_path)
+        kp.parent.mkdir(parents=True, exist_ok=True)
+        tmp = kp.with_name(f".{kp.name}.tmp")
+        tmp.write_text(json.dumps(key, indent=1, default=float))
+        os.replace(tmp, kp)
+    if progress:
+        print(f"emulated {len(results)} flights, {flown:.0f} s of flight in {wall:.1f} s "
+              f"({flown / max(wall, 1e-9):.1f} s of flight per s, {workers} workers)", file=sys.stderr)
+    return rows
+
+
+def _write_table(path: Path, rows: list[dict], sep: str, header=None) -> None:
+    header = header or (list(rows[0]) if rows else [])
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=header, delimiter=sep)
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+    os.replace(tmp, path)

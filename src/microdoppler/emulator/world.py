@@ -1,0 +1,300 @@
+"""Flights, profiles and worlds: the measured world the pipeline is tested against.
+
+:func:`emulate_flight` turns a :class:`FlightSpec` into a flight-zarr/1
+:class:`~microdoppler.flightzarr.Flight` and a truth dict; :func:`plan_world` lists
+the flights of a profile; :func:`emulate_world` writes them with the manifest, the
+motor-log exports and the key file.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from .. import synthesis
+from ..flightzarr import SCHEMA, Flight, atomic_dir, commit_dir, write_flight
+from ..radar import DRONE_MODELS
+from ..snr import flight_snr_db
+from ..spectrogram import spectrogram
+from . import background as bg
+from .bird import KINDS, plan_group, render
+from .drone import CONTROL_HZ, DYNAMICS, loop_path, motor_speeds, write_log
+from .knobs import SlowGain, asymmetry_envelope, validate_effects
+from .radars import radar_site
+
+TARGETS = ("drone", "bird")
+#: body SNR [dB] (spectrogram line over median floor in thermal noise) of a class at
+#: 1 km on radar 1 for a median-RCS target; calibrated so that the measured per-class
+#: means of the paper profile come out near Table III (see tests/test_emulator.py)
+SNR_REF_DB = {"bird": 41.8, "inspire2": 57.7, "matrice300": 61.9, "mini2": 57.9}
+#: per-flight RCS scatter [dB]
+RCS_STD_DB = {"bird": 6.0, "inspire2": 6.0, "matrice300": 6.0, "mini2": 5.0}
+TRACK_HZ = 20.0
+#: maximal range-straddle loss as the target crosses resolution cells [dB]
+STRADDLE_LOSS_DB = 1.5
+
+
+@dataclass(frozen=True)
+class FlightSpec:
+    """Everything that defines one emulated flight.
+
+    Parameters
+    ----------
+    flight_id : str
+    target : {"drone", "bird"}
+    drone_model : str
+        ``inspire2``, ``matrice300`` or ``mini2`` (drones).
+    bird_kind : str
+        ``single``, ``pair``, ``small_flock`` or ``large_flock`` (birds).
+    radar_id : {"radar1", "radar2"}
+    duration_s : float
+    mean_range_m : float
+        Horizontal distance of the loop centre (drones) or of the mid-track point (birds).
+    height_m : float
+    speed_mps : float
+        Ground speed.
+    effects : mapping
+        ``{cause: {param: value}}`` with the catalog's names (see :mod:`.knobs`).
+    seed : int
+        Everything random in the flight derives from it.
+    snr_db : float, optional
+        Body SNR after the STFT (line over median floor in thermal noise); default
+        from the range model (R^-4, radar gain, RCS scatter).
+    wind_mps : float, optional
+        Mean wind; default drawn.
+    direction : int
+        +1 forward, -1 reverse loop.
+    first_sideband_db, harmonic_falloff_db : float, optional
+        Drones: first HERM sideband (per motor line) below the body [dB] and further
+        fall-off per harmonic [dB]; default drawn (large drones 6.5-9.5 and 4-7 dB; the
+        Mini's blades sit below the noise).
+    clutter_scale_db : float
+        Added to every clutter cell's clutter-to-noise ratio.
+    with_background : bool
+        Also record ``background/iq``.
+    site_seed : int
+        Seed of the radar sites' clutter maps (shared by all flights of a world).
+    """
+
+    flight_id: str
+    target: str
+    drone_model: str = ""
+    bird_kind: str = ""
+    radar_id: str = "radar1"
+    duration_s: float = 40.0
+    mean_range_m: float = 1500.0
+    height_m: float = 80.0
+    speed_mps: float = 8.0
+    effects: Mapping = field(default_factory=dict)
+    seed: int = 0
+    snr_db: float | None = None
+    wind_mps: float | None = None
+    direction: int = 1
+    first_sideband_db: float | None = None
+    harmonic_falloff_db: float | None = None
+    clutter_scale_db: float = 0.0
+    with_background: bool = True
+    site_seed: int = 0
+
+    def __post_init__(self):
+        if self.target not in TARGETS:
+            raise ValueError(f"target={self.target!r} must be one of {TARGETS}")
+        if self.target == "drone" and self.drone_model not in DYNAMICS:
+            raise ValueError(f"drone_model={self.drone_model!r} must be one of {list(DYNAMICS)}")
+        if self.target == "bird" and self.bird_kind not in KINDS:
+            raise ValueError(f"bird_kind={self.bird_kind!r} must be one of {list(KINDS)}")
+        radar_site(self.radar_id)
+        if not self.duration_s >= 1.0:
+            raise ValueError(f"duration_s={self.duration_s} must be >= 1")
+        if not 100.0 <= self.mean_range_m <= 20_000.0:
+            raise ValueError(f"mean_range_m={self.mean_range_m} must be in [100, 20000]")
+        if not self.height_m > 0:
+            raise ValueError(f"height_m={self.height_m} must be > 0")
+        if not self.speed_mps > 0:
+            raise ValueError(f"speed_mps={self.speed_mps} must be > 0")
+        if self.direction not in (1, -1):
+            raise ValueError(f"direction={self.direction} must be +1 or -1")
+        validate_effects(self.effects)
+
+    @property
+    def cls(self) -> str:
+        return self.drone_model if self.target == "drone" else "bird"
+
+
+def _rng(seed: int, stream: int) -> np.random.Generator:
+    return np.random.default_rng([int(seed) & 0xFFFFFFFF, stream])
+
+
+def _straddle_gain(range_m: np.ndarray) -> np.ndarray:
+    frac = np.mod(range_m, bg.RANGE_CELL_M) / bg.RANGE_CELL_M
+    loss_db = STRADDLE_LOSS_DB * (1 - np.cos(2 * np.pi * frac)) / 2
+    return (10 ** (-loss_db / 20)).astype(np.float32)
+
+
+def nominal_snr_db(spec: FlightSpec, rng: np.random.Generator) -> float:
+    """The range model: class reference - 40 log10(R / 1 km) + radar gain + RCS scatter."""
+    site = radar_site(spec.radar_id)
+    r = np.hypot(spec.mean_range_m, spec.height_m)
+    return float(SNR_REF_DB[spec.cls] - 40 * np.log10(r / 1000.0) + site.snr_offset_db
+                 + rng.normal(0, RCS_STD_DB[spec.cls]))
+
+
+def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
+    """Emulate one measured flight.
+
+    Returns
+    -------
+    flight : Flight
+        ``iq``, ``track/*``, ``background/iq`` (unless disabled) and, for the Inspire
+        and Matrice, ``motors/*`` as logged.
+    truth : dict
+        The effects applied, the SNR and scaling used, the true per-motor speed
+        summary, the wind, bird group details; JSON-serialisable.
+    """
+    effects = validate_effects(spec.effects)
+    site = radar_site(spec.radar_id)
+    radar = site.radar
+    prf, lam = radar.prf_hz, radar.wavelength_m
+    n = int(round(spec.duration_s * prf))
+    t = np.arange(n) / prf
+    r_misc = _rng(spec.seed, 0)
+    wind = float(spec.wind_mps if spec.wind_mps is not None else 9.0 * r_misc.uniform() ** 1.5)
+    wind_bg = float(9.0 * r_misc.uniform() ** 1.5)
+    snr_db = float(spec.snr_db if spec.snr_db is not None else nominal_snr_db(spec, r_misc))
+    a_body = bg.pulse_amplitude(snr_db, radar.n_fft)
+    truth: dict = {"flight_id": spec.flight_id, "target": spec.target, "class": spec.cls,
+                   "radar_id": spec.radar_id, "effects": effects, "snr_db_nominal": snr_db,
+                   "wind_mps": wind, "background_wind_mps": wind_bg}
+    attrs = {"schema": SCHEMA, "flight_id": spec.flight_id, "target": spec.target, "radar_id": spec.radar_id,
+             "prf_hz": float(prf), "carrier_hz": float(radar.carrier_hz), "source": "microdoppler.emulator"}
+    tt = np.arange(0.0, spec.duration_s, 1.0 / TRACK_HZ)
+    motors_t = motors_rpm = None
+    if spec.target == "drone":
+        model = DRONE_MODELS[spec.drone_model]
+        dyn = DYNAMICS[spec.drone_model]
+        path = loop_path(spec.duration_s, mean_range_m=spec.mean_range_m, height_m=spec.height_m,
+                         speed_mps=spec.speed_mps, direction=spec.direction, hand_flown=dyn.hand_flown,
+                         rng=_rng(spec.seed, 1))
+        r_mot = _rng(spec.seed, 2)
+        hover_scale = float(r_mot.uniform(0.93, 1.07))
+        mt = motor_speeds(path, dyn, wind_mps=wind, rng=r_mot, hover_scale=hover_scale)
+        rev = mt.at(t)
+        rng_ctrl = path.range_m
+        track = synthesis.Track(path.t_s, rng_ctrl)
+        range_tt = np.interp(tt, path.t_s, rng_ctrl)
+        vr_tt = np.interp(tt, path.t_s, path.radial_velocity_mps)
+        az_tt = np.interp(tt, path.t_s, np.arctan2(path.pos_m[:, 1], path.pos_m[:, 0]))
+        # blades: first sideband per motor line first_db below the body, then falloff per harmonic
+        r_bl = _rng(spec.seed, 3)
+        f_rot = dyn.hover_rev_s * hover_scale
+        B = model.n_blades
+        if spec.drone_model == "mini2":
+            first_db = spec.first_sideband_db if spec.first_sideband_db is not None else snr_db + r_bl.uniform(6, 12)
+            falloff = spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None else 6.0
+        else:
+            first_db = spec.first_sideband_db if spec.first_sideband_db is not None else r_bl.uniform(6.5, 9.5)
+            falloff = spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None else r_bl.uniform(4.0, 7.0)
+        alpha_s = float(falloff / (20 * np.log10(np.e) * B * f_rot))
+        table = synthesis.BladeModel(B, model.blade_length_m, lam).table()
+        cB = abs(np.fft.fft(table.astype(np.complex128))[B] / len(table))
+        s_blade = float(a_body * 10 ** (-first_db / 20) / (cB * np.exp(-alpha_s * B * f_rot)))
+        asym = effects.get("sideband_asymmetry", {}).get("asymmetry_db", 0.0)
+        env_asym = asymmetry_envelope(asym)
+
+        def envelope(f_hz):
+            g = env_asym(f_hz)
+            g[f_hz == 0] = 0.0  # the blades' mean return is part of the body RCS
+            return g
+
+        # slow natural variations and the knobs' gains
+        aspect = SlowGain(spec.duration_s + 1, 1.0, 4.0, r_bl)
+        blade_nat = SlowGain(spec.duration_s + 1, 0.5, 5.0, r_bl)
+        fad = effects.get("sideband_fading")
+        fading = SlowGain(spec.duration_s + 1, fad["fading_std_db"], fad["timescale_s"], r_bl) if fad else None
+        bf = effects.get("body_fluctuation")
+        from .knobs import BODY_FLUCTUATION_TAU_S
+        bodyfl = SlowGain(spec.duration_s + 1, bf["body_std_db"], BODY_FLUCTUATION_TAU_S, r_bl) if bf else None
+
+        def blade_hook(i0, i1, ts, x):
+            g = blade_nat.amplitude(ts)
+            if fading is not None:
+                g *= fading.amplitude(ts)
+            x *= g
+
+        def body_hook(i0, i1, ts, x):
+            g = aspect.amplitude(ts)
+            if bodyfl is not None:
+                g *= bodyfl.amplitude(ts)
+            x *= g
+
+        target = synthesis.synthesize(rev, track, prf_hz=prf, wavelength_m=lam, n_blades=B,
+                                      blade_length_m=model.blade_length_m,
+                                      scaling=synthesis.Scaling(a_body, s_blade, alpha_s),
+                                      seed=int(r_bl.integers(2 ** 31)), blade_hook=blade_hook,
+                                      body_hook=body_hook, envelope=envelope)
+        target *= _straddle_gain(track.range_at(t))
+        attrs.update({"drone_model": spec.drone_model, "n_motors": int(model.n_motors),
+                      "n_blades": int(B), "blade_length_m": float(model.blade_length_m)})
+        if dyn.log_rate_hz > 0:
+            lag = effects.get("motor_log_lag", {}).get("lag_s", 0.0)
+            scale = effects.get("motor_speed_scale", {}).get("scale", 1.0)
+            motors_t, motors_rpm = write_log(mt, spec.duration_s, dyn.log_rate_hz, _rng(spec.seed, 4),
+                                             lag_s=lag, scale=scale)
+        inflight = (mt.t_s >= 0) & (mt.t_s <= spec.duration_s)
+        rv = mt.rev_s[inflight]
+        truth.update({"drone_model": spec.drone_model, "alpha_s": alpha_s, "s_body": a_body, "s_blade": s_blade,
+                      "first_sideband_db": float(first_db), "harmonic_falloff_db": float(falloff),
+                      "hover_rev_s": float(f_rot),
+                      "motors": {"mean_rev_s": rv.mean(0).tolist(), "std_rev_s": rv.std(0).tolist(),
+                                 "min_rev_s": rv.min(0).tolist(), "max_rev_s": rv.max(0).tolist(),
+                                 "spread_rel": float(np.mean(rv.std(1) / rv.mean(1)))},
+                      "log_rate_hz": dyn.log_rate_hz})
+    else:
+        group = plan_group(spec.bird_kind, spec.duration_s, mean_range_m=spec.mean_range_m,
+                           height_m=spec.height_m, speed_mps=spec.speed_mps, rng=_rng(spec.seed, 1))
+        target = render(group, n, prf, lam, a_body, _rng(spec.seed, 3))
+        centre = group.centre_range_m
+        target *= _straddle_gain(np.interp(t, group.t_s, centre))
+        range_tt = np.interp(tt, group.t_s, centre)
+        vr_tt = np.interp(tt, group.t_s, np.gradient(centre, group.t_s))
+        az_tt = np.interp(tt, group.t_s, group.azimuth_rad)
+        truth.update({"bird_kind": spec.bird_kind, "species": group.species, "n_birds": group.n_birds,
+                      "wingbeat_hz": group.wingbeat_hz.tolist(),
+                      "body_doppler_offsets_hz": (-2 * (np.gradient(group.range_m, group.t_s, axis=0)
+                                                        - np.gradient(centre, group.t_s)[:, None]).mean(0) / lam).tolist()})
+    cells = bg.cell_ids(range_tt, az_tt)
+    knob_pn = effects.get("phase_noise", {}).get("rms_rad", 0.0)
+    iq, info = bg.record(target, n, t_track_s=tt, cells=cells, site=site, site_seed=spec.site_seed,
+                         wind_mps=wind, rng=_rng(spec.seed, 5), knob_phase_rms_rad=knob_pn,
+                         clutter_scale_db=spec.clutter_scale_db)
+    del target
+    bgiq = None
+    if spec.with_background:
+        bgiq, _ = bg.record(None, n, t_track_s=tt, cells=cells, site=site, site_seed=spec.site_seed,
+                            wind_mps=wind_bg, rng=_rng(spec.seed, 6), clutter_scale_db=spec.clutter_scale_db)
+    truth.update(info)
+    # the tracker's output: true track plus a small smooth error
+    r_tr = _rng(spec.seed, 7)
+    from .knobs import ou_process
+    verr = ou_process(len(tt), 1.0 / TRACK_HZ, 0.03 if spec.drone_model != "mini2" else 0.08, 5.0, r_tr)
+    err = np.cumsum(verr) / TRACK_HZ
+    track_r = range_tt + err
+    track_v = vr_tt + verr
+    flight = Flight(attrs=attrs, iq=iq, track_time_s=tt.astype(np.float64), track_range_m=track_r,
+                    track_radial_velocity_mps=track_v, motors_time_s=motors_t, motors_rpm=motors_rpm,
+                    background_iq=bgiq)
+    return flight, truth
+
+
+def measured_snr_db(flight: Flight) -> tuple[float, float]:
+    """Mean and std over timesteps of the body line SNR with the pipeline's chain."""
+    spec = spectrogram(flight.iq, flight.prf_hz)
+    v = np.interp(spec.time_s, flight.track_time_s, flight.track_radial_velocity_mps)
+    return flight_snr_db(spec, -2.0 * v / flight.wavelength_m)

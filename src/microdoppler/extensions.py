@@ -1,0 +1,267 @@
+"""Model extensions: the catalog's causes as options of the synthesis stage.
+
+Each cause of :data:`microdoppler.catalog.CAUSES` (except ``none``) extends the
+paper's model (eq. 2, :func:`microdoppler.synthesis.synthesize`) with the catalog's
+parameter names, units and signs:
+
+``sideband_asymmetry``  {asymmetry_db}
+    ``envelope(f)`` multiplies the alpha envelope H(f) by 10^(+a/40) above the body
+    Doppler and 10^(-a/40) below it: upper/lower sideband power = 10^(a/10).
+``sideband_fading``     {fading_std_db, timescale_s}
+    ``blade_hook`` multiplies the blade signal by 10^(x(t)/20), x an
+    Ornstein-Uhlenbeck process in dB (std ``fading_std_db``, correlation time
+    ``timescale_s``).
+``body_fluctuation``    {body_std_db}
+    ``body_hook`` multiplies the body amplitude by 10^(y(t)/20), y OU in dB with std
+    ``body_std_db`` and correlation time :data:`BODY_TIMESCALE_S` (catalog: ~0.3 s).
+``motor_log_lag``       {lag_s}
+    A log row stamped t reports the speed at t - lag_s, so the corrected log is the
+    logged one with its times moved by -lag_s (:meth:`ExtensionSet.transform_log`).
+``motor_speed_scale``   {scale}
+    true speed = scale * logged speed (:meth:`ExtensionSet.transform_log`).
+``phase_noise``         {rms_rad}
+    :meth:`ExtensionSet.post` multiplies the echo by exp(j theta(t)), theta Gaussian
+    with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``.
+
+Stochastic extensions (fading, body fluctuation, phase noise) draw their processes
+from the ``seed`` given to :meth:`~ExtensionSet.synth_kwargs` / :meth:`~ExtensionSet.post`;
+the same seed gives the same result.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import scipy.fft as sfft
+import yaml
+
+from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
+from .errors import InputError
+from .motorlog import MotorLog
+
+SCHEMA = "extensions/1"
+#: correlation time of the body fluctuation [s] (catalog: ~0.3 s)
+BODY_TIMESCALE_S = 0.3
+#: default of the fading correlation time [s] when not given
+DEFAULT_FADING_TIMESCALE_S = 1.5
+#: sampling interval of the slow gain processes before interpolation [s]
+GAIN_DT_S = 0.01
+#: sub-seeds of the stochastic extensions (independent streams from one seed)
+_STREAM = {"sideband_fading": 1, "body_fluctuation": 2, "phase_noise": 3}
+
+
+def check_params(cause: str, params: Mapping | None, *, source="extensions") -> dict:
+    """Validate one cause's parameters against the catalog; returns floats.
+
+    Raises
+    ------
+    InputError
+        Unknown cause or parameter, missing or out-of-range value.
+    """
+    if cause not in CAUSES or cause == "none":
+        raise InputError(source, f"extensions.{cause}", "is not a catalog cause",
+                         f"one of {[c for c in CAUSES if c != 'none']}")
+    params = dict(params or {})
+    names = [p.name for p in CAUSES[cause].params]
+    for k in params:
+        if k not in names:
+            raise InputError(source, f"extensions.{cause}.{k}", "unknown parameter", f"one of {names}")
+    if cause == "sideband_fading":
+        params.setdefault("timescale_s", DEFAULT_FADING_TIMESCALE_S)
+    out = {}
+    for k in names:
+        if k not in params:
+            raise InputError(source, f"extensions.{cause}.{k}", "missing", "a number")
+        try:
+            v = float(params[k])
+        except (TypeError, ValueError):
+            raise InputError(source, f"extensions.{cause}.{k}", f"is {params[k]!r}", "a number") from None
+        if not np.isfinite(v):
+            raise InputError(source, f"extensions.{cause}.{k}", f"is {v}", "a finite number")
+        out[k] = v
+    bad = {
+        ("sideband_fading", "fading_std_db"): out.get("fading_std_db", 0) < 0,
+        ("sideband_fading", "timescale_s"): out.get("timescale_s", 1) <= 0,
+        ("body_fluctuation", "body_std_db"): out.get("body_std_db", 0) < 0,
+        ("motor_speed_scale", "scale"): out.get("scale", 1) <= 0,
+        ("phase_noise", "rms_rad"): out.get("rms_rad", 0) < 0,
+    }
+    for (c, k), is_bad in bad.items():
+        if c == cause and is_bad:
+            raise InputError(source, f"extensions.{cause}.{k}", f"is {out[k]}",
+                             "> 0" if k in ("timescale_s", "scale") else ">= 0")
+    return out
+
+
+def ou_db(n: int, dt_s: float, std_db: float, tau_s: float, rng: np.random.Generator) -> np.ndarray:
+    """Stationary Ornstein-Uhlenbeck process in dB: float64 [n] at spacing ``dt_s``
+    with standard deviation ``std_db`` and correlation time ``tau_s`` (exact AR(1))."""
+    from scipy.signal import lfilter
+
+    if n <= 0:
+        return np.zeros(0)
+    a = np.exp(-dt_s / tau_s)
+    w = rng.standard_normal(n) * std_db * np.sqrt(1 - a * a)
+    w[0] = rng.standard_normal() * std_db
+    return lfilter([1.0], [1.0, -a], w)
+
+
+def flat_phase_noise(n: int, prf_hz: float, rms_rad: float, rng: np.random.Generator,
+                     bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ) -> np.ndarray:
+    """Gaussian phase error theta: float64 [n] [rad], flat spectrum on 0 < |f| <
+    ``bandwidth_hz``, standard deviation ``rms_rad``."""
+    if n == 0 or rms_rad == 0:
+        return np.zeros(n)
+    m = sfft.next_fast_len(n, real=True)
+    f = sfft.rfftfreq(m, 1.0 / prf_hz)
+    shape = ((f > 0) & (f < bandwidth_hz)).astype(np.float64)
+    spec = (rng.standard_normal(len(f)) + 1j * rng.standard_normal(len(f))) * shape
+    th = sfft.irfft(spec, m, workers=1)[:n]
+    s = th.std()
+    return th * (rms_rad / s) if s > 0 else th
+
+
+def asymmetry_envelope(asymmetry_db: float):
+    """``envelope(f_hz) -> gain`` (float32): upper/lower sideband power 10^(a/10)."""
+    up = np.float32(10.0 ** (asymmetry_db / 40.0))
+    lo = np.float32(10.0 ** (-asymmetry_db / 40.0))
+
+    def env(f_hz: np.ndarray) -> np.ndarray:
+        f_hz = np.asarray(f_hz)
+        g = np.where(f_hz > 0, up, lo).astype(np.float32)
+        g[f_hz == 0] = 1.0
+        return g
+
+    return env
+
+
+class _GainHook:
+    """``hook(i0, i1, t_s, x)`` multiplying ``x`` by a slow dB gain process."""
+
+    def __init__(self, duration_s: float, std_db: float, tau_s: float, rng: np.random.Generator):
+        n = int(np.ceil(duration_s / GAIN_DT_S)) + 3
+        self.x_db = ou_db(n, GAIN_DT_S, std_db, tau_s, rng)
+        self.grid = GAIN_DT_S * np.arange(n)
+
+    def amplitude(self, t_s: np.ndarray) -> np.ndarray:
+        return (10.0 ** (np.interp(t_s, self.grid, self.x_db) / 20.0)).astype(np.float32)
+
+    def __call__(self, i0, i1, t_s, x):
+        x *= self.amplitude(t_s)
+
+
+@dataclass(frozen=True)
+class ExtensionSet:
+    """A set of model extensions with their parameters.
+
+    Parameters
+    ----------
+    effects : mapping
+        ``{cause: {param: value}}`` with the catalog's names (``none`` not allowed);
+        empty = the paper's model.
+    meta : mapping
+        Free-form provenance (e.g. how the parameters were aggregated); preserved by
+        :func:`save_extensions`.
+    """
+
+    effects: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    meta: Mapping = field(default_factory=dict)
+
+    def __post_init__(self):
+        checked = {c: check_params(c, p) for c, p in dict(self.effects).items()}
+        object.__setattr__(self, "effects", checked)
+
+    def __contains__(self, cause: str) -> bool:
+        return cause in self.effects
+
+    def transform_log(self, log: MotorLog) -> MotorLog:
+        """Motor log corrected by lag and scale: the speeds that drive the blades."""
+        t, rpm = log.time_s, log.rpm
+        if "motor_log_lag" in self.effects:
+            t = t - self.effects["motor_log_lag"]["lag_s"]
+        if "motor_speed_scale" in self.effects:
+            rpm = (rpm.astype(np.float64) * self.effects["motor_speed_scale"]["scale"]).astype(np.float32)
+        return MotorLog(np.asarray(t, np.float64), rpm, log.source)
+
+    def synth_kwargs(self, *, prf_hz: float, n_pulses: int, seed: int) -> dict:
+        """Keyword arguments for :func:`microdoppler.synthesis.synthesize`
+        (``envelope``, ``blade_hook``, ``body_hook``; only those in use)."""
+        if not prf_hz > 0:
+            raise ValueError(f"prf_hz={prf_hz} must be > 0")
+        if n_pulses < 0:
+            raise ValueError(f"n_pulses={n_pulses} must be >= 0")
+        kw = {}
+        dur = n_pulses / prf_hz
+        e = self.effects
+        if "sideband_asymmetry" in e:
+            kw["envelope"] = asymmetry_envelope(e["sideband_asymmetry"]["asymmetry_db"])
+        if "sideband_fading" in e:
+            p = e["sideband_fading"]
+            rng = np.random.default_rng([int(seed), _STREAM["sideband_fading"]])
+            kw["blade_hook"] = _GainHook(dur, p["fading_std_db"], p["timescale_s"], rng)
+        if "body_fluctuation" in e:
+            rng = np.random.default_rng([int(seed), _STREAM["body_fluctuation"]])
+            kw["body_hook"] = _GainHook(dur, e["body_fluctuation"]["body_std_db"], BODY_TIMESCALE_S, rng)
+        return kw
+
+    def post(self, iq: np.ndarray, *, prf_hz: float, seed: int) -> np.ndarray:
+        """Post-step on the synthesised echo (phase noise); returns a new array
+        (complex64 [n_pulses]), or ``iq`` itself when no post-step is in use."""
+        if "phase_noise" not in self.effects:
+            return iq
+        rng = np.random.default_rng([int(seed), _STREAM["phase_noise"]])
+        th = flat_phase_noise(len(iq), prf_hz, self.effects["phase_noise"]["rms_rad"], rng)
+        return (iq * np.exp(1j * th)).astype(np.complex64)
+
+    def to_dict(self) -> dict:
+        return {"schema": SCHEMA,
+                "extensions": {c: dict(p) for c, p in self.effects.items()},
+                "meta": dict(self.meta)}
+
+
+def load_extensions(path_yaml) -> ExtensionSet:
+    """Read an extensions YAML (as written by :func:`save_extensions`)."""
+    path = Path(path_yaml)
+    if not path.exists():
+        raise InputError(path, "file", "does not exist", f"an {SCHEMA} YAML file")
+    try:
+        d = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise InputError(path, "file", f"is not YAML ({type(exc).__name__})", f"an {SCHEMA} YAML file") from None
+    if not isinstance(d, dict) or d.get("schema") != SCHEMA:
+        raise InputError(path, "schema", f"is {d.get('schema') if isinstance(d, dict) else d!r}", repr(SCHEMA))
+    ext = d.get("extensions") or {}
+    if not isinstance(ext, dict):
+        raise InputError(path, "extensions", f"is a {type(ext).__name__}", "a mapping cause -> params")
+    return ExtensionSet({c: check_params(c, p, source=path) for c, p in ext.items()}, d.get("meta") or {})
+
+
+def save_extensions(ext: ExtensionSet, path_yaml) -> Path:
+    """Write ``ext`` as YAML, atomically (temporary sibling, then rename)."""
+    path = Path(path_yaml)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            yaml.safe_dump(_plain(ext.to_dict()), fh, sort_keys=False)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def _plain(x):
+    """numpy scalars -> Python (YAML-safe)."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.generic):
+        return x.item()
+    return x

@@ -1,0 +1,201 @@
+# Datasets (issue 4): split, motor speeds per variant, calibrated twins, background
+# injection, tiles, Table III/IV and the measured-vs-twin figures.
+# Needs from common.smk: config (validated), MEASURED_DIR, VARIANTS, code_version().
+# The input functions below are specific to these rules (the lead may move them to
+# common.smk).
+
+DATASETS = ["real"] + VARIANTS
+TWIN_MODELS = ["inspire2", "matrice300"]
+MOTOR_LOGS = "results/motors/logs.zarr"
+SPLIT = "results/splits/flights.csv"
+DATASET_CODE = code_version("datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py")
+
+
+wildcard_constraints:
+    dataset="|".join(DATASETS),
+
+
+def variant_settings(wildcards):
+    """This variant's own sampling settings (extended falls back to sub_cpi's)."""
+    per = config["sampling"].get("per_variant", {})
+    v = wildcards.variant
+    return dict(per.get(v, per.get("sub_cpi", {}) if v == "extended" else {}))
+
+
+def extensions_input(wildcards):
+    """The diagnosis' model extensions, for the extended variant only."""
+    if wildcards.variant == "extended":
+        return {"extensions": config["datasets"]["extensions"]}
+    return {}
+
+
+def speeds_inputs(wildcards):
+    return {"measured": MEASURED_DIR, "logs": MOTOR_LOGS, **extensions_input(wildcards)}
+
+
+def twins_inputs(wildcards):
+    return {
+        "measured": MEASURED_DIR,
+        "logs": MOTOR_LOGS,
+        "speeds": f"results/speeds/{wildcards.variant}.zarr",
+        **extensions_input(wildcards),
+    }
+
+
+def tile_inputs(wildcards):
+    """Measured flights and the split; a variant adds its injected twins."""
+    inputs = {"measured": MEASURED_DIR, "split": SPLIT}
+    if wildcards.dataset != "real":
+        inputs["injected"] = f"results/injected/{wildcards.dataset}.zarr"
+    return inputs
+
+
+def dataset_targets():
+    """Everything the dataset stages produce (for rule all)."""
+    return (
+        [SPLIT, "results/reports/table_iii.csv", "results/reports/table_iv.csv"]
+        + expand("results/tiles/{dataset}.zarr", dataset=DATASETS)
+        + expand("results/figures/twins_{model}.png", model=TWIN_MODELS)
+    )
+
+
+rule split_flights:
+    input:
+        measured=MEASURED_DIR,
+    output:
+        split=SPLIT,
+        table="results/reports/table_iii.csv",
+    log:
+        "results/logs/split_flights.log",
+    benchmark:
+        "results/benchmarks/split_flights.tsv"
+    params:
+        split=config["datasets"]["split"],
+        spectrogram=config["spectrogram"],
+        search_hz=config["datasets"]["snr_search_hz"],
+        code=DATASET_CODE,
+    threads: 1
+    resources:
+        mem_mb=2000,
+    script:
+        "../scripts/split_flights.py"
+
+
+rule resample_motor_speeds:
+    input:
+        unpack(speeds_inputs),
+    output:
+        speeds=directory("results/speeds/{variant}.zarr"),
+    log:
+        "results/logs/resample_motor_speeds/{variant}.log",
+    benchmark:
+        "results/benchmarks/resample_motor_speeds/{variant}.tsv"
+    params:
+        settings=variant_settings,
+        n_fft=config["sampling"]["n_fft"],
+        seed=config["sampling"]["seed"],
+        code=DATASET_CODE,
+    threads: 1
+    resources:
+        mem_mb=2000,
+    script:
+        "../scripts/resample_motor_speeds.py"
+
+
+rule synthesize_flights:
+    input:
+        unpack(twins_inputs),
+    output:
+        twins=directory("results/synthetic/{variant}.zarr"),
+        table="results/reports/table_iv_{variant}.csv",
+    log:
+        "results/logs/synthesize_flights/{variant}.log",
+    benchmark:
+        "results/benchmarks/synthesize_flights/{variant}.tsv"
+    params:
+        settings=variant_settings,
+        calibration=config["datasets"]["calibration"],
+        search_hz=config["datasets"]["snr_search_hz"],
+        spectrogram=config["spectrogram"],
+        seed=config["sampling"]["seed"],
+        code=DATASET_CODE,
+    threads: 1
+    resources:
+        mem_mb=3000,
+    script:
+        "../scripts/synthesize_flights.py"
+
+
+rule inject_background:
+    input:
+        measured=MEASURED_DIR,
+        twins="results/synthetic/{variant}.zarr",
+    output:
+        injected=directory("results/injected/{variant}.zarr"),
+    log:
+        "results/logs/inject_background/{variant}.log",
+    benchmark:
+        "results/benchmarks/inject_background/{variant}.tsv"
+    params:
+        code=DATASET_CODE,
+    threads: 1
+    resources:
+        mem_mb=2000,
+    script:
+        "../scripts/inject_background.py"
+
+
+rule tile_spectrograms:
+    input:
+        unpack(tile_inputs),
+    output:
+        tiles=directory("results/tiles/{dataset}.zarr"),
+    log:
+        "results/logs/tile_spectrograms/{dataset}.log",
+    benchmark:
+        "results/benchmarks/tile_spectrograms/{dataset}.tsv"
+    params:
+        spectrogram=config["spectrogram"],
+        search_hz=config["datasets"]["snr_search_hz"],
+        code=DATASET_CODE,
+    threads: 1
+    resources:
+        mem_mb=3000,
+    script:
+        "../scripts/tile_spectrograms.py"
+
+
+rule report_table_iv:
+    input:
+        tables=expand("results/reports/table_iv_{variant}.csv", variant=VARIANTS),
+    output:
+        table="results/reports/table_iv.csv",
+    log:
+        "results/logs/report_table_iv.log",
+    threads: 1
+    resources:
+        mem_mb=500,
+    script:
+        "../scripts/report_table_iv.py"
+
+
+rule plot_twins:
+    input:
+        measured=MEASURED_DIR,
+        injected=expand("results/injected/{variant}.zarr", variant=VARIANTS),
+    output:
+        figures=expand("results/figures/twins_{model}.png", model=TWIN_MODELS),
+    log:
+        "results/logs/plot_twins.log",
+    benchmark:
+        "results/benchmarks/plot_twins.tsv"
+    params:
+        variants=VARIANTS,
+        models=TWIN_MODELS,
+        spectrogram=config["spectrogram"],
+        timesteps=config["datasets"]["figure_timesteps"],
+    threads: 1
+    resources:
+        mem_mb=2000,
+    script:
+        "../scripts/plot_twins.py"

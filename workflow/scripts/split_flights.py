@@ -1,0 +1,18 @@
+"""Rule split_flights: flight-disjoint 60:30:10 split by class and Table III."""
+
+from microdoppler.datasets.tables import write_csv
+from microdoppler.datasets.workflow import split_and_table_iii
+from microdoppler.runlog import log_to
+from microdoppler.spectrogram import SpectrogramConfig
+
+with log_to(snakemake.log[0]):
+    split, table = split_and_table_iii(
+        snakemake.input.measured,
+        spec_cfg=SpectrogramConfig(**snakemake.params.spectrogram),
+        search_hz=snakemake.params.search_hz,
+        **snakemake.params.split,
+    )
+    cols = ["flight_id", "set", "target", "drone_model", "radar_id"]
+    write_csv(split[cols], snakemake.output.split)
+    write_csv(table, snakemake.output.table)
+    print(table.to_string())
