@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-import zarr
 
 from microdoppler.datasets import calibration, injection, load_trainset, speeds, tiles
 from microdoppler.datasets.lines import body_doppler_hz, log_rate_at, measure_lines, rotor_rate_at
@@ -257,3 +256,40 @@ def test_load_trainset(built):
         assert (small.source == "real").all()
     n_real_small = int((~r_train.table.drone_model.isin(TWIN_MODELS)).sum())
     assert int((v_train.table.source == "real").sum()) == n_real_small
+
+
+class StubExtensions:
+    """Stands in for ``microdoppler.extensions`` (the diagnosis' model extensions)."""
+
+    def __init__(self):
+        self.calls = {"transform_log": 0, "synth_kwargs": 0, "post": 0}
+
+    def transform_log(self, log):
+        self.calls["transform_log"] += 1
+        return log
+
+    def synth_kwargs(self, *, prf_hz, n_pulses, seed):
+        self.calls["synth_kwargs"] += 1
+
+        def blade_hook(i0, i1, t_s, x):
+            x *= np.float32(1.5)
+
+        return {"blade_hook": blade_hook, "envelope": lambda f: np.where(f > 0, 2.0, 0.7)}
+
+    def post(self, iq, *, prf_hz, seed):
+        self.calls["post"] += 1
+        return (iq * np.complex64(np.exp(0.3j))).astype(np.complex64)
+
+
+def test_extended_variant_uses_the_extensions(built):
+    ext = StubExtensions()
+    root = built["root"]
+    speeds.build_speeds(built["measured"], built["logs"], root / "speeds_ext.zarr", variant="extended",
+                        settings=SETTINGS, n_fft=4096, seed=7, extensions=ext, log=lambda m: None)
+    t4 = calibration.build_twins(built["measured"], root / "speeds_ext.zarr", built["logs"], root / "twins_ext.zarr",
+                                 root / "table_iv_ext.csv", variant="extended", spec_cfg=SPEC,
+                                 cfg=calibration.CalibrationConfig(n_alpha=4), seed=7, extensions=ext,
+                                 log=lambda m: None)
+    assert all(v > 0 for v in ext.calls.values())
+    fitted = t4[t4.status.isin(["ok", "missed"])]
+    assert len(fitted) == 4 and (fitted.status == "ok").all()

@@ -3,7 +3,6 @@ model: motor dynamics, clutter, phase noise, sideband asymmetry on one flight)."
 
 from __future__ import annotations
 
-import pandas as pd
 import pytest
 
 from microdoppler.datasets import calibration, speeds

@@ -54,8 +54,8 @@ def _sideband_levels(flight, truth, n_harm=7, upper=True):
         w = float(np.median(0.05 * k * spacing + 6.0))
         sgn = 1 if upper else -1
         out.append(line_snr_db(sp, fb + sgn * k * spacing, search_hz=w))
-        # a window of the same width between harmonics holds noise only
-        ref.append(line_snr_db(sp, fb + sgn * (k + 0.5) * spacing, search_hz=w))
+        # a window of the same width beyond the blade-tip Doppler (< 1 kHz) holds noise only
+        ref.append(line_snr_db(sp, fb + sgn * (1500.0 + 3 * k * w), search_hz=w))
     _sideband_levels.noise = np.array(ref)
     return body, np.array(out), floor
 
@@ -78,7 +78,8 @@ def test_large_drone_sidebands_match_paper(rng):
         visible = int(np.sum(s > noise + 3.0))  # sideband groups 3 dB above a noise-only window
         assert 3 <= visible <= 5, (model, s)
         steps = -np.diff(s[:visible])
-        assert 1.5 <= np.mean(steps) <= 8.5, (model, steps)
+        assert 3.0 <= np.mean(steps) <= 8.0, (model, steps)
+        assert np.all((steps > 2.0) & (steps < 10.0)), (model, steps)
 
 
 def test_mini_has_no_visible_sidebands(rng):
@@ -254,3 +255,45 @@ def test_motor_stats_detect_spread(rng):
     spread = even * np.array([0.9, 1.0, 1.05, 1.05])
     assert motor_stats(t, even)["spread_rel"] < 0.005
     assert abs(motor_stats(t, spread)["spread_rel"] - np.std([0.9, 1.0, 1.05, 1.05]) / 1.0) < 0.01
+
+
+def test_class_mean_snr_matches_table_iii():
+    """Per-class mean SNR of the paper profile within 3 dB of Table III: the SNR model's
+    nominal value over every planned flight minus the nominal-to-measured loss measured
+    with the pipeline's chain on a seeded subsample of emulated flights (8 s each)."""
+    from microdoppler.emulator.calibration import snr_check
+
+    df = snr_check("paper", 20261121, n_per_class=32, duration_cap_s=8.0, sample_seed=2, printout=False)
+    for _, r in df.iterrows():
+        assert abs(r.predicted_mean_db - r.table_iii_db) <= 3.0, r.to_dict()
+
+
+def _line_power_std(flight, offset_k: int):
+    """Std over timesteps of the body (k=0) or first upper sideband (k=1) line power [dB]."""
+    sp = spectrogram(flight.iq, flight.prf_hz, FULL)
+    fb = _body_doppler(flight, sp)
+    spacing = 2 * np.interp(sp.time_s, flight.motors_time_s, flight.motors_rpm.mean(1)) / 60.0
+    w = 6.0 if offset_k == 0 else 14.0
+    return float(np.std(line_snr_db(sp, fb + offset_k * spacing, search_hz=w)))
+
+
+def test_fading_and_body_fluctuation_knobs(rng):
+    spec = _drone(rng, "inspire2", duration_s=30.0, snr_db=45.0, speed_mps=4.0)
+    f0, _ = emulate_flight(spec)
+    ff, tf = emulate_flight(replace(spec, effects={"sideband_fading": {"fading_std_db": 6.0, "timescale_s": 1.5}}))
+    fb, _ = emulate_flight(replace(spec, effects={"body_fluctuation": {"body_std_db": 6.0}}))
+    assert tf["effects"]["sideband_fading"] == {"fading_std_db": 6.0, "timescale_s": 1.5}
+    # fading: the sideband fluctuates more, the body does not
+    assert _line_power_std(ff, 1) > _line_power_std(f0, 1) + 1.5
+    assert abs(_line_power_std(ff, 0) - _line_power_std(f0, 0)) < 1.0
+    # body fluctuation: the body line fluctuates more
+    assert _line_power_std(fb, 0) > _line_power_std(f0, 0) + 1.5
+
+
+def test_radar2_has_occasional_artifacts(rng):
+    n = {"radar1": 0, "radar2": 0}
+    for rid in n:
+        for _ in range(4):
+            _, tr = emulate_flight(_drone(rng, "mini2", radar_id=rid, duration_s=30.0))
+            n[rid] += tr["artifacts"]
+    assert n["radar1"] == 0 and n["radar2"] >= 1

@@ -172,11 +172,71 @@ def test_chunk_size_independence(rng, alpha):
               seed=3, margin=4096)
     base = synthesize(rev, track, chunk=n, **kw)
     for chunk in (1000, 4099, 8192):
-        other = synthesize(rev, track, chunk=chunk, **kw)
-        if alpha == 0:
-            np.testing.assert_array_equal(other, base)
-        else:  # overlap-save truncates the envelope's Lorentzian impulse response at the margin
+        # alpha = 0 and the (default) harmonic envelope: chunking changes nothing
+        np.testing.assert_array_equal(synthesize(rev, track, chunk=chunk, **kw), base)
+    if alpha > 0:
+        base = synthesize(rev, track, chunk=n, envelope_method="fft", **kw)
+        for chunk in (1000, 4099, 8192):
+            other = synthesize(rev, track, chunk=chunk, envelope_method="fft", **kw)
+            # overlap-save truncates the envelope's Lorentzian impulse response at the margin
             assert np.max(np.abs(other - base)) < 1e-2 * np.max(np.abs(base)), chunk
+
+
+def _harmonic_vs_fft(rev, alpha, n):
+    track = Track.constant_velocity(500.0, V_APPROACH, n / PRF)
+    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, scaling=Scaling(0.0, 1.0, alpha),
+              seed=3)
+    h = synthesize(rev, track, envelope_method="harmonic", **kw)
+    # one FFT over the record with a long margin: the linear filter without truncation
+    f = synthesize(rev, track, envelope_method="fft", chunk=n, margin=16384, **kw)
+    s = slice(8192, n - 8192)  # away from the FFT filter's zero-padded record edges
+    d, ref = np.abs(h - f)[s], np.abs(f[s])
+    return np.max(d) / np.max(ref), np.sqrt(np.mean(d ** 2) / np.mean(ref ** 2))
+
+
+@pytest.mark.parametrize("alpha", [5.5e-3, 0.02])
+def test_harmonic_envelope_equals_fft_filter_for_constant_speeds(rng, alpha):
+    """At constant speed, harmonic n of the rotor sits at n f_m: the per-harmonic gain
+    exp(-alpha |n| f_m) *is* the filter H(f) = exp(-alpha |f|)."""
+    n = 4 * 8192
+    rev = _const(rng.uniform(60, 110, 4), n)
+    err_max, err_rms = _harmonic_vs_fft(rev, alpha, n)
+    # rms ~5e-4, max ~1e-3 of max|x|: mostly the nearest 0.25 rev/s speed bin (gain error
+    # alpha |n| delta_f for harmonic n), then the nearest-angle lookup
+    assert err_rms < 1e-3 and err_max < 2e-3, (err_max, err_rms)
+
+
+def test_harmonic_envelope_close_to_fft_filter_for_slowly_varying_speeds(rng):
+    """Quasi-static envelope: speeds that drift by a few rev/s per second (a flying
+    quadcopter) give the same signal as the linear filter to table accuracy."""
+    n = 4 * 8192
+    t = np.arange(n) / PRF
+    rev = (rng.uniform(80, 100, 4) + 5 * np.sin(2 * np.pi * t[:, None] / rng.uniform(2, 4, 4))).astype(np.float32)
+    err_max, err_rms = _harmonic_vs_fft(rev, 5.5e-3, n)
+    assert err_max < 2e-3 and err_rms < 1e-3, (err_max, err_rms)
+
+
+def test_harmonic_envelope_scales_each_line_by_exp_minus_alpha_n_fm():
+    """One motor at a speed whose lines fall on FFT bins: the blade line at n f_m
+    (n = +-2, +-4) is scaled by exp(-alpha |n| f_m) relative to alpha = 0."""
+    n, alpha = 8192, 5.5e-3
+    fm = 112 * PRF / n  # 99.8 rev/s: harmonic n on bin 112 n
+    rev = _const([fm], n)
+    track = Track.constant_velocity(500.0, 0.0, n / PRF)
+    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, seed=1)
+    x0 = np.fft.fft(synthesize(rev, track, scaling=Scaling(0.0, 1.0, 0.0), **kw).astype(np.complex128))
+    xa = np.fft.fft(synthesize(rev, track, scaling=Scaling(0.0, 1.0, alpha), **kw).astype(np.complex128))
+    for h in (-4, -2, 2, 4):
+        ratio = abs(xa[(112 * h) % n]) / abs(x0[(112 * h) % n])
+        assert np.isclose(ratio, np.exp(-alpha * abs(h) * fm), rtol=5e-3), (h, ratio)
+    assert np.isclose(abs(xa[0]), abs(x0[0]), rtol=1e-3)  # the DC term (n = 0) is not attenuated
+
+
+def test_envelope_method_validation():
+    with pytest.raises(ValueError, match="envelope_method"):
+        _sim([90.0], n=1000, alpha_s=1e-3, envelope_method="fir")
+    with pytest.raises(ValueError, match="harmonic"):
+        _sim([90.0], n=1000, alpha_s=1e-3, envelope_method="harmonic", envelope=lambda f: np.ones_like(f))
 
 
 def test_energy_parseval():

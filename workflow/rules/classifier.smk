@@ -42,12 +42,12 @@ rule train_classifier:
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
         seed=r"\d+",
-    params:
-        classifier=CLASSIFIER,
-        code=code_version("classifier"),
     threads: CLASSIFIER.get("threads", 1)
     resources:
         mem_mb=2000,
+    params:
+        classifier=CLASSIFIER,
+        code=code_version("classifier"),
     script:
         "../scripts/train_classifier.py"
 
@@ -63,11 +63,11 @@ rule evaluate_classifier:
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
         seed=r"\d+",
-    params:
-        code=code_version("classifier"),
     threads: 1
     resources:
         mem_mb=1000,
+    params:
+        code=code_version("classifier"),
     script:
         "../scripts/evaluate_classifier.py"
 
@@ -102,12 +102,12 @@ rule report_metrics:
         ),
     log:
         "results/logs/report_metrics.log",
+    threads: 1
+    resources:
+        mem_mb=1000,
     params:
         trainsets=TRAINSETS,
         seeds=SEEDS,
         code=code_version("classifier"),
-    threads: 1
-    resources:
-        mem_mb=1000,
     script:
         "../scripts/report_metrics.py"

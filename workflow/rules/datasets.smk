@@ -8,7 +8,9 @@ DATASETS = ["real"] + VARIANTS
 TWIN_MODELS = ["inspire2", "matrice300"]
 MOTOR_LOGS = "results/motors/logs.zarr"
 SPLIT = "results/splits/flights.csv"
-DATASET_CODE = code_version("datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py")
+DATASET_CODE = code_version(
+    "datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py"
+)
 
 
 wildcard_constraints:
@@ -69,14 +71,14 @@ rule split_flights:
         "results/logs/split_flights.log",
     benchmark:
         "results/benchmarks/split_flights.tsv"
+    threads: 1
+    resources:
+        mem_mb=2000,
     params:
         split=config["datasets"]["split"],
         spectrogram=config["spectrogram"],
         search_hz=config["datasets"]["snr_search_hz"],
         code=DATASET_CODE,
-    threads: 1
-    resources:
-        mem_mb=2000,
     script:
         "../scripts/split_flights.py"
 
@@ -90,14 +92,14 @@ rule resample_motor_speeds:
         "results/logs/resample_motor_speeds/{variant}.log",
     benchmark:
         "results/benchmarks/resample_motor_speeds/{variant}.tsv"
+    threads: 1
+    resources:
+        mem_mb=2000,
     params:
         settings=variant_settings,
         n_fft=config["sampling"]["n_fft"],
         seed=config["sampling"]["seed"],
         code=DATASET_CODE,
-    threads: 1
-    resources:
-        mem_mb=2000,
     script:
         "../scripts/resample_motor_speeds.py"
 
@@ -112,6 +114,9 @@ rule synthesize_flights:
         "results/logs/synthesize_flights/{variant}.log",
     benchmark:
         "results/benchmarks/synthesize_flights/{variant}.tsv"
+    threads: 1
+    resources:
+        mem_mb=3000,
     params:
         settings=variant_settings,
         calibration=config["datasets"]["calibration"],
@@ -119,9 +124,6 @@ rule synthesize_flights:
         spectrogram=config["spectrogram"],
         seed=config["sampling"]["seed"],
         code=DATASET_CODE,
-    threads: 1
-    resources:
-        mem_mb=3000,
     script:
         "../scripts/synthesize_flights.py"
 
@@ -136,11 +138,11 @@ rule inject_background:
         "results/logs/inject_background/{variant}.log",
     benchmark:
         "results/benchmarks/inject_background/{variant}.tsv"
-    params:
-        code=DATASET_CODE,
     threads: 1
     resources:
         mem_mb=2000,
+    params:
+        code=DATASET_CODE,
     script:
         "../scripts/inject_background.py"
 
@@ -154,13 +156,13 @@ rule tile_spectrograms:
         "results/logs/tile_spectrograms/{dataset}.log",
     benchmark:
         "results/benchmarks/tile_spectrograms/{dataset}.tsv"
+    threads: 1
+    resources:
+        mem_mb=3000,
     params:
         spectrogram=config["spectrogram"],
         search_hz=config["datasets"]["snr_search_hz"],
         code=DATASET_CODE,
-    threads: 1
-    resources:
-        mem_mb=3000,
     script:
         "../scripts/tile_spectrograms.py"
 
@@ -189,13 +191,13 @@ rule plot_twins:
         "results/logs/plot_twins.log",
     benchmark:
         "results/benchmarks/plot_twins.tsv"
+    threads: 1
+    resources:
+        mem_mb=2000,
     params:
         variants=VARIANTS,
         models=TWIN_MODELS,
         spectrogram=config["spectrogram"],
         timesteps=config["datasets"]["figure_timesteps"],
-    threads: 1
-    resources:
-        mem_mb=2000,
     script:
         "../scripts/plot_twins.py"

@@ -159,7 +159,7 @@ def plot_boxplot(metrics: pd.DataFrame, path) -> None:
     ax.set_xticks(np.arange(len(order)), order)
     ax.set_ylabel("Test performance [%]")
     ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=8, loc="best")
     _save_fig(fig, path)
     plt.close(fig)
 

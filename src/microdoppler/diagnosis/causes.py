@@ -28,6 +28,7 @@ Statistics (per CPI) and models:
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -80,10 +81,22 @@ def _crossfit(x_idx_fold, fit, score):
     return log_e, nb / max(n, 1), ne / max(n, 1), n
 
 
-def _detrend(y, t, r, w=None):
+def _detrend(y, t, r, smooth: int = 0):
+    """Remove a linear trend in time and log-range; with ``smooth`` > 1 also a
+    centred moving average of that many CPIs (slow aspect changes)."""
     X = np.column_stack([np.ones_like(t), t - t.mean(), np.log10(r / r.mean())])
     beta, *_ = np.linalg.lstsq(X, y, rcond=None)
-    return y - X @ beta
+    e = y - X @ beta
+    if smooth > 1:
+        e = e - _moving_average(e, smooth)
+    return e
+
+
+def _moving_average(x, w):
+    k = np.ones(w) / w
+    num = np.convolve(x, k, mode="same")
+    den = np.convolve(np.ones_like(x), k, mode="same")
+    return num / den
 
 
 def _ml_extra_var(e, v0):
@@ -104,7 +117,7 @@ def _ml_extra_var(e, v0):
 # ---------------------------------------------------------------- window maps
 
 @lru_cache(maxsize=32)
-def _window_maps(n_t: int, hop_s: float, cpi_s: float, tau_s: float, seed: int = 12345):
+def _window_maps(n_t: int, hop_s: float, cpi_s: float, tau_s: float, smooth: int = 0, seed: int = 12345):
     """Std [dB] of the CPI-averaged power of an OU dB gain (after linear detrending)
     for a grid of true stds, and the lag-2-CPI autocorrelation, by simulation."""
     from scipy.signal.windows import blackmanharris
@@ -126,6 +139,8 @@ def _window_maps(n_t: int, hop_s: float, cpi_s: float, tau_s: float, seed: int =
             p = cpi_average(tg, 10 ** (g * b / 10), t_c, w, prf)
             y = DB * np.log(p)
             y = y - np.polyval(np.polyfit(t_c - t_c.mean(), y, 1), t_c - t_c.mean())
+            if smooth > 1:
+                y = y - _moving_average(y, smooth)
             sds.append(y.std())
             rs.append(np.corrcoef(y[:-2], y[2:])[0, 1] if y.std() > 0 else 0.0)
         meas_sd.append(np.mean(sds))
@@ -133,8 +148,8 @@ def _window_maps(n_t: int, hop_s: float, cpi_s: float, tau_s: float, seed: int =
     return grid, np.array(meas_sd), np.array(rho2)
 
 
-def _invert_std(meas_sd: float, n_t, hop_s, cpi_s, tau_s) -> float:
-    grid, ms, _ = _window_maps(n_t, round(hop_s, 6), round(cpi_s, 6), round(tau_s, 3))
+def _invert_std(meas_sd: float, n_t, hop_s, cpi_s, tau_s, smooth: int = 0) -> float:
+    grid, ms, _ = _window_maps(n_t, round(hop_s, 6), round(cpi_s, 6), round(tau_s, 3), smooth)
     return float(np.interp(meas_sd, ms, grid))
 
 
@@ -193,12 +208,12 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     return res
 
 
-def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, tau_fixed=None):
+def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, tau_fixed=None, smooth=0):
     res = CauseTest(cause)
     if m.sum() < 2 * cfg.block_cpis + 4:
         res.testable = False
         return res, None
-    e = _detrend(y[m], M.t_s[m], M.range_m[m])
+    e = _detrend(y[m], M.t_s[m], M.range_m[m], smooth)
     v0 = sd0[m] ** 2 + cfg.model_floor_db ** 2
     f = fold[m]
 
@@ -223,7 +238,7 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, tau_fixed=None):
         tau = _tau_from_rho2(rho2, n_t, hop_s, cpi_s) if s2 > 0 else 1.5
     else:
         tau = tau_fixed
-    true_sd = _invert_std(meas_sd, n_t, hop_s, cpi_s, tau) if s2 > 0 else 0.0
+    true_sd = _invert_std(meas_sd, n_t, hop_s, cpi_s, tau, smooth) if s2 > 0 else 0.0
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
     res.evidence = {"measured_excess_std_db": round(meas_sd, 2),
                     "noise_std_db": round(float(np.sqrt(np.median(sd0[m] ** 2))), 3),
@@ -240,10 +255,14 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     use = usable_pairs(M, cfg)
     ok = M.pair_ok & use[None, :] & (M.up + M.lo > 0)
     x = np.where(ok, DB * np.log(np.maximum(M.up + M.lo, 1e-30)), np.nan)
-    x = x - np.nanmedian(np.where(ok, x, np.nan), axis=0, keepdims=True) if ok.any() else x
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        x = x - np.nanmedian(np.where(ok, x, np.nan), axis=0, keepdims=True)
+        x = np.where(np.isfinite(x), x, np.nan)
     K = ok.sum(1)
-    m = M.valid & (K >= 2)
-    if m.sum() < 2 * cfg.block_cpis + 4 or use.sum() < 2:
+    # CPIs with one usable pair count too; the within-CPI scatter comes from those with more
+    m = M.valid & (K >= 1)
+    if m.sum() < 2 * cfg.block_cpis + 4 or use.sum() < 2 or (M.valid & (K >= 2)).sum() < 6:
         res.testable = False
         res.evidence = {"reason": "fewer than 2 usable sideband pairs"}
         return res
@@ -255,7 +274,8 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     f = fold[m]
 
     def sw2(sel):
-        return float(ss[sel].sum() / max((Km[sel] - 1).sum(), 1.0))
+        d = (Km[sel] - 1).sum()
+        return float(ss[sel].sum() / d) if d >= 4 else float(ss.sum() / max((Km - 1).sum(), 1.0))
 
     def fit(sel):
         v0 = sw2(sel) / Km[sel] + cfg.model_floor_db ** 2
@@ -293,7 +313,8 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
 def test_body(M, cfg, fold) -> CauseTest:
     m = M.valid & (M.body_pow > 0)
     y = np.where(m, DB * np.log(np.maximum(M.body_pow, 1e-30)), 0.0)
-    res, p = _power_fluct_test("body_fluctuation", y, M.body_sd_db, m, M, cfg, fold, tau_fixed=BODY_TIMESCALE_S)
+    res, p = _power_fluct_test("body_fluctuation", y, M.body_sd_db, m, M, cfg, fold, tau_fixed=BODY_TIMESCALE_S,
+                              smooth=cfg.body_smooth_cpis)
     res.statistic = "body power [dB], detrended"
     if p is not None:
         res.params = {"body_std_db": p[0]}
@@ -385,7 +406,11 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     st, bg = M.stft, M.bg_stft
     df = st.bin_hz
     k = max(1, int(cfg.pn_smooth_bins))
-    s_bg = np.convolve(bg.p.mean(axis=0), np.ones(2 * k + 1) / (2 * k + 1), mode="same")
+    # the background recording is the same cell sequence: smooth it over
+    # +-pn_smooth_cpis CPIs and +-k bins around each CPI (time-aligned)
+    from scipy.ndimage import uniform_filter
+
+    s_bg_t = uniform_filter(bg.p, size=(2 * cfg.pn_smooth_cpis + 1, 2 * k + 1), mode="nearest")
     f = st.f_hz
     region = (np.abs(f) >= cfg.pn_inner_hz) & (np.abs(f) <= cfg.pn_outer_hz)
     cols = np.flatnonzero(region)[:: cfg.pn_bin_step]
@@ -407,39 +432,62 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
         if len(cc) < 5:
             continue
         C = max(float(st.p[i, clutter].sum() - clutter.sum() * M.floor[i]), 0.0)
-        Bt = max(float(M.body_pow[i]), 0.0)
-        kern = df / (2 * bw) * (C * (np.abs(f[cc]) < bw) + Bt * (np.abs(f[cc] - fb) < bw))
-        P.append(st.p[i, cc]); S.append(s_bg[cc]); K.append(kern); F.append(np.full(len(cc), fold[i]))
+        af = np.abs(f[cc])
+        unit = df / (2 * bw) * C
+        # columns: the phase-noise skirt (flat, |f| < 100 Hz) and two nuisance shapes of
+        # wind-blown clutter (exponential decay from the clutter line), in both models
+        kern = np.column_stack([unit * (af < bw)] + [unit * np.exp(-af / d) for d in cfg.pn_nuisance_decay_hz])
+        P.append(st.p[i, cc]); S.append(s_bg_t[min(i, len(s_bg_t) - 1), cc]); K.append(kern); F.append(np.full(len(cc), fold[i]))
     if len(P) < 4:
         res.testable = False
         res.evidence = {"reason": "no floor near the clutter line clear of the target"}
         return res
-    P, S, K, F = map(np.concatenate, (P, S, K, F))
+    P, S, F = map(np.concatenate, (P, S, F))
+    K = np.concatenate(K, axis=0)
+    norm = np.maximum(K.mean(axis=0), 1e-300) / S.mean()
+    Kn = K / norm
 
-    def nll(q, sel):
-        v = S[sel] + q * K[sel]
+    def nll_x(x, sel, with_q):
+        th = x if with_q else np.concatenate([[0.0], x])
+        v = S[sel] + Kn[sel] @ th
         return float(np.sum(np.log(v) + P[sel] / v))
 
-    def fit(sel):
-        r = minimize_scalar(lambda lq: nll(np.exp(lq), sel), bounds=(np.log(1e-8), np.log(5.0)), method="bounded")
-        q = float(np.exp(r.x))
-        return q if nll(q, sel) < nll(0.0, sel) else 0.0
+    def fit_model(sel, with_q):
+        from scipy.optimize import minimize
 
-    def score(q, sel):
-        v0 = S[sel]
-        v1 = S[sel] + q * K[sel]
-        return -(np.log(v0) + P[sel] / v0), -(np.log(v1) + P[sel] / v1)
+        n = Kn.shape[1] if with_q else Kn.shape[1] - 1
+        if n == 0:
+            return np.zeros(0)
+        best = None
+        for x0 in (np.full(n, 1e-3), np.full(n, 0.3)):
+            r = minimize(nll_x, x0, args=(sel, with_q), method="L-BFGS-B", bounds=[(0, None)] * n)
+            if best is None or r.fun < best.fun:
+                best = r
+        return best.x
+
+    def fit(sel):
+        return fit_model(sel, False), fit_model(sel, True)
+
+    def score(th, sel):
+        xb, xe = th
+        vb = S[sel] + Kn[sel][:, 1:] @ xb
+        ve = S[sel] + Kn[sel] @ xe
+        return -(np.log(vb) + P[sel] / vb), -(np.log(ve) + P[sel] / ve)
 
     res.log_e, res.nll_base, res.nll_ext, res.n_obs = _crossfit(F, fit, score)
-    q = fit(np.ones(len(P), bool))
+    xb, xe = fit(np.ones(len(P), bool))
+    q = float(xe[0] / norm[0])
     rms = float(np.sqrt(np.log1p(q)))
-    rise_meas = float(DB * np.log(np.mean(P) / np.mean(S)))
-    rise_model = float(DB * np.log(np.mean(S + q * K) / np.mean(S)))
+    inner = Kn[:, 0] > 0  # ordinates within 100 Hz of the clutter line
+    v_b = S + Kn[:, 1:] @ xe[1:]
+    rise_meas = float(DB * np.log(np.mean(P[inner]) / np.mean(S[inner])))
+    rise_model = float(DB * np.log(np.mean((v_b + Kn[:, 0] * xe[0])[inner]) / np.mean(v_b[inner])))
     res.params = {"rms_rad": rms}
     res.effect = rise_model
     res.relevant = rise_model >= cfg.margin_floor_rise_db
     res.evidence = {"floor_rise_db_vs_background": round(rise_meas, 2), "model_floor_rise_db": round(rise_model, 2),
-                    "rms_rad": round(rms, 4), "n_ordinates": int(len(P))}
+                    "rms_rad": round(rms, 4), "n_ordinates": int(len(P)),
+                    "nuisance_clutter_spread": [round(float(v), 4) for v in xe[1:]]}
     return res
 
 

@@ -133,7 +133,14 @@ def simulate_blades(log: MotorLog, n_pulses: int, prf_hz: float, *, wavelength_m
     rev = sampling.sub_cpi(log, n_pulses, prf_hz, cfg)
     dur = n_pulses / prf_hz
     trk = track if track is not None else Track.constant_velocity(1000.0, 0.0, dur)
+    kw = dict(envelope_kw or {})
+    if alpha_s > 0 and "envelope" not in kw:
+        kw["envelope"] = _unit_envelope  # the alpha envelope as the FFT filter of eq. (2)
     iq = synthesize(rev, trk, prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
                     blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), seed=seed,
-                    **(envelope_kw or {}))
+                    **kw)
     return iq, rev
+
+
+def _unit_envelope(f_hz):
+    return np.ones(len(f_hz), np.float32)

@@ -69,8 +69,8 @@ class DroneDynamics:
 
 
 DYNAMICS = {
-    "inspire2": DroneDynamics(80.0, 3.4, 0.09, 0.08, 0.02, 30.0),
-    "matrice300": DroneDynamics(60.0, 6.3, 0.14, 0.07, 0.018, 20.0),
+    "inspire2": DroneDynamics(80.0, 3.4, 0.09, 0.06, 0.02, 30.0),
+    "matrice300": DroneDynamics(60.0, 6.3, 0.14, 0.05, 0.018, 20.0),
     "mini2": DroneDynamics(165.0, 0.25, 0.012, 0.06, 0.025, 0.0, hand_flown=True),
 }
 

@@ -56,10 +56,12 @@ def _bird_spec(fid, kind, rng, seed, duration_s, radar_id) -> FlightSpec:
         speed_mps=float(rng.uniform(5, 20)), seed=int(seed))
 
 
-def _world_effects(rng, model) -> dict:
+def _world_effects(rng, model, slot: int | None = None) -> dict:
+    """Effects of a world flight: a third of the large-drone flights get sideband
+    asymmetry, a third sideband fading (``slot`` % 3 picks which; default random)."""
     if model not in ("inspire2", "matrice300"):
         return {}
-    u = rng.uniform()
+    u = rng.uniform() if slot is None else (slot % 3 + 0.5) / 3
     if u < 1 / 3:
         return {"sideband_asymmetry": {"asymmetry_db": float(rng.choice([-1, 1]) * rng.uniform(3, 6))}}
     if u < 2 / 3:
@@ -92,13 +94,15 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
     if profile == "default":
         classes = ([("bird", k) for k in ["single"] * 10 + ["pair"] * 6 + ["small_flock"] * 5 + ["large_flock"] * 3]
                    + [("drone", "inspire2")] * 9 + [("drone", "matrice300")] * 8 + [("drone", "mini2")] * 7)
+        slots: dict = {}
         for i, (tg, what) in enumerate(classes):
             rid = "radar1" if i % 2 == 0 else "radar2"
             if tg == "bird":
                 specs.append(_bird_spec(f"d{i:03d}_bird", what, rng, nxt(), rng.uniform(30, 45), rid))
             else:
+                slots[what] = slots.get(what, -1) + 1
                 specs.append(_drone_spec(f"d{i:03d}_{what}", what, rng, nxt(), rng.uniform(40, 60), rid,
-                                         _world_effects(rng, what)))
+                                         _world_effects(rng, what, slots[what])))
         return [replace(s, site_seed=int(seed)) for s in specs]
     # paper
     kinds = ["single"] * 50 + ["pair"] * 25 + ["small_flock"] * 17 + ["large_flock"] * 8

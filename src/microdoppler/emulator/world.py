@@ -33,10 +33,13 @@ TARGETS = ("drone", "bird")
 #: body SNR [dB] (spectrogram line over median floor in thermal noise) of a class at
 #: 1 km on radar 1 for a median-RCS target; calibrated so that the measured per-class
 #: means of the paper profile come out near Table III (see tests/test_emulator.py)
-SNR_REF_DB = {"bird": 41.8, "inspire2": 57.7, "matrice300": 61.9, "mini2": 57.9}
+SNR_REF_DB = {"bird": 41.6, "inspire2": 62.1, "matrice300": 68.0, "mini2": 55.9}
 #: per-flight RCS scatter [dB]
-RCS_STD_DB = {"bird": 6.0, "inspire2": 6.0, "matrice300": 6.0, "mini2": 5.0}
+RCS_STD_DB = {"bird": 7.0, "inspire2": 8.0, "matrice300": 8.0, "mini2": 6.0}
 TRACK_HZ = 20.0
+#: blade current taper: the blade echo is the sum of thin wires of these fractions of
+#: the blade length, all from the hub (current 4:3:2:1 from hub to tip)
+BLADE_TAPER = (1.0, 0.75, 0.5, 0.25)
 #: maximal range-straddle loss as the target crosses resolution cells [dB]
 STRADDLE_LOSS_DB = 1.5
 
@@ -73,7 +76,7 @@ class FlightSpec:
         +1 forward, -1 reverse loop.
     first_sideband_db, harmonic_falloff_db : float, optional
         Drones: first HERM sideband (per motor line) below the body [dB] and further
-        fall-off per harmonic [dB]; default drawn (large drones 6.5-9.5 and 4-7 dB; the
+        fall-off per harmonic [dB]; default drawn (large drones 7-10 and 4-7 dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
         Mini's blades sit below the noise).
     clutter_scale_db : float
         Added to every clutter cell's clutter-to-noise ratio.
@@ -146,6 +149,16 @@ def nominal_snr_db(spec: FlightSpec, rng: np.random.Generator) -> float:
                  + rng.normal(0, RCS_STD_DB[spec.cls]))
 
 
+def draw_conditions(spec: FlightSpec) -> tuple[float, float, float]:
+    """Wind during the flight and during the background recording [m/s], and the
+    body SNR [dB] (spec values where given, else drawn from ``spec.seed``)."""
+    r_misc = _rng(spec.seed, 0)
+    wind = float(spec.wind_mps if spec.wind_mps is not None else 9.0 * r_misc.uniform() ** 1.5)
+    wind_bg = float(9.0 * r_misc.uniform() ** 1.5)
+    snr_db = float(spec.snr_db if spec.snr_db is not None else nominal_snr_db(spec, r_misc))
+    return wind, wind_bg, snr_db
+
+
 def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
     """Emulate one measured flight.
 
@@ -164,10 +177,7 @@ def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
     prf, lam = radar.prf_hz, radar.wavelength_m
     n = int(round(spec.duration_s * prf))
     t = np.arange(n) / prf
-    r_misc = _rng(spec.seed, 0)
-    wind = float(spec.wind_mps if spec.wind_mps is not None else 9.0 * r_misc.uniform() ** 1.5)
-    wind_bg = float(9.0 * r_misc.uniform() ** 1.5)
-    snr_db = float(spec.snr_db if spec.snr_db is not None else nominal_snr_db(spec, r_misc))
+    wind, wind_bg, snr_db = draw_conditions(spec)
     a_body = bg.pulse_amplitude(snr_db, radar.n_fft)
     truth: dict = {"flight_id": spec.flight_id, "target": spec.target, "class": spec.cls,
                    "radar_id": spec.radar_id, "effects": effects, "snr_db_nominal": snr_db,
@@ -199,11 +209,18 @@ def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
             first_db = spec.first_sideband_db if spec.first_sideband_db is not None else snr_db + r_bl.uniform(6, 12)
             falloff = spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None else 6.0
         else:
-            first_db = spec.first_sideband_db if spec.first_sideband_db is not None else r_bl.uniform(6.5, 9.5)
+            first_db = spec.first_sideband_db if spec.first_sideband_db is not None else r_bl.uniform(7.0, 10.0)
             falloff = spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None else r_bl.uniform(4.0, 7.0)
-        alpha_s = float(falloff / (20 * np.log10(np.e) * B * f_rot))
-        table = synthesis.BladeModel(B, model.blade_length_m, lam).table()
-        cB = abs(np.fft.fft(table.astype(np.complex128))[B] / len(table))
+        # tapered blade current: nested thin wires from the hub (eq. 1 kernel at
+        # lengths BLADE_TAPER x L) give a current that falls towards the tip, whose
+        # own HERM harmonics roll off; an exp(-alpha |f|) filter supplies the rest of
+        # the per-harmonic fall-off
+        coef = np.fft.fft(sum(synthesis.BladeModel(B, model.blade_length_m * fr, lam).table().astype(np.complex128)
+                              for fr in BLADE_TAPER)) / synthesis.TABLE_SIZE
+        harm = 20 * np.log10(np.abs(coef[[B, 2 * B, 3 * B, 4 * B]]) + 1e-30)
+        natural = float(max(0.0, (harm[0] - harm[3]) / 3))
+        alpha_s = float(max(falloff - natural, 0.5) / (20 * np.log10(np.e) * B * f_rot))
+        cB = abs(coef[B])
         s_blade = float(a_body * 10 ** (-first_db / 20) / (cB * np.exp(-alpha_s * B * f_rot)))
         asym = effects.get("sideband_asymmetry", {}).get("asymmetry_db", 0.0)
         env_asym = asymmetry_envelope(asym)
@@ -234,11 +251,15 @@ def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
                 g *= bodyfl.amplitude(ts)
             x *= g
 
-        target = synthesis.synthesize(rev, track, prf_hz=prf, wavelength_m=lam, n_blades=B,
-                                      blade_length_m=model.blade_length_m,
-                                      scaling=synthesis.Scaling(a_body, s_blade, alpha_s),
-                                      seed=int(r_bl.integers(2 ** 31)), blade_hook=blade_hook,
-                                      body_hook=body_hook, envelope=envelope)
+        start = r_bl.uniform(0, 1, model.n_motors)  # rotor angles at t = 0 [rev]
+        target = None
+        for k, fr in enumerate(BLADE_TAPER):
+            part = synthesis.synthesize(rev, track, prf_hz=prf, wavelength_m=lam, n_blades=B,
+                                        blade_length_m=model.blade_length_m * fr,
+                                        scaling=synthesis.Scaling(a_body if k == 0 else 0.0, s_blade, alpha_s),
+                                        initial_cycles=start, blade_hook=blade_hook,
+                                        body_hook=body_hook, envelope=envelope)
+            target = part if target is None else target.__iadd__(part)
         target *= _straddle_gain(track.range_at(t))
         attrs.update({"drone_model": spec.drone_model, "n_motors": int(model.n_motors),
                       "n_blades": int(B), "blade_length_m": float(model.blade_length_m)})
@@ -251,6 +272,7 @@ def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
         rv = mt.rev_s[inflight]
         truth.update({"drone_model": spec.drone_model, "alpha_s": alpha_s, "s_body": a_body, "s_blade": s_blade,
                       "first_sideband_db": float(first_db), "harmonic_falloff_db": float(falloff),
+                      "blade_taper": list(BLADE_TAPER), "natural_falloff_db": natural,
                       "hover_rev_s": float(f_rot),
                       "motors": {"mean_rev_s": rv.mean(0).tolist(), "std_rev_s": rv.std(0).tolist(),
                                  "min_rev_s": rv.min(0).tolist(), "max_rev_s": rv.max(0).tolist(),

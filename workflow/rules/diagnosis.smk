@@ -1,0 +1,49 @@
+# Diagnosis (issue 6): what the paper's simulation gets wrong about the measured
+# training drone flights, and the `extended` variant's model extensions.
+# Needs from common.smk: config (validated), MEASURED_DIR, code_version().
+# Uses the outputs of ingest_motor_logs (results/motors/logs.zarr) and split_flights
+# (results/splits/flights.csv).
+
+DIAGNOSIS_CODE = code_version(
+    "diagnosis", "extensions.py", "synthesis.py", "sampling.py", "catalog.py"
+)
+
+
+rule diagnose_flights:
+    input:
+        measured=MEASURED_DIR,
+        logs="results/motors/logs.zarr",
+        split="results/splits/flights.csv",
+    output:
+        report="results/diagnosis/report.json",
+        figures=directory("results/diagnosis/figures"),
+    log:
+        "results/logs/diagnose_flights.log",
+    benchmark:
+        "results/benchmarks/diagnose_flights.tsv"
+    params:
+        diagnosis=config["diagnosis"],
+        code=DIAGNOSIS_CODE,
+    threads: 1
+    resources:
+        mem_mb=3000,
+    script:
+        "../scripts/diagnose_flights.py"
+
+
+rule aggregate_extensions:
+    input:
+        report="results/diagnosis/report.json",
+        split="results/splits/flights.csv",
+    output:
+        extensions="results/diagnosis/extended.yaml",
+    log:
+        "results/logs/aggregate_extensions.log",
+    params:
+        diagnosis=config["diagnosis"],
+        code=DIAGNOSIS_CODE,
+    threads: 1
+    resources:
+        mem_mb=500,
+    script:
+        "../scripts/aggregate_extensions.py"

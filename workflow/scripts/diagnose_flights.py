@@ -1,0 +1,15 @@
+"""Rule diagnose_flights: diagnose the measured training drone flights that have a
+motor log; write the report JSON and one figure per flight."""
+
+from microdoppler.diagnosis.pipeline import diagnose_split
+from microdoppler.runlog import log_to
+
+with log_to(snakemake.log[0]):
+    diagnose_split(
+        snakemake.input.measured,
+        snakemake.input.logs,
+        snakemake.input.split,
+        snakemake.output.report,
+        snakemake.output.figures,
+        settings=snakemake.params.diagnosis,
+    )
