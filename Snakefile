@@ -3,3 +3,9 @@
 
 
 include: "workflow/Snakefile"
+
+
+rule default:
+    default_target: True
+    input:
+        rules.all.input,

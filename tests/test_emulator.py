@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from microdoppler.emulator import FlightSpec, emulate_flight, emulate_world, measured_snr_db, plan_world
+from microdoppler.emulator import FlightSpec, emulate_flight, emulate_world, plan_world
 from microdoppler.emulator.knobs import band_limited_phase, validate_effects
 from microdoppler.flightzarr import validate_store
 from microdoppler.motorlog import read_csv

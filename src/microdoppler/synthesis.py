@@ -202,7 +202,7 @@ def envelope_response(n: int, prf_hz: float, alpha_s: float) -> np.ndarray:
 #: speed grid of the harmonic envelope tables [rev/s]: a pulse uses the table of the
 #: nearest multiple of this step (gain error of harmonic n <= alpha |n| step / 2, i.e.
 #: <= step / (2 e f) relative to the largest harmonic: 5e-4 at 0.25 rev/s, 90 rev/s)
-ENVELOPE_SPEED_STEP = 0.25
+ENVELOPE_SPEED_STEP = 1.0
 #: angles per harmonic envelope table over one table period (1/B revolution), nearest
 #: lookup: 4096 x B per revolution (B = 2: 8192; max lookup error ~1e-3 of max|G|,
 #: rms ~3e-4 at alpha = 5.5e-3 s); small tables keep the lookups in cache
@@ -246,8 +246,8 @@ class _HarmonicTables:
         self.bits = size.bit_length() - 1
         self.step = float(step)
         self.k0, self.k1 = 0, -1  # bins held: k0..k1
-        self.lognb = 0
-        self.table = np.empty((size, 1), np.complex64)
+        self.table = np.empty((0, size), np.complex64)
+        self.diff = self.table
 
     def rows(self, ks: np.ndarray) -> np.ndarray:
         """G_alpha at the speeds ks * step: complex64 [len(ks), size]."""
@@ -255,31 +255,28 @@ class _HarmonicTables:
         return (np.fft.ifft(self.coef[None, :] * g, axis=1) * self.size).astype(np.complex64)
 
     def cover(self, k_lo: int, k_hi: int) -> None:
-        """Make :attr:`table` hold bins k_lo..k_hi.
-
-        Layout: angle-major, ``table[i, k - k0]`` (``size`` x 2**lognb, the bin count
-        padded to a power of two), so the flat index is (i << lognb) + k - k0 and
-        neighbouring speed bins of one angle share a cache line: a motor whose speed
-        drifts over bins keeps hitting warm lines.
-        """
+        """Make :attr:`table` hold rows k_lo..k_hi (row j is bin k0 + j; the flat index
+        of angle i in bin k is (k - k0) * size + i)."""
         if k_lo >= self.k0 and k_hi <= self.k1:
             return
         if self.k1 >= self.k0 and max(k_hi, self.k1) - min(k_lo, self.k0) + 1 <= ENVELOPE_MAX_BINS:
             lo, hi = min(k_lo, self.k0), max(k_hi, self.k1)
         else:
             lo, hi = k_lo, k_hi
-        lognb = max(0, int(hi - lo).bit_length())  # 2**lognb >= hi - lo + 1
-        new = np.zeros((self.size, 1 << lognb), np.complex64)
+        new = np.empty((hi - lo + 1, self.size), np.complex64)
         ks = np.arange(lo, hi + 1)
         have = (ks >= self.k0) & (ks <= self.k1)
         if have.any():
             o0, o1 = max(lo, self.k0), min(hi, self.k1)
-            new[:, o0 - lo: o1 - lo + 1] = self.table[:, o0 - self.k0: o1 - self.k0 + 1]
+            new[o0 - lo: o1 - lo + 1] = self.table[o0 - self.k0: o1 - self.k0 + 1]
         for j0 in range(0, len(ks), 64):  # bounded temporaries
             sel = np.flatnonzero(~have[j0:j0 + 64]) + j0
             if len(sel):
-                new[:, sel] = self.rows(ks[sel]).T
-        self.k0, self.k1, self.lognb, self.table = lo, hi, lognb, new
+                new[sel] = self.rows(ks[sel])
+        self.k0, self.k1, self.table = lo, hi, new
+        # row j: table[j + 1] - table[j], for linear interpolation in speed (last row: 0)
+        self.diff = np.zeros_like(new)
+        np.subtract(new[1:], new[:-1], out=self.diff[:-1])
 
 
 Hook = Callable[[int, int, np.ndarray, np.ndarray], None]
@@ -476,6 +473,8 @@ def synthesize(
     car = np.empty(cph.shape[0], np.complex64)
     if harmonic:
         kb_buf = np.empty((n_motors, blk + 2 * ENVELOPE_SPEED_STRIDE), np.intp)
+        wt_buf = np.empty((n_motors, 2 * (blk + 2 * ENVELOPE_SPEED_STRIDE)), np.float32)
+        tmp1 = np.empty(sub, np.complex64)
     nfft = None
     H = None
     for i0 in range(0, n_total, chunk):
@@ -493,15 +492,17 @@ def synthesize(
                 g0 = a - a % q
                 r_read = np.asarray(rev_s[g0:b])  # one read per chunk
                 r_all = r_read[a - g0:]
-                kf = np.floor(np.asarray(r_read[::q], np.float64).T * inv_step + 0.5)
-                henv.cover(int(kf.min()), int(kf.max()))
-                koff = (kf - henv.k0).astype(np.intp)
-                hshift = rshift - henv.lognb  # (phase >> hshift) & hmask = angle << lognb
-                hmask = ~((1 << henv.lognb) - 1)
+                x = np.asarray(r_read[::q], np.float64).T * inv_step
+                kf = np.floor(x)
+                henv.cover(int(kf.min()), int(kf.max()) + 1)
+                koff = ((kf - henv.k0) * henv.size).astype(np.intp)
                 ng = koff.shape[1]
                 kb_buf[:, : ng * q].reshape(n_motors, ng, q)[...] = koff[:, :, None]
+                wt_buf[:, : 2 * ng * q].reshape(n_motors, ng, 2 * q)[...] = (x - kf).astype(np.float32)[:, :, None]
                 kb = kb_buf[:, a - g0: b - g0]
+                wt = wt_buf[:, 2 * (a - g0): 2 * (b - g0)]  # weight of bin k + 1, twice per pulse
                 rtab = henv.table.reshape(-1)
+                rdiff = henv.diff.reshape(-1)  # next speed bin minus this one, same angle
             else:
                 r_all = np.asarray(rev_s[a:b])  # one read per chunk (Zarr: each stored chunk decoded once)
                 rtab = table
@@ -525,13 +526,19 @@ def synthesize(
                     np.cumsum(d[:-1], out=p[1:])
                     p += np.uint32(cur[k])
                     cur[k] = (int(p[-1]) + int(d[-1])) & (PHASE_ONE - 1)
-                    if harmonic:
-                        np.right_shift(p, hshift, out=idx[:n], casting="unsafe")
-                        idx[:n] &= hmask
-                        idx[:n] += kb[k, s0 - a:s1 - a]
-                    else:
-                        np.right_shift(p, rshift, out=idx[:n], casting="unsafe")
-                    if k == 0:
+                    np.right_shift(p, rshift, out=idx[:n], casting="unsafe")
+                    if harmonic:  # linear interpolation between the speed bins k and k + 1
+                        ii = idx[:n]
+                        ii += kb[k, s0 - a:s1 - a]
+                        t0 = m[s0 - a:s1 - a] if k == 0 else tmp[:n]
+                        np.take(rtab, ii, out=t0)
+                        t1 = np.take(rdiff, ii, out=tmp1[:n])
+                        # (re, im) times the weight stored twice per pulse: float32 x float32
+                        np.multiply(t1.view(np.float32), wt[k, 2 * (s0 - a):2 * (s1 - a)], out=t1.view(np.float32))
+                        t0 += t1
+                        if k > 0:
+                            m[s0 - a:s1 - a] += t0
+                    elif k == 0:
                         np.take(rtab, idx[:n], out=m[s0 - a:s1 - a])
                     else:
                         np.take(rtab, idx[:n], out=tmp[:n])

@@ -2,32 +2,6 @@
 # measured test tiles, report Table V, the mean confusion matrices (Fig. 6) and
 # the Fig. 12 box plot.
 
-CLASSIFIER = config.get("classifier", {})
-TRAINSETS = CLASSIFIER.get("trainsets") or ["real"] + VARIANTS
-SEEDS = [int(s) for s in CLASSIFIER.get("seeds", list(range(1, 10)))]
-
-
-def classifier_tiles(wildcards):
-    """Tile stores a training set needs: the measured one, plus the variant's twins."""
-    stores = {"real": "results/tiles/real.zarr"}
-    if wildcards.trainset != "real":
-        stores["variant"] = f"results/tiles/{wildcards.trainset}.zarr"
-    return stores
-
-
-def classifier_predictions():
-    return expand(
-        "results/eval/{trainset}/seed{seed}.csv", trainset=TRAINSETS, seed=SEEDS
-    )
-
-
-def classifier_targets():
-    return [
-        "results/reports/metrics.csv",
-        "results/reports/table_v.csv",
-        "results/reports/fig12_boxplot.png",
-    ]
-
 
 rule train_classifier:
     input:
@@ -42,6 +16,8 @@ rule train_classifier:
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
         seed=r"\d+",
+    conda:
+        "../envs/microdoppler.yaml"
     threads: CLASSIFIER.get("threads", 1)
     resources:
         mem_mb=2000,
@@ -63,6 +39,8 @@ rule evaluate_classifier:
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
         seed=r"\d+",
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=1000,
@@ -102,6 +80,8 @@ rule report_metrics:
         ),
     log:
         "results/logs/report_metrics.log",
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=1000,

@@ -5,7 +5,6 @@ from snakemake.utils import validate
 
 import microdoppler
 
-
 validate(config, schema="../schemas/config.schema.yaml")
 
 SRC = Path(workflow.current_basedir).parents[1] / "src" / "microdoppler"
@@ -46,6 +45,92 @@ def motor_logs_table():
     return ""
 
 
+# --- datasets (rules/datasets.smk) ---
+DATASETS = ["real"] + VARIANTS
+TWIN_MODELS = ["inspire2", "matrice300"]
+MOTOR_LOGS = "results/motors/logs.zarr"
+SPLIT = "results/splits/flights.csv"
+DATASET_CODE = code_version(
+    "datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py"
+)
+
+
+wildcard_constraints:
+    dataset="|".join(DATASETS),
+
+
+def variant_settings(wildcards):
+    """This variant's own sampling settings (extended falls back to sub_cpi's)."""
+    per = config["sampling"].get("per_variant", {})
+    v = wildcards.variant
+    return dict(per.get(v, per.get("sub_cpi", {}) if v == "extended" else {}))
+
+
+def extensions_input(wildcards):
+    """The diagnosis' model extensions, for the extended variant only."""
+    if wildcards.variant == "extended":
+        return {"extensions": config["datasets"]["extensions"]}
+    return {}
+
+
+def speeds_inputs(wildcards):
+    return {"measured": MEASURED_DIR, "logs": MOTOR_LOGS, **extensions_input(wildcards)}
+
+
+def twins_inputs(wildcards):
+    return {
+        "measured": MEASURED_DIR,
+        "logs": MOTOR_LOGS,
+        "speeds": f"results/speeds/{wildcards.variant}.zarr",
+        **extensions_input(wildcards),
+    }
+
+
+def tile_inputs(wildcards):
+    """Measured flights and the split; a variant adds its injected twins."""
+    inputs = {"measured": MEASURED_DIR, "split": SPLIT}
+    if wildcards.dataset != "real":
+        inputs["injected"] = f"results/injected/{wildcards.dataset}.zarr"
+    return inputs
+
+
+def dataset_targets():
+    """Everything the dataset stages produce (for rule all)."""
+    return (
+        [SPLIT, "results/reports/table_iii.csv", "results/reports/table_iv.csv"]
+        + expand("results/tiles/{dataset}.zarr", dataset=DATASETS)
+        + expand("results/figures/twins_{model}.png", model=TWIN_MODELS)
+    )
+
+
+# --- classifier (rules/classifier.smk) ---
+CLASSIFIER = config.get("classifier", {})
+TRAINSETS = CLASSIFIER.get("trainsets") or ["real"] + VARIANTS
+SEEDS = [int(s) for s in CLASSIFIER.get("seeds", list(range(1, 10)))]
+
+
+def classifier_tiles(wildcards):
+    """Tile stores a training set needs: the measured one, plus the variant's twins."""
+    stores = {"real": "results/tiles/real.zarr"}
+    if wildcards.trainset != "real":
+        stores["variant"] = f"results/tiles/{wildcards.trainset}.zarr"
+    return stores
+
+
+def classifier_predictions():
+    return expand(
+        "results/eval/{trainset}/seed{seed}.csv", trainset=TRAINSETS, seed=SEEDS
+    )
+
+
+def classifier_targets():
+    return [
+        "results/reports/metrics.csv",
+        "results/reports/table_v.csv",
+        "results/reports/fig12_boxplot.png",
+    ]
+
+
 def figure_targets():
     return [
         "results/figures/fig2_herm_lines.png",
@@ -56,4 +141,6 @@ def figure_targets():
 def all_targets():
     targets = ["results/motors/ingest.csv"]
     targets += figure_targets()
+    targets += dataset_targets()
+    targets += classifier_targets()
     return targets

@@ -1,64 +1,6 @@
 # Datasets (issue 4): split, motor speeds per variant, calibrated twins, background
 # injection, tiles, Table III/IV and the measured-vs-twin figures.
-# Needs from common.smk: config (validated), MEASURED_DIR, VARIANTS, code_version().
-# The input functions below are specific to these rules (the lead may move them to
-# common.smk).
-
-DATASETS = ["real"] + VARIANTS
-TWIN_MODELS = ["inspire2", "matrice300"]
-MOTOR_LOGS = "results/motors/logs.zarr"
-SPLIT = "results/splits/flights.csv"
-DATASET_CODE = code_version(
-    "datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py"
-)
-
-
-wildcard_constraints:
-    dataset="|".join(DATASETS),
-
-
-def variant_settings(wildcards):
-    """This variant's own sampling settings (extended falls back to sub_cpi's)."""
-    per = config["sampling"].get("per_variant", {})
-    v = wildcards.variant
-    return dict(per.get(v, per.get("sub_cpi", {}) if v == "extended" else {}))
-
-
-def extensions_input(wildcards):
-    """The diagnosis' model extensions, for the extended variant only."""
-    if wildcards.variant == "extended":
-        return {"extensions": config["datasets"]["extensions"]}
-    return {}
-
-
-def speeds_inputs(wildcards):
-    return {"measured": MEASURED_DIR, "logs": MOTOR_LOGS, **extensions_input(wildcards)}
-
-
-def twins_inputs(wildcards):
-    return {
-        "measured": MEASURED_DIR,
-        "logs": MOTOR_LOGS,
-        "speeds": f"results/speeds/{wildcards.variant}.zarr",
-        **extensions_input(wildcards),
-    }
-
-
-def tile_inputs(wildcards):
-    """Measured flights and the split; a variant adds its injected twins."""
-    inputs = {"measured": MEASURED_DIR, "split": SPLIT}
-    if wildcards.dataset != "real":
-        inputs["injected"] = f"results/injected/{wildcards.dataset}.zarr"
-    return inputs
-
-
-def dataset_targets():
-    """Everything the dataset stages produce (for rule all)."""
-    return (
-        [SPLIT, "results/reports/table_iii.csv", "results/reports/table_iv.csv"]
-        + expand("results/tiles/{dataset}.zarr", dataset=DATASETS)
-        + expand("results/figures/twins_{model}.png", model=TWIN_MODELS)
-    )
+# Input functions and constants (DATASETS, MOTOR_LOGS, SPLIT, ...) are in common.smk.
 
 
 rule split_flights:
@@ -71,6 +13,8 @@ rule split_flights:
         "results/logs/split_flights.log",
     benchmark:
         "results/benchmarks/split_flights.tsv"
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=2000,
@@ -92,6 +36,8 @@ rule resample_motor_speeds:
         "results/logs/resample_motor_speeds/{variant}.log",
     benchmark:
         "results/benchmarks/resample_motor_speeds/{variant}.tsv"
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=2000,
@@ -114,6 +60,8 @@ rule synthesize_flights:
         "results/logs/synthesize_flights/{variant}.log",
     benchmark:
         "results/benchmarks/synthesize_flights/{variant}.tsv"
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=3000,
@@ -138,6 +86,8 @@ rule inject_background:
         "results/logs/inject_background/{variant}.log",
     benchmark:
         "results/benchmarks/inject_background/{variant}.tsv"
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=2000,
@@ -156,6 +106,8 @@ rule tile_spectrograms:
         "results/logs/tile_spectrograms/{dataset}.log",
     benchmark:
         "results/benchmarks/tile_spectrograms/{dataset}.tsv"
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=3000,
@@ -174,6 +126,8 @@ rule report_table_iv:
         table="results/reports/table_iv.csv",
     log:
         "results/logs/report_table_iv.log",
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=500,
@@ -191,6 +145,8 @@ rule plot_twins:
         "results/logs/plot_twins.log",
     benchmark:
         "results/benchmarks/plot_twins.tsv"
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=2000,

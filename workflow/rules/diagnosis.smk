@@ -21,12 +21,14 @@ rule diagnose_flights:
         "results/logs/diagnose_flights.log",
     benchmark:
         "results/benchmarks/diagnose_flights.tsv"
-    params:
-        diagnosis=config["diagnosis"],
-        code=DIAGNOSIS_CODE,
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=3000,
+    params:
+        diagnosis=config["diagnosis"],
+        code=DIAGNOSIS_CODE,
     script:
         "../scripts/diagnose_flights.py"
 
@@ -39,11 +41,13 @@ rule aggregate_extensions:
         extensions="results/diagnosis/extended.yaml",
     log:
         "results/logs/aggregate_extensions.log",
-    params:
-        diagnosis=config["diagnosis"],
-        code=DIAGNOSIS_CODE,
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=500,
+    params:
+        diagnosis=config["diagnosis"],
+        code=DIAGNOSIS_CODE,
     script:
         "../scripts/aggregate_extensions.py"

@@ -15,11 +15,13 @@ rule plot_motor_speed_figures:
         ),
     log:
         "results/logs/plot_motor_speed_figures.log",
-    params:
-        ulog=config["figures"]["ulog"],
-        code=code_version("figures.py", "synthesis.py", "sampling.py"),
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=2000,
+    params:
+        ulog=config["figures"]["ulog"],
+        code=code_version("figures.py", "synthesis.py", "sampling.py"),
     script:
         "../scripts/plot_motor_speed_figures.py"

@@ -8,13 +8,15 @@ if MEASURED_SOURCE == "emulator":
             "results/logs/emulate_measurements.log",
         benchmark:
             "results/benchmarks/emulate_measurements.tsv"
+        conda:
+            "../envs/microdoppler.yaml"
+        threads: 2
+        resources:
+            mem_mb=4000,
         params:
             profile=config["emulator"]["profile"],
             seed=config["emulator"]["seed"],
             code=code_version("emulator", "synthesis.py"),
-        threads: 2
-        resources:
-            mem_mb=4000,
         script:
             "../scripts/emulate_measurements.py"
 
@@ -29,11 +31,13 @@ rule ingest_motor_logs:
         "results/logs/ingest_motor_logs.log",
     benchmark:
         "results/benchmarks/ingest_motor_logs.tsv"
-    params:
-        table=motor_logs_table(),
-        code=code_version("motorlog.py", "inventory.py"),
+    conda:
+        "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=1000,
+    params:
+        table=motor_logs_table(),
+        code=code_version("motorlog.py", "inventory.py"),
     script:
         "../scripts/ingest_motor_logs.py"

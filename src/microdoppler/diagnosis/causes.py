@@ -434,9 +434,13 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
         C = max(float(st.p[i, clutter].sum() - clutter.sum() * M.floor[i]), 0.0)
         af = np.abs(f[cc])
         unit = df / (2 * bw) * C
-        # columns: the phase-noise skirt (flat, |f| < 100 Hz) and two nuisance shapes of
-        # wind-blown clutter (exponential decay from the clutter line), in both models
-        kern = np.column_stack([unit * (af < bw)] + [unit * np.exp(-af / d) for d in cfg.pn_nuisance_decay_hz])
+        # columns: the phase-noise skirt (flat, |f| < 100 Hz) and nuisance shapes in both
+        # models: wind-blown clutter (exponential decay from the clutter line)
+        # and a skirt around the body (a fluctuating body spreads its own line)
+        Bt = max(float(M.body_pow[i]), 0.0) * df / (2 * bw)
+        g2 = cfg.pn_body_skirt_hz ** 2
+        kern = np.column_stack([unit * (af < bw) + Bt * (np.abs(f[cc] - fb) < bw)] + [unit * np.exp(-af / d) for d in cfg.pn_nuisance_decay_hz]
+                               + [Bt * g2 / ((f[cc] - fb) ** 2 + g2)])
         P.append(st.p[i, cc]); S.append(s_bg_t[min(i, len(s_bg_t) - 1), cc]); K.append(kern); F.append(np.full(len(cc), fold[i]))
     if len(P) < 4:
         res.testable = False

@@ -68,6 +68,7 @@ class DiagnosisConfig:
     pn_outer_hz: float = 95.0
     pn_nuisance_decay_hz: tuple = ()
     pn_smooth_cpis: int = 2
+    pn_body_skirt_hz: float = 10.0
     pn_bin_step: int = 2
     pn_smooth_bins: int = 2
     pn_clutter_line_hz: float = 5.0
@@ -163,7 +164,9 @@ def decide(tests: dict, cfg: DiagnosisConfig) -> tuple[str, float]:
     cands = [t for t in tests.values() if t.testable and t.log_e >= thr and t.relevant]
     if not cands:
         return "none", thr
-    return max(cands, key=lambda t: t.log_e).cause, thr
+    # strongest: the largest held-out log-likelihood ratio per scored observation (the
+    # statistics differ in size: per-CPI values vs. periodogram ordinates)
+    return max(cands, key=lambda t: t.log_e / max(t.n_obs, 1)).cause, thr
 
 
 def _r(x, nd=4):
@@ -214,7 +217,7 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
         "log_evalue_threshold": thr,
         "calibration": {"s_body": calib["s_body"], "s_blade": calib["s_blade"], "alpha_s": calib["alpha_s"]},
         "per_harmonic_power_error_db": calib["per_harmonic_power_error_db"],
-        "tests": {c: {"log_evalue": t.log_e, "significant": bool(t.testable and t.log_e >= thr),
+        "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": bool(t.testable and t.log_e >= thr),
                       "relevant": bool(t.relevant), "testable": bool(t.testable), "params": t.params,
                       "statistic": t.statistic, **t.evidence}
                   for c, t in tests.items()},

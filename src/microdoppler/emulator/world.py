@@ -8,25 +8,20 @@ motor-log exports and the key file.
 
 from __future__ import annotations
 
-import csv
-import json
-import os
-import time
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
 
 from .. import synthesis
-from ..flightzarr import SCHEMA, Flight, atomic_dir, commit_dir, write_flight
+from ..flightzarr import SCHEMA, Flight
 from ..radar import DRONE_MODELS
 from ..snr import flight_snr_db
 from ..spectrogram import spectrogram
 from . import background as bg
 from .bird import KINDS, plan_group, render
-from .drone import CONTROL_HZ, DYNAMICS, loop_path, motor_speeds, write_log
-from .knobs import SlowGain, asymmetry_envelope, validate_effects
+from .drone import DYNAMICS, loop_path, motor_speeds, write_log
+from .knobs import BODY_FLUCTUATION_TAU_S, SlowGain, asymmetry_envelope, ou_process, validate_effects
 from .radars import radar_site
 
 TARGETS = ("drone", "bird")
@@ -159,7 +154,7 @@ def draw_conditions(spec: FlightSpec) -> tuple[float, float, float]:
     return wind, wind_bg, snr_db
 
 
-def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
+def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
     """Emulate one measured flight.
 
     Returns
@@ -236,7 +231,6 @@ def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
         fad = effects.get("sideband_fading")
         fading = SlowGain(spec.duration_s + 1, fad["fading_std_db"], fad["timescale_s"], r_bl) if fad else None
         bf = effects.get("body_fluctuation")
-        from .knobs import BODY_FLUCTUATION_TAU_S
         bodyfl = SlowGain(spec.duration_s + 1, bf["body_std_db"], BODY_FLUCTUATION_TAU_S, r_bl) if bf else None
 
         def blade_hook(i0, i1, ts, x):
@@ -304,7 +298,6 @@ def emulate_flight(spec: FlightSpec, *, progress=None) -> tuple[Flight, dict]:
     truth.update(info)
     # the tracker's output: true track plus a small smooth error
     r_tr = _rng(spec.seed, 7)
-    from .knobs import ou_process
     verr = ou_process(len(tt), 1.0 / TRACK_HZ, 0.03 if spec.drone_model != "mini2" else 0.08, 5.0, r_tr)
     err = np.cumsum(verr) / TRACK_HZ
     track_r = range_tt + err
