@@ -166,7 +166,8 @@ def main(argv=None) -> int:
     print(f"{'kernel':<36}{'best [pulses/s]':>16}{'median':>12}{'x real time':>13}{'x reference':>13}"
           "  (last two: median)")
     for name in ("alpha>0", "alpha>0 fft", "alpha=0", "reference"):
-        label = {"alpha>0": f"synthesize, alpha={ALPHA:g} s harmonic", "alpha>0 fft": f"synthesize, alpha={ALPHA:g} s fft",
+        label = {"alpha>0": f"synthesize, alpha={ALPHA:g} s harmonic",
+                 "alpha>0 fft": f"synthesize, alpha={ALPHA:g} s fft",
                  "alpha=0": "synthesize, alpha=0", "reference": "reference (per-pulse loop)"}[name]
         med = thr.get(name + " median", thr[name])
         print(f"{label:<36}{thr[name]:>16.4g}{med:>12.4g}{med / PRF:>13.1f}{med / thr['reference']:>13.0f}")

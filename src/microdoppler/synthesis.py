@@ -35,23 +35,25 @@ Two ways to apply the envelope (``synthesize(envelope_method=...)``):
   non-zero (B equal blades repeat every 1/B turn). At a constant motor speed f_m,
   harmonic n sits at Doppler n f_m relative to the body, so H is exactly the
   per-harmonic gain exp(-alpha |n f_m|). We tabulate
-  G_alpha(phi; f) = sum_n c_n exp(-alpha |n f|) exp(j n phi) on a global grid of
-  speeds (``ENVELOPE_SPEED_STEP`` = 0.25 rev/s, nearest bin; each motor's bin taken
-  every ``ENVELOPE_SPEED_STRIDE`` = 16 pulses) over one period 1/B turn
-  (``ENVELOPE_TABLE_SIZE`` = 4096 angles, nearest lookup of the B-fold angle), and
-  a pulse costs one lookup per motor, as for alpha = 0; no FFT. This is a
-  *quasi-static* envelope: it uses each motor's current speed, where the linear
-  filter would mix the speeds within its impulse response (a Lorentzian of
-  half-width alpha / (2 pi) s, ~1 ms at alpha = 5.5e-3 s). For constant speeds the
-  two agree up to the table resolution (measured, interior of the record, 4 motors
-  of the Inspire blade at L-band: rms 3e-4, max 7e-4 of max|x| at alpha = 5.5e-3 s;
-  rms 8e-4 at alpha = 1e-3 s, where more harmonics survive); for speeds varying like
-  a flying quadcopter's (+-5 rev/s over 7-13 s) the same (rms 3.5e-4), and for
-  fast sweeps (+-20 rev/s over 1-2 s) rms 5e-4, max 1.3e-3. Differences from the
-  FFT filter by design: the gain is applied at the true Doppler n f_m (the FFT
-  filter sees it aliased into +-prf/2; irrelevant once exp(-alpha prf/2) is
+  G_alpha(phi; f) = sum_n c_n exp(-alpha |n f|) exp(j n phi) over one period 1/B
+  turn (``ENVELOPE_TABLE_SIZE`` = 4096 angles, nearest lookup of the B-fold angle
+  B phi) on a global grid of speeds (``ENVELOPE_SPEED_STEP`` = 1 rev/s; each
+  pulse interpolates linearly between the two grid speeds around its motor's speed,
+  read every ``ENVELOPE_SPEED_STRIDE`` = 16 pulses). A pulse costs two lookups per
+  motor and no FFT. This is a *quasi-static* envelope: it uses each motor's current
+  speed, where the linear filter would mix the speeds within its impulse response (a
+  Lorentzian of half-width alpha / (2 pi) s, ~1 ms at alpha = 5.5e-3 s). Measured
+  against the FFT filter (record interior, one FFT over the whole record, 4 motors,
+  Inspire blade, L-band, PRF 7300 Hz; max |difference| / max |x|, rms ratio):
+  constant speeds 3.7e-4 / 1.8e-4 at alpha = 5.5e-3 s (9e-4 / 8e-4 at 1e-3 s,
+  where more harmonics survive the envelope and the 4096-angle table dominates);
+  speeds drifting +-5 rev/s over 7-13 s (a flying quadcopter) the same; fast sweeps
+  (+-20 rev/s over 1-2 s) 1.2e-3 / 4e-4; the PX4 sample motor log
+  (data/motor-logs, 22-50 rev/s, sub-CPI resampled) 1.0e-3 / 5e-4. Differences
+  from the FFT filter by design: the gain is applied at the true Doppler n f_m (the
+  FFT filter sees it aliased into +-prf/2; irrelevant once exp(-alpha prf/2) is
   negligible), there are no edge effects (the FFT filter takes the blade signal as
-  zero outside the record), and the result is exactly independent of chunking.
+  zero outside the record), and the result does not depend on chunking at all.
 * "fft": the linear filter H(f), applied per chunk by FFT with a margin of
   ``margin`` pulses on each side (overlap-save), so memory does not grow with flight
   length; outside the record the blade signal is taken as zero (the first and last
@@ -199,20 +201,22 @@ def envelope_response(n: int, prf_hz: float, alpha_s: float) -> np.ndarray:
     return np.exp(-alpha_s * np.abs(f)).astype(np.complex64)
 
 
-#: speed grid of the harmonic envelope tables [rev/s]: a pulse uses the table of the
-#: nearest multiple of this step (gain error of harmonic n <= alpha |n| step / 2, i.e.
-#: <= step / (2 e f) relative to the largest harmonic: 5e-4 at 0.25 rev/s, 90 rev/s)
+#: speed grid of the harmonic envelope tables [rev/s]: a motor at speed f uses the
+#: tables of the grid speeds k step <= f < (k + 1) step, interpolated linearly in f
+#: (gain error of harmonic n <= (alpha n step)^2 / 8 exp(-alpha n f), i.e. <= step^2 /
+#: (2 e^2 f^2) relative: 3e-5 at 1 rev/s and 90 rev/s, 6e-4 at 22 rev/s)
 ENVELOPE_SPEED_STEP = 1.0
 #: angles per harmonic envelope table over one table period (1/B revolution), nearest
-#: lookup: 4096 x B per revolution (B = 2: 8192; max lookup error ~1e-3 of max|G|,
-#: rms ~3e-4 at alpha = 5.5e-3 s); small tables keep the lookups in cache
+#: lookup of the B-fold angle: 4096 B per revolution (B = 2: 8192, the main error:
+#: ~2e-4 rms, ~4e-4 max of max|x| at alpha = 5.5e-3 s; ~8e-4 rms at alpha = 1e-3 s,
+#: where more harmonics survive); small rows keep the lookups in the L2 cache
 ENVELOPE_TABLE_SIZE = 1 << 12
-#: most speed bins kept at once (4096 x 8 B each: 1024 bins = 32 MiB); beyond this
-#: the cache is rebuilt for the current chunk's speeds only
+#: most speed bins kept at once (4096 x 8 B x 2 (table and difference) each: 1024
+#: bins = 64 MiB); beyond this the cache is rebuilt for the current chunk's speeds
 ENVELOPE_MAX_BINS = 1024
-#: the speed bin of each motor is taken every this many pulses (on a global grid) and
-#: held in between: 16 pulses = 2.2 ms at 7.3 kHz, over which a motor's speed changes
-#: by far less than ENVELOPE_SPEED_STEP (0.01 rev/s at 5 rev/s^2)
+#: the speed of each motor is read every this many pulses (on a global grid) and held
+#: in between: 16 pulses = 2.2 ms at 7.3 kHz, over which a motor's speed changes by
+#: ~0.01 rev/s at 5 rev/s^2
 ENVELOPE_SPEED_STRIDE = 16
 ENVELOPE_METHODS = ("auto", "harmonic", "fft")
 
@@ -236,10 +240,10 @@ class _HarmonicTables:
         if size * n_blades > nb:
             raise ValueError(f"size={size} x n_blades={n_blades} must be <= the rotor table's {nb}")
         c = np.fft.fft(base_table.astype(np.complex128)) / nb
-        m = np.fft.fftfreq(nb // n_blades, n_blades / nb)  # harmonic m of Ghat = n / B
-        keep = np.abs(m) < size // 2  # harmonics beyond size/2 would alias in the small table
+        m = np.arange(-(size // 2) + 1, size // 2)  # harmonic m of Ghat is n = m B of G
+        m = m[np.abs(m * n_blades) < nb // 2]  # (beyond size/2 they would alias in the table)
         self.coef = np.zeros(size, np.complex128)
-        self.coef[(m[keep] % size).astype(np.int64)] = c[(m[keep] * n_blades).astype(np.int64) % nb]
+        self.coef[m % size] = c[(m * n_blades) % nb]
         self.abs_n = n_blades * np.abs(np.fft.fftfreq(size, 1.0 / size))  # |n| = B |m|
         self.alpha_s = float(alpha_s)
         self.size = size
@@ -299,11 +303,13 @@ def _fixed_phase(cycles) -> np.ndarray:
     return (np.floor(frac * PHASE_ONE).astype(np.uint64) & np.uint64(PHASE_ONE - 1)).astype(np.uint32)
 
 
-def _increments(rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Per-pulse phase increments ``rates * scale`` as uint32 modulo 2**32."""
+def _increments(rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarray,
+                in_range: bool = False) -> np.ndarray:
+    """Per-pulse phase increments ``rates * scale`` as uint32 modulo 2**32
+    (``in_range``: the caller has checked 0 <= rates * scale < 2**32)."""
     n = rates.shape[0]
     f = np.multiply(rates, scale, out=f64[:n])
-    if n and (f.max() >= PHASE_ONE or f.min() < 0):  # |rate| >= prf or reverse rotation
+    if n and not in_range and (f.max() >= PHASE_ONE or f.min() < 0):  # |rate| >= prf or reverse rotation
         np.copyto(out[:n], np.mod(np.floor(f), PHASE_ONE).astype(np.int64), casting="unsafe")
     else:
         np.copyto(out[:n], f, casting="unsafe")  # truncation: bias 2**-33 rev per pulse
@@ -506,10 +512,13 @@ def synthesize(
             else:
                 r_all = np.asarray(rev_s[a:b])  # one read per chunk (Zarr: each stored chunk decoded once)
                 rtab = table
+            # one range check per chunk instead of per motor and sub-block (with slack for
+            # the float32 product in _increments; out of range -> checked per sub-block)
+            in_range = bool(r_all.size) and float(r_all.min()) >= 0 and float(r_all.max()) * scale < 0.999 * PHASE_ONE
             for s0 in range(a, i0, sub):
                 r = r_all[s0 - a:min(s0 + sub, i0) - a]
                 for k in range(n_motors):
-                    d = _increments(r[:, k], scale, f64, inc)
+                    d = _increments(r[:, k], scale, f64, inc, in_range)
                     cur[k] = (cur[k] - int(d.sum(dtype=np.uint64))) & (PHASE_ONE - 1)
             bounds = ([(s0, min(s0 + sub, i0)) for s0 in range(a, i0, sub)]
                       + [(s0, min(s0 + sub, i1)) for s0 in range(i0, i1, sub)]
@@ -520,7 +529,7 @@ def synthesize(
                 r = r_all[s0 - a:s1 - a]
                 n = s1 - s0
                 for k in range(n_motors):
-                    d = _increments(r[:, k], scale, f64, inc)
+                    d = _increments(r[:, k], scale, f64, inc, in_range)
                     p = ph[:n]
                     p[0] = 0
                     np.cumsum(d[:-1], out=p[1:])

@@ -25,8 +25,8 @@ phase noise (radar 2 stronger); radar-2 artifacts; noisy tracker output; birds.
 Conventions
 -----------
 - ``FlightSpec.snr_db`` is the body line's expected spectrogram SNR (peak over median
-  floor, thermal noise only). Measured values are ~1-4 dB lower for a steady drone
-  (straddle, aspect, clutter, manoeuvres) and lower still when the body Doppler sits in
+  floor, thermal noise only). Measured values are ~3-6 dB lower for a drone on a straight leg
+  (speed wander smearing the line, straddle, aspect, clutter) and lower still when the body Doppler sits in
   the 15 Hz high-pass notch.
 - ``first_sideband_db`` is the per-motor-line amplitude below the body in the model;
   the measured first sideband group sits ~0.5-2 dB closer to the body.

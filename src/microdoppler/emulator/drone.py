@@ -98,8 +98,10 @@ class DronePath:
 
 
 def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_mps: float,
-              direction: int, hand_flown: bool, rng: np.random.Generator) -> DronePath:
-    """A stadium loop around a centre ``mean_range_m`` from the radar."""
+              direction: int, hand_flown: bool, rng: np.random.Generator, straight: bool = False) -> DronePath:
+    """A stadium loop around a centre ``mean_range_m`` from the radar, or with
+    ``straight`` one long leg within 17 deg of the line of sight through that centre
+    (receding for ``direction`` +1): no turns, the body Doppler never nears zero."""
     dt = 1.0 / CONTROL_HZ
     t = np.arange(-PAD_S, duration_s + PAD_S + dt, dt)
     n = len(t)
@@ -109,10 +111,18 @@ def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_
     leg = rng.uniform(100.0, 400.0)
     # legs laid out roughly along the line of sight (trials want a Doppler signature)
     orient = az0 + rng.uniform(-0.6, 0.6)
-    perim = 2 * leg + 2 * np.pi * radius
     vs = speed_mps * (1 + _smooth(ou_process(n, dt, 0.15 if hand_flown else 0.06, 3.0, rng), 2.0))
     vs = np.maximum(vs, 0.5)
-    s = rng.uniform(0, perim) + direction * np.cumsum(vs) * dt
+    if straight:
+        leg = float(np.sum(vs) * dt) + 10.0
+        radius = 1e-3
+        orient = az0 + rng.uniform(-0.3, 0.3) + (0.0 if direction > 0 else np.pi)
+        s = 5.0 + np.cumsum(vs) * dt
+        s -= s[n // 2] - leg / 2  # centre of the leg at mid-flight
+        s = np.clip(s, 0.0, leg - 1e-6)
+    else:
+        s = rng.uniform(0, 2 * leg + 2 * np.pi * radius) + direction * np.cumsum(vs) * dt
+    perim = 2 * leg + 2 * np.pi * radius
     s = np.mod(s, perim)
     # stadium in local coordinates: leg along x from -leg/2..leg/2 at y=-radius, then arc...
     x = np.empty(n)

@@ -79,6 +79,9 @@ class FlightSpec:
         Also record ``background/iq``.
     site_seed : int
         Seed of the radar sites' clutter maps (shared by all flights of a world).
+    path : {"loop", "straight"}
+        Drones: the stadium loops of the trials, or one straight leg near the line of
+        sight (no turns, body Doppler far from the notch; for diagnosis tests).
     """
 
     flight_id: str
@@ -100,8 +103,11 @@ class FlightSpec:
     clutter_scale_db: float = 0.0
     with_background: bool = True
     site_seed: int = 0
+    path: str = "loop"
 
     def __post_init__(self):
+        if self.path not in ("loop", "straight"):
+            raise ValueError(f"path={self.path!r} must be 'loop' or 'straight'")
         if self.target not in TARGETS:
             raise ValueError(f"target={self.target!r} must be one of {TARGETS}")
         if self.target == "drone" and self.drone_model not in DYNAMICS:
@@ -186,7 +192,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         dyn = DYNAMICS[spec.drone_model]
         path = loop_path(spec.duration_s, mean_range_m=spec.mean_range_m, height_m=spec.height_m,
                          speed_mps=spec.speed_mps, direction=spec.direction, hand_flown=dyn.hand_flown,
-                         rng=_rng(spec.seed, 1))
+                         rng=_rng(spec.seed, 1), straight=spec.path == "straight")
         r_mot = _rng(spec.seed, 2)
         hover_scale = float(r_mot.uniform(0.93, 1.07))
         mt = motor_speeds(path, dyn, wind_mps=wind, rng=r_mot, hover_scale=hover_scale)
