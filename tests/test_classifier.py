@@ -253,3 +253,11 @@ def test_load_trainset_matches_local_recipe(tmp_path):
         for a, b in zip(load_trainset(name, tmp_path), local_trainset(name, tmp_path)):
             assert sorted(map(bytes, a.images)) == sorted(map(bytes, b.images))
             np.testing.assert_array_equal(np.sort(a.y), np.sort(b.y))
+
+
+def test_training_without_validation_tiles(tiny_tiles):
+    tr, va, _ = tiny_tiles
+    res = train(tr, va.subset(np.zeros(len(va), bool)), TINY, seed=3, threads=1)
+    assert res.history["val_loss"].isna().all()
+    assert res.best_epoch == 1 + best_epoch(res.history["train_accuracy"], res.history["val_accuracy"])
+    assert best_epoch([0.5, 0.9], [np.nan, np.nan]) == 1

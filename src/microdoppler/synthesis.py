@@ -435,14 +435,16 @@ def synthesize(
     harmonic = (scaling.alpha_s > 0 and scaling.s_blade > 0 and envelope is None
                 and envelope_method in ("auto", "harmonic"))
     if harmonic:
-        hkey = ("harmonic", n_blades, blade_length_m, wavelength_m, scaling.alpha_s,
-                ENVELOPE_TABLE_SIZE, ENVELOPE_SPEED_STEP)
+        tsize = ENVELOPE_TABLE_SIZE
+        while tsize * n_blades > TABLE_SIZE:  # many blades: the period 1/B turn is short
+            tsize //= 2
+        hkey = ("harmonic", n_blades, blade_length_m, wavelength_m, scaling.alpha_s, tsize, ENVELOPE_SPEED_STEP)
         henv = _TABLES.get(hkey)
         if henv is None:  # rows are filled lazily for the speeds met and kept for later calls
             if len([k for k in _TABLES if k[0] == "harmonic"]) >= 8:
                 for k in [k for k in _TABLES if k[0] == "harmonic"]:
                     del _TABLES[k]
-            henv = _TABLES[hkey] = _HarmonicTables(table, scaling.alpha_s, n_blades, ENVELOPE_TABLE_SIZE,
+            henv = _TABLES[hkey] = _HarmonicTables(table, scaling.alpha_s, n_blades, tsize,
                                                    ENVELOPE_SPEED_STEP)
         rshift = 32 - henv.bits
         inv_step = 1.0 / henv.step
@@ -500,6 +502,8 @@ def synthesize(
                 r_all = r_read[a - g0:]
                 x = np.asarray(r_read[::q], np.float64).T * inv_step
                 kf = np.floor(x)
+                if not np.all(np.isfinite(kf)):
+                    raise ValueError(f"rev_s has non-finite speeds in pulses [{g0}, {b})")
                 henv.cover(int(kf.min()), int(kf.max()) + 1)
                 koff = ((kf - henv.k0) * henv.size).astype(np.intp)
                 ng = koff.shape[1]

@@ -68,6 +68,8 @@ class Normalisation:
         if x.ndim != 3:
             raise InputError("images", "shape", f"is {x.shape}", "[n, n_timesteps, n_bins]")
         x = np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=-1e3) if not np.isfinite(x).all() else x
+        if x.size == 0:
+            return x.copy()
         med = np.median(x.reshape(len(x), -1), axis=1).astype(np.float32)[:, None, None]
         return np.clip((x - med) / self.scale_db, self.low_db / self.scale_db,
                        self.high_db / self.scale_db).astype(np.float32)

@@ -19,7 +19,7 @@ import pandas as pd
 import torch
 from torch.nn import functional as F
 
-from ..errors import ConfigError
+from ..errors import ConfigError, InputError
 from .data import TileSet
 from .models import Normalisation, build_model
 
@@ -117,12 +117,15 @@ def stop_epoch(val_loss, train_loss, exceed_limit: int) -> int | None:
 
 def best_epoch(train_accuracy, val_accuracy) -> int:
     """Epoch (0-based) with the largest train + validation accuracy (first one on ties)."""
-    return int(np.argmax(np.asarray(train_accuracy) + np.asarray(val_accuracy)))
+    total = np.asarray(train_accuracy, float) + np.nan_to_num(np.asarray(val_accuracy, float), nan=0.0)
+    return int(np.argmax(total))
 
 
 @torch.no_grad()
 def _evaluate(model, x: torch.Tensor, y: torch.Tensor, batch_size: int) -> tuple[float, float]:
-    """(mean cross-entropy loss, accuracy) of ``model`` on normalised ``x``."""
+    """(mean cross-entropy loss, accuracy) of ``model`` on normalised ``x``; NaN when empty."""
+    if len(x) == 0:
+        return float("nan"), float("nan")
     model.eval()
     loss, correct = 0.0, 0
     for i in range(0, len(x), batch_size):
@@ -167,6 +170,11 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
         torch intra-op threads.
     """
     logger = logger or log
+    if len(train_set) == 0:
+        raise InputError("training set", "train", "has no tiles", "at least one training tile")
+    if len(val_set) == 0:
+        logger.warning("no validation tiles: validation loss/accuracy are NaN, the stopping rule never fires "
+                       "and the kept epoch maximises training accuracy alone")
     gen = setup_determinism(seed, threads)
     model = build_model(cfg.architecture, compact=cfg.compact, colormap=cfg.colormap,
                         alexnet_weights=cfg.alexnet_weights, normalisation=cfg.normalisation)

@@ -397,7 +397,7 @@ def test_log(M, cfg, fold) -> tuple[CauseTest, CauseTest]:
     return lag_res, sc_res
 
 
-def test_phase_noise(M, cfg, fold) -> CauseTest:
+def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
     res = CauseTest("phase_noise", statistic="Whittle likelihood of the floor near the clutter line")
     if M.bg_stft is None:
         res.testable = False
@@ -428,6 +428,12 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
         for n in range(1, 16):
             for sg in (1, -1):
                 keep &= np.abs(ff - (fb + sg * n * spacing)) > cfg.pn_line_guard_frac * spacing
+        if M.sim_stft is not None and calib is not None:
+            # off the blade power the calibrated model predicts there (smeared lines too)
+            d = ff - fb
+            pred = (calib["blade_abs"] ** 2 * np.exp(-2 * calib["alpha_s"] * np.abs(d))
+                    * np.interp(d, M.sim_stft.f_hz, M.sim_stft.p[i]))
+            keep &= pred < M.floor[i] * 10 ** (cfg.pn_model_guard_db / 10)
         cc = cols[keep]
         if len(cc) < 5:
             continue

@@ -69,6 +69,7 @@ class DiagnosisConfig:
     pn_nuisance_decay_hz: tuple = ()
     pn_smooth_cpis: int = 2
     pn_body_skirt_hz: float = 10.0
+    pn_model_guard_db: float = -10.0
     pn_bin_step: int = 2
     pn_smooth_bins: int = 2
     pn_clutter_line_hz: float = 5.0
@@ -123,12 +124,16 @@ def _calibrate(M, cfg) -> dict:
         alpha, s_blade = 0.0, float(np.sqrt(gains[ks[0]]))
     else:
         alpha, s_blade = float("nan"), float("nan")
+    if not np.isfinite(s_blade):
+        s_blade = float(np.sqrt(np.median(gains)))
+        alpha = 0.0 if not np.isfinite(alpha) else alpha
     ref = max(s_body, 1e-30)
     per_h_err = {}
     for k in ks:
         pred = s_blade ** 2 * np.exp(-2 * alpha * M.harm[k] * hbar)
         per_h_err[f"h{int(M.harm[k])}"] = round(float(10 * np.log10(gains[k] / pred)), 2)
     return {"s_body": 1.0, "s_blade": s_blade / ref, "alpha_s": float(alpha), "blade_gain": gains,
+            "blade_abs": s_blade,
             "per_harmonic_power_error_db": per_h_err, "n_usable_harmonics": int(len(ks))}
 
 
@@ -152,7 +157,7 @@ def run_tests(flight, motor_log: MotorLog, cfg: DiagnosisConfig):
         "body_fluctuation": C.test_body(M, cfg, fold),
         "motor_log_lag": lag,
         "motor_speed_scale": sc,
-        "phase_noise": C.test_phase_noise(M, cfg, fold),
+        "phase_noise": C.test_phase_noise(M, cfg, fold, calib),
     }
     return M, calib, tests
 

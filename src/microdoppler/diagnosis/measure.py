@@ -43,6 +43,7 @@ class Measurements:
     log: MotorLog = None
     stft: Stft = None
     bg_stft: Stft | None = None
+    sim_stft: Stft | None = None  # the model's blades (alpha = 0, S_blade = 1), body-relative
     info: dict = field(default_factory=dict)
 
 
@@ -167,5 +168,5 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     rng_m = np.interp(st.t_s, flight.track_time_s, flight.track_range_m)
     valid = body_valid & ~art
     return Measurements(st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
-                        up, lo, up_sd, lo_sd, ok, model_h, log=log, stft=st, bg_stft=bg,
+                        up, lo, up_sd, lo_sd, ok, model_h, log=log, stft=st, bg_stft=bg, sim_stft=sim,
                         info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()), "match_q": float(np.nanmedian(q))})
