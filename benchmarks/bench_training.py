@@ -8,7 +8,8 @@ pretrained weights), with 2 threads (one job using both cores) and 1 thread (two
 jobs side by side, the pipeline's default). Then estimates the wall time of the
 ``paper`` profile (Table III: 7256 train + 713 validation images, 3632 test; 5
 training sets x 9 seeds = 45 runs) on 2 cores, assuming every run goes to the
-epoch cap (worst case) and is evaluated on train + validation after every epoch.
+epoch cap (worst case) and is evaluated on the validation set after every epoch
+(the config default reevaluate_train: false; the paper's true is printed too).
 Target: at most 90 minutes for the default (compact) model.
 """
 
@@ -66,7 +67,7 @@ def throughput(model, threads: int, batches: int, batch: int = 16, shape=(20, 48
     return train_rate, eval_rate
 
 
-def run_seconds(train_rate: float, eval_rate: float, epochs: int, reevaluate_train: bool = True) -> float:
+def run_seconds(train_rate: float, eval_rate: float, epochs: int, reevaluate_train: bool = False) -> float:
     """One training run + evaluation at the paper profile's sizes."""
     per_epoch = N_TRAIN / train_rate + ((N_TRAIN if reevaluate_train else 0) + N_VAL) / eval_rate
     return epochs * per_epoch + N_TEST / eval_rate + STARTUP_S
@@ -104,8 +105,8 @@ def main(argv=None) -> None:
         print(f"{name:<20}{tr2:>12.0f}{ev2:>12.0f}{tr1:>12.0f}{ev1:>12.0f}{minutes:>15.0f}{how:>6}")
     print("rates are per CPU second x threads (idle-machine rates); wall-clock rates seen now: "
           + "; ".join(f"{k}: " + "/".join(f"{w:.0f}" for w in v) for k, v in walls.items()))
-    fast = N_RUNS * run_seconds(*compact_1thread, args.epochs, reevaluate_train=False) / 2 / 60
-    print(f"compact with reevaluate_train: false (running training accuracy): {fast:.0f} min")
+    paper = N_RUNS * run_seconds(*compact_1thread, args.epochs, reevaluate_train=True) / 2 / 60
+    print(f"compact with reevaluate_train: true (the paper's per-epoch training-set evaluation): {paper:.0f} min")
     ok = rows[0][5] <= 90
     print(f"target <= 90 min for the default model: {'met' if ok else 'NOT met'} ({rows[0][5]:.0f} min)")
 

@@ -60,7 +60,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--duration-s", type=float, default=40.0)
     ap.add_argument("--out", default="")
+    ap.add_argument("--world", default="", help="instead: diagnose the Inspire/Matrice flights of this emulator "
+                    "profile (e.g. default) and compare with the effects it switched on")
+    ap.add_argument("--world-seed", type=int, default=20261121)
     a = ap.parse_args(argv)
+    if a.world:
+        return eval_world(a.world, a.world_seed)
     rng = np.random.default_rng(a.seed)
     rows = []
     t0 = time.time()
@@ -107,6 +112,25 @@ def main(argv=None) -> int:
         with open(a.out, "w") as fh:
             json.dump({"rows": rows, "confusion": cm.tolist(), "names": names, "accuracy": acc,
                        "false_alarm": fa, "param_accuracy": pacc}, fh, indent=1)
+    return 0
+
+
+def eval_world(profile: str, seed: int) -> int:
+    """Diagnose every large-drone flight of an emulated world; compare with its key."""
+    from microdoppler.emulator.profiles import plan_world
+
+    n = ok = 0
+    for spec in plan_world(profile, seed):
+        if spec.target != "drone" or spec.drone_model not in ("inspire2", "matrice300"):
+            continue
+        flight, truth = emulate_flight(spec)
+        e = diagnose_flight(flight, config={"figures": False})
+        hidden = list(truth["effects"]) or ["none"]
+        n += 1
+        ok += e["cause"] in hidden
+        print(f"{spec.flight_id:22s} {spec.radar_id} snr={measured_snr_db(flight)[0]:5.1f} key={truth['effects'] or 'none'} "
+              f"named={e['cause']} {e['extension']['params'] if e['extension'] else ''}", flush=True)
+    print(f"named the switched-on effect (or none) for {ok}/{n} flights")
     return 0
 
 

@@ -19,7 +19,6 @@ from microdoppler.diagnosis import aggregate, diagnose, diagnose_flight
 from microdoppler.emulator.world import FlightSpec, emulate_flight, measured_snr_db
 from microdoppler.errors import InputError
 from microdoppler.flightzarr import write_flight
-from microdoppler.spectrogram import SpectrogramConfig
 
 N_HIDDEN = 4
 
@@ -160,3 +159,13 @@ def test_aggregate_keeps_frequent_causes_with_median_params():
     assert ext.effects == {"sideband_asymmetry": {"asymmetry_db": 4.0}}
     only = aggregate({"catalog": list(CATALOG), "flights": fl}, min_fraction=0.3, flight_ids={"f9", "f8"})
     assert set(only.effects) == {"motor_log_lag"}
+
+
+def test_cli_rejects_a_bad_store_in_one_line(tmp_path, capsys):
+    from microdoppler.cli import main
+
+    (tmp_path / "bad.zarr").mkdir()
+    rc = main(["diagnose", str(tmp_path / "bad.zarr"), "--out", str(tmp_path / "r.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "bad.zarr" in err[0]
+    assert not (tmp_path / "r.json").exists()

@@ -73,7 +73,7 @@ class TrainConfig:
     lr_gamma: float = 0.1
     max_epochs: int = 12
     exceed_limit: int = 10
-    reevaluate_train: bool = True
+    reevaluate_train: bool = False
     normalisation: Normalisation = Normalisation()
 
     def __post_init__(self):

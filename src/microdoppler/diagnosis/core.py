@@ -12,12 +12,12 @@ import json
 import os
 import tempfile
 import time
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
-from ..catalog import CATALOG, CAUSES
+from ..catalog import CATALOG
 from ..errors import ConfigError, InputError
 from ..flightzarr import read_flight
 from ..motorlog import MotorLog
