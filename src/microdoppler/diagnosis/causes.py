@@ -319,7 +319,7 @@ def test_body(M, cfg, fold) -> CauseTest:
     if p is not None:
         res.params = {"body_std_db": p[0]}
         res.effect = p[0]
-        res.relevant = p[0] >= cfg.margin_std_db
+        res.relevant = p[0] >= cfg.margin_body_std_db
         res.evidence["body_std_db"] = round(p[0], 2)
     return res
 

@@ -78,6 +78,7 @@ class DiagnosisConfig:
     body_smooth_cpis: int = 9
     margin_asymmetry_db: float = 1.5
     margin_std_db: float = 1.5
+    margin_body_std_db: float = 2.0
     margin_lag_s: float = 0.15
     margin_scale: float = 0.025
     margin_floor_rise_db: float = 3.0
