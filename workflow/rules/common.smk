@@ -131,6 +131,12 @@ def classifier_targets():
     ]
 
 
+# --- diagnosis (rules/diagnosis.smk) ---
+DIAGNOSIS_CODE = code_version(
+    "diagnosis", "extensions.py", "synthesis.py", "sampling.py", "catalog.py"
+)
+
+
 def figure_targets():
     return [
         "results/figures/fig2_herm_lines.png",
@@ -143,4 +149,5 @@ def all_targets():
     targets += figure_targets()
     targets += dataset_targets()
     targets += classifier_targets()
+    targets += ["results/diagnosis/report.json", "results/diagnosis/extended.yaml"]
     return targets

@@ -1,12 +1,8 @@
 # Diagnosis (issue 6): what the paper's simulation gets wrong about the measured
 # training drone flights, and the `extended` variant's model extensions.
-# Needs from common.smk: config (validated), MEASURED_DIR, code_version().
+# Needs from common.smk: config (validated), MEASURED_DIR, DIAGNOSIS_CODE.
 # Uses the outputs of ingest_motor_logs (results/motors/logs.zarr) and split_flights
 # (results/splits/flights.csv).
-
-DIAGNOSIS_CODE = code_version(
-    "diagnosis", "extensions.py", "synthesis.py", "sampling.py", "catalog.py"
-)
 
 
 rule diagnose_flights:
