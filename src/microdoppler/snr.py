@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spectrogram import Spectrogram
+from .spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 
 
 def noise_floor_db(spec: Spectrogram) -> np.ndarray:
@@ -52,3 +52,25 @@ def flight_snr_db(spec: Spectrogram, expected_hz=None, **kw) -> tuple[float, flo
     s = line_snr_db(spec, expected_hz, **kw)
     s = s[np.isfinite(s)]
     return float(np.mean(s)), float(np.std(s))
+
+
+def body_doppler_hz(track_time_s, radial_velocity_mps, wavelength_m: float, time_s) -> np.ndarray:
+    """Body Doppler [Hz] at ``time_s`` from the track (f = -2 v / lambda; + approaching)."""
+    v = np.interp(np.asarray(time_s, float), np.asarray(track_time_s, float), np.asarray(radial_velocity_mps, float))
+    return -2.0 * v / wavelength_m
+
+
+def flight_body_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(),
+                       search_hz: float = 10.0) -> np.ndarray:
+    """Body-line SNR of every spectrogram timestep of a flight (Table III's measure) [dB].
+
+    ``flight`` is a :class:`~microdoppler.flightzarr.Flight`; ``iq`` (default the
+    flight's own) is the signal to measure, e.g. a synthetic twin on the flight's track.
+    Returns an empty array for records shorter than one CPI.
+    """
+    iq = flight.iq if iq is None else iq
+    if len(iq) < spec_cfg.n_fft:
+        return np.empty(0)
+    spec = spectrogram(iq, flight.prf_hz, spec_cfg)
+    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
+    return line_snr_db(spec, body, search_hz=search_hz)

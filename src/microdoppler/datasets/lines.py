@@ -22,14 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..snr import line_snr_db
+from ..snr import body_doppler_hz, line_snr_db  # noqa: F401 (body_doppler_hz re-exported)
 from ..spectrogram import Spectrogram
 
 
-def body_doppler_hz(track_time_s, radial_velocity_mps, wavelength_m: float, time_s) -> np.ndarray:
-    """Body Doppler [Hz] at ``time_s`` from the track (f = -2 v / lambda; + approaching)."""
-    v = np.interp(np.asarray(time_s, float), np.asarray(track_time_s, float), np.asarray(radial_velocity_mps, float))
-    return -2.0 * v / wavelength_m
 
 
 def rotor_rate_at(rev_s: np.ndarray, time_s, prf_hz: float) -> tuple[np.ndarray, np.ndarray]:

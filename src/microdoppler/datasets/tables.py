@@ -12,20 +12,9 @@ import numpy as np
 import pandas as pd
 
 from ..flightzarr import Flight
-from ..spectrogram import SpectrogramConfig, spectrogram
-from .lines import body_doppler_hz, measure_lines
+from ..spectrogram import SpectrogramConfig
+from ..snr import flight_body_snr_db  # noqa: F401 (the one SNR measure, re-exported)
 from .split import CLASSES, SETS, n_images
-
-
-def flight_body_snr_db(flight: Flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig,
-                       search_hz: float = 10.0) -> np.ndarray:
-    """Body-line SNR of every spectrogram timestep of ``iq`` (default the flight's) [dB]."""
-    iq = flight.iq if iq is None else iq
-    if len(iq) < spec_cfg.n_fft:
-        return np.empty(0)
-    spec = spectrogram(iq, flight.prf_hz, spec_cfg)
-    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
-    return measure_lines(spec, body, None, search_hz=search_hz).body_db
 
 
 def flight_snr_row(flight: Flight, *, spec_cfg: SpectrogramConfig, search_hz: float = 10.0) -> dict:

@@ -16,8 +16,7 @@ import numpy as np
 from .. import synthesis
 from ..flightzarr import SCHEMA, Flight
 from ..radar import DRONE_MODELS
-from ..snr import flight_snr_db
-from ..spectrogram import spectrogram
+from ..snr import flight_body_snr_db
 from . import background as bg
 from .bird import KINDS, plan_group, render
 from .drone import DYNAMICS, loop_path, motor_speeds, write_log
@@ -315,7 +314,8 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
 
 
 def measured_snr_db(flight: Flight) -> tuple[float, float]:
-    """Mean and std over timesteps of the body line SNR with the pipeline's chain."""
-    spec = spectrogram(flight.iq, flight.prf_hz)
-    v = np.interp(spec.time_s, flight.track_time_s, flight.track_radial_velocity_mps)
-    return flight_snr_db(spec, -2.0 * v / flight.wavelength_m)
+    """Mean and std over timesteps of the body line SNR with the pipeline's chain
+    (:func:`microdoppler.snr.flight_body_snr_db`, the project's one SNR measure)."""
+    s = flight_body_snr_db(flight)
+    s = s[np.isfinite(s)]
+    return float(np.mean(s)), float(np.std(s))
