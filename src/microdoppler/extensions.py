@@ -43,6 +43,7 @@ import yaml
 from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
 from .errors import InputError
 from .motorlog import MotorLog
+from .processes import ou_process
 
 SCHEMA = "extensions/1"
 #: correlation time of the body fluctuation [s] (catalog: ~0.3 s)
@@ -98,17 +99,6 @@ def check_params(cause: str, params: Mapping | None, *, source="extensions") -> 
     return out
 
 
-def ou_db(n: int, dt_s: float, std_db: float, tau_s: float, rng: np.random.Generator) -> np.ndarray:
-    """Stationary Ornstein-Uhlenbeck process in dB: float64 [n] at spacing ``dt_s``
-    with standard deviation ``std_db`` and correlation time ``tau_s`` (exact AR(1))."""
-    from scipy.signal import lfilter
-
-    if n <= 0:
-        return np.zeros(0)
-    a = np.exp(-dt_s / tau_s)
-    w = rng.standard_normal(n) * std_db * np.sqrt(1 - a * a)
-    w[0] = rng.standard_normal() * std_db
-    return lfilter([1.0], [1.0, -a], w)
 
 
 def flat_phase_noise(n: int, prf_hz: float, rms_rad: float, rng: np.random.Generator,
@@ -145,7 +135,7 @@ class _GainHook:
 
     def __init__(self, duration_s: float, std_db: float, tau_s: float, rng: np.random.Generator):
         n = int(np.ceil(duration_s / GAIN_DT_S)) + 3
-        self.x_db = ou_db(n, GAIN_DT_S, std_db, tau_s, rng)
+        self.x_db = ou_process(n, GAIN_DT_S, std_db, tau_s, rng)
         self.grid = GAIN_DT_S * np.arange(n)
 
     def amplitude(self, t_s: np.ndarray) -> np.ndarray:

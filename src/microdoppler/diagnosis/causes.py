@@ -36,7 +36,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..catalog import PHASE_NOISE_BANDWIDTH_HZ
-from ..extensions import BODY_TIMESCALE_S, ou_db
+from ..extensions import BODY_TIMESCALE_S
+from ..processes import ou_process
 from .features import DB, cpi_average
 
 LOG2PI = np.log(2 * np.pi)
@@ -131,7 +132,7 @@ def _window_maps(n_t: int, hop_s: float, cpi_s: float, tau_s: float, smooth: int
     prf = 256 / cpi_s
     rng = np.random.default_rng(seed)
     grid = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 14.0])
-    base = np.array([ou_db(n, dt, 1.0, tau_s, rng) for _ in range(24)])
+    base = np.array([ou_process(n, dt, 1.0, tau_s, rng) for _ in range(24)])
     meas_sd, rho2 = [], []
     for g in grid:
         sds, rs = [], []

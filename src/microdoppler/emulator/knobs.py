@@ -30,6 +30,7 @@ from typing import Mapping
 import numpy as np
 
 from ..catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
+from ..processes import ou_process  # noqa: F401 (used here and re-exported)
 
 #: correlation time of the body_fluctuation knob [s] (catalog: ~0.3 s)
 BODY_FLUCTUATION_TAU_S = 0.3
@@ -81,17 +82,6 @@ def validate_effects(effects: Mapping | None) -> dict:
     return out
 
 
-def ou_process(n: int, dt_s: float, std: float, tau_s: float, rng: np.random.Generator) -> np.ndarray:
-    """Stationary Ornstein-Uhlenbeck process: float64 [n] at spacing ``dt_s``,
-    standard deviation ``std``, correlation time ``tau_s`` (exact discretisation)."""
-    if n <= 0:
-        return np.zeros(0)
-    a = np.exp(-dt_s / tau_s)
-    w = rng.standard_normal(n) * std * np.sqrt(1 - a * a)
-    w[0] = rng.standard_normal() * std
-    from scipy.signal import lfilter
-
-    return lfilter([1.0], [1.0, -a], w)
 
 
 class SlowGain:
