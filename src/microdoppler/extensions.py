@@ -30,8 +30,6 @@ the same seed gives the same result.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -42,6 +40,7 @@ import yaml
 
 from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
 from .errors import InputError
+from .flightzarr import atomic_file
 from .motorlog import MotorLog
 from .processes import ou_process
 
@@ -234,15 +233,8 @@ def load_extensions(path_yaml) -> ExtensionSet:
 def save_extensions(ext: ExtensionSet, path_yaml) -> Path:
     """Write ``ext`` as YAML, atomically (temporary sibling, then rename)."""
     path = Path(path_yaml)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            yaml.safe_dump(_plain(ext.to_dict()), fh, sort_keys=False)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    with atomic_file(path) as tmp:
+        tmp.write_text(yaml.safe_dump(_plain(ext.to_dict()), sort_keys=False))
     return path
 
 

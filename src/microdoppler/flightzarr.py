@@ -8,6 +8,7 @@ half-written store under the final name.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
@@ -240,6 +241,21 @@ def atomic_dir(final: Path):
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
     return final.parent / f".{final.name}.tmp-{uuid.uuid4().hex[:8]}"
+
+
+@contextlib.contextmanager
+def atomic_file(path):
+    """Write a file atomically: yields a temporary sibling path (same suffix) to write;
+    on success it is renamed to ``path``, on error removed. Parents are created."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp-{uuid.uuid4().hex[:8]}{path.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
 
 
 def commit_dir(tmp: Path, final: Path) -> None:

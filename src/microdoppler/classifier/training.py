@@ -231,15 +231,11 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
 
 def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trainset: str) -> None:
     """Save the kept model, its config and provenance to ``path`` (atomically)."""
-    import os
-    from pathlib import Path
+    from ..flightzarr import atomic_file
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    torch.save({"state_dict": result.model.state_dict(), "config": cfg.to_dict(), "seed": int(seed),
-                "trainset": trainset, "best_epoch": int(result.best_epoch)}, tmp)
-    os.replace(tmp, path)
+    with atomic_file(path) as tmp:
+        torch.save({"state_dict": result.model.state_dict(), "config": cfg.to_dict(), "seed": int(seed),
+                    "trainset": trainset, "best_epoch": int(result.best_epoch)}, tmp)
 
 
 def load_model(path) -> tuple[torch.nn.Module, TrainConfig]:

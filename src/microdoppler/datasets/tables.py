@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..flightzarr import Flight
+from ..flightzarr import Flight, atomic_file
 from ..spectrogram import SpectrogramConfig
 from ..snr import flight_body_snr_db  # noqa: F401 (the one SNR measure, re-exported)
 from .split import CLASSES, SETS, n_images
@@ -95,9 +95,6 @@ def aggregate_table_iv(paths) -> pd.DataFrame:
 
 def write_csv(df: pd.DataFrame, path) -> Path:
     """Write a CSV atomically (temporary file, then rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    df.to_csv(tmp, index=False)
-    tmp.replace(path)
-    return path
+    with atomic_file(path) as tmp:
+        df.to_csv(tmp, index=False)
+    return Path(path)

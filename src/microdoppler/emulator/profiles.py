@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..flightzarr import write_flight
+from ..flightzarr import atomic_file, write_flight
 from ..spectrogram import SpectrogramConfig
 from .world import FlightSpec, emulate_flight, measured_snr_db
 
@@ -142,15 +142,11 @@ def _emulate_one(spec: FlightSpec, out_dir: str) -> dict:
     log_rel = ""
     if flight.has_motor_log:
         log_rel = f"motor_logs/{spec.flight_id}.csv"
-        path = Path(out_dir) / log_rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
-        with open(tmp, "w", newline="") as fh:
+        with atomic_file(Path(out_dir) / log_rel) as tmp, open(tmp, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["time_s"] + [f"motor{m + 1}_rpm" for m in range(flight.motors_rpm.shape[1])])
             for ti, row in zip(flight.motors_time_s, flight.motors_rpm):
                 w.writerow([f"{ti:.4f}"] + [f"{v:.0f}" for v in row])
-        os.replace(tmp, path)
     return {"spec": spec, "truth": truth, "snr_mean": snr_mean, "snr_std": snr_std, "log": log_rel,
             "mean_range_m": float(np.mean(flight.track_range_m)), "seconds": time.perf_counter() - t0,
             "duration_s": flight.duration_s}
@@ -203,11 +199,8 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
                "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"], "spec": _spec_json(r["spec"]),
                                                  "truth": r["truth"], "measured_snr_db": r["snr_mean"],
                                                  "measured_snr_std_db": r["snr_std"]} for r in results}}
-        kp = Path(key_path)
-        kp.parent.mkdir(parents=True, exist_ok=True)
-        tmp = kp.with_name(f".{kp.name}.tmp")
-        tmp.write_text(json.dumps(key, indent=1, default=float))
-        os.replace(tmp, kp)
+        with atomic_file(key_path) as tmp:
+            tmp.write_text(json.dumps(key, indent=1, default=float))
     if progress:
         print(f"emulated {len(results)} flights, {flown:.0f} s of flight in {wall:.1f} s "
               f"({flown / max(wall, 1e-9):.1f} s of flight per s, {workers} workers)", file=sys.stderr)
@@ -216,10 +209,8 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
 
 def _write_table(path: Path, rows: list[dict], sep: str, header=None) -> None:
     header = header or (list(rows[0]) if rows else [])
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", newline="") as fh:
+    with atomic_file(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=header, delimiter=sep)
         w.writeheader()
         for r in rows:
             w.writerow(r)
-    os.replace(tmp, path)
