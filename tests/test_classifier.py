@@ -11,7 +11,7 @@ from microdoppler.classifier import (
     AlexNet, CompactCNN, Normalisation, TrainConfig, best_epoch, class_metrics, confusion_matrix,
     load_model, predict, predictions_table, save_model, seed_metrics, stop_epoch, train,
 )
-from microdoppler.classifier.data import TileSet, local_trainset, read_tiles, toy_tiles, write_tiles
+from microdoppler.classifier.data import TileSet, load_trainset, read_tiles, toy_tiles, write_tiles
 from microdoppler.classifier.reports import PAPER_FIG6, table_v, write_reports
 from microdoppler.errors import InputError
 
@@ -189,14 +189,15 @@ def test_config_validation():
 
 # --- tile stores, training-set recipe and reports -----------------------------------
 
-def test_local_trainset_replaces_large_drones(tmp_path):
+def test_trainset_replaces_large_drones(tmp_path):
     real = toy_tiles(60, seed=4, sets=SETS, n_bins=64, flight_tiles=2)
     twin = toy_tiles(60, seed=9, sets=SETS, n_bins=64, flight_tiles=2)
+    twin = twin.subset(twin.labels.drone_model.isin(["inspire2", "matrice300"]).to_numpy())  # a twin store
     write_tiles(tmp_path / "real.zarr", real)
     write_tiles(tmp_path / "sub_cpi.zarr", twin)
     back = read_tiles(tmp_path / "real.zarr")
     np.testing.assert_array_equal(back.images, real.images)
-    tr, va, te = local_trainset("sub_cpi", tmp_path)
+    tr, va, te = load_trainset("sub_cpi", tmp_path)
     large = ("inspire2", "matrice300")
     # large drones come from the twin store, everything else from the measured one
     got = tr.images[tr.labels.drone_model.isin(large).to_numpy()]
@@ -241,18 +242,14 @@ def test_table_v_and_extended_gain(rng, tmp_path):
     assert cm[["predicted_bird", "predicted_drone"]].to_numpy().sum() == pytest.approx(60)
 
 
-def test_load_trainset_matches_local_recipe(tmp_path):
-    """microdoppler.datasets.load_trainset (when built) and the local reader agree."""
-    from microdoppler.classifier.data import load_trainset
+def test_real_trainset_is_measured_train_and_validation(tmp_path):
+    """``real`` = the measured train and validation tiles; test = the measured test tiles."""
     real = toy_tiles(60, seed=4, sets=SETS, n_bins=64, flight_tiles=2)
-    twin = toy_tiles(60, seed=9, sets=SETS, n_bins=64, flight_tiles=2)
-    twin = twin.subset(twin.labels.drone_model.isin(["inspire2", "matrice300"]).to_numpy())
     write_tiles(tmp_path / "real.zarr", real)
-    write_tiles(tmp_path / "sub_cpi.zarr", twin)
-    for name in ("real", "sub_cpi"):
-        for a, b in zip(load_trainset(name, tmp_path), local_trainset(name, tmp_path)):
-            assert sorted(map(bytes, a.images)) == sorted(map(bytes, b.images))
-            np.testing.assert_array_equal(np.sort(a.y), np.sort(b.y))
+    for got, s in zip(load_trainset("real", tmp_path), ("train", "validation", "test")):
+        want = real.subset((real.labels.set == s).to_numpy())
+        assert sorted(map(bytes, got.images)) == sorted(map(bytes, want.images))
+        np.testing.assert_array_equal(np.sort(got.y), np.sort(want.y))
 
 
 def test_training_without_validation_tiles(tiny_tiles):

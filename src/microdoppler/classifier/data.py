@@ -3,7 +3,7 @@
 A tile store ``results/tiles/{dataset}.zarr`` holds ``images`` (float32
 [n, 20, 480], dB) and ``labels.csv`` (index, flight_id, set, target,
 drone_model, radar_id, snr_db). :func:`load_trainset` prefers
-``microdoppler.datasets.load_trainset`` (issue 4) and falls back to a local
+``microdoppler.datasets.load_trainset`` (issue 4); formerly it fell back to a local
 reading of the stores with the same recipe (workflow/README.md):
 
 * ``real``: measured train and validation tiles;
@@ -83,58 +83,34 @@ def as_tileset(obj) -> TileSet:
 
 
 def read_tiles(path) -> TileSet:
-    """Read a tile store ``{dataset}.zarr`` (``images`` + ``labels.csv``)."""
-    import zarr
+    """Read a tile store ``{dataset}.zarr`` (``images`` + ``labels.csv``) with
+    :func:`microdoppler.datasets.tiles.read_tiles`, checking the class labels."""
+    from ..datasets.tiles import read_tiles as _read
 
-    path = Path(path)
-    if not (path / "labels.csv").exists():
-        raise InputError(path, "labels.csv", "missing", "a tile store from tile_spectrograms")
-    labels = pd.read_csv(path / "labels.csv", keep_default_na=False,
-                         dtype={"flight_id": str, "drone_model": str, "radar_id": str})
+    images, labels = _read(path)
     missing = [c for c in ("set", "target") if c not in labels.columns]
     if missing:
-        raise InputError(path / "labels.csv", ",".join(missing), "missing column", ", ".join(LABEL_COLUMNS))
+        raise InputError(Path(path) / "labels.csv", ",".join(missing), "missing column", ", ".join(LABEL_COLUMNS))
     bad = sorted(set(labels["target"]) - set(CLASSES))
     if bad:
-        raise InputError(path / "labels.csv", "target", f"has values {bad}", "bird or drone")
-    images = np.asarray(zarr.open_group(str(path), mode="r")["images"][:], dtype=np.float32)
-    if images.ndim != 3 or len(images) != len(labels):
-        raise InputError(path, "images", f"has shape {images.shape} for {len(labels)} labels",
-                         "float32 [n, n_timesteps, n_bins], one per labels.csv row")
+        raise InputError(Path(path) / "labels.csv", "target", f"has values {bad}", "bird or drone")
     if "index" in labels.columns:
         idx = labels["index"].to_numpy()
         if np.array_equal(np.sort(idx), np.arange(len(idx))):
             images = images[idx]  # rows of labels.csv may be in any order
-    return TileSet(images, labels)
-
-
-def local_trainset(name: str, tiles_dir) -> tuple[TileSet, TileSet, TileSet]:
-    """(train, validation, test) for training set ``name``, read from the tile stores."""
-    tiles_dir = Path(tiles_dir)
-    real = read_tiles(tiles_dir / "real.zarr")
-    test = real.subset(real.labels["set"] == "test")
-    if name == "real":
-        keep = real
-    else:
-        twin = read_tiles(tiles_dir / f"{name}.zarr")
-        large = real.labels["drone_model"].isin(LARGE_DRONES)
-        keep = TileSet.concat([real.subset(~large.to_numpy()),
-                               twin.subset(twin.labels["drone_model"].isin(LARGE_DRONES).to_numpy())])
-    train = keep.subset(keep.labels["set"] == "train")
-    val = keep.subset(keep.labels["set"] == "validation")
-    for part, what in ((train, "train"), (test, "test")):  # validation may be empty (tiny worlds)
-        if len(part) == 0:
-            raise InputError(tiles_dir, f"{name}/{what}", "has no tiles", "at least one tile")
-    return train, val, test
+    return TileSet(np.asarray(images, dtype=np.float32), labels)
 
 
 def load_trainset(name: str, tiles_dir) -> tuple[TileSet, TileSet, TileSet]:
-    """(train, validation, test) for ``name``: ``microdoppler.datasets`` when built, else local."""
-    try:
-        from ..datasets import load_trainset as _load  # issue 4
-    except ImportError:
-        return local_trainset(name, tiles_dir)
-    return tuple(as_tileset(p) for p in _load(name, tiles_dir))
+    """(train, validation, test) for ``name``: the recipe of
+    :func:`microdoppler.datasets.load_trainset`, as classifier :class:`TileSet` s."""
+    from ..datasets import load_trainset as _load
+
+    parts = tuple(as_tileset(p) for p in _load(name, tiles_dir))
+    for part, what in ((parts[0], "train"), (parts[2], "test")):  # validation may be empty (tiny worlds)
+        if len(part) == 0:
+            raise InputError(tiles_dir, f"{name}/{what}", "has no tiles", "at least one tile")
+    return parts
 
 
 def toy_tiles(n: int, *, seed: int, sets=("train",), n_timesteps: int = 20, n_bins: int = 480,
