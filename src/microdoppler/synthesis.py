@@ -36,20 +36,21 @@ Two ways to apply the envelope (``synthesize(envelope_method=...)``):
   harmonic n sits at Doppler n f_m relative to the body, so H is exactly the
   per-harmonic gain exp(-alpha |n f_m|). We tabulate
   G_alpha(phi; f) = sum_n c_n exp(-alpha |n f|) exp(j n phi) over one period 1/B
-  turn (``ENVELOPE_TABLE_SIZE`` = 4096 angles, nearest lookup of the B-fold angle
-  B phi) on a global grid of speeds (``ENVELOPE_SPEED_STEP`` = 1 rev/s; each
-  pulse interpolates linearly between the two grid speeds around its motor's speed,
-  read every ``ENVELOPE_SPEED_STRIDE`` = 16 pulses). A pulse costs two lookups per
-  motor and no FFT. This is a *quasi-static* envelope: it uses each motor's current
+  turn (``ENVELOPE_TABLE_SIZE`` = 2048 angles, nearest lookup of the B-fold angle
+  B phi) on a global grid of speeds (``ENVELOPE_SPEED_STEP`` = 0.25 rev/s; each
+  pulse uses the grid speed nearest its motor's speed, read every
+  ``ENVELOPE_SPEED_STRIDE`` = 16 pulses). A pulse costs one lookup per motor and
+  no FFT, like alpha = 0. This is a *quasi-static* envelope: it uses each motor's current
   speed, where the linear filter would mix the speeds within its impulse response (a
   Lorentzian of half-width alpha / (2 pi) s, ~1 ms at alpha = 5.5e-3 s). Measured
   against the FFT filter (record interior, one FFT over the whole record, 4 motors,
   Inspire blade, L-band, PRF 7300 Hz; max |difference| / max |x|, rms ratio):
-  constant speeds 3.7e-4 / 1.8e-4 at alpha = 5.5e-3 s (9e-4 / 8e-4 at 1e-3 s,
-  where more harmonics survive the envelope and the 4096-angle table dominates);
+  constant speeds 1.1e-3 / 6e-4 at alpha = 5.5e-3 s (2.7e-3 / 1.8e-3 at 1e-3 s,
+  where more harmonics survive the envelope and the 2048-angle table dominates);
   speeds drifting +-5 rev/s over 7-13 s (a flying quadcopter) the same; fast sweeps
-  (+-20 rev/s over 1-2 s) 1.2e-3 / 4e-4; the PX4 sample motor log
-  (data/motor-logs, 22-50 rev/s, sub-CPI resampled) 1.0e-3 / 5e-4. Differences
+  (+-20 rev/s over 1-2 s) 1.7e-3 / 6e-4; the PX4 sample motor log
+  (data/motor-logs, 24-49 rev/s, sub-CPI resampled) 2.0e-3 / 1.3e-3, i.e. errors
+  50-60 dB below the signal. Differences
   from the FFT filter by design: the gain is applied at the true Doppler n f_m (the
   FFT filter sees it aliased into +-prf/2; irrelevant once exp(-alpha prf/2) is
   negligible), there are no edge effects (the FFT filter takes the blade signal as
@@ -72,6 +73,8 @@ from typing import Callable, Sequence
 import numpy as np
 import scipy.fft as sfft
 from scipy.interpolate import CubicSpline
+
+from .radar import SPEED_OF_LIGHT_MPS
 
 TABLE_SIZE = 1 << 16
 
@@ -109,6 +112,51 @@ class BladeModel:
     def table(self) -> np.ndarray:
         """G over one revolution: complex64 [table_size] at angles 2 pi i / table_size."""
         return _rotor_table(self.n_blades, self.blade_length_m, self.wavelength_m, self.table_size)
+
+
+#: blade scattering models (:func:`blade_scattering_gain`)
+BLADE_SCATTERING = ("thin_wire", "dielectric")
+#: reference of the dielectric model: the paper's Inspire blade (Fig. 2, Table II)
+#: at its L-band carrier, where the two models give the same blade amplitude
+DIELECTRIC_REF_LENGTH_M = 0.19
+DIELECTRIC_REF_WAVELENGTH_M = SPEED_OF_LIGHT_MPS / 1.35e9
+
+
+def blade_scattering_gain(blade_length_m: float, wavelength_m: float, model: str = "thin_wire") -> float:
+    """Blade echo amplitude relative to eq. (1)'s thin wire of the same length.
+
+    ``thin_wire`` (eq. 1, the paper's model): 1. A perfectly conducting thin wire
+    scatters with a current per unit length that does not depend on its thickness
+    (only logarithmically on L / lambda), so the broadside echo grows as L and the
+    first HERM harmonic, c_B ~ (1 - J0(k L)) / k with k = 4 pi / lambda, hardly
+    depends on L once k L > 3: the 0.06 m Mini blade's first sideband pair sits only
+    ~2 dB below the 0.19 m Inspire blade's.
+
+    ``dielectric``: a plastic blade is a thin low-contrast dielectric rod (chord and
+    thickness << lambda). In the Rayleigh-Gans approximation each length element ds
+    is a small dipole of polarisability ~ (eps_r - 1) A ds (A: cross-section) that
+    radiates ~ k^2 times it, and summing the elements along the blade gives eq. (1)'s
+    pattern L sinc(.) exp(.) times k^2 (eps_r - 1) A instead of a size-independent
+    factor. Propellers of one family scale about geometrically (chord and thickness
+    proportional to L), so A ~ L^2 and the echo gains a factor ~ (L / lambda)^2:
+    small blades at L-band scatter much less than eq. (1) says, which is why the
+    paper's Mini shows no micro-Doppler. Normalised to 1 for the
+    ``DIELECTRIC_REF_LENGTH_M`` = 0.19 m blade at ``DIELECTRIC_REF_WAVELENGTH_M``
+    (1.35 GHz), so S_blade keeps its meaning for the Inspire:
+
+        gain = (L / 0.19 m)^2 (lambda_ref / lambda)^2
+
+    (Mini, 0.06 m: -20.0 dB; Matrice, 0.22 m: +2.5 dB, at 1.35 GHz). Valid while
+    the blade cross-section is thin compared with lambda / sqrt(eps_r); resonance of
+    blades about as long as lambda / 2 is in neither model.
+    """
+    if model not in BLADE_SCATTERING:
+        raise ValueError(f"blade_scattering={model!r} must be one of {BLADE_SCATTERING}")
+    if not blade_length_m > 0 or not wavelength_m > 0:
+        raise ValueError(f"blade_length_m={blade_length_m} and wavelength_m={wavelength_m} must be > 0")
+    if model == "thin_wire":
+        return 1.0
+    return float((blade_length_m / DIELECTRIC_REF_LENGTH_M) ** 2 * (DIELECTRIC_REF_WAVELENGTH_M / wavelength_m) ** 2)
 
 
 _TABLES: dict = {}
@@ -202,18 +250,23 @@ def envelope_response(n: int, prf_hz: float, alpha_s: float) -> np.ndarray:
 
 
 #: speed grid of the harmonic envelope tables [rev/s]: a motor at speed f uses the
-#: tables of the grid speeds k step <= f < (k + 1) step, interpolated linearly in f
-#: (gain error of harmonic n <= (alpha n step)^2 / 8 exp(-alpha n f), i.e. <= step^2 /
-#: (2 e^2 f^2) relative: 3e-5 at 1 rev/s and 90 rev/s, 6e-4 at 22 rev/s)
-ENVELOPE_SPEED_STEP = 1.0
+#: table of the nearest grid speed k step (|f - k step| <= step / 2), so the gain of
+#: harmonic n is off by at most a factor exp(alpha |n| step / 2): 0.28 % (0.024 dB)
+#: for the first pair of a 2-blade rotor at alpha = 5.5e-3 s, relative to a line
+#: already attenuated by exp(-alpha |n| f). A nearest row costs one lookup per motor
+#: and pulse (linear interpolation in speed would cost two and a multiply). Finer
+#: steps cost speed: a motor then leaves its row before the row's cache lines are
+#: reused (0.125 rev/s with 4096 angles: 1.6x slower than 0.25 with 2048)
+ENVELOPE_SPEED_STEP = 0.25
 #: angles per harmonic envelope table over one table period (1/B revolution), nearest
-#: lookup of the B-fold angle: 4096 B per revolution (B = 2: 8192, the main error:
-#: ~2e-4 rms, ~4e-4 max of max|x| at alpha = 5.5e-3 s; ~8e-4 rms at alpha = 1e-3 s,
-#: where more harmonics survive); small rows keep the lookups in the L2 cache
-ENVELOPE_TABLE_SIZE = 1 << 12
-#: most speed bins kept at once (4096 x 8 B x 2 (table and difference) each: 1024
-#: bins = 64 MiB); beyond this the cache is rebuilt for the current chunk's speeds
-ENVELOPE_MAX_BINS = 1024
+#: lookup of the B-fold angle: 2048 B per revolution (B = 2: 4096). Against the FFT
+#: filter (4 motors, Inspire blade): ~7e-4 rms, ~1.3e-3 max of max|x| at alpha =
+#: 5.5e-3 s; ~1.8e-3 rms, 2.5e-3 max at alpha = 1e-3 s, where more harmonics survive
+#: (-55 dB: far below any line a spectrogram shows); 16 KiB rows stay in the L2 cache
+ENVELOPE_TABLE_SIZE = 1 << 11
+#: most speed bins kept at once (2048 x 8 B each: 2048 bins = 32 MiB, a 512 rev/s
+#: span at 0.25 rev/s); beyond this the cache is rebuilt for the current chunk's speeds
+ENVELOPE_MAX_BINS = 2048
 #: the speed of each motor is read every this many pulses (on a global grid) and held
 #: in between: 16 pulses = 2.2 ms at 7.3 kHz, over which a motor's speed changes by
 #: ~0.01 rev/s at 5 rev/s^2
@@ -251,7 +304,6 @@ class _HarmonicTables:
         self.step = float(step)
         self.k0, self.k1 = 0, -1  # bins held: k0..k1
         self.table = np.empty((0, size), np.complex64)
-        self.diff = self.table
 
     def rows(self, ks: np.ndarray) -> np.ndarray:
         """G_alpha at the speeds ks * step: complex64 [len(ks), size]."""
@@ -278,9 +330,6 @@ class _HarmonicTables:
             if len(sel):
                 new[sel] = self.rows(ks[sel])
         self.k0, self.k1, self.table = lo, hi, new
-        # row j: table[j + 1] - table[j], for linear interpolation in speed (last row: 0)
-        self.diff = np.zeros_like(new)
-        np.subtract(new[1:], new[:-1], out=self.diff[:-1])
 
 
 Hook = Callable[[int, int, np.ndarray, np.ndarray], None]
@@ -308,12 +357,32 @@ def _increments(rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarra
     """Per-pulse phase increments ``rates * scale`` as uint32 modulo 2**32
     (``in_range``: the caller has checked 0 <= rates * scale < 2**32)."""
     n = rates.shape[0]
+    if in_range:  # one fused pass: the product is cast (truncated) straight to uint32
+        return np.multiply(rates, scale, out=out[:n], casting="unsafe")
     f = np.multiply(rates, scale, out=f64[:n])
-    if n and not in_range and (f.max() >= PHASE_ONE or f.min() < 0):  # |rate| >= prf or reverse rotation
+    if n and (f.max() >= PHASE_ONE or f.min() < 0):  # |rate| >= prf or reverse rotation
         np.copyto(out[:n], np.mod(np.floor(f), PHASE_ONE).astype(np.int64), casting="unsafe")
     else:
         np.copyto(out[:n], f, casting="unsafe")  # truncation: bias 2**-33 rev per pulse
     return out[:n]
+
+
+
+def _add_row_offsets(idx: np.ndarray, start: int, q: int, koff: np.ndarray) -> None:
+    """idx[i] += koff[(start + i) // q] in place, without a per-pulse offset array:
+    the pulses of each stride of q share one speed row (head and tail strides may be
+    partial)."""
+    n = idx.shape[0]
+    j = start // q
+    head = min(n, (-start) % q)
+    if head:
+        idx[:head] += koff[j]
+        j += 1
+    full = (n - head) // q
+    if full:
+        idx[head:head + full * q].reshape(full, q)[...] += koff[j:j + full, None]
+    if head + full * q < n:
+        idx[head + full * q:] += koff[j + full]
 
 
 def _carrier_phase(track: "Track", a: int, b: int, prf_hz: float, wavelength_m: float, half: int,
@@ -354,6 +423,7 @@ def synthesize(
     out: np.ndarray | None = None,
     progress: Callable[[int, int], None] | None = None,
     envelope_method: str = "auto",
+    blade_scattering: str = "thin_wire",
 ) -> np.ndarray:
     """Synthesise the drone echo of eq. (2) without background or noise.
 
@@ -399,6 +469,11 @@ def synthesize(
         ``ENVELOPE_SPEED_STEP`` rev/s; quasi-static, no FFT); "fft" filters m(t) with
         H(f) per chunk (overlap-save). "auto" (default): "fft" if ``envelope`` is
         given, else "harmonic".
+    blade_scattering : {"thin_wire", "dielectric"}
+        Blade echo model (:func:`blade_scattering_gain`): eq. (1)'s thin wire
+        (default, the paper's model) or thin plastic blades, whose echo falls as
+        (L / lambda)^2 below eq. (1) for small blades (normalised to the 0.19 m blade
+        at 1.35 GHz). The gain multiplies S_blade.
 
     Returns
     -------
@@ -426,6 +501,7 @@ def synthesize(
         raise ValueError(f"envelope_method={envelope_method!r} must be one of {ENVELOPE_METHODS}")
     if envelope_method == "harmonic" and envelope is not None:
         raise ValueError("envelope_method='harmonic' does not take an envelope callable; use 'fft' or 'auto'")
+    s_blade = scaling.s_blade * blade_scattering_gain(blade_length_m, wavelength_m, blade_scattering)
     if out is None:
         out = np.empty(n_total, np.complex64)
     table = _rotor_table(n_blades, blade_length_m, wavelength_m, TABLE_SIZE)
@@ -479,10 +555,6 @@ def synthesize(
     cph = np.empty((-(-min(chunk, n_total) // CARRIER_STEP) + 1) * CARRIER_STEP, np.uint32)
     cidx = np.empty(cph.shape[0], np.intp)
     car = np.empty(cph.shape[0], np.complex64)
-    if harmonic:
-        kb_buf = np.empty((n_motors, blk + 2 * ENVELOPE_SPEED_STRIDE), np.intp)
-        wt_buf = np.empty((n_motors, 2 * (blk + 2 * ENVELOPE_SPEED_STRIDE)), np.float32)
-        tmp1 = np.empty(sub, np.complex64)
     nfft = None
     H = None
     for i0 in range(0, n_total, chunk):
@@ -495,24 +567,17 @@ def synthesize(
             if harmonic:
                 # speed bin k (nearest k * step) of each motor on the global grid of every
                 # ENVELOPE_SPEED_STRIDE-th pulse, held for the next stride (the same for any
-                # chunking) -> per-pulse column k - k0 of the angle-major table
+                # chunking) -> row offset (k - k0) * size into the flat speed-major table
                 q = ENVELOPE_SPEED_STRIDE
                 g0 = a - a % q
                 r_read = np.asarray(rev_s[g0:b])  # one read per chunk
                 r_all = r_read[a - g0:]
-                x = np.asarray(r_read[::q], np.float64).T * inv_step
-                kf = np.floor(x)
+                kf = np.rint(np.asarray(r_read[::q], np.float64).T * inv_step)
                 if not np.all(np.isfinite(kf)):
                     raise ValueError(f"rev_s has non-finite speeds in pulses [{g0}, {b})")
-                henv.cover(int(kf.min()), int(kf.max()) + 1)
-                koff = ((kf - henv.k0) * henv.size).astype(np.intp)
-                ng = koff.shape[1]
-                kb_buf[:, : ng * q].reshape(n_motors, ng, q)[...] = koff[:, :, None]
-                wt_buf[:, : 2 * ng * q].reshape(n_motors, ng, 2 * q)[...] = (x - kf).astype(np.float32)[:, :, None]
-                kb = kb_buf[:, a - g0: b - g0]
-                wt = wt_buf[:, 2 * (a - g0): 2 * (b - g0)]  # weight of bin k + 1, twice per pulse
+                henv.cover(int(kf.min()), int(kf.max()))
+                koff = ((kf - henv.k0) * henv.size).astype(np.intp)  # [n_motors, segments]
                 rtab = henv.table.reshape(-1)
-                rdiff = henv.diff.reshape(-1)  # next speed bin minus this one, same angle
             else:
                 r_all = np.asarray(rev_s[a:b])  # one read per chunk (Zarr: each stored chunk decoded once)
                 rtab = table
@@ -540,21 +605,13 @@ def synthesize(
                     p += np.uint32(cur[k])
                     cur[k] = (int(p[-1]) + int(d[-1])) & (PHASE_ONE - 1)
                     np.right_shift(p, rshift, out=idx[:n], casting="unsafe")
-                    if harmonic:  # linear interpolation between the speed bins k and k + 1
-                        ii = idx[:n]
-                        ii += kb[k, s0 - a:s1 - a]
-                        t0 = m[s0 - a:s1 - a] if k == 0 else tmp[:n]
-                        np.take(rtab, ii, out=t0)
-                        t1 = np.take(rdiff, ii, out=tmp1[:n])
-                        # (re, im) times the weight stored twice per pulse: float32 x float32
-                        np.multiply(t1.view(np.float32), wt[k, 2 * (s0 - a):2 * (s1 - a)], out=t1.view(np.float32))
-                        t0 += t1
-                        if k > 0:
-                            m[s0 - a:s1 - a] += t0
-                    elif k == 0:
-                        np.take(rtab, idx[:n], out=m[s0 - a:s1 - a])
+                    if harmonic:
+                        _add_row_offsets(idx[:n], s0 - g0, q, koff[k])
+                    # indices are in range by construction; "clip" skips numpy's bounds check
+                    if k == 0:
+                        np.take(rtab, idx[:n], out=m[s0 - a:s1 - a], mode="clip")
                     else:
-                        np.take(rtab, idx[:n], out=tmp[:n])
+                        np.take(rtab, idx[:n], out=tmp[:n], mode="clip")
                         m[s0 - a:s1 - a] += tmp[:n]
             if b == i1:
                 ph_i0 = cur
@@ -576,8 +633,8 @@ def synthesize(
         blade = m[s:e]
         tt = (np.arange(i0, i1, dtype=np.float64) / prf_hz
               if (blade_hook is not None or body_hook is not None) else None)
-        if scaling.s_blade != 1:
-            blade *= np.float32(scaling.s_blade)
+        if s_blade != 1:
+            blade *= np.float32(s_blade)
         if blade_hook is not None:
             blade_hook(i0, i1, tt, blade)
         if body_hook is not None:
@@ -588,7 +645,7 @@ def synthesize(
             blade += np.float32(scaling.s_body)
         cp = _carrier_phase(track, i0, i1, prf_hz, wavelength_m, half, cph)
         ci = np.right_shift(cp, shift, out=cidx[: i1 - i0], casting="unsafe")
-        c = np.take(carrier, ci, out=car[: i1 - i0])
+        c = np.take(carrier, ci, out=car[: i1 - i0], mode="clip")
         np.multiply(blade, c, out=out[i0:i1])
         if progress is not None:
             progress(i1, n_total)

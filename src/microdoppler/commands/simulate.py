@@ -1,7 +1,8 @@
 """``microdoppler simulate --out STORE.zarr``: write a synthetic flight-zarr/1 store.
 
 The echo is eq. (2) of the paper (thin-wire blades of eq. 1 summed over motors and
-blades, body return, alpha envelope) from :func:`microdoppler.synthesis.synthesize`,
+blades, body return, alpha envelope; ``--blade-scattering dielectric`` scales the
+blade echo for plastic blades) from :func:`microdoppler.synthesis.synthesize`,
 driven by constant per-motor speeds (``--motor-hz``) or a motor log (``--motor-log``,
 resampled to the PRF with ``--variant``), along a constant-velocity track or a track
 CSV (``time_s``, ``range_m``).
@@ -28,7 +29,7 @@ from ..flightzarr import Flight, write_flight
 from ..motorlog import read_motor_log, read_motor_store
 from ..radar import Radar
 from ..sampling import VARIANTS, SamplingConfig, resample
-from ..synthesis import Scaling, Track, add_noise, synthesize
+from ..synthesis import BLADE_SCATTERING, Scaling, Track, add_noise, synthesize
 
 SRC = "simulate"
 PROGRESS_MIN_PULSES = 1 << 21  # report progress on stderr for longer runs
@@ -54,6 +55,9 @@ def register(subparsers) -> None:
     p.add_argument("--carrier-hz", type=float, default=1.35e9, help="carrier frequency [Hz] (default 1.35e9)")
     p.add_argument("--blade-length-m", type=float, default=0.19, help="blade length, hub to tip [m] (default 0.19)")
     p.add_argument("--n-blades", type=int, default=2, help="blades per rotor (default 2)")
+    p.add_argument("--blade-scattering", choices=BLADE_SCATTERING, default="thin_wire",
+                   help="blade echo model: thin_wire (eq. 1, default) or dielectric (plastic blades: echo ~ "
+                        "(L/lambda)^2 below eq. 1, normalised to the 0.19 m blade at 1.35 GHz)")
     p.add_argument("--drone-model", default="inspire2", help="drone_model attribute (default inspire2)")
     p.add_argument("--duration-s", type=float, default=None,
                    help="flight duration [s] (default: the motor log's or track's span, else 10 s)")
@@ -173,7 +177,8 @@ def run(args) -> int:
 
     scaling = Scaling(s_body=args.s_body, s_blade=args.s_blade, alpha_s=args.alpha)
     iq = synthesize(rev_s, track, prf_hz=args.prf_hz, wavelength_m=radar.wavelength_m, n_blades=args.n_blades,
-                    blade_length_m=args.blade_length_m, scaling=scaling, seed=args.seed, progress=progress)
+                    blade_length_m=args.blade_length_m, scaling=scaling, seed=args.seed, progress=progress,
+                    blade_scattering=args.blade_scattering)
     noise_power = None
     if args.snr_db is not None:
         noise_power = args.s_body ** 2 / 10 ** (args.snr_db / 10)
@@ -189,7 +194,8 @@ def run(args) -> int:
         "schema": "flight-zarr/1", "flight_id": flight_id, "target": "drone", "radar_id": "simulated",
         "prf_hz": float(args.prf_hz), "carrier_hz": float(args.carrier_hz), "drone_model": args.drone_model,
         "n_motors": int(n_motors), "n_blades": int(args.n_blades), "blade_length_m": float(args.blade_length_m),
-        "simulation": {"alpha_s": args.alpha, "s_body": args.s_body, "s_blade": args.s_blade, "seed": args.seed,
+        "simulation": {"alpha_s": args.alpha, "s_body": args.s_body, "s_blade": args.s_blade,
+                       "blade_scattering": args.blade_scattering, "seed": args.seed,
                        "snr_db": args.snr_db, "snr_definition": "body power per pulse / noise power per pulse",
                        "noise_power": noise_power, **sim_log},
     }
