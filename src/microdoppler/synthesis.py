@@ -251,7 +251,7 @@ def envelope_response(n: int, prf_hz: float, alpha_s: float) -> np.ndarray:
 
 #: speed grid of the harmonic envelope tables [rev/s]: a motor at speed f uses the
 #: table of the nearest grid speed k step (|f - k step| <= step / 2), so the gain of
-#: harmonic n is off by at most a factor exp(alpha |n| step / 2): 0.28 % (0.024 dB)
+#: harmonic n is off by at most a factor exp(alpha |n| step / 2): 0.14 % (0.012 dB)
 #: for the first pair of a 2-blade rotor at alpha = 5.5e-3 s, relative to a line
 #: already attenuated by exp(-alpha |n| f). A nearest row costs one lookup per motor
 #: and pulse (linear interpolation in speed would cost two and a multiply). Finer
