@@ -74,7 +74,7 @@ import numpy as np
 import scipy.fft as sfft
 from scipy.interpolate import CubicSpline
 
-from .radar import SPEED_OF_LIGHT_MPS
+from .radar import DRONE_MODELS, Radar
 
 TABLE_SIZE = 1 << 16
 
@@ -116,10 +116,10 @@ class BladeModel:
 
 #: blade scattering models (:func:`blade_scattering_gain`)
 BLADE_SCATTERING = ("thin_wire", "dielectric")
-#: reference of the dielectric model: the paper's Inspire blade (Fig. 2, Table II)
-#: at its L-band carrier, where the two models give the same blade amplitude
-DIELECTRIC_REF_LENGTH_M = 0.19
-DIELECTRIC_REF_WAVELENGTH_M = SPEED_OF_LIGHT_MPS / 1.35e9
+#: reference of the dielectric model: the paper's Inspire blade (Fig. 2, Table II,
+#: 0.19 m) at its L-band carrier (1.35 GHz), where both models give the same amplitude
+DIELECTRIC_REF_LENGTH_M = DRONE_MODELS["inspire2"].blade_length_m
+DIELECTRIC_REF_WAVELENGTH_M = Radar().wavelength_m
 
 
 def blade_scattering_gain(blade_length_m: float, wavelength_m: float, model: str = "thin_wire") -> float:
@@ -365,7 +365,6 @@ def _increments(rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarra
     else:
         np.copyto(out[:n], f, casting="unsafe")  # truncation: bias 2**-33 rev per pulse
     return out[:n]
-
 
 
 def _add_row_offsets(idx: np.ndarray, start: int, q: int, koff: np.ndarray) -> None:

@@ -416,7 +416,6 @@ def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
     region = (np.abs(f) >= cfg.pn_inner_hz) & (np.abs(f) <= cfg.pn_outer_hz)
     cols = np.flatnonzero(region)[:: cfg.pn_bin_step]
     rows = np.flatnonzero(M.valid)[::2]  # non-overlapping CPIs
-    use = np.flatnonzero(usable_pairs(M, cfg))
     P, S, K, F = [], [], [], []
     clutter = (np.abs(f) <= cfg.pn_clutter_line_hz)
     bw = PHASE_NOISE_BANDWIDTH_HZ

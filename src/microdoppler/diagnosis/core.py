@@ -9,8 +9,6 @@ likelihood test per cause (:mod:`.causes`) and returns the report entry of
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -19,7 +17,7 @@ import numpy as np
 
 from ..catalog import CATALOG
 from ..errors import ConfigError, InputError
-from ..flightzarr import read_flight
+from ..flightzarr import atomic_file, read_flight
 from ..motorlog import MotorLog
 from . import causes as C
 from .measure import measure
@@ -249,17 +247,10 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
 
 
 def write_json(obj, path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=1)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    """Write ``obj`` as JSON, atomically (:func:`flightzarr.atomic_file`)."""
+    with atomic_file(path) as tmp:
+        tmp.write_text(json.dumps(obj, indent=1))
+    return Path(path)
 
 
 def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None,

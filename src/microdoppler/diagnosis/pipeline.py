@@ -10,10 +10,8 @@ import pandas as pd
 
 from ..errors import InputError
 from ..extensions import save_extensions
-from ..flightzarr import read_flight
 from .aggregate import aggregate
-from .core import DiagnosisConfig, diagnose_flight, write_json
-from ..catalog import CATALOG
+from .core import DiagnosisConfig, diagnose
 
 #: keys of the ``diagnosis:`` config section that are pipeline settings, not
 #: :class:`DiagnosisConfig` fields
@@ -35,27 +33,19 @@ def _training_drones(split_csv, sets) -> pd.DataFrame:
 
 
 def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print) -> dict:
-    """Diagnose the drone flights of ``settings['sets']`` (default: train) that have an
-    ingested motor log; skipped flights are logged."""
+    """Diagnose the drone flights of ``settings['sets']`` (default: train) with
+    :func:`.core.diagnose`, using their ingested motor logs (or the stores' own);
+    flights without a log are skipped (logged)."""
     from ..inventory import read_ingested_log
 
     pipe, cfg = split_settings(settings)
     Path(figures_dir).mkdir(parents=True, exist_ok=True)
-    entries = []
-    for fid in _training_drones(split_csv, pipe["sets"])["flight_id"]:
-        path = Path(measured_dir) / f"{fid}.zarr"
-        ml = read_ingested_log(logs_zarr, fid) if Path(logs_zarr).exists() else None
-        flight = read_flight(path)
-        if ml is None and not flight.has_motor_log:
-            log(f"skip {fid}: no motor log")
-            continue
-        e = diagnose_flight(flight, motor_log=ml, config=cfg, figure_path=Path(figures_dir) / f"{fid}.png")
-        log(f"{fid}: {e['cause']} {e['extension']['params'] if e['extension'] else ''} "
-            f"({e['evidence']['seconds']:.1f} s for {flight.duration_s:.0f} s)")
-        entries.append(e)
-    report = {"catalog": list(CATALOG), "flights": entries}
-    write_json(report, out_json)
-    return report
+    fids = list(_training_drones(split_csv, pipe["sets"])["flight_id"])
+    logs = {}
+    if Path(logs_zarr).exists():
+        logs = {fid: ml for fid in fids if (ml := read_ingested_log(logs_zarr, fid)) is not None}
+    return diagnose([Path(measured_dir) / f"{fid}.zarr" for fid in fids], out_json, motor_logs=logs, config=cfg,
+                    figures_dir=figures_dir, log=log)
 
 
 def aggregate_report(report_json, split_csv, out_yaml, *, settings=None):
