@@ -8,11 +8,8 @@ half-written store under the final name.
 
 from __future__ import annotations
 
-import contextlib
-import os
 import re
 import shutil
-import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,6 +17,7 @@ import numpy as np
 import zarr
 
 from .errors import InputError
+from .outputs import atomic_dir, atomic_file, commit_dir  # noqa: F401  (re-exported: the one atomic writer)
 
 SCHEMA = "flight-zarr/1"
 TARGETS = ("drone", "bird", "none")
@@ -184,8 +182,49 @@ def _check_consistency(store, attrs, arrs: dict) -> None:
         raise InputError(store, "background/iq", f"has length {len(arrs['background/iq'])}", f"len(iq)={n}")
 
 
-def read_flight(path, *, load_iq: bool = True) -> Flight:
+def _chunks_present(store, p: str, node) -> None:
+    """Every chunk of ``node`` is stored (a missing chunk reads back as zeros)."""
+    try:
+        have, need = node.nchunks_initialized, node.nchunks
+    except Exception as exc:  # listing a broken store
+        raise InputError(store, p, f"chunks cannot be listed ({type(exc).__name__})", "a readable store") from None
+    if have < need:
+        raise InputError(store, p, f"has {need - have} of {need} chunk files missing (they would read back as zeros)",
+                         "every chunk stored")
+
+
+def _read(store, p: str, node, sel=Ellipsis) -> np.ndarray:
+    """``node[sel]``; an unreadable (truncated, corrupt) chunk raises InputError."""
+    try:
+        return np.asarray(node[sel])
+    except Exception as exc:
+        where = f" in samples {sel.start}-{sel.stop - 1}" if isinstance(sel, slice) else ""
+        raise InputError(store, p, f"cannot be read{where} ({type(exc).__name__}: {str(exc)[:80]})",
+                         "complete, uncorrupted chunk files") from None
+
+
+def _stream_finite(store, p: str, node) -> None:
+    """Check ``node`` for NaN/inf chunk by chunk (memory: one chunk)."""
+    step = int(node.chunks[0]) if node.ndim else 1
+    for start in range(0, node.shape[0], step):
+        block = _read(store, p, node, slice(start, min(start + step, node.shape[0])))
+        if not np.all(np.isfinite(block)):
+            k = start + int(np.flatnonzero(~np.isfinite(block.reshape(len(block), -1)).any(axis=1))[0])
+            raise InputError(store, p, f"contains NaN or infinite values (first at sample {k})", "finite values")
+
+
+def read_flight(path, *, load_iq: bool = True, content: bool = True) -> Flight:
     """Open, validate and load a flight-zarr/1 store.
+
+    Parameters
+    ----------
+    load_iq : bool
+        Load ``iq`` and ``background/iq`` (else zero-filled placeholders of the right
+        shape are returned).
+    content : bool
+        Check that every chunk is stored and readable and every value finite; without
+        ``load_iq`` the I/Q arrays are streamed chunk by chunk. ``False`` checks the
+        metadata (attributes, dtypes, shapes) and the small track/motor arrays only.
 
     Raises
     ------
@@ -195,28 +234,38 @@ def read_flight(path, *, load_iq: bool = True) -> Flight:
     path = Path(path)
     if not path.exists():
         raise InputError(path, "store", "does not exist", "a flight-zarr/1 directory")
+    if not path.is_dir():
+        raise InputError(path, "store", "is a file", "a flight-zarr/1 directory (Zarr group)")
     try:
         g = zarr.open_group(str(path), mode="r")
+        attrs = dict(g.attrs)
     except Exception as exc:  # zarr raises several types for non-stores
         raise InputError(path, "store", f"is not a Zarr group ({type(exc).__name__})", "a flight-zarr/1 group") from None
-    attrs = dict(g.attrs)
     _check_attrs(path, attrs)
     arrs = {}
-    for p in ARRAYS:
+    for p, (dtype, ndim) in ARRAYS.items():
         try:
             node = g[p]
         except KeyError:
             if p in REQUIRED:
-                raise InputError(path, p, "missing", f"{np.dtype(ARRAYS[p][0]).name} array") from None
+                raise InputError(path, p, "missing", f"{np.dtype(dtype).name} array") from None
             continue
+        except Exception as exc:
+            raise InputError(path, p, f"metadata unreadable ({type(exc).__name__})", "a Zarr array") from None
         if not isinstance(node, zarr.Array):
             raise InputError(path, p, "is a group", "an array")
+        if node.dtype != dtype:
+            raise InputError(path, p, f"has dtype {node.dtype}", np.dtype(dtype).name)
+        if node.ndim != ndim:
+            raise InputError(path, p, f"has {node.ndim} dimensions {tuple(node.shape)}", f"{ndim}")
+        if content:
+            _chunks_present(path, p, node)
         if p in ("iq", "background/iq") and not load_iq:
+            if content:
+                _stream_finite(path, p, node)
             arrs[p] = np.zeros(node.shape, node.dtype)
-            if node.dtype != ARRAYS[p][0]:
-                raise InputError(path, p, f"has dtype {node.dtype}", np.dtype(ARRAYS[p][0]).name)
             continue
-        arrs[p] = np.asarray(node[...])
+        arrs[p] = _read(path, p, node)
         _check_array(path, p, arrs[p])
     _check_consistency(path, attrs, arrs)
     return Flight(
@@ -231,39 +280,14 @@ def read_flight(path, *, load_iq: bool = True) -> Flight:
     )
 
 
-def validate_store(path) -> Flight:
-    """Validate a store (raises :class:`InputError`); returns the flight without IQ."""
-    return read_flight(path, load_iq=False)
+def validate_store(path, *, quick: bool = False) -> Flight:
+    """Validate a store (raises :class:`InputError`); returns the flight without I/Q.
 
-
-def atomic_dir(final: Path):
-    """Temporary sibling directory for an atomic write of ``final``."""
-    final = Path(final)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    return final.parent / f".{final.name}.tmp-{uuid.uuid4().hex[:8]}"
-
-
-@contextlib.contextmanager
-def atomic_file(path):
-    """Write a file atomically: yields a temporary sibling path (same suffix) to write;
-    on success it is renamed to ``path``, on error removed. Parents are created."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{uuid.uuid4().hex[:8]}{path.suffix}")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
-def commit_dir(tmp: Path, final: Path) -> None:
-    """Replace ``final`` by ``tmp`` (rename; the old one is removed first)."""
-    final = Path(final)
-    if final.exists():
-        shutil.rmtree(final)
-    os.replace(tmp, final)
+    By default the content is checked too (every chunk present and readable, every
+    value finite), streamed chunk by chunk so a long flight stays within memory;
+    ``quick`` checks the metadata only.
+    """
+    return read_flight(path, load_iq=False, content=not quick)
 
 
 def write_flight(path, flight: Flight, *, chunk_pulses: int = 1 << 18) -> Path:
@@ -285,7 +309,7 @@ def write_flight(path, flight: Flight, *, chunk_pulses: int = 1 << 18) -> Path:
         g.attrs.update(attrs)
         for p, a in arrs.items():
             chunks = (min(chunk_pulses, max(1, a.shape[0])),) + a.shape[1:]
-            z = g.create_array(p, shape=a.shape, dtype=a.dtype, chunks=chunks)
+            z = g.create_array(p, shape=a.shape, dtype=a.dtype, chunks=chunks, config={"write_empty_chunks": True})
             z[...] = a
         commit_dir(tmp, path)
     finally:

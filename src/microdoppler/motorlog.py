@@ -6,6 +6,7 @@ flight-zarr/1. Every check names the file, the field and what was expected.
 
 from __future__ import annotations
 
+import os
 import shutil
 import warnings
 from dataclasses import dataclass
@@ -130,13 +131,23 @@ def _ulog_cut_at(path: Path) -> int | None:
     return pos if pos != n else None
 
 
+def need_file(path, expected: str) -> Path:
+    """``path`` as a Path if it is a readable regular file, else InputError."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "file", "does not exist", expected)
+    if not path.is_file():
+        raise InputError(path, "file", "is a directory" if path.is_dir() else "is not a regular file", expected)
+    if not os.access(path, os.R_OK):
+        raise InputError(path, "file", "cannot be read (permission denied)", expected)
+    return path
+
+
 def read_ulog(path, *, topic: str = "esc_status") -> MotorLog:
     """Read per-motor speeds from a PX4 ULog ``esc_status`` topic (``esc[i].esc_rpm``)."""
     from pyulog import ULog
 
-    path = Path(path)
-    if not path.exists():
-        raise InputError(path, "file", "does not exist", "a PX4 ULog file")
+    path = need_file(path, "a PX4 ULog file")
     if path.stat().st_size == 0:
         raise InputError(path, "file", "is empty", "a PX4 ULog file")
     with open(path, "rb") as fh:
@@ -199,9 +210,7 @@ def read_csv(path, *, unit: str = "rpm", time_column: str = "time_s", time_unit:
     n_motors : int, optional
         Expected number of motors; a mismatch is an error.
     """
-    path = Path(path)
-    if not path.exists():
-        raise InputError(path, "file", "does not exist", "a CSV motor log")
+    path = need_file(path, "a CSV motor log")
     if path.stat().st_size == 0:
         raise InputError(path, "file", "is empty", "a CSV motor log with a header row")
     try:

@@ -9,6 +9,8 @@ from __future__ import annotations
 import sys
 
 from ..motorlog import TIME_UNIT_TO_S, UNIT_TO_RPM, read_motor_log, write_motor_store
+from ..outputs import check_output
+from . import add_overwrite, positive_int
 
 
 def register(subparsers) -> None:
@@ -28,11 +30,13 @@ def register(subparsers) -> None:
                    help="unit of the CSV time column (default s)")
     p.add_argument("--motor-columns", default=None,
                    help="comma-separated CSV motor columns (default: every column but the time column)")
-    p.add_argument("--n-motors", type=int, default=None, help="expected number of motors (checked)")
+    p.add_argument("--n-motors", type=positive_int, default=None, help="expected number of motors (checked)")
+    add_overwrite(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    check_output(args.out, kind="store", overwrite=args.overwrite)
     opts = {}
     fmt = args.format or ("ulog" if str(args.log).lower().endswith(".ulg") else None)
     if fmt != "ulog":

@@ -26,13 +26,18 @@ import pandas as pd
 
 from ..errors import InputError
 from ..flightzarr import Flight, write_flight
+from ..outputs import check_output
 from ..motorlog import read_motor_log, read_motor_store
 from ..radar import Radar
 from ..sampling import VARIANTS, SamplingConfig, resample
 from ..synthesis import BLADE_SCATTERING, Scaling, Track, add_noise, synthesize
+from . import add_overwrite, finite, non_negative, positive, positive_int, seed
 
 SRC = "simulate"
 PROGRESS_MIN_PULSES = 1 << 21  # report progress on stderr for longer runs
+MAX_PULSES = 1 << 30  # 8 GiB of complex64 I/Q (about 41 h at 7.3 kHz)
+MAX_MOTOR_HZ = 1000.0  # 60000 rpm, the format's bound on logged speeds
+MAX_AMPLITUDE = 1e12  # keeps every sample finite in complex64
 
 
 def register(subparsers) -> None:
@@ -45,30 +50,31 @@ def register(subparsers) -> None:
     src.add_argument("--motor-log", help="motor log: .ulg, .csv (time_s + one column per motor, rpm) or a Zarr "
                                          "store with motors/time_s, motors/rpm")
     p.add_argument("--variant", choices=VARIANTS, default="sub_cpi", help="sampling of the motor log (default sub_cpi)")
-    p.add_argument("--window-pulses", type=int, default=2500, help="sub_cpi rolling-average length [pulses]")
-    p.add_argument("--typical-hz", type=float, default=80.0, help="fixed_speeds: typical rotor speed [rev/s]")
-    p.add_argument("--range-m", type=float, default=500.0, help="initial range [m] (default 500)")
-    p.add_argument("--radial-velocity-mps", type=float, default=-5.0,
+    p.add_argument("--window-pulses", type=positive_int, default=2500, help="sub_cpi rolling-average length [pulses]")
+    p.add_argument("--typical-hz", type=positive, default=80.0, help="fixed_speeds: typical rotor speed [rev/s]")
+    p.add_argument("--range-m", type=positive, default=500.0, help="initial range [m] (default 500)")
+    p.add_argument("--radial-velocity-mps", type=finite, default=-5.0,
                    help="constant dR/dt [m/s], negative = approaching (default -5)")
     p.add_argument("--track", help="track CSV with columns time_s, range_m (replaces --range-m/--radial-velocity-mps)")
-    p.add_argument("--prf-hz", type=float, default=7300.0, help="pulse repetition frequency [Hz] (default 7300)")
-    p.add_argument("--carrier-hz", type=float, default=1.35e9, help="carrier frequency [Hz] (default 1.35e9)")
-    p.add_argument("--blade-length-m", type=float, default=0.19, help="blade length, hub to tip [m] (default 0.19)")
-    p.add_argument("--n-blades", type=int, default=2, help="blades per rotor (default 2)")
+    p.add_argument("--prf-hz", type=positive, default=7300.0, help="pulse repetition frequency [Hz] (default 7300)")
+    p.add_argument("--carrier-hz", type=positive, default=1.35e9, help="carrier frequency [Hz] (default 1.35e9)")
+    p.add_argument("--blade-length-m", type=positive, default=0.19, help="blade length, hub to tip [m] (default 0.19)")
+    p.add_argument("--n-blades", type=positive_int, default=2, help="blades per rotor (default 2)")
     p.add_argument("--blade-scattering", choices=BLADE_SCATTERING, default="thin_wire",
                    help="blade echo model: thin_wire (eq. 1, default) or dielectric (plastic blades: echo ~ "
                         "(L/lambda)^2 below eq. 1, normalised to the 0.19 m blade at 1.35 GHz)")
     p.add_argument("--drone-model", default="inspire2", help="drone_model attribute (default inspire2)")
-    p.add_argument("--duration-s", type=float, default=None,
+    p.add_argument("--duration-s", type=positive, default=None,
                    help="flight duration [s] (default: the motor log's or track's span, else 10 s)")
-    p.add_argument("--alpha", type=float, default=0.0, help="sideband envelope alpha_s [s = 1/Hz] (default 0)")
-    p.add_argument("--s-body", type=float, default=1.0, help="body amplitude S_body (default 1)")
-    p.add_argument("--s-blade", type=float, default=1.0, help="blade amplitude scale S_blade (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="seed of rotor angles, fixed_speeds draw and noise")
-    p.add_argument("--snr-db", type=float, default=None,
+    p.add_argument("--alpha", type=non_negative, default=0.0, help="sideband envelope alpha_s [s = 1/Hz] (default 0)")
+    p.add_argument("--s-body", type=non_negative, default=1.0, help="body amplitude S_body (default 1)")
+    p.add_argument("--s-blade", type=non_negative, default=1.0, help="blade amplitude scale S_blade (default 1)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of rotor angles, fixed_speeds draw and noise")
+    p.add_argument("--snr-db", type=finite, default=None,
                    help="body power per pulse / noise power per pulse [dB]; noise-free if omitted")
     p.add_argument("--flight-id", default=None, help="flight_id attribute (default: the store's name)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_overwrite(p)
     p.set_defaults(func=run)
 
 
@@ -111,16 +117,13 @@ def _load_log(path):
 
 
 def run(args) -> int:
-    _check(args.prf_hz > 0, "--prf-hz", args.prf_hz, "> 0 Hz")
-    _check(args.carrier_hz > 0, "--carrier-hz", args.carrier_hz, "> 0 Hz")
-    _check(0 < args.blade_length_m < 5, "--blade-length-m", args.blade_length_m, "in (0, 5) m")
-    _check(args.n_blades >= 1, "--n-blades", args.n_blades, ">= 1")
-    _check(args.alpha >= 0, "--alpha", args.alpha, ">= 0 s")
-    _check(args.s_body >= 0, "--s-body", args.s_body, ">= 0")
-    _check(args.s_blade >= 0, "--s-blade", args.s_blade, ">= 0")
-    _check(args.duration_s is None or args.duration_s > 0, "--duration-s", args.duration_s, "> 0 s")
+    check_output(args.out, kind="store", overwrite=args.overwrite)
+    _check(args.blade_length_m < 5, "--blade-length-m", args.blade_length_m, "in (0, 5) m")
+    _check(args.s_body <= MAX_AMPLITUDE, "--s-body", args.s_body, f"<= {MAX_AMPLITUDE:g}")
+    _check(args.s_blade <= MAX_AMPLITUDE, "--s-blade", args.s_blade, f"<= {MAX_AMPLITUDE:g}")
     if args.snr_db is not None:
         _check(args.s_body > 0, "--s-body", args.s_body, "> 0 when --snr-db is given (SNR is relative to the body)")
+        _check(-100 <= args.snr_db <= 300, "--snr-db", args.snr_db, "in [-100, 300] dB")
     radar = Radar(prf_hz=args.prf_hz, carrier_hz=args.carrier_hz)
     flight_id = args.flight_id or re.sub(r"[^A-Za-z0-9_.-]", "_", Path(args.out).name.removesuffix(".zarr"))
 
@@ -133,15 +136,20 @@ def run(args) -> int:
             motor_hz = [float(v) for v in args.motor_hz.split(",")]
         except ValueError:
             raise InputError(SRC, "--motor-hz", f"is {args.motor_hz!r}", "comma-separated speeds [rev/s]") from None
-        _check(len(motor_hz) >= 1 and all(np.isfinite(v) and 0 <= v < args.prf_hz for v in motor_hz),
-               "--motor-hz", args.motor_hz, f"speeds in [0, {args.prf_hz:g}) rev/s")
+        top = min(MAX_MOTOR_HZ, args.prf_hz)
+        _check(len(motor_hz) >= 1 and all(np.isfinite(v) and 0 <= v <= top for v in motor_hz),
+               "--motor-hz", args.motor_hz, f"speeds in [0, {top:g}] rev/s")
     track = read_track_csv(args.track) if args.track else None
 
     duration = args.duration_s
     if duration is None:
         duration = log.duration_s if log is not None else (float(track.time_s[-1]) if track is not None else 10.0)
+    if log is not None and duration > log.duration_s + 1.0 / args.prf_hz:
+        raise InputError(SRC, "--duration-s", f"is {duration:g} s, longer than the motor log's {log.duration_s:.2f} s",
+                         "a duration within the log (speeds after its end are unknown)")
     n_pulses = int(round(duration * args.prf_hz))
-    _check(n_pulses >= 2, "--duration-s", duration, f">= 2 pulses at {args.prf_hz:g} Hz")
+    _check(2 <= n_pulses <= MAX_PULSES, "--duration-s", duration,
+           f"2 to {MAX_PULSES} pulses at {args.prf_hz:g} Hz (got {n_pulses})")
     if track is None:
         end_range = args.range_m + args.radial_velocity_mps * duration
         _check(args.range_m > 0 and end_range > 0, "--range-m/--radial-velocity-mps",

@@ -15,6 +15,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shutil
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..flightzarr import atomic_file, write_flight
+from ..outputs import atomic_dir, commit_folder, is_tool_store
 from ..spectrogram import SpectrogramConfig
 from .world import FlightSpec, emulate_flight, measured_snr_db
 
@@ -163,10 +165,46 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
     ``key_path``, the key (effects and truth per flight; never read downstream).
     ``specs`` overrides the plan (e.g. a subsample of the paper profile).
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    final = Path(out_dir)
     specs = plan_world(profile, seed) if specs is None else list(specs)
     workers = workers or min(2, os.cpu_count() or 1)
+    out = atomic_dir(final)  # written beside, renamed in when complete
+    out.mkdir()
+    try:
+        rows, results, wall = _emulate_into(out, specs, progress, workers)
+        commit_folder(out, final, is_world_entry)
+    finally:
+        if out.exists():
+            shutil.rmtree(out, ignore_errors=True)
+    flown = sum(r["duration_s"] for r in results)
+    if key_path is not None:
+        key = {"schema": "emulator-key/1", "profile": profile, "seed": int(seed),
+               "note": "hidden truth of the emulated world; never read downstream",
+               "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"], "spec": _spec_json(r["spec"]),
+                                                 "truth": r["truth"], "measured_snr_db": r["snr_mean"],
+                                                 "measured_snr_std_db": r["snr_std"]} for r in results}}
+        with atomic_file(key_path) as tmp:
+            tmp.write_text(json.dumps(key, indent=1, default=float))
+    if progress:
+        print(f"emulated {len(results)} flights, {flown:.0f} s of flight in {wall:.1f} s "
+              f"({flown / max(wall, 1e-9):.1f} s of flight per s, {workers} workers)", file=sys.stderr)
+    return rows
+
+
+#: what :func:`emulate_world` writes into its folder
+WORLD_FILES = ("flights.csv", "motor_logs.tsv")
+
+
+def is_world_entry(path: Path) -> bool:
+    """True for an entry of an emulated world's folder that :func:`emulate_world` wrote."""
+    if path.name in WORLD_FILES and path.is_file():
+        return True
+    if path.name == "motor_logs" and path.is_dir() and not path.is_symlink():
+        return all(f.is_file() and not f.is_symlink() and f.suffix == ".csv" for f in path.iterdir())
+    return path.suffix == ".zarr" and is_tool_store(path)
+
+
+def _emulate_into(out: Path, specs, progress: bool, workers: int):
     t0 = time.perf_counter()
     results = []
     if workers > 1:
@@ -192,19 +230,7 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
                  [{"flight_id": r["spec"].flight_id, "motor_log": r["log"], "format": "csv", "unit": "rpm",
                    "time_offset_s": 0} for r in results if r["log"]], "\t",
                  header=["flight_id", "motor_log", "format", "unit", "time_offset_s"])
-    wall = time.perf_counter() - t0
-    flown = sum(r["duration_s"] for r in results)
-    if key_path is not None:
-        key = {"profile": profile, "seed": int(seed), "note": "hidden truth of the emulated world; never read downstream",
-               "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"], "spec": _spec_json(r["spec"]),
-                                                 "truth": r["truth"], "measured_snr_db": r["snr_mean"],
-                                                 "measured_snr_std_db": r["snr_std"]} for r in results}}
-        with atomic_file(key_path) as tmp:
-            tmp.write_text(json.dumps(key, indent=1, default=float))
-    if progress:
-        print(f"emulated {len(results)} flights, {flown:.0f} s of flight in {wall:.1f} s "
-              f"({flown / max(wall, 1e-9):.1f} s of flight per s, {workers} workers)", file=sys.stderr)
-    return rows
+    return rows, results, time.perf_counter() - t0
 
 
 def _write_table(path: Path, rows: list[dict], sep: str, header=None) -> None:
