@@ -19,8 +19,11 @@ def rng():
 
 @pytest.fixture
 def ulog_path():
-    if not ULOG_FIXTURE.exists():
-        pytest.skip(f"real motor log not found at {ULOG_FIXTURE} (needs ../shared next to the repository)")
+    """The real PX4 log. Missing is a failure, not a skip: the tests that use it (ULog
+    parsing, corruption handling, motor-model calibration) must never vanish silently."""
+    if not ULOG_FIXTURE.is_file():
+        pytest.fail(f"real motor log not found: expected {ULOG_FIXTURE.resolve()} "
+                    f"(../shared/data/motor-logs/px4_esc_status.ulg next to the repository {REPO})", pytrace=False)
     return ULOG_FIXTURE
 
 

@@ -3,14 +3,11 @@ model: motor dynamics, clutter, phase noise, sideband asymmetry on one flight)."
 
 from __future__ import annotations
 
-import pytest
-
+from microdoppler import emulator
 from microdoppler.datasets import calibration, speeds
 from microdoppler.datasets.split import TWIN_MODELS
 from microdoppler.inventory import ingest_flight_logs
 from microdoppler.spectrogram import SpectrogramConfig
-
-emulator = pytest.importorskip("microdoppler.emulator")
 
 
 def test_emulated_twins_match_their_flights(tmp_path):
