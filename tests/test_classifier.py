@@ -209,15 +209,20 @@ def test_trainset_replaces_large_drones(tmp_path):
         read_tiles(tmp_path / "missing.zarr")
 
 
-def _fake_predictions(rng, trainsets, seeds, n=60):
+def _fake_predictions(rng, trainsets, seeds, n=60, per_flight=6):
+    """Predictions of every (trainset, seed) on one test set of n images, per_flight
+    images per flight (one class and model per flight)."""
+    target = np.repeat(np.array(["bird", "drone"] * (n // (2 * per_flight))), per_flight)
+    flight = np.repeat([f"f{i:02d}" for i in range(n // per_flight)], per_flight)
+    model = np.repeat(np.where(np.arange(n // per_flight) % 2, rng.choice(["inspire2", "mini2"], n // per_flight),
+                               ""), per_flight)
+    radar = np.repeat(rng.choice(["1", "2"], n // per_flight), per_flight)
     out = {}
     for t in trainsets:
         for s in seeds:
-            target = np.array(["bird", "drone"] * (n // 2))
-            model = np.where(target == "drone", rng.choice(["inspire2", "mini2"], n), "")
             pred = np.where(rng.random(n) < 0.85, target, np.where(target == "bird", "drone", "bird"))
-            out[(t, s)] = pd.DataFrame({"target": target, "drone_model": model, "predicted": pred,
-                                        "radar_id": rng.choice(["1", "2"], n)})
+            out[(t, s)] = pd.DataFrame({"flight_id": flight, "target": target, "drone_model": model,
+                                        "predicted": pred, "radar_id": radar})
     return out
 
 
@@ -226,8 +231,12 @@ def test_table_v_and_extended_gain(rng, tmp_path):
     paths = write_reports(preds, tmp_path)
     metrics = pd.read_csv(paths["metrics"])
     assert list(metrics["trainset"].unique()) == ["real", "sub_cpi", "extended"]
-    tv = table_v(metrics)
+    tv = table_v(metrics, preds, n_boot=300)
+    on_disk = pd.read_csv(paths["table_v"])
+    assert {"accuracy_ci95_low", "accuracy_ci95_high"} <= set(on_disk.columns)
+    assert {"sub_cpi - real", "extended - real", "extended - sub_cpi"} <= set(on_disk["trainset"])
     real = tv.set_index("trainset").loc["real"]
+    assert real["accuracy_ci95_low"] < real["accuracy_mean"] < real["accuracy_ci95_high"]
     acc = 100 * metrics.loc[metrics.trainset == "real", "accuracy"]
     assert real["accuracy_mean"] == pytest.approx(acc.mean())
     assert real["accuracy_std"] == pytest.approx(acc.std(ddof=1))

@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
 from ..flightzarr import atomic_file
-from .data import CLASSES
+from .data import CLASSES, LARGE_DRONES, SMALL_DRONES
 from .metrics import confusion_matrix, seed_metrics
 
 #: Table V of the paper (mean ± std over 9 seeds, %): accuracy, drone recall,
@@ -24,6 +25,10 @@ TABLE_V_METRICS = ("accuracy", "drone_recall", "bird_recall", "large_drone_accur
 #: Fig. 6 of the paper: mean confusion matrix of the real baseline (rows true bird, drone).
 PAPER_FIG6 = np.array([[1661, 157], [219, 1599]])
 ORDER = ("real", "sub_cpi", "per_cpi", "single_motor", "fixed_speeds", "extended")
+#: paired differences reported besides ``<set> - real``: the paper's adjacent orderings
+#: (sub-CPI > per-CPI ~ single-motor > fixed-speeds) and the extension's gain
+PAIRS = (("sub_cpi", "per_cpi"), ("per_cpi", "single_motor"), ("single_motor", "fixed_speeds"),
+         ("extended", "sub_cpi"))
 
 
 def _order(trainsets) -> list[str]:
@@ -71,18 +76,79 @@ def confusion_frame(cm: np.ndarray) -> pd.DataFrame:
     return pd.DataFrame({"true": list(CLASSES), **{f"predicted_{c}": cm[:, j] for j, c in enumerate(CLASSES)}})
 
 
-def table_v(metrics: pd.DataFrame) -> pd.DataFrame:
-    """Table V: mean ± std over seeds (in %) per training set, beside the paper's values.
+def flight_counts(predictions: dict):
+    """Per flight of the test set: its class and model, image count, and per (trainset,
+    seed) the number of correctly classified images.
 
-    Columns per metric m: ``m_mean``, ``m_std`` (sample std, ddof=1), ``m`` (formatted
-    "mean ± std"), ``paper_m`` (the paper's "mean ± std" or empty); plus bird/drone
-    precision (not in the paper), n_seeds. When ``extended`` and ``sub_cpi`` are both
-    present, a row ``extended - sub_cpi`` gives the per-seed paired gain in accuracy
-    and drone recall (mean ± std over the common seeds; positive = extended better).
+    Returns
+    -------
+    flights : DataFrame indexed by flight_id (target, drone_model, n_images)
+    correct : dict (trainset, seed) -> ndarray [n_flights]
+    """
+    first = next(iter(predictions.values()))
+    flights = first.groupby("flight_id", sort=True).agg(target=("target", "first"),
+                                                         drone_model=("drone_model", "first"),
+                                                         n_images=("target", "size"))
+    correct = {}
+    for key, p in predictions.items():
+        n = p.groupby("flight_id").size().reindex(flights.index)
+        if n.isna().any() or not np.array_equal(n.to_numpy(), flights["n_images"].to_numpy()):
+            raise ValueError(f"predictions {key} are not on the same test images as {next(iter(predictions))}")
+        ok = (p["target"] == p["predicted"]).groupby(p["flight_id"]).sum().reindex(flights.index)
+        correct[key] = ok.to_numpy(float)
+    return flights, correct
+
+
+def _subsets(flights: pd.DataFrame) -> dict:
+    """Flights each Table V metric is computed over (every metric is correct/images)."""
+    drone = (flights["target"] == "drone").to_numpy()
+    model = flights["drone_model"].astype(str)
+    return {"accuracy": np.ones(len(flights), bool), "drone_recall": drone,
+            "bird_recall": (flights["target"] == "bird").to_numpy(),
+            "large_drone_accuracy": drone & model.isin(LARGE_DRONES).to_numpy(),
+            "small_drone_accuracy": drone & model.isin(SMALL_DRONES).to_numpy()}
+
+
+def bootstrap_table_v(predictions: dict, *, n_boot: int = N_BOOT, seed: int = 0) -> dict:
+    """Replicates (in %) of every Table V metric per training set, from one shared set of
+    draws of test flights (within class) and of seeds: {trainset: {metric: [n_boot]}}.
+
+    The same draws serve every training set, so paired differences are replicate-wise
+    differences. Seeds are matched by number (the seeds common to all training sets).
+    """
+    flights, correct = flight_counts(predictions)
+    trainsets = _order({t for t, _ in predictions})
+    seeds = sorted(set.intersection(*({s for t2, s in predictions if t2 == t} for t in trainsets)))
+    draws = draw_flights(flights.index, strata=flights["target"], n_seeds=len(seeds), n_boot=n_boot, seed=seed)
+    out = {}
+    for t in trainsets:
+        num = np.stack([correct[(t, s)] for s in seeds])
+        out[t] = {m: 100 * ratio_replicates(num * mask, flights["n_images"].to_numpy(float) * mask, draws)
+                  for m, mask in _subsets(flights).items()}
+    return out
+
+
+def table_v(metrics: pd.DataFrame, predictions: dict | None = None, *, n_boot: int = N_BOOT,
+            seed: int = 0) -> pd.DataFrame:
+    """Table V: mean ± std over seeds (in %) per training set, beside the paper's values,
+    with 95 % intervals from a bootstrap over test flights and seeds.
+
+    Columns per metric m: ``m_mean``, ``m_std`` (sample std over seeds, ddof=1), ``m``
+    (formatted "mean ± std"), ``paper_m`` (the paper's "mean ± std" or empty) and, with
+    ``predictions``, ``m_ci95_low``/``m_ci95_high`` (:mod:`microdoppler.bootstrap`:
+    flights drawn within class, seeds drawn, 95 % percentile interval); plus bird/drone
+    precision (not in the paper) and n_seeds.
+
+    Difference rows ``A - B`` (paired: same seeds, same bootstrap draws; positive = A
+    better) for every training set against ``real``, for the paper's adjacent orderings
+    and for ``extended - sub_cpi`` where both are present: the mean ± std over seeds of
+    the per-seed difference, its interval, and ``m_resolved`` (the interval excludes 0).
     """
     rows = []
     extra = ("drone_precision", "bird_precision")
-    for t in _order(metrics["trainset"]):
+    boot = bootstrap_table_v(predictions, n_boot=n_boot, seed=seed) if predictions else {}
+    order = _order(metrics["trainset"])
+    for t in order:
         g = metrics[metrics["trainset"] == t]
         row = {"trainset": t, "n_seeds": len(g)}
         for i, m in enumerate(TABLE_V_METRICS + extra):
@@ -91,17 +157,23 @@ def table_v(metrics: pd.DataFrame) -> pd.DataFrame:
             if m in TABLE_V_METRICS:
                 paper = PAPER_TABLE_V.get(t)
                 row[f"paper_{m}"] = f"{paper[i][0]:.1f} ± {paper[i][1]:.1f}" if paper else ""
+                if boot:
+                    row[f"{m}_ci95_low"], row[f"{m}_ci95_high"] = interval(boot[t][m])
         rows.append(row)
-    ts = set(metrics["trainset"])
-    if {"extended", "sub_cpi"} <= ts:
-        a = metrics[metrics["trainset"] == "extended"].set_index("seed")
-        b = metrics[metrics["trainset"] == "sub_cpi"].set_index("seed")
+    pairs = [(t, "real") for t in order if t != "real" and "real" in order]
+    pairs += [p for p in PAIRS if p[0] in order and p[1] in order and p not in pairs]
+    for a_set, b_set in pairs:
+        a = metrics[metrics["trainset"] == a_set].set_index("seed")
+        b = metrics[metrics["trainset"] == b_set].set_index("seed")
         seeds = a.index.intersection(b.index)
-        row = {"trainset": "extended - sub_cpi", "n_seeds": len(seeds)}
-        for m in ("accuracy", "drone_recall"):
+        row = {"trainset": f"{a_set} - {b_set}", "n_seeds": len(seeds)}
+        for m in TABLE_V_METRICS:
             d = 100 * (a.loc[seeds, m] - b.loc[seeds, m])
             mean, std = d.mean(), d.std(ddof=1) if len(d) > 1 else float("nan")
             row[f"{m}_mean"], row[f"{m}_std"], row[m] = mean, std, f"{mean:+.1f} ± {std:.1f}"
+            if boot:
+                lo, hi = interval(boot[a_set][m] - boot[b_set][m])
+                row[f"{m}_ci95_low"], row[f"{m}_ci95_high"], row[f"{m}_resolved"] = lo, hi, resolved(lo, hi)
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -168,7 +240,7 @@ def write_reports(predictions: dict, out_dir, *, confusion_trainsets=None) -> di
     paths = {"metrics": out_dir / "metrics.csv", "table_v": out_dir / "table_v.csv",
              "fig12": out_dir / "fig12_boxplot.png"}
     _write_csv(metrics, paths["metrics"])
-    _write_csv(table_v(metrics), paths["table_v"])
+    _write_csv(table_v(metrics, predictions), paths["table_v"])
     for t in confusion_trainsets or _order(metrics["trainset"]):
         cm = mean_confusion(predictions, t)
         n = int((metrics["trainset"] == t).sum())
