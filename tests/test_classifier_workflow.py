@@ -45,7 +45,8 @@ def test_classifier_rules_end_to_end(tmp_path):
     assert len(metrics) == 2 and set(metrics.trainset) == {"real", "sub_cpi"}
     assert metrics[["accuracy", "drone_recall", "bird_recall"]].apply(lambda c: c.between(0, 1)).all().all()
     tv = pd.read_csv(rep / "table_v.csv")
-    assert list(tv.trainset) == ["real", "sub_cpi"] and (tv.n_seeds == 1).all()
+    assert list(tv.trainset) == ["real", "sub_cpi", "sub_cpi - real"] and (tv.n_seeds == 1).all()
+    assert tv[["accuracy_ci95_low", "accuracy_ci95_high"]].notna().all().all()
     pred = pd.read_csv(tmp_path / "results/eval/real/seed1.csv", keep_default_na=False)
     assert len(pred) == int((real.labels.set == "test").sum())
     for name in ("fig12_boxplot.png", "confusion_real.png", "confusion_sub_cpi.csv"):

@@ -1,4 +1,8 @@
 import hashlib
+import os
+import re
+import shutil
+import sys
 from pathlib import Path
 
 from snakemake.utils import validate
@@ -33,6 +37,36 @@ def code_version(*parts):
         for f in files:
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
+
+
+# --- interrupted runs ---
+# A killed run leaves its running jobs' outputs marked incomplete (rerun by the
+# default workflow profile, profiles/default/config.yaml) and, beside them, the
+# hidden temporaries of the library's atomic writes (microdoppler.outputs:
+# .<name>.tmp-<hex>[.<ext>] and .<name>.old-<hex>), which are no declared output.
+# A real run removes those under results/ before its first job (onstart runs while
+# Snakemake holds the working directory's lock, so no job of ours is writing them).
+STALE_TEMPORARY = re.compile(r"\..+\.(tmp|old)-[0-9a-f]{8}(\.[^.]+)?")
+
+
+def remove_stale_temporaries(root="results"):
+    """Remove the atomic-write temporaries a killed run left under ``root``."""
+    removed = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        for name in [n for n in dirnames + filenames if STALE_TEMPORARY.fullmatch(n)]:
+            path = os.path.join(dirpath, name)
+            if os.path.isdir(path) and not os.path.islink(path):
+                shutil.rmtree(path)
+                dirnames.remove(name)
+            else:
+                os.unlink(path)
+            removed.append(path)
+    return removed
+
+
+onstart:
+    for path in remove_stale_temporaries():
+        print(f"removed {path} (left by an interrupted run)", file=sys.stderr)
 
 
 def motor_logs_table():

@@ -1,7 +1,15 @@
+# Simulator figures: paper Fig. 2 (HERM lines, Fig. 2c from a real PX4 log) and a
+# Fig. 8-style per-CPI vs sub-CPI sampling comparison.
+
+
 rule plot_motor_speed_figures:
     input:
         logs="results/motors/logs.zarr",
         status="results/motors/ingest.csv",
+        # the PX4 log for Fig. 2c (config figures.ulog, relative to the working
+        # directory): an input, so a missing file fails before the run and an
+        # edit reruns the figures
+        ulog=config["figures"]["ulog"],
     output:
         fig2=report(
             "results/figures/fig2_herm_lines.png",
@@ -21,7 +29,6 @@ rule plot_motor_speed_figures:
     resources:
         mem_mb=2000,
     params:
-        ulog=config["figures"]["ulog"],
         code=code_version("figures.py", "synthesis.py", "sampling.py"),
     script:
         "../scripts/plot_motor_speed_figures.py"

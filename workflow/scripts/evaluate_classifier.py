@@ -1,10 +1,9 @@
 """Rule evaluate_classifier: predictions of one trained classifier on the measured test tiles."""
 
-import os
-
 import torch
 
 from microdoppler.classifier import load_model, predict, predictions_table, read_tiles
+from microdoppler.outputs import atomic_file
 from microdoppler.runlog import log_to
 
 with log_to(snakemake.log[0]):
@@ -13,7 +12,6 @@ with log_to(snakemake.log[0]):
     real = read_tiles(snakemake.input.real)
     test = real.subset(real.labels["set"] == "test")
     table = predictions_table(test, predict(model, test.images, cfg.normalisation))
-    out = snakemake.output.predictions
-    table.to_csv(out + ".tmp", index=False, float_format="%.6g")
-    os.replace(out + ".tmp", out)
+    with atomic_file(snakemake.output.predictions) as tmp:
+        table.to_csv(tmp, index=False, float_format="%.6g")
     print(f"{len(table)} test tiles, accuracy {(table.target == table.predicted).mean():.3f}")

@@ -7,7 +7,7 @@ from microdoppler.inventory import read_ingested_log
 from microdoppler.runlog import log_to
 
 with log_to(snakemake.log[0]):
-    figures.fig2(snakemake.output.fig2, ulog_path=snakemake.params.ulog)
+    figures.fig2(snakemake.output.fig2, ulog_path=snakemake.input.ulog)
     status = pd.read_csv(snakemake.input.status)
     ingested = status[status.status == "ingested"]
     if len(ingested):
@@ -15,5 +15,5 @@ with log_to(snakemake.log[0]):
     else:
         from microdoppler.motorlog import read_ulog
 
-        log = read_ulog(snakemake.params.ulog)
+        log = read_ulog(snakemake.input.ulog)
     figures.fig8(snakemake.output.fig8, motor_log=log)

@@ -3,6 +3,7 @@
 import logging
 
 from microdoppler.classifier import TrainConfig, load_trainset, save_model, train
+from microdoppler.outputs import atomic_file
 from microdoppler.runlog import log_to
 
 with log_to(snakemake.log[0]):
@@ -13,4 +14,5 @@ with log_to(snakemake.log[0]):
     result = train(train_set, val_set, cfg, seed=seed, threads=snakemake.threads,
                    logger=logging.getLogger("train_classifier"))
     save_model(snakemake.output.model, result, cfg, seed=seed, trainset=trainset)
-    result.history.to_csv(snakemake.output.history, index=False, float_format="%.6g")
+    with atomic_file(snakemake.output.history) as tmp:
+        result.history.to_csv(tmp, index=False, float_format="%.6g")

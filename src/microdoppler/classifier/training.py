@@ -233,9 +233,11 @@ def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trains
     """Save the kept model, its config and provenance to ``path`` (atomically)."""
     from ..flightzarr import atomic_file
 
-    with atomic_file(path) as tmp:
+    # through a file object: torch.save given a path names the archive's entries after
+    # it (the random temporary name), and the same model would not give the same bytes
+    with atomic_file(path) as tmp, open(tmp, "wb") as fh:
         torch.save({"state_dict": result.model.state_dict(), "config": cfg.to_dict(), "seed": int(seed),
-                    "trainset": trainset, "best_epoch": int(result.best_epoch)}, tmp)
+                    "trainset": trainset, "best_epoch": int(result.best_epoch)}, fh)
 
 
 def load_model(path) -> tuple[torch.nn.Module, TrainConfig]:
