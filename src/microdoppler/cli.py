@@ -15,7 +15,7 @@ import sys
 
 from .errors import InputError
 
-COMMANDS = ("ingest", "simulate", "validate", "emulate", "diagnose")
+COMMANDS = ("ingest", "simulate", "validate", "emulate", "diagnose", "importer")
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -1,0 +1,214 @@
+"""``microdoppler import RECORDING --out STORE.zarr``: a recording -> flight-zarr/1.
+
+Reads SigMF (``.sigmf-meta`` + ``.sigmf-data``), MATLAB ``.mat`` (v5 and v7.3) and
+NumPy ``.npy``/``.npz`` recordings of one target's slow-time I/Q (one sample per
+pulse). Radar parameters come from the file's own metadata where it has them
+(SigMF ``core:sample_rate`` -> prf_hz, ``captures[0].core:frequency`` -> carrier_hz),
+else from a YAML sidecar (``--sidecar``) or options; an option beats the sidecar,
+which beats the file, and an option that contradicts the file's metadata wins with a
+warning. The track is a CSV (``--track``: time_s, range_m[, radial_velocity_mps];
+radial velocity from the gradient otherwise) or a constant range (``--range-m``,
+a staring recording: radial velocity 0). The I/Q balance is measured (image-rejection
+ratio, Doppler sign against the track) and a doubtful one is warned about on stderr;
+both go into the store's ``import`` attribute.
+
+``--batch TABLE.csv --out FOLDER`` converts a campaign: one row per recording,
+column ``file`` (relative to the table) plus optional columns named like the sidecar
+keys (``prf_hz``, ``carrier_hz``, ``radar_id``, ``target``, ``drone_model``,
+``n_motors``, ``n_blades``, ``blade_length_m``, ``range_m``, ``flight_id``,
+``n_samples``, ``track``, ``layout``, ``variable``, and ``sidecar``); a row's cell
+beats the command-line option. FOLDER then holds ``<flight_id>.zarr`` stores only,
+ready for ``measurements.source: directory``. It is written atomically: a bad row
+leaves nothing behind.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from ..errors import InputError
+from ..flightzarr import write_flight
+from ..outputs import atomic_dir, check_output, commit_folder, is_tool_store
+from ..recordings import (EXTRA_KEYS, LAYOUTS, OPTION, PARAM_TYPES, SIDECAR_KEYS, convert,
+                          default_flight_id_for, import_recording, read_sidecar)
+from . import add_overwrite, positive, positive_int
+
+#: parameters that have a command-line option (n_samples is a sidecar/table key only)
+OPTION_KEYS = ("prf_hz", "carrier_hz", "radar_id", "target", "drone_model", "n_motors", "n_blades",
+               "blade_length_m", "range_m", "flight_id")
+TABLE_COLUMNS = ("file", "sidecar", *SIDECAR_KEYS)
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "import", help="convert a recording (SigMF, .mat, .npy/.npz) into a flight-zarr/1 store",
+        description=__doc__.split("\n\n")[1])
+    p.add_argument("recording", nargs="?", help="the recording: X.sigmf-meta (or .sigmf-data), X.mat, X.npy, X.npz")
+    p.add_argument("--batch", default=None, metavar="TABLE.csv",
+                   help="convert every recording of a table (column file + optional parameter columns) into "
+                        "--out FOLDER/<flight_id>.zarr")
+    p.add_argument("--out", required=True, help="output flight-zarr/1 store (a folder of stores with --batch)")
+    p.add_argument("--sidecar", default=None, help="YAML file with the parameters the recording lacks (keys: "
+                                                   + ", ".join(SIDECAR_KEYS) + ")")
+    p.add_argument("--layout", choices=LAYOUTS, default=None,
+                   help="how the file stores I/Q when it does not say: one complex array, or two real "
+                        "columns I, Q (default: from the file)")
+    p.add_argument("--variable", default=None,
+                   help=".mat/.npz: the array holding the I/Q (NAME), or the I and Q arrays (NAME_I,NAME_Q)")
+    p.add_argument("--prf-hz", type=positive, default=None, help="pulse repetition frequency [Hz]")
+    p.add_argument("--carrier-hz", type=positive, default=None, help="carrier frequency [Hz]")
+    p.add_argument("--radar-id", default=None, help="which radar recorded it")
+    p.add_argument("--target", choices=("drone", "bird", "none"), default=None, help="what was recorded")
+    p.add_argument("--drone-model", default=None, help="drones: drone_model attribute, e.g. inspire2")
+    p.add_argument("--n-motors", type=positive_int, default=None, help="drones: number of motors")
+    p.add_argument("--n-blades", type=positive_int, default=None, help="drones: blades per rotor")
+    p.add_argument("--blade-length-m", type=positive, default=None, help="drones: blade length, hub to tip [m]")
+    trk = p.add_mutually_exclusive_group()
+    trk.add_argument("--range-m", type=positive, default=None,
+                     help="constant range [m] of a staring recording without a track (radial velocity 0)")
+    trk.add_argument("--track", default=None, help="track CSV: time_s, range_m[, radial_velocity_mps]")
+    p.add_argument("--flight-id", default=None,
+                   help="flight_id attribute (default: the store's name; with --batch, the file's name)")
+    p.add_argument("--quiet", action="store_true", help="no summary line on stderr (warnings are still shown)")
+    add_overwrite(p)
+    p.set_defaults(func=run)
+
+
+def _options(args) -> dict:
+    out = {}
+    for k in OPTION_KEYS + ("track",):
+        v = getattr(args, k)
+        if v is not None:
+            out[k] = (v, OPTION[k])
+    return out
+
+
+def _summary(path, out, flight, warns) -> dict:
+    imp = flight.attrs["import"]
+    return {"path": path, "out": out, "n": len(flight.iq), "duration_s": flight.duration_s, "format": imp["format"],
+            "layout": imp["layout"], "irr": imp.get("image_rejection_db"), "warnings": list(warns)}
+
+
+def _report(s: dict, quiet: bool) -> None:
+    for w in s["warnings"]:
+        print(f"warning: {s['path']}: {w}", file=sys.stderr)
+    if not quiet:
+        irr = "n/a" if s["irr"] is None else f"{s['irr']:.1f} dB"
+        print(f"{s['out']}: {s['n']} pulses ({s['duration_s']:.2f} s, {s['format']}, {s['layout']}), "
+              f"image rejection {irr}", file=sys.stderr)
+
+
+def run(args) -> int:
+    if args.batch and args.recording:
+        raise InputError("import", "recording", f"given together with --batch ({args.recording})",
+                         "a recording or --batch TABLE.csv, not both")
+    if not args.batch and not args.recording:
+        raise InputError("import", "recording", "missing", "a recording file, or --batch TABLE.csv")
+    if args.batch:
+        return run_batch(args)
+    check_output(args.out, kind="store", overwrite=args.overwrite)
+    sidecar = read_sidecar(args.sidecar) if args.sidecar else {}
+    flight, warns = import_recording(
+        args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
+        default_flight_id=default_flight_id_for(args.out))
+    write_flight(args.out, flight)
+    _report(_summary(args.recording, args.out, flight, warns), args.quiet)
+    return 0
+
+
+def _is_own(entry: Path) -> bool:
+    return entry.name.endswith(".zarr") and is_tool_store(entry)
+
+
+def read_batch_table(path) -> list[dict]:
+    """Batch table -> one dict per row: ``file`` (Path), ``sidecar`` (Path or None) and
+    ``{key: (value, label)}`` for every non-empty parameter cell."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "file", "does not exist" if not path.exists() else "is not a file",
+                         "a CSV table with a column file (one row per recording)")
+    try:
+        df = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except Exception as exc:
+        raise InputError(path, "file", f"cannot be parsed as CSV ({type(exc).__name__})",
+                         "a CSV table with a column file") from None
+    if "file" not in df.columns:
+        raise InputError(path, "file", "column missing", "a column file (one recording per row)")
+    for c in df.columns:
+        if c not in TABLE_COLUMNS:
+            raise InputError(path, str(c), "is not a table column", ", ".join(TABLE_COLUMNS))
+    if df.empty:
+        raise InputError(path, "rows", "none", "one row per recording")
+    rows = []
+    for i, rec in enumerate(df.to_dict("records")):
+        where = f"{path} row {i + 2}"  # line number in the file (header is line 1)
+        row = {"line": where, "values": {}}
+        for c, v in rec.items():
+            v = str(v).strip()
+            if not v:
+                continue
+            label = f"{where} column {c}"
+            if c in ("file", "sidecar", "track"):
+                v = Path(v) if Path(v).is_absolute() else path.parent / v
+                if c != "track":
+                    row[c] = v
+                    continue
+            elif c in PARAM_TYPES:
+                v = convert(c, v, where, c)
+            elif c == "layout" and v not in LAYOUTS:
+                raise InputError(where, c, f"is {v!r}", " or ".join(LAYOUTS))
+            row["values"][c] = (v, label)
+        if "file" not in row:
+            raise InputError(where, "file", "is empty", "the recording's path")
+        rows.append(row)
+    return rows
+
+
+def run_batch(args) -> int:
+    check_output(args.out, kind="folder", overwrite=args.overwrite, is_own=_is_own)
+    if args.flight_id:
+        raise InputError("--flight-id", "option", "given with --batch", "a flight_id column in the table")
+    rows = read_batch_table(args.batch)
+    cli_sidecar = read_sidecar(args.sidecar) if args.sidecar else {}
+    cli_opts = _options(args)
+    out = Path(args.out)
+    tmp = atomic_dir(out)
+    tmp.mkdir()
+    seen = {}
+    try:
+        results = []
+        for row in rows:
+            opts = dict(cli_opts)
+            vals = row["values"]
+            if "track" in vals or "range_m" in vals:  # a row's track replaces the command line's
+                opts.pop("track", None)
+                opts.pop("range_m", None)
+            opts.update({k: v for k, v in vals.items() if k not in EXTRA_KEYS or k == "track"})
+            sidecar = read_sidecar(row["sidecar"]) if "sidecar" in row else cli_sidecar
+            flight, warns = import_recording(
+                row["file"], options=opts, sidecar=sidecar,
+                layout=vals.get("layout", (args.layout,))[0], variable=vals.get("variable", (args.variable,))[0],
+                default_flight_id=default_flight_id_for(row["file"]))
+            fid = flight.flight_id
+            if fid in seen:
+                raise InputError(row["line"], "flight_id", f"{fid!r} is also the flight id of {seen[fid]}",
+                                 "one flight id per row (a flight_id column)")
+            seen[fid] = row["line"]
+            write_flight(tmp / f"{fid}.zarr", flight)
+            results.append(_summary(row["file"], out / f"{fid}.zarr", flight, warns))
+            del flight  # one recording in memory at a time
+        commit_folder(tmp, out, _is_own)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    for s in results:
+        _report(s, args.quiet)
+    if not args.quiet:
+        n = len(results)
+        print(f"{out}: {n} flight{'s' if n != 1 else ''} (measurements.source: directory, "
+              f"measurements.directory: {out})", file=sys.stderr)
+    return 0

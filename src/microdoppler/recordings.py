@@ -1,0 +1,900 @@
+"""Recordings in other formats -> flight-zarr/1 (``microdoppler import``).
+
+Readers (:func:`read_sigmf`, :func:`read_mat`, :func:`read_npy`, :func:`read_npz`,
+or :func:`read_recording` by suffix) return a :class:`Recording`: the slow-time I/Q
+as complex64 plus a metadata dict of the radar parameters the file itself states
+(``prf_hz``, ``carrier_hz``, ...), each with the field it came from.
+:func:`resolve_parameters` merges them with a YAML sidecar and command-line options
+(option > sidecar > file; an option or sidecar value that contradicts the file's
+own metadata wins with a warning), :func:`iq_sanity` measures the I/Q balance, and
+:func:`build_flight` returns a validated :class:`~microdoppler.flightzarr.Flight`.
+
+What each format contributes
+----------------------------
+SigMF (``.sigmf-meta`` + ``.sigmf-data``, read with the ``sigmf`` package)
+    ``core:sample_rate`` -> ``prf_hz`` (one sample per pulse: the recording is the
+    slow-time sequence of the target's cell), ``captures[0].core:frequency`` ->
+    ``carrier_hz``, ``core:hw`` -> ``radar_id``, an annotation ``core:label`` of
+    ``drone``/``bird``/``none`` -> ``target``; any parameter under the
+    ``microdoppler:`` namespace (``microdoppler:radar_id``, ``microdoppler:n_motors``,
+    ...) in the global object. Complex datatypes (``cf32_le``, ``ci16_le``, ...; fixed
+    point is kept in ADC counts, unsigned types are re-centred) are the ``complex``
+    layout; a real datatype with ``core:num_channels`` 2 is ``iq-columns``.
+MATLAB ``.mat``
+    v5 through :func:`scipy.io.loadmat`; v7.3 (HDF5) through ``h5py`` (MATLAB's
+    column-major arrays are transposed back; complex arrays are compound
+    ``real``/``imag`` datasets). Any HDF5 file named ``.mat`` is read the same way.
+NumPy ``.npy`` / ``.npz``
+    One array, or named arrays as in a ``.mat``.
+
+In ``.mat`` and ``.npz`` files, scalar variables named like the parameters
+(``prf_hz``, ``carrier_hz``, ``radar_id``, ..., ``n_samples``; also ``fs`` /
+``sample_rate`` / ``prf`` and ``fc`` / ``carrier_frequency``) are the file's
+metadata, and arrays ``track_time_s``, ``track_range_m`` (and optionally
+``track_radial_velocity_mps``) its track. The I/Q is the one remaining array, the
+pair ``I``, ``Q``, or what ``variable`` names (``NAME`` or ``NAME_I,NAME_Q``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .flightzarr import FLIGHT_ID_RE, SCHEMA, TARGETS, Flight
+
+FORMATS = ("sigmf", "mat", "npy", "npz")
+LAYOUTS = ("complex", "iq-columns")
+SPEED_OF_LIGHT_MPS = 299_792_458.0
+
+#: parameters a file, a sidecar, a batch row or an option may give, and their types
+PARAM_TYPES = {
+    "prf_hz": float, "carrier_hz": float, "radar_id": str, "target": str, "drone_model": str,
+    "n_motors": int, "n_blades": int, "blade_length_m": float, "range_m": float, "flight_id": str,
+    "n_samples": int,
+}
+#: further keys of a sidecar / batch row (paths and reading options)
+EXTRA_KEYS = ("track", "layout", "variable")
+SIDECAR_KEYS = tuple(PARAM_TYPES) + EXTRA_KEYS
+#: the command-line option of each parameter
+OPTION = {k: "--" + k.replace("_", "-") for k in (*PARAM_TYPES, *EXTRA_KEYS)}
+REQUIRED = ("prf_hz", "carrier_hz", "radar_id", "target")
+DRONE_REQUIRED = ("drone_model", "n_motors", "n_blades", "blade_length_m")
+#: variable names (lower case) read as metadata in .mat / .npz files
+ALIASES = {
+    "prf_hz": ("prf_hz", "prf", "fs", "sample_rate", "sample_rate_hz"),
+    "carrier_hz": ("carrier_hz", "fc", "carrier_frequency", "carrier_frequency_hz", "center_frequency"),
+    **{k: (k,) for k in PARAM_TYPES if k not in ("prf_hz", "carrier_hz")},
+}
+TRACK_VARS = ("track_time_s", "track_range_m", "track_radial_velocity_mps")
+SIGMF_DATATYPE_RE = re.compile(r"^(c|r)(f32|f64|i32|i16|u32|u16|i8|u8)(_le|_be)?$")
+SIGMF_NS = "microdoppler:"
+#: warn when the image-rejection ratio is below this [dB] (a real-valued signal: 0 dB)
+IMAGE_REJECTION_WARN_DB = 15.0
+#: warn when the target's Doppler is this much stronger on the mirrored side [dB]
+DOPPLER_SIGN_WARN_DB = -3.0
+SHAPE_EXPECTED = "a complex vector [n] or two real columns I, Q [n, 2]"
+
+
+@dataclass
+class Recording:
+    """One recording read from a file.
+
+    Attributes
+    ----------
+    path : Path
+        The file named by the user.
+    format : str
+        ``sigmf``, ``mat-v5``, ``mat-v7.3``, ``npy`` or ``npz``.
+    layout : str
+        ``complex`` or ``iq-columns`` (how the file stores the I/Q).
+    iq : ndarray, complex64 [n]
+    metadata : dict
+        Parameters the file states (names of :data:`PARAM_TYPES`), typed.
+    fields : dict
+        For each entry of ``metadata``: where in the file it came from.
+    track : dict or None
+        ``time_s``, ``range_m`` and optionally ``radial_velocity_mps`` arrays from the file.
+    info : dict
+        Provenance for the store's ``import`` attribute (datatype, variable, ...).
+    """
+
+    path: Path
+    format: str
+    layout: str
+    iq: np.ndarray
+    metadata: dict = field(default_factory=dict)
+    fields: dict = field(default_factory=dict)
+    track: dict | None = None
+    info: dict = field(default_factory=dict)
+
+
+# ---- values ------------------------------------------------------------------------
+
+def convert(key: str, value, source, where: str):
+    """Type-check one parameter value; ``source``/``where`` name it in errors."""
+    typ = PARAM_TYPES[key]
+    if isinstance(value, np.ndarray):
+        if value.size != 1:
+            raise InputError(source, where, f"has {value.size} values", f"one {typ.__name__}")
+        value = value.reshape(-1)[0]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", "replace")
+    if typ is str:
+        if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+            raise InputError(source, where, f"is {value!r}", "a string")
+        value = str(value).strip()
+        if not value:
+            raise InputError(source, where, "is empty", "a non-empty string")
+        if key == "target" and value not in TARGETS:
+            raise InputError(source, where, f"is {value!r}", " or ".join(TARGETS))
+        if key == "flight_id" and not FLIGHT_ID_RE.match(value):
+            raise InputError(source, where, f"is {value!r}", "a flight id of [A-Za-z0-9_.-]+")
+        return value
+    if isinstance(value, bool):
+        raise InputError(source, where, f"is {value!r}", f"a {typ.__name__}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(source, where, f"is {value!r}", "a number") from None
+    if typ is int:
+        if not (math.isfinite(v) and v == int(v) and v >= 1):
+            raise InputError(source, where, f"is {value!r}", "an integer >= 1")
+        return int(v)
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(source, where, f"is {value!r}", "a finite number > 0")
+    if key == "blade_length_m" and v >= 5:
+        raise InputError(source, where, f"is {v:g}", "a blade length in (0, 5) m")
+    return v
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, float) or isinstance(b, float):
+        return math.isclose(float(a), float(b), rel_tol=1e-9)
+    return a == b
+
+
+def _brief(exc: BaseException) -> str:
+    """``Type: message`` of an exception, one line, at most ~100 characters, no parentheses."""
+    msg = re.sub(r"[()\s]+", " ", str(exc)).strip()
+    return f"{type(exc).__name__}: {msg[:90]}" if msg else type(exc).__name__
+
+
+def _index(value, source, where: str) -> int:
+    """A sample index or count from SigMF metadata (an integer >= 0)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0 or value != int(value):
+        raise InputError(source, where, f"is {value!r}", "an integer >= 0")
+    return int(value)
+
+
+def _finite_or_none(v, digits=3):
+    return None if v is None or not math.isfinite(v) else round(float(v), digits)
+
+
+# ---- I/Q arrays ----------------------------------------------------------------------
+
+def _check_finite(iq: np.ndarray, source, where: str) -> None:
+    bad = ~np.isfinite(iq)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InputError(source, where, f"contains NaN or infinite values (first at sample {k})", "finite I/Q samples")
+
+
+def _real_vector(a: np.ndarray, source, where: str) -> np.ndarray:
+    a = np.asarray(a)
+    if a.ndim == 2 and 1 in a.shape:
+        a = a.reshape(-1)
+    if a.ndim != 1 or np.iscomplexobj(a) or not np.issubdtype(a.dtype, np.number):
+        raise InputError(source, where, f"has shape {a.shape} and dtype {a.dtype}", "a real vector [n]")
+    return a
+
+
+def iq_from_array(a: np.ndarray, source, where: str, layout: str | None = None) -> tuple[np.ndarray, str]:
+    """One array -> (complex64 I/Q, layout). A complex vector is ``complex``; a real
+    [n, 2] (or [2, n]) array is ``iq-columns`` (I first). ``layout``, if given, must agree."""
+    a = np.asarray(a)
+    if a.dtype.names and set(a.dtype.names) >= {"real", "imag"}:  # HDF5 compound complex
+        a = a["real"] + 1j * a["imag"].astype(np.float64)
+    if a.dtype.kind not in "biufc" or a.dtype.kind == "b":
+        raise InputError(source, where, f"has dtype {a.dtype}", "numeric I/Q samples")
+    if a.size == 0:
+        raise InputError(source, where, f"is empty (shape {a.shape})", SHAPE_EXPECTED)
+    if np.iscomplexobj(a):
+        found = "complex"
+        if a.ndim == 2 and 1 in a.shape:
+            a = a.reshape(-1)
+        if a.ndim != 1:
+            raise InputError(source, where, f"is complex with shape {a.shape}", "a complex vector [n] (one channel)")
+        iq = a
+    else:
+        found = "iq-columns"
+        if a.ndim == 2 and a.shape[1] == 2:
+            i, q = a[:, 0], a[:, 1]
+        elif a.ndim == 2 and a.shape[0] == 2:
+            i, q = a[0], a[1]
+        else:
+            raise InputError(source, where, f"is real-valued with shape {a.shape}", SHAPE_EXPECTED)
+        iq = i.astype(np.float64) + 1j * q.astype(np.float64)
+    if layout is not None and layout != found:
+        hint = "real I, Q columns" if found == "iq-columns" else "a complex array"
+        raise InputError(source, where, f"holds {hint} of shape {a.shape}, not --layout {layout}",
+                         f"--layout {found} (or no --layout) for this array")
+    _check_finite(iq, source, where)
+    return np.ascontiguousarray(iq, dtype=np.complex64), found
+
+
+def iq_from_pair(i: np.ndarray, q: np.ndarray, source, names: tuple[str, str],
+                 layout: str | None = None) -> np.ndarray:
+    """Two real vectors I, Q -> complex64."""
+    if layout == "complex":
+        raise InputError(source, f"{names[0]},{names[1]}", "are separate I and Q arrays, not --layout complex",
+                         "--layout iq-columns (or no --layout) for I and Q arrays")
+    i = _real_vector(i, source, names[0])
+    q = _real_vector(q, source, names[1])
+    if len(i) != len(q):
+        raise InputError(source, names[1], f"has {len(q)} samples", f"as many as {names[0]} ({len(i)})")
+    if len(i) == 0:
+        raise InputError(source, names[0], "is empty", "at least one sample")
+    iq = i.astype(np.float64) + 1j * q.astype(np.float64)
+    _check_finite(iq, source, f"{names[0]},{names[1]}")
+    return iq.astype(np.complex64)
+
+
+# ---- SigMF -------------------------------------------------------------------------------
+
+def _sigmf_paths(path: Path) -> tuple[Path, Path | None]:
+    name = path.name
+    for ext in (".sigmf-meta", ".sigmf-data"):
+        if name.lower().endswith(ext):
+            return path.with_name(name[: -len(ext)] + ".sigmf-meta"), path.with_name(name[: -len(ext)] + ".sigmf-data")
+    return path, None
+
+
+def read_sigmf(path, *, layout: str | None = None) -> Recording:
+    """Read a SigMF recording (``.sigmf-meta`` or ``.sigmf-data`` named) with ``sigmf``."""
+    from sigmf import hashing
+    from sigmf.error import SigMFError
+    from sigmf.sigmffile import dtype_info, fromfile
+
+    path = Path(path)
+    meta_path, _ = _sigmf_paths(path)
+    if not meta_path.is_file():
+        raise InputError(meta_path, "file", "does not exist", "a SigMF metadata file (.sigmf-meta) beside the data")
+    try:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise InputError(meta_path, "file", f"is not valid JSON ({_brief(exc)})", "SigMF metadata (JSON)") from None
+    if not isinstance(meta, dict) or not isinstance(meta.get("global"), dict):
+        raise InputError(meta_path, "global", "missing or not an object", "a SigMF metadata object with 'global'")
+    glob = meta["global"]
+    captures = meta.get("captures") or []
+    annotations = meta.get("annotations") or []
+    if not isinstance(captures, list) or not all(isinstance(c, dict) for c in captures):
+        raise InputError(meta_path, "captures", "is not a list of objects", "SigMF captures")
+    if not isinstance(annotations, list) or not all(isinstance(a, dict) for a in annotations):
+        raise InputError(meta_path, "annotations", "is not a list of objects", "SigMF annotations")
+    dt = glob.get("core:datatype")
+    if not isinstance(dt, str) or not SIGMF_DATATYPE_RE.match(dt):
+        raise InputError(meta_path, "global.core:datatype", "missing" if dt is None else f"is {dt!r}",
+                         "a SigMF datatype (c|r)(f32|f64|i32|i16|u32|u16|i8|u8)[_le|_be], e.g. cf32_le, ci16_le")
+    dinfo = dtype_info(dt)
+    n_ch = glob.get("core:num_channels", 1)
+    if not isinstance(n_ch, int) or isinstance(n_ch, bool) or n_ch < 1:
+        raise InputError(meta_path, "global.core:num_channels", f"is {n_ch!r}", "an integer >= 1")
+    if dinfo["is_complex"]:
+        found = "complex"
+        if n_ch != 1:
+            raise InputError(meta_path, "global.core:num_channels", f"is {n_ch} with complex datatype {dt}",
+                             "1 (one complex channel: the target's slow-time sequence)")
+    else:
+        found = "iq-columns"
+        if n_ch != 2:
+            raise InputError(meta_path, "global.core:datatype", f"is real ({dt}) with {n_ch} channel(s)",
+                             "a complex datatype (c...), or a real one with core:num_channels 2 (I, Q)")
+    if layout is not None and layout != found:
+        raise InputError(meta_path, "global.core:datatype", f"is {dt} with {n_ch} channel(s), i.e. {found}",
+                         f"--layout {found} (or no --layout: SigMF states its layout)")
+
+    with warnings.catch_warnings():  # its warnings (truncation, ...) are checked below as errors
+        warnings.simplefilter("ignore")
+        try:
+            sf = fromfile(str(meta_path), skip_checksum=True, autoscale=False)
+        except (SigMFError, ValueError, KeyError, TypeError) as exc:
+            raise InputError(meta_path, "metadata", f"cannot be read by sigmf ({_brief(exc)})",
+                             "SigMF metadata") from None
+    data_path = getattr(sf, "data_file", None)
+    if data_path is None or not Path(data_path).is_file():
+        raise InputError(meta_path, "dataset", "has no data file",
+                         f"{meta_path.name[:-len('.sigmf-meta')]}.sigmf-data beside the metadata")
+    data_path = Path(data_path)
+    sample_size = int(dinfo["sample_size"]) * n_ch
+    header = sum(_index(c.get("core:header_bytes", 0), meta_path, f"captures[{k}].core:header_bytes")
+                 for k, c in enumerate(captures))
+    trailing = _index(glob.get("core:trailing_bytes", 0), meta_path, "global.core:trailing_bytes")
+    nbytes = data_path.stat().st_size - header - trailing
+    if nbytes < 0:
+        raise InputError(data_path, "size", f"is {nbytes + header + trailing} bytes, less than the "
+                         f"{header + trailing} header/trailing bytes of the metadata", "a complete data file")
+    n, rem = divmod(nbytes, sample_size)
+    if rem:
+        raise InputError(data_path, "size", f"is {nbytes} bytes of samples, not a whole number of {dt} samples "
+                         f"({sample_size} bytes each; {rem} left over: truncated?)",
+                         f"a multiple of {sample_size} bytes")
+    if n == 0:
+        raise InputError(data_path, "size", "holds no samples", "at least one sample")
+    for k, a in enumerate(annotations):
+        end = (_index(a.get("core:sample_start", 0), meta_path, f"annotations[{k}].core:sample_start")
+               + _index(a.get("core:sample_count", 0), meta_path, f"annotations[{k}].core:sample_count"))
+        if end > n:
+            raise InputError(data_path, f"annotations[{k}]", f"reaches sample {end}, but the file holds {n} samples "
+                             "(truncated?)", f"at least {end} samples")
+    for k, c in enumerate(captures):
+        start = _index(c.get("core:sample_start", 0), meta_path, f"captures[{k}].core:sample_start")
+        if start >= n:
+            raise InputError(data_path, f"captures[{k}].core:sample_start", f"is {start}, but the file holds {n} "
+                             "samples (truncated?)", f"more than {start} samples")
+    digest = glob.get("core:sha512")
+    if digest:
+        if hashing.calculate_sha512(filename=data_path) != digest:
+            raise InputError(data_path, "global.core:sha512", "does not match the data file's checksum",
+                             "the data the metadata was written for (corrupted or replaced?)")
+
+    raw = sf.read_samples()
+    if found == "complex":
+        iq = np.asarray(raw).reshape(-1)
+        if dinfo["is_unsigned"]:
+            iq = iq - (2 ** (int(dinfo["component_size"]) * 8 - 1)) * (1 + 1j)
+    else:
+        cols = np.asarray(raw, dtype=np.float64).reshape(n, 2)
+        if dinfo["is_unsigned"]:
+            cols = cols - 2 ** (int(dinfo["component_size"]) * 8 - 1)
+        iq = cols[:, 0] + 1j * cols[:, 1]
+    iq = np.ascontiguousarray(iq, dtype=np.complex64)
+    if len(iq) != n:
+        raise InputError(data_path, "samples", f"{len(iq)} read", f"{n} samples")
+    _check_finite(iq, data_path, "samples")
+
+    md, fields = {}, {}
+
+    def put(key, value, where):
+        if value is None or key in md:
+            return
+        md[key] = convert(key, value, meta_path, where)
+        fields[key] = where
+
+    for key in PARAM_TYPES:  # the microdoppler: namespace first
+        put(key, glob.get(SIGMF_NS + key), f"global.{SIGMF_NS}{key}")
+    put("prf_hz", glob.get("core:sample_rate"), "global.core:sample_rate")
+    freqs = [convert("carrier_hz", c["core:frequency"], meta_path, f"captures[{k}].core:frequency")
+             for k, c in enumerate(captures) if c.get("core:frequency") is not None]
+    if any(not _same(f, freqs[0]) for f in freqs):
+        raise InputError(meta_path, "captures.core:frequency", f"changes between captures ({freqs[0]:g} ... "
+                         f"{freqs[-1]:g} Hz)", "one carrier frequency per recording")
+    if captures and captures[0].get("core:frequency") is not None:
+        put("carrier_hz", captures[0]["core:frequency"], "captures[0].core:frequency")
+    put("radar_id", glob.get("core:hw"), "global.core:hw")
+    labels = {str(a.get("core:label")).strip().lower() for a in annotations if a.get("core:label") is not None}
+    targets = sorted(labels & set(TARGETS))
+    if len(targets) == 1:
+        put("target", targets[0], "annotations.core:label")
+    info = {"datatype": dt, "data_file": str(data_path), "metadata_file": str(meta_path)}
+    for k in ("core:description", "core:author", "core:recorder", "core:hw"):
+        if isinstance(glob.get(k), str):
+            info[k.split(":", 1)[1]] = glob[k]
+    if captures and isinstance(captures[0].get("core:datetime"), str):
+        info["datetime"] = captures[0]["core:datetime"]
+    return Recording(path=path, format="sigmf", layout=found, iq=iq, metadata=md, fields=fields, info=info)
+
+
+# ---- MATLAB / NumPy: named arrays ---------------------------------------------------
+
+def _mat_v5(path: Path) -> dict:
+    import scipy.io
+
+    try:
+        raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
+    except Exception as exc:  # scipy raises many types for a damaged file
+        raise InputError(path, "file", f"cannot be read as a MATLAB .mat file ({_brief(exc)})",
+                         "a MATLAB v5 or v7.3 .mat file") from None
+    out = {}
+    for k, v in raw.items():
+        if k.startswith("__"):
+            continue
+        v = np.asarray(v)
+        if v.dtype.kind == "U":
+            out[k] = "".join(v.reshape(-1).tolist())
+        elif v.dtype.kind in "biufc":
+            out[k] = v
+    return out
+
+
+def _mat_v73(path: Path) -> dict:
+    import h5py
+
+    out = {}
+    try:
+        with h5py.File(path, "r") as h:
+            for k, ds in h.items():
+                if k.startswith("#") or not isinstance(ds, h5py.Dataset):
+                    continue  # structs, cells and MATLAB's #refs#
+                cls = ds.attrs.get("MATLAB_class", b"")
+                cls = cls.decode() if isinstance(cls, bytes) else str(cls)
+                if ds.attrs.get("MATLAB_empty", 0):
+                    continue
+                v = np.asarray(ds[()])
+                if v.dtype.names and set(v.dtype.names) >= {"real", "imag"}:
+                    v = v["real"] + 1j * v["imag"].astype(np.float64)
+                v = v.T  # MATLAB is column-major: HDF5 holds the transpose
+                if cls == "char":
+                    out[k] = "".join(chr(c) for c in v.reshape(-1, order="F"))
+                elif v.dtype.kind in "biufc":
+                    out[k] = v
+    except OSError as exc:
+        raise InputError(path, "file", f"cannot be read as a MATLAB v7.3 (HDF5) file ({_brief(exc)})",
+                         "a MATLAB v5 or v7.3 .mat file") from None
+    return out
+
+
+def _npz(path: Path) -> dict:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            out = {}
+            for k in z.files:
+                v = z[k]
+                if v.dtype.kind == "U" and v.size == 1:
+                    out[k] = str(v.reshape(-1)[0])
+                elif v.dtype.kind in "biufc":
+                    out[k] = v
+            return out
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(path, "file", f"cannot be read as a NumPy .npz archive ({_brief(exc)})",
+                         "an .npz written by numpy.savez") from None
+
+
+def _from_named(path: Path, fmt: str, arrays: dict, *, variable=None, layout=None) -> Recording:
+    """The I/Q, metadata and track from named arrays (a .mat or .npz)."""
+    meta_names = {a: k for k, names in ALIASES.items() for a in names}
+    md, fields, track = {}, {}, {}
+    for name, v in arrays.items():
+        key = meta_names.get(name.lower())
+        if key is not None and (isinstance(v, str) or np.asarray(v).size == 1) and key not in md:
+            md[key] = convert(key, v, path, name)
+            fields[key] = name
+        elif name.lower() in TRACK_VARS:
+            track[name.lower()] = _real_vector(v, path, name).astype(np.float64)
+    used = {fields[k] for k in fields} | {n for n in arrays if n.lower() in TRACK_VARS}
+    candidates = [n for n, v in arrays.items() if n not in used and not isinstance(v, str) and np.asarray(v).size > 1]
+    names_txt = ", ".join(sorted(candidates)) or "none"
+    if variable:
+        names = [s.strip() for s in str(variable).split(",")]
+        for nm in names:
+            if nm not in arrays or isinstance(arrays[nm], str):
+                raise InputError(path, nm, "no such array", f"--variable one of: {names_txt}")
+        if len(names) == 2:
+            iq, found = iq_from_pair(arrays[names[0]], arrays[names[1]], path, tuple(names), layout), "iq-columns"
+        elif len(names) == 1:
+            iq, found = iq_from_array(arrays[names[0]], path, names[0], layout)
+        else:
+            raise InputError("--variable", "value", f"is {variable!r}", "NAME or NAME_I,NAME_Q")
+        chosen = ",".join(names)
+    else:
+        lower = {n.lower(): n for n in candidates}
+        if len(candidates) == 1:
+            chosen = candidates[0]
+            iq, found = iq_from_array(arrays[chosen], path, chosen, layout)
+        elif "iq" in lower:
+            chosen = lower["iq"]
+            iq, found = iq_from_array(arrays[chosen], path, chosen, layout)
+        elif {"i", "q"} <= set(lower) and len(candidates) == 2:
+            names = (lower["i"], lower["q"])
+            iq, found = iq_from_pair(arrays[names[0]], arrays[names[1]], path, names, layout), "iq-columns"
+            chosen = ",".join(names)
+        elif not candidates:
+            raise InputError(path, "variables", "hold no I/Q array", SHAPE_EXPECTED)
+        else:
+            raise InputError(path, "variables", f"hold several arrays ({names_txt})",
+                             "--variable NAME (or NAME_I,NAME_Q) to pick the I/Q")
+    trk = None
+    if track:
+        if not {"track_time_s", "track_range_m"} <= set(track):
+            have = next(iter(track))
+            raise InputError(path, have, "given without track_time_s and track_range_m", "both arrays, or neither")
+        trk = {"time_s": track["track_time_s"], "range_m": track["track_range_m"],
+               "radial_velocity_mps": track.get("track_radial_velocity_mps"), "source": "file arrays track_*"}
+    return Recording(path=path, format=fmt, layout=found, iq=iq, metadata=md, fields=fields, track=trk,
+                     info={"variable": chosen})
+
+
+def read_mat(path, *, variable: str | None = None, layout: str | None = None) -> Recording:
+    """Read a MATLAB ``.mat`` recording (v5 via scipy, v7.3/HDF5 via h5py)."""
+    import h5py
+
+    path = Path(path)
+    if h5py.is_hdf5(path):
+        arrays, fmt = _mat_v73(path), "mat-v7.3"
+    else:
+        arrays, fmt = _mat_v5(path), "mat-v5"
+    return _from_named(path, fmt, arrays, variable=variable, layout=layout)
+
+
+def read_npz(path, *, variable: str | None = None, layout: str | None = None) -> Recording:
+    """Read a NumPy ``.npz`` recording (named arrays, see the module docstring)."""
+    path = Path(path)
+    return _from_named(path, "npz", _npz(path), variable=variable, layout=layout)
+
+
+def read_npy(path, *, layout: str | None = None) -> Recording:
+    """Read a NumPy ``.npy`` recording: one complex vector or a real [n, 2] array."""
+    path = Path(path)
+    try:
+        a = np.load(path, allow_pickle=False)
+    except Exception as exc:
+        raise InputError(path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})",
+                         "an .npy written by numpy.save") from None
+    iq, found = iq_from_array(a, path, "array", layout)
+    return Recording(path=path, format="npy", layout=found, iq=iq)
+
+
+def detect_format(path) -> str:
+    name = Path(path).name.lower()
+    if name.endswith((".sigmf-meta", ".sigmf-data")):
+        return "sigmf"
+    for fmt in ("mat", "npy", "npz"):
+        if name.endswith("." + fmt):
+            return fmt
+    raise InputError(path, "file", "has an unknown suffix",
+                     "a .sigmf-meta/.sigmf-data pair, a .mat, an .npy or an .npz recording")
+
+
+def read_recording(path, *, variable: str | None = None, layout: str | None = None) -> Recording:
+    """Read any supported recording, by suffix."""
+    path = Path(path)
+    fmt = detect_format(path)
+    if layout is not None and layout not in LAYOUTS:
+        raise InputError("--layout", "value", f"is {layout!r}", " or ".join(LAYOUTS))
+    if fmt == "sigmf":
+        if variable:
+            raise InputError(path, "--variable", "given for a SigMF recording", "no --variable (SigMF holds one dataset)")
+        return read_sigmf(path, layout=layout)
+    if not path.exists():
+        raise InputError(path, "file", "does not exist", f"a .{fmt} recording")
+    if path.is_dir():
+        raise InputError(path, "file", "is a directory", f"a .{fmt} recording")
+    if fmt == "mat":
+        return read_mat(path, variable=variable, layout=layout)
+    if fmt == "npz":
+        return read_npz(path, variable=variable, layout=layout)
+    if variable:
+        raise InputError(path, "--variable", "given for an .npy file", "no --variable (an .npy holds one array)")
+    return read_npy(path, layout=layout)
+
+
+# ---- sidecar and parameters ------------------------------------------------------------
+
+def read_sidecar(path) -> dict:
+    """YAML sidecar -> ``{key: (value, label)}`` (keys of :data:`SIDECAR_KEYS`; a
+    relative ``track`` path is relative to the sidecar)."""
+    import yaml
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "file", "does not exist" if not path.exists() else "is not a file",
+                         "a YAML sidecar with keys " + ", ".join(SIDECAR_KEYS))
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise InputError(path, "yaml", f"cannot be parsed ({type(exc).__name__})", "a YAML mapping") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise InputError(path, "yaml", f"is a {type(data).__name__}", "a YAML mapping of parameters")
+    out = {}
+    for k, v in data.items():
+        if k not in SIDECAR_KEYS:
+            raise InputError(path, str(k), "is not a sidecar key", ", ".join(SIDECAR_KEYS))
+        if v is None:
+            continue
+        label = f"sidecar {path} key {k}"
+        if k in PARAM_TYPES:
+            v = convert(k, v, path, k)
+        elif k == "track":
+            v = Path(v) if Path(str(v)).is_absolute() else path.parent / str(v)
+        elif k == "layout" and v not in LAYOUTS:
+            raise InputError(path, k, f"is {v!r}", " or ".join(LAYOUTS))
+        out[k] = (v, label)
+    return out
+
+
+def resolve_parameters(rec: Recording, options: dict, sidecar: dict) -> tuple[dict, dict, list[str]]:
+    """Merge the file's metadata, a sidecar and options: option > sidecar > file.
+
+    ``options`` and ``sidecar`` map a key to ``(value, label)``; a value that differs
+    from the file's own metadata still wins, with a warning. Returns ``(params,
+    sources, warnings)``; ``sources`` says where each parameter came from.
+    """
+    params, sources, warns = {}, {}, []
+    for key in PARAM_TYPES:
+        file_v = rec.metadata.get(key)
+        file_label = f"file {rec.fields.get(key)}"
+        for level in (options, sidecar):
+            if key in level and level[key][0] is not None:
+                v, label = level[key]
+                if file_v is not None and not _same(v, file_v):
+                    warns.append(f"{label} = {v!r} contradicts the file's {rec.fields[key]} = {file_v!r}; "
+                                 f"using {v!r}")
+                params[key], sources[key] = v, label
+                break
+        else:
+            if file_v is not None:
+                params[key], sources[key] = file_v, file_label
+    return params, sources, warns
+
+
+def missing_parameter(rec: Recording, key: str) -> InputError:
+    where = {"prf_hz": " (SigMF global core:sample_rate)", "carrier_hz": " (SigMF captures[0].core:frequency)"}
+    hint = where.get(key, "") if rec.format == "sigmf" else ""
+    return InputError(rec.path, key, f"missing{hint}: not in the file's metadata, a sidecar or the options",
+                      f"{OPTION[key]} or the sidecar key {key}")
+
+
+def check_required(rec: Recording, params: dict) -> None:
+    need = REQUIRED + (DRONE_REQUIRED if params.get("target") == "drone" else ())
+    for key in need:
+        if key not in params:
+            raise missing_parameter(rec, key)
+
+
+# ---- tracks -----------------------------------------------------------------------------
+
+def read_track(path) -> dict:
+    """Track CSV (``time_s``, ``range_m``, optional ``radial_velocity_mps``), through
+    :func:`microdoppler.commands.simulate.read_track_csv`; times are kept on the
+    radar clock (not shifted to 0)."""
+    import pandas as pd
+
+    from .commands.simulate import read_track_csv
+
+    path = Path(path)
+    trk = read_track_csv(path)
+    df = pd.read_csv(path)
+    t0 = float(pd.to_numeric(df["time_s"]).iloc[0])
+    out = {"time_s": trk.time_s + t0, "range_m": trk.range_m, "radial_velocity_mps": None,
+           "source": f"track {path}"}
+    if "radial_velocity_mps" in df.columns:
+        v = pd.to_numeric(df["radial_velocity_mps"], errors="coerce").to_numpy(np.float64)
+        if not np.all(np.isfinite(v)):
+            raise InputError(path, "radial_velocity_mps", "has non-numeric, NaN or infinite values", "finite numbers")
+        out["radial_velocity_mps"] = v
+    return out
+
+
+def constant_track(range_m: float, duration_s: float, label: str) -> dict:
+    """A staring / CW recording: constant range, radial velocity 0, over [0, duration]."""
+    return {"time_s": np.array([0.0, duration_s]), "range_m": np.full(2, float(range_m)),
+            "radial_velocity_mps": np.zeros(2), "source": label}
+
+
+def finish_track(trk: dict, source) -> dict:
+    t = np.asarray(trk["time_s"], np.float64)
+    r = np.asarray(trk["range_m"], np.float64)
+    if len(t) != len(r):
+        raise InputError(source, "track range_m", f"has {len(r)} rows", f"as many as time_s ({len(t)})")
+    if len(t) < 2 or np.any(np.diff(t) <= 0) or not np.all(np.isfinite(t)):
+        raise InputError(source, "track time_s", "is not strictly increasing with >= 2 rows", "increasing times [s]")
+    if not np.all(np.isfinite(r)) or np.any(r <= 0):
+        raise InputError(source, "track range_m", "has non-positive or non-finite ranges", "ranges > 0 m")
+    v = trk.get("radial_velocity_mps")
+    if v is None:
+        v = np.gradient(r, t)
+    v = np.asarray(v, np.float64)
+    if len(v) != len(t) or not np.all(np.isfinite(v)):
+        raise InputError(source, "track radial_velocity_mps", f"has {len(v)} rows or non-finite values",
+                         f"{len(t)} finite values")
+    return {"time_s": t, "range_m": r, "radial_velocity_mps": v, "source": trk.get("source", str(source))}
+
+
+# ---- I/Q sanity ---------------------------------------------------------------------------
+
+def _segments(iq: np.ndarray, nfft: int, max_segments: int = 512) -> tuple[np.ndarray, np.ndarray]:
+    """Blackman-Harris windowed FFTs of up to ``max_segments`` segments spread over the
+    recording, and their centre sample indices."""
+    from scipy.signal import get_window
+
+    n_seg = len(iq) // nfft
+    idx = np.unique(np.linspace(0, n_seg - 1, min(n_seg, max_segments)).round().astype(int))
+    seg = np.stack([iq[i * nfft:(i + 1) * nfft] for i in idx]).astype(np.complex128)
+    seg *= get_window("blackmanharris", nfft)
+    return np.fft.fft(seg, axis=1), idx * nfft + nfft / 2
+
+
+def iq_sanity(iq: np.ndarray, prf_hz: float, wavelength_m: float | None = None, track: dict | None = None,
+              nfft: int = 1024, guard_bins: int = 4) -> dict:
+    """I/Q balance of a recording.
+
+    ``image_rejection_db``: the image-rejection ratio of the I/Q pair, from the
+    coherence between each Doppler bin and its mirror image. With I/Q imbalance a
+    signal s becomes ``mu s + nu conj(s)``; the mirror-image correlation
+    ``kappa = |sum Z(f) Z(-f)| / sum |Z(f)|^2`` (bins within ``guard_bins`` of 0 Hz
+    and the Nyquist bin left out, so stationary clutter does not count) equals
+    ``2 r / (1 + r^2)`` with ``r = |nu / mu|``, and IRR = ``|mu / nu|^2``. A real
+    signal (Q = 0, or I = Q) has a mirror-symmetric spectrum: kappa = 1, 0 dB; a
+    balanced receiver gives tens of dB (limited by the recording's length).
+    ``amplitude_imbalance_db`` (10 log10 E[I^2]/E[Q^2]) and ``phase_imbalance_deg``
+    (asin of the I-Q correlation) come from the same high-passed statistics.
+
+    ``doppler_sign_db`` (only with a track whose Doppler ``-2 v / lambda`` lies off
+    the guard band): median over CPIs of the peak power near the track's Doppler
+    over that near its mirror image [dB]; negative when the target sits at the
+    mirrored Doppler, i.e. I and Q swapped (or Q negated).
+    """
+    out = {"image_rejection_db": None, "amplitude_imbalance_db": None, "phase_imbalance_deg": None,
+           "doppler_sign_db": None}
+    n = len(iq)
+    nfft = int(min(nfft, 2 ** int(np.floor(np.log2(max(n, 1))))))
+    if nfft < 64:
+        return out
+    Z, centres = _segments(iq, nfft)
+    k = np.fft.fftfreq(nfft) * nfft
+    keep = (np.abs(k) >= guard_bins) & (np.abs(k) < nfft // 2)
+    mirror = (-np.arange(nfft)) % nfft
+    P = float(np.sum(np.abs(Z[:, keep]) ** 2))
+    if P > 0:
+        C = complex(np.sum(Z[:, keep] * Z[:, mirror][:, keep]))
+        kappa = min(abs(C) / P, 1.0)
+        if kappa > 0:
+            r = (1 - math.sqrt(max(0.0, 1 - kappa ** 2))) / kappa
+            out["image_rejection_db"] = min(-20 * math.log10(r), 100.0) if r > 0 else 100.0
+        else:
+            out["image_rejection_db"] = 100.0
+        ei, eq, eiq = (P + C.real) / 2, (P - C.real) / 2, C.imag / 2
+        if ei > 1e-12 * P and eq > 1e-12 * P:
+            out["amplitude_imbalance_db"] = 10 * math.log10(ei / eq)
+            out["phase_imbalance_deg"] = math.degrees(math.asin(max(-1.0, min(1.0, eiq / math.sqrt(ei * eq)))))
+    if track is not None and wavelength_m:
+        tc = centres / prf_hz
+        fd = -2 * np.interp(tc, track["time_s"], track["radial_velocity_mps"]) / wavelength_m
+        kb = np.round(fd / prf_hz * nfft).astype(int)
+        ok = (np.abs(kb) >= guard_bins + 3) & (np.abs(kb) < nfft // 2 - 3)
+        if ok.sum() >= 3:
+            pw = np.abs(Z[ok]) ** 2
+            off = np.arange(-3, 4)
+            rows = np.arange(len(pw))[:, None]
+            at = pw[rows, (kb[ok][:, None] + off) % nfft].max(axis=1)
+            mir = pw[rows, (-kb[ok][:, None] + off) % nfft].max(axis=1)
+            good = (at > 0) & (mir > 0)
+            if good.sum() >= 3:
+                out["doppler_sign_db"] = float(np.median(10 * np.log10(at[good] / mir[good])))
+    return {k: _finite_or_none(v) for k, v in out.items()}
+
+
+def sanity_warnings(s: dict) -> list[str]:
+    w = []
+    irr = s.get("image_rejection_db")
+    if irr is not None and irr < IMAGE_REJECTION_WARN_DB:
+        amp, ph = s.get("amplitude_imbalance_db"), s.get("phase_imbalance_deg")
+        detail = (f"amplitude imbalance {amp:.1f} dB, phase imbalance {ph:.1f} deg" if amp is not None
+                  else "one of I, Q is zero")
+        w.append(f"I/Q image rejection is {irr:.1f} dB ({detail}; expected > {IMAGE_REJECTION_WARN_DB:g} dB): "
+                 "the spectrum is nearly mirror-symmetric, as for a real-valued signal (Q = 0 or I = Q)")
+    d = s.get("doppler_sign_db")
+    if d is not None and d < DOPPLER_SIGN_WARN_DB:
+        w.append(f"the target's Doppler is {-d:.1f} dB stronger at the mirror of the track's -2 v / lambda: "
+                 "I and Q look swapped (or Q negated); expected an approaching target at positive Doppler")
+    return w
+
+
+# ---- the flight ---------------------------------------------------------------------------
+
+def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | None = None,
+                 warnings_: list[str] | None = None) -> tuple[Flight, list[str]]:
+    """A validated :class:`Flight` from a recording, its parameters and its track.
+
+    Checks the required parameters, ``n_samples`` against the data, and the I/Q
+    balance; returns the flight and the list of warnings (also in
+    ``attrs["import"]["warnings"]``).
+    """
+    from .flightzarr import _check_attrs, _check_consistency
+
+    warns = list(warnings_ or [])
+    check_required(rec, params)
+    n = len(rec.iq)
+    if "n_samples" in params and params["n_samples"] != n:
+        where = (sources or {}).get("n_samples", "metadata")
+        raise InputError(rec.path, "n_samples", f"the data holds {n} samples but {where} says "
+                         f"{params['n_samples']}", f"{params['n_samples']} samples")
+    prf, carrier = float(params["prf_hz"]), float(params["carrier_hz"])
+    duration = n / prf
+    track = finish_track(track, track.get("source", rec.path))
+    t = track["time_s"]
+    if t[0] > 1.0 or t[-1] < duration - 1.0:
+        warns.append(f"the track ({track['source']}) covers {t[0]:.2f}-{t[-1]:.2f} s of the recording's "
+                     f"0-{duration:.2f} s")
+    target = params["target"]
+    if target != "drone":
+        for k in DRONE_REQUIRED:
+            if k in params and not str((sources or {}).get(k, "file")).startswith("file"):
+                warns.append(f"{sources[k]} = {params[k]!r} is ignored: the target is {target}, not a drone")
+    sanity = iq_sanity(rec.iq, prf, SPEED_OF_LIGHT_MPS / carrier,
+                       track if target != "none" and np.any(track["radial_velocity_mps"] != 0) else None)
+    warns += sanity_warnings(sanity)
+    attrs = {"schema": SCHEMA, "flight_id": params["flight_id"], "target": target, "radar_id": params["radar_id"],
+             "prf_hz": prf, "carrier_hz": carrier}
+    if target == "drone":
+        attrs.update({k: params[k] for k in DRONE_REQUIRED})
+    attrs["import"] = {
+        "source_file": str(rec.path), "format": rec.format, "layout": rec.layout, **rec.info,
+        "n_samples": n, **sanity, "track": track["source"],
+        "parameter_sources": dict(sorted((sources or {}).items())), "warnings": warns,
+    }
+    json.dumps(attrs)  # zarr attributes are JSON
+    _check_attrs(rec.path, attrs)
+    flight = Flight(attrs=attrs, iq=rec.iq, track_time_s=track["time_s"], track_range_m=track["range_m"],
+                    track_radial_velocity_mps=track["radial_velocity_mps"])
+    _check_consistency(rec.path, attrs, flight.arrays())
+    return flight, warns
+
+
+def import_recording(path, *, options: dict | None = None, sidecar: dict | None = None,
+                     layout: str | None = None, variable: str | None = None,
+                     default_flight_id: str | None = None) -> tuple[Flight, list[str]]:
+    """Read ``path`` and return ``(flight, warnings)``.
+
+    ``options`` and ``sidecar`` map keys of :data:`SIDECAR_KEYS` to ``(value, label)``
+    (the label names the option, table cell or sidecar key in messages); options win
+    over the sidecar, both over the file's metadata. The track is the first of:
+    ``track`` (CSV path) or ``range_m`` (constant, a staring recording) among the
+    options, then the sidecar's, then the file's own track arrays or ``range_m``.
+    """
+    options, sidecar = dict(options or {}), dict(sidecar or {})
+    for lv in (options, sidecar):
+        if layout is None and lv.get("layout", (None,))[0]:
+            layout = lv["layout"][0]
+        if variable is None and lv.get("variable", (None,))[0]:
+            variable = lv["variable"][0]
+    rec = read_recording(path, variable=variable, layout=layout)
+    params, sources, warns = resolve_parameters(rec, options, sidecar)
+    if "flight_id" not in params:
+        fid = default_flight_id or default_flight_id_for(rec.path)
+        params["flight_id"] = convert("flight_id", fid, rec.path, "flight_id (from the file name)")
+        sources["flight_id"] = "default (file or output name)"
+    check_required(rec, params)
+    duration = len(rec.iq) / float(params["prf_hz"])
+    track = None
+    for lv in (options, sidecar):
+        if lv.get("track", (None,))[0] is not None:
+            track = read_track(lv["track"][0])
+        elif lv.get("range_m", (None,))[0] is not None:
+            track = constant_track(lv["range_m"][0], duration, f"constant range {lv['range_m'][1]}")
+        if track is not None:
+            if rec.track is not None:
+                warns.append(f"{track['source']} replaces the file's own track arrays")
+            break
+    if track is None:
+        if rec.track is not None:
+            track = dict(rec.track)
+        elif "range_m" in rec.metadata:
+            track = constant_track(rec.metadata["range_m"], duration, f"constant range file {rec.fields['range_m']}")
+        else:
+            raise InputError(rec.path, "track", "missing: no track in the file, a sidecar or the options",
+                             "--track CSV (time_s, range_m) or --range-m for a staring recording")
+    sources.pop("range_m", None)
+    return build_flight(rec, params, track, sources=sources, warnings_=warns)
+
+
+def default_flight_id_for(path) -> str:
+    name = Path(path).name
+    for ext in (".sigmf-meta", ".sigmf-data", ".zarr", ".mat", ".npz", ".npy"):
+        if name.lower().endswith(ext):
+            name = name[: -len(ext)]
+            break
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", name) or "flight"
