@@ -21,6 +21,8 @@ rule train_classifier:
     threads: CLASSIFIER.get("threads", 1)
     resources:
         mem_mb=2000,
+        # one GPU per job on a cluster for the paper's AlexNet (profiles/slurm)
+        gpu=CLASSIFIER_GPUS,
     params:
         classifier=CLASSIFIER,
         code=code_version("classifier"),

@@ -141,6 +141,7 @@ def dataset_targets():
 CLASSIFIER = config.get("classifier", {})
 TRAINSETS = CLASSIFIER.get("trainsets") or ["real"] + VARIANTS
 SEEDS = [int(s) for s in CLASSIFIER.get("seeds", list(range(1, 10)))]
+CLASSIFIER_GPUS = 1 if CLASSIFIER.get("architecture") == "alexnet" else 0
 
 
 def classifier_tiles(wildcards):
