@@ -621,3 +621,72 @@ def test_library_reader_returns_complex64_and_metadata(tmp_path, flight):
     assert rec.metadata == {"radar_id": "radar1", "prf_hz": 7300.0, "carrier_hz": 1.35e9, "target": "drone"}
     assert rec.fields["prf_hz"] == "global.core:sample_rate"
     assert sigmf.__version__  # the package the pair was written (and is read) with
+
+
+# ---- round trip to a diagnosis ------------------------------------------------------
+
+def _strip_timing(obj):
+    if isinstance(obj, dict):
+        return {k: _strip_timing(v) for k, v in obj.items() if k != "seconds"}
+    if isinstance(obj, list):
+        return [_strip_timing(v) for v in obj]
+    return obj
+
+
+def test_round_trip_import_validate_diagnose_gives_the_original_report(tmp_path, capsys):
+    """A flight exported to SigMF (+ its track and motor-log CSVs), imported, validated
+    and diagnosed gives the same report as diagnosing the original store."""
+    from microdoppler.diagnosis import diagnose
+    from microdoppler.flightzarr import write_flight
+
+    f, _ = emulate_flight(FlightSpec("rt1", "drone", drone_model="inspire2", duration_s=24.0, snr_db=42.0,
+                                     mean_range_m=1200.0, seed=17,
+                                     effects={"sideband_asymmetry": {"asymmetry_db": 4.5}}))
+    original = write_flight(tmp_path / "orig" / "rt1.zarr", f)
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    write_sigmf(rec, "rt1", f.iq, sample_rate=f.prf_hz, carrier_hz=f.carrier_hz)
+    write_sigmf(rec, "rt1_bg", f.background_iq, sample_rate=f.prf_hz, carrier_hz=f.carrier_hz, label="none")
+    track = write_track(rec / "track.csv", f)
+    import pandas as pd
+
+    log = pd.DataFrame({"time_s": f.motors_time_s,
+                        **{f"m{k + 1}": f.motors_rpm[:, k] for k in range(f.motors_rpm.shape[1])}})
+    log.to_csv(rec / "log.csv", index=False, float_format="%.17g")
+    out = tmp_path / "imp" / "rt1.zarr"
+    rc, err = run_cli(capsys, ["import", rec / "rt1.sigmf-meta", *DRONE_OPTS, "--radar-id", f.attrs["radar_id"],
+                               "--track", track, "--motor-log", rec / "log.csv", "--flight-id", "rt1",
+                               "--background", rec / "rt1_bg.sigmf-meta",
+                               "--out", out, "--quiet"])
+    assert rc == 0, err
+    assert run_cli(capsys, ["validate", out])[0] == 0
+    imported = read_flight(out)
+    np.testing.assert_array_equal(imported.motors_rpm, f.motors_rpm)
+    assert imported.attrs["motors_source"] == "log"
+    np.testing.assert_array_equal(imported.background_iq, f.background_iq)
+    a = diagnose([original], tmp_path / "a.json", config={"figures": False}, log=lambda m: None)
+    b = diagnose([out], tmp_path / "b.json", config={"figures": False}, log=lambda m: None)
+    assert _strip_timing(a["flights"]) == _strip_timing(b["flights"])
+    assert a["flights"][0]["cause"] not in ("skipped",)
+
+
+@pytest.mark.parametrize("case, field", [("log with 3 motors", "motor columns"),
+                                         ("short background", "samples"),
+                                         ("log in rev/s declared rpm", "rpm")])
+def test_motor_log_and_background_bad_input(tmp_path, capsys, flight, case, field):
+    rec = write_sigmf(tmp_path, "r", flight.iq, sample_rate=flight.prf_hz, carrier_hz=flight.carrier_hz)
+    t = np.arange(0, 6, 1 / 30)
+    rpm = 3 if case == "log with 3 motors" else 4
+    scale = 1 / 60 if case == "log in rev/s declared rpm" else 1
+    import pandas as pd
+
+    pd.DataFrame({"time_s": t, **{f"m{k}": np.full(len(t), 5000.0 * scale) for k in range(rpm)}}).to_csv(
+        tmp_path / "log.csv", index=False)
+    extra = ["--motor-log", tmp_path / "log.csv"]
+    if case == "short background":
+        extra = ["--background", write_sigmf(tmp_path, "bg", flight.iq[:-10], sample_rate=flight.prf_hz,
+                                             carrier_hz=flight.carrier_hz, label="none")]
+    out = tmp_path / "o.zarr"
+    rc, err = run_cli(capsys, ["import", rec, *DRONE_OPTS, "--range-m", "900", *extra, "--out", out])
+    one_line(rc, err, field)
+    assert not out.exists()

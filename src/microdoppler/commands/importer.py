@@ -32,9 +32,10 @@ import pandas as pd
 
 from ..errors import InputError
 from ..flightzarr import write_flight
+from ..motorlog import UNIT_TO_RPM, read_motor_log
 from ..outputs import atomic_dir, check_output, commit_folder, is_tool_store
 from ..recordings import (EXTRA_KEYS, LAYOUTS, OPTION, PARAM_TYPES, SIDECAR_KEYS, convert,
-                          default_flight_id_for, import_recording, read_sidecar)
+                          default_flight_id_for, import_recording, read_recording, read_sidecar)
 from . import add_overwrite, positive, positive_int
 
 #: parameters that have a command-line option (n_samples is a sidecar/table key only)
@@ -73,6 +74,14 @@ def register(subparsers) -> None:
     trk.add_argument("--track", default=None, help="track CSV: time_s, range_m[, radial_velocity_mps]")
     p.add_argument("--flight-id", default=None,
                    help="flight_id attribute (default: the store's name; with --batch, the file's name)")
+    p.add_argument("--background", default=None,
+                   help="a target-free recording of the same cells (same format and layout), stored as "
+                        "background/iq for injecting twins and for the diagnosis' floor tests")
+    p.add_argument("--motor-log", default=None,
+                   help="drones: the flight's motor log (.ulg, or .csv with time_s on the radar clock and one "
+                        "column per motor), stored as motors/time_s, motors/rpm")
+    p.add_argument("--motor-log-unit", choices=tuple(UNIT_TO_RPM), default="rpm",
+                   help="unit of the CSV motor columns (default rpm)")
     p.add_argument("--quiet", action="store_true", help="no summary line on stderr (warnings are still shown)")
     add_overwrite(p)
     p.set_defaults(func=run)
@@ -112,12 +121,35 @@ def run(args) -> int:
         return run_batch(args)
     check_output(args.out, kind="store", overwrite=args.overwrite)
     sidecar = read_sidecar(args.sidecar) if args.sidecar else {}
+    log = None
+    if args.motor_log:
+        opts = {} if str(args.motor_log).lower().endswith(".ulg") else {"unit": args.motor_log_unit}
+        log = read_motor_log(args.motor_log, **opts)
     flight, warns = import_recording(
         args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
         default_flight_id=default_flight_id_for(args.out))
+    if log is not None:
+        attach_motor_log(flight, log, args.motor_log)
+    if args.background:
+        bg = read_recording(args.background, variable=args.variable, layout=args.layout).iq
+        if len(bg) != len(flight.iq):
+            raise InputError(args.background, "samples", f"has {len(bg)}",
+                             f"{len(flight.iq)} samples, as the recording (background/iq pairs pulse by pulse)")
+        flight.background_iq = bg
     write_flight(args.out, flight)
     _report(_summary(args.recording, args.out, flight, warns), args.quiet)
     return 0
+
+
+def attach_motor_log(flight, log, source) -> None:
+    """Store ``log`` as the flight's ``motors/*`` (a drone's, with matching motor count)."""
+    if flight.attrs.get("target") != "drone":
+        raise InputError("--motor-log", "target", f"is {flight.attrs.get('target')!r}", "a drone recording")
+    if log.n_motors != flight.attrs.get("n_motors"):
+        raise InputError(source, "motor columns", f"{log.n_motors} motors",
+                         f"n_motors={flight.attrs.get('n_motors')} of the recording")
+    flight.motors_time_s, flight.motors_rpm = log.time_s.astype("float64"), log.rpm.astype("float32")
+    flight.attrs["motors_source"] = "log"
 
 
 def _is_own(entry: Path) -> bool:
