@@ -11,6 +11,14 @@ exceeds ln(n_causes / alpha) (Bonferroni over the causes) and *relevant* when it
 fitted effect is at least a margin (a fraction of the catalog's detectable size);
 the named cause is the significant and relevant one with the largest e-value.
 
+A test's ``held_out`` records whether its ``nll_base``/``nll_ext`` really are held-out
+scores: both folds held observations, each was scored with parameters fitted on the
+other alone, the scores are finite, and no fit borrowed data outside its fold (the
+fading test's within-CPI scatter falls back to the whole flight when a fold has too
+few multi-harmonic CPIs). Only held-out tests can be significant. The shared
+preprocessing (linear trend in time and log range, the body's moving average) is
+computed once on the whole flight and is the same for both models.
+
 Statistics (per CPI) and models:
 
 - ``sideband_asymmetry``: d = 10 log10(upper / lower sideband power) over the usable
@@ -52,6 +60,7 @@ class CauseTest:
     nll_base: float = np.nan            # held-out negative log-likelihood per observation
     nll_ext: float = np.nan
     n_obs: int = 0
+    held_out: bool = False              # nll_base/nll_ext really scored on data the fits did not see
     params: dict = field(default_factory=dict)   # fitted on the whole flight
     effect: float = 0.0                 # size compared with the relevance margin
     relevant: bool = False
@@ -69,17 +78,31 @@ def _gauss_ll(x, mu, var):
     return -0.5 * (LOG2PI + np.log(var) + (x - mu) ** 2 / var)
 
 
-def _crossfit(x_idx_fold, fit, score):
-    """fit(mask) -> theta; score(theta, mask) -> (ll_base, ll_ext) per observation."""
+def _crossfit(fold, fit, score, res: "CauseTest") -> None:
+    """Two-fold cross-fit: ``fit(mask) -> theta`` on one fold, ``score(theta, mask) ->
+    (ll_base, ll_ext)`` per observation on the other, and the other way round.
+
+    Sets ``res.log_e`` (log of the averaged held-out likelihood ratio),
+    ``res.nll_base``/``res.nll_ext`` (held-out negative log-likelihood per
+    observation), ``res.n_obs`` and ``res.held_out``: True only when both folds hold
+    observations (each fold scored with parameters fitted on the other one alone)
+    and the scores are finite. A fit that has to borrow data outside its fold must
+    clear ``res.held_out`` itself afterwards."""
     dl, nb, ne, n = [], 0.0, 0.0, 0
+    held = True
     for k in (0, 1):
-        th = fit(x_idx_fold == k)
-        lb, le = score(th, x_idx_fold == 1 - k)
+        train, test = fold == k, fold == 1 - k
+        held &= bool(train.any() and test.any())
+        th = fit(train)
+        lb, le = score(th, test)
+        lb, le = np.asarray(lb, float), np.asarray(le, float)
+        held &= bool(np.all(np.isfinite(lb)) and np.all(np.isfinite(le)))
         dl.append(float(np.sum(le - lb)))
         nb -= float(np.sum(lb)); ne -= float(np.sum(le)); n += len(lb)
     m = max(dl)
-    log_e = m + np.log(0.5 * sum(np.exp(d - m) for d in dl))
-    return log_e, nb / max(n, 1), ne / max(n, 1), n
+    log_e = m + np.log(0.5 * sum(np.exp(d - m) for d in dl)) if np.isfinite(m) else float("nan")
+    res.log_e, res.nll_base, res.nll_ext, res.n_obs = float(log_e), nb / max(n, 1), ne / max(n, 1), n
+    res.held_out = bool(held and n > 0 and np.isfinite(log_e))
 
 
 def _detrend(y, t, r, smooth: int = 0):
@@ -193,7 +216,7 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
         mu, vb, ve = th
         return _gauss_ll(d[sel], 0.0, vb), _gauss_ll(d[sel], mu, ve)
 
-    res.log_e, res.nll_base, res.nll_ext, res.n_obs = _crossfit(f, fit, score)
+    _crossfit(f, fit, score, res)
     a = float(np.median(d))
     res.params = {"asymmetry_db": a}
     res.effect = abs(a)
@@ -224,7 +247,7 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, tau_fixed=None, smooth=0):
     def score(s2, sel):
         return _gauss_ll(e[sel], 0.0, v0[sel]), _gauss_ll(e[sel], 0.0, v0[sel] + s2)
 
-    res.log_e, res.nll_base, res.nll_ext, res.n_obs = _crossfit(f, fit, score)
+    _crossfit(f, fit, score, res)
     s2 = _ml_extra_var(e, v0)
     meas_sd = float(np.sqrt(s2))
     hop_s = float(np.median(np.diff(M.t_s)))
@@ -274,9 +297,14 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     e = _detrend(c, M.t_s[m], M.range_m[m])
     f = fold[m]
 
+    borrowed = []
+
     def sw2(sel):
         d = (Km[sel] - 1).sum()
-        return float(ss[sel].sum() / d) if d >= 4 else float(ss.sum() / max((Km - 1).sum(), 1.0))
+        if d >= 4:
+            return float(ss[sel].sum() / d)
+        borrowed.append(True)  # too few multi-harmonic CPIs in the fold: the whole flight's scatter
+        return float(ss.sum() / max((Km - 1).sum(), 1.0))
 
     def fit(sel):
         v0 = sw2(sel) / Km[sel] + cfg.model_floor_db ** 2
@@ -287,7 +315,8 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
         v0 = s2w / Km[sel] + cfg.model_floor_db ** 2
         return _gauss_ll(e[sel], 0.0, v0), _gauss_ll(e[sel], 0.0, v0 + s2)
 
-    res.log_e, res.nll_base, res.nll_ext, res.n_obs = _crossfit(f, fit, score)
+    _crossfit(f, fit, score, res)
+    res.held_out = res.held_out and not borrowed
     s2w, s2 = fit(np.ones(len(e), bool))
     v0 = s2w / Km + cfg.model_floor_db ** 2
     meas_sd = float(np.sqrt(s2))
@@ -369,8 +398,8 @@ def test_log(M, cfg, fold) -> tuple[CauseTest, CauseTest]:
         mu, vb, ve = th
         return _gauss_ll(y[sel], 0.0, vb), _gauss_ll(y[sel], mu, ve)
 
-    lag_res.log_e, lag_res.nll_base, lag_res.nll_ext, lag_res.n_obs = _crossfit(f, fit_lag, score_lag)
-    sc_res.log_e, sc_res.nll_base, sc_res.nll_ext, sc_res.n_obs = _crossfit(f, fit_sc, score_sc)
+    _crossfit(f, fit_lag, score_lag, lag_res)
+    _crossfit(f, fit_sc, score_sc, sc_res)
     sse = ((y[None, :] - G) ** 2).sum(1)
     j = int(np.argmin(sse))
     # parabolic refinement of the lag
@@ -484,7 +513,7 @@ def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
         ve = S[sel] + Kn[sel] @ xe
         return -(np.log(vb) + P[sel] / vb), -(np.log(ve) + P[sel] / ve)
 
-    res.log_e, res.nll_base, res.nll_ext, res.n_obs = _crossfit(F, fit, score)
+    _crossfit(F, fit, score, res)
     xb, xe = fit(np.ones(len(P), bool))
     q = float(xe[0] / norm[0])
     rms = float(np.sqrt(np.log1p(q)))

@@ -3,7 +3,9 @@
 :func:`diagnose_flight` measures the flight against the paper's model of it
 (:mod:`.measure`), calibrates S_body, S_blade and alpha, runs one held-out
 likelihood test per cause (:mod:`.causes`) and returns the report entry of
-``shared/formats/flight-zarr.md``.
+``shared/formats/flight-zarr.md`` (``diagnosis-report/2``). A flight it cannot judge
+raises :class:`Undiagnosable` (an :class:`InputError` naming the field);
+:func:`diagnose` lists such flights as ``skipped`` with the reason.
 """
 
 from __future__ import annotations
@@ -18,9 +20,126 @@ import numpy as np
 from ..catalog import CATALOG
 from ..errors import ConfigError, InputError
 from ..flightzarr import atomic_file, read_flight
-from ..motorlog import MotorLog
+from ..motorlog import MotorLog, check_motor_log
 from . import causes as C
 from .measure import measure
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_number(v) -> bool:
+    return (_is_int(v) or isinstance(v, (float, np.floating))) and np.isfinite(float(v))
+
+
+def _check_value(source, key: str, v, kind: str, lo=None, hi=None, lo_open=False, hi_open=False):
+    """``v`` as the config value of ``diagnosis.<key>``: type ``kind`` (``int``,
+    ``float``, ``bool``, ``floats``) within [lo, hi] (open ends with ``*_open``);
+    else :class:`ConfigError` naming ``diagnosis.<key>``."""
+    field = f"diagnosis.{key}"
+
+    def rng_text():
+        a = "" if lo is None else (f"> {lo:g}" if lo_open else f">= {lo:g}")
+        b = "" if hi is None else (f"< {hi:g}" if hi_open else f"<= {hi:g}")
+        if lo is not None and hi is not None:
+            return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        return a or b
+
+    def in_range(x):
+        return ((lo is None or (x > lo if lo_open else x >= lo))
+                and (hi is None or (x < hi if hi_open else x <= hi)))
+
+    what = {"int": "an integer", "float": "a number", "floats": "a list of numbers", "bool": "true or false"}[kind]
+    expected = f"{what} {rng_text()}".strip() if kind != "bool" else what
+    if kind == "bool":
+        if not isinstance(v, (bool, np.bool_)):
+            raise ConfigError(source, field, f"is {v!r} ({type(v).__name__})", expected)
+        return bool(v)
+    if kind == "floats":
+        if isinstance(v, (str, bytes, dict)) or not hasattr(v, "__iter__"):
+            raise ConfigError(source, field, f"is {v!r} ({type(v).__name__})", expected)
+        out = []
+        for i, x in enumerate(v):
+            if not _is_number(x) or not in_range(float(x)):
+                raise ConfigError(source, f"{field}[{i}]", f"is {x!r}", expected)
+            out.append(float(x))
+        return tuple(out)
+    ok_type = _is_int(v) if kind == "int" else _is_number(v)
+    if not ok_type:
+        if kind == "float" and isinstance(v, (float, np.floating)):
+            raise ConfigError(source, field, f"is {v!r}", f"a finite number {rng_text()}".strip())
+        raise ConfigError(source, field, f"is {v!r} ({type(v).__name__})", expected)
+    x = int(v) if kind == "int" else float(v)
+    if not in_range(x):
+        raise ConfigError(source, field, f"is {x:g}", expected)
+    return x
+
+
+#: type and allowed range of every DiagnosisConfig field: (kind, lo, hi, lo_open, hi_open)
+_RULES = {
+    "n_fft": ("int", 64, None, False, False),
+    "seed": ("int", 0, None, False, False),
+    "alpha": ("float", 0, 1, True, True),
+    "block_cpis": ("int", 1, None, False, False),
+    "artifact_floor_db": ("float", 0, None, True, False),
+    "body_search_hz": ("float", 0, None, True, False),
+    "body_half_hz": ("float", 0, None, True, False),
+    "clutter_guard_hz": ("float", 0, None, False, False),
+    "scale_min": ("float", 0, 1, True, False),
+    "scale_max": ("float", 1, None, False, False),
+    "scale_step": ("float", 0, None, True, False),
+    "n_match_harmonics": ("int", 1, None, False, False),
+    "min_match": ("float", 0, 1, False, True),
+    "n_harmonics": ("int", 1, None, False, False),
+    "line_half_bins": ("int", 1, None, False, False),
+    "raised_floor_db": ("float", 0, None, True, False),
+    "min_pair_snr": ("float", 0, None, False, False),
+    "model_floor_db": ("float", 0, None, False, False),
+    "max_lag_s": ("float", 0, None, True, False),
+    "lag_step_s": ("float", 0, None, True, False),
+    "pn_inner_hz": ("float", 0, None, False, False),
+    "pn_outer_hz": ("float", 0, None, True, False),
+    "pn_nuisance_decay_hz": ("floats", 0, None, True, False),
+    "pn_smooth_cpis": ("int", 0, None, False, False),
+    "pn_body_skirt_hz": ("float", 0, None, True, False),
+    "pn_model_guard_db": ("float", None, None, False, False),
+    "pn_bin_step": ("int", 1, None, False, False),
+    "pn_smooth_bins": ("int", 0, None, False, False),
+    "pn_clutter_line_hz": ("float", 0, None, True, False),
+    "pn_line_guard_frac": ("float", 0, 0.5, False, False),
+    "pn_body_guard_hz": ("float", 0, None, False, False),
+    "body_smooth_cpis": ("int", 0, None, False, False),
+    "margin_asymmetry_db": ("float", 0, None, False, False),
+    "margin_std_db": ("float", 0, None, False, False),
+    "margin_body_std_db": ("float", 0, None, False, False),
+    "margin_lag_s": ("float", 0, None, False, False),
+    "margin_scale": ("float", 0, None, False, False),
+    "margin_floor_rise_db": ("float", 0, None, False, False),
+    "min_blade_wavelengths": ("float", 0, None, False, False),
+    "min_log_coverage": ("float", 0, 1, True, False),
+    "figures": ("bool", None, None, False, False),
+}
+
+
+def _check_config(values: dict, source) -> dict:
+    """Every field of ``values`` checked and normalised (ints, floats, tuples), then
+    the constraints between fields; raises :class:`ConfigError`."""
+    out = {k: _check_value(source, k, v, *_RULES[k]) for k, v in values.items()}
+
+    def need(cond, key, problem, expected):
+        if not cond:
+            raise ConfigError(source, f"diagnosis.{key}", problem, expected)
+
+    need(out["scale_max"] > out["scale_min"], "scale_max", f"is {out['scale_max']:g}",
+         f"> diagnosis.scale_min ({out['scale_min']:g})")
+    need(out["scale_step"] < out["scale_max"] - out["scale_min"], "scale_step", f"is {out['scale_step']:g}",
+         f"< scale_max - scale_min ({out['scale_max'] - out['scale_min']:g})")
+    need(out["lag_step_s"] <= out["max_lag_s"], "lag_step_s", f"is {out['lag_step_s']:g}",
+         f"<= diagnosis.max_lag_s ({out['max_lag_s']:g})")
+    need(out["pn_outer_hz"] > out["pn_inner_hz"], "pn_outer_hz", f"is {out['pn_outer_hz']:g}",
+         f"> diagnosis.pn_inner_hz ({out['pn_inner_hz']:g})")
+    return out
 
 
 @dataclass(frozen=True)
@@ -40,6 +159,16 @@ class DiagnosisConfig:
         at least this (about half the catalog's detectable size).
     model_floor_db : float
         Std [dB] of per-CPI power the paper's model is allowed to miss (beyond noise).
+    min_blade_wavelengths : float
+        Blades shorter than this many wavelengths (below the thin wire's half-wave
+        resonance) have rotor lines below the noise: such drones (the Mini 2's
+        0.06 m blades are 0.27 wavelengths at L-band) are not diagnosed.
+    min_log_coverage : float
+        Fraction of the flight's time span the motor log must cover; CPIs outside the
+        log's span are not used.
+
+    Invalid values raise :class:`~microdoppler.errors.ConfigError` naming
+    ``diagnosis.<field>`` (:meth:`from_dict` names the config file).
     """
 
     n_fft: int = 4096
@@ -80,24 +209,28 @@ class DiagnosisConfig:
     margin_lag_s: float = 0.15
     margin_scale: float = 0.025
     margin_floor_rise_db: float = 3.0
+    min_blade_wavelengths: float = 0.5
+    min_log_coverage: float = 0.5
     figures: bool = True
 
     @classmethod
-    def from_dict(cls, d: dict | None) -> "DiagnosisConfig":
-        d = dict(d or {})
-        names = {f.name for f in fields(cls)}
+    def from_dict(cls, d: dict | None, source="config") -> "DiagnosisConfig":
+        """The config of the mapping ``d`` (field -> value); ``source`` (the config
+        file) is named in errors: ``<source>: diagnosis.<field>: <problem> (expected ...)``."""
+        if d is None:
+            d = {}
+        if not isinstance(d, dict):
+            raise ConfigError(source, "diagnosis", f"is a {type(d).__name__}", "a mapping of diagnosis settings")
+        names = [f.name for f in fields(cls)]
         for k in d:
             if k not in names:
-                raise ConfigError("config", f"diagnosis.{k}", "unknown key", f"one of {sorted(names)}")
-        return cls(**d)
+                raise ConfigError(source, f"diagnosis.{k}", "unknown key", f"one of {', '.join(names)}")
+        values = {f.name: f.default for f in fields(cls)}
+        values.update(d)
+        return cls(**_check_config(values, source))
 
     def __post_init__(self):
-        if not 0 < self.alpha < 1:
-            raise ValueError(f"alpha={self.alpha} must be in (0, 1)")
-        if self.block_cpis < 1:
-            raise ValueError(f"block_cpis={self.block_cpis} must be >= 1")
-        if self.n_fft < 64:
-            raise ValueError(f"n_fft={self.n_fft} must be >= 64")
+        _check_config({f.name: getattr(self, f.name) for f in fields(self)}, "DiagnosisConfig")
 
 
 def _calibrate(M, cfg) -> dict:
@@ -136,12 +269,105 @@ def _calibrate(M, cfg) -> dict:
             "per_harmonic_power_error_db": per_h_err, "n_usable_harmonics": int(len(ks))}
 
 
+#: the report format written by :func:`diagnose` (``shared/formats/flight-zarr.md``)
+REPORT_SCHEMA = "diagnosis-report/2"
+#: causes whose tests need the rotors' HERM lines
+ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor_speed_scale")
+
+
+class Undiagnosable(InputError):
+    """A flight the diagnosis cannot judge (a bird, a Mini, no usable motor log, too
+    short, no visible rotor lines). :func:`diagnose_flight` raises it (an
+    :class:`InputError` naming the field); :func:`diagnose` lists the flight as
+    ``skipped`` with ``reason``."""
+
+    def __init__(self, source, field: str, problem: str, expected: str | None = None, *, reason: str | None = None):
+        super().__init__(source, field, problem, expected)
+        self.reason = reason or (f"{field}: {problem}" + (f" (expected {expected})" if expected else ""))
+
+
 def flight_log(flight, motor_log: MotorLog | None) -> MotorLog | None:
     if motor_log is not None:
         return motor_log
     if flight.has_motor_log:
         return MotorLog(flight.motors_time_s, flight.motors_rpm, str(flight.flight_id))
     return None
+
+
+def _n_cpis(n_pulses: int, n_fft: int) -> int:
+    hop = int(round(n_fft * 0.5))  # features.stft_power's 50 % overlap
+    return 0 if n_pulses < n_fft else 1 + (n_pulses - n_fft) // hop
+
+
+def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) -> MotorLog:
+    """The flight's motor log, checked; :class:`Undiagnosable` when the flight cannot
+    be diagnosed: not a drone, blades too short for visible rotor lines (Minis), no
+    motor log, a log that :func:`~microdoppler.motorlog.check_motor_log` rejects
+    (all zeros, a median speed implausible for a rotor, e.g. rev/s declared as rpm),
+    a log covering less than ``min_log_coverage`` of the flight's span, or fewer CPIs
+    than two held-out folds need."""
+    fid = flight.flight_id
+    a = flight.attrs
+    target = a.get("target")
+    if target != "drone":
+        reason = {"bird": "bird flight: no rotors", "none": "target-free recording: no rotors"}.get(
+            target, f"target {target!r}: not a drone")
+        raise Undiagnosable(fid, "attrs.target", f"is {target!r}", "'drone' (only drones are diagnosed)", reason=reason)
+    lam = flight.wavelength_m
+    blade = float(a["blade_length_m"])
+    if blade < cfg.min_blade_wavelengths * lam:
+        size = f"{blade:g} m = {blade / lam:.2f} wavelengths at {flight.carrier_hz / 1e9:.3g} GHz"
+        raise Undiagnosable(
+            fid, "attrs.blade_length_m", f"is {size}: the rotor lines are below the noise",
+            f">= {cfg.min_blade_wavelengths:g} wavelengths (diagnosis.min_blade_wavelengths)",
+            reason=f"{a.get('drone_model', 'drone')}: rotor lines invisible (attrs.blade_length_m {size}, "
+                   f"< {cfg.min_blade_wavelengths:g})")
+    log = flight_log(flight, motor_log)
+    if log is None:
+        raise Undiagnosable(fid, "motors", "no motor log", "motors/time_s + motors/rpm or a motor log",
+                            reason="no motor log")
+    t_field, s_field = "motors/time_s", "motors/rpm"
+    src = fid if motor_log is None else (log.source or fid)
+    try:
+        log = check_motor_log(src, log.time_s, log.rpm, unit="rpm", time_field=t_field, speed_field=s_field)
+    except InputError as e:
+        raise Undiagnosable(e.source, e.field, e.problem, e.expected,
+                            reason=f"unusable motor log: {e.field}: {e.problem}"
+                                   + (f" (expected {e.expected})" if e.expected else "")) from None
+    span = flight.duration_s
+    t0, t1 = float(log.time_s[0]), float(log.time_s[-1])
+    cover = max(0.0, min(t1, span) - max(t0, 0.0)) / span
+    if cover < cfg.min_log_coverage:
+        problem = f"spans {t0:.4g} to {t1:.4g} s, {cover:.0%} of the flight's 0 to {span:.4g} s"
+        expected = f">= {cfg.min_log_coverage:.0%} of the flight covered (diagnosis.min_log_coverage)"
+        raise Undiagnosable(src, t_field, problem, expected,
+                            reason=f"motor log outside the flight: {t_field}: {problem} (expected {expected})")
+    n_t = _n_cpis(len(flight.iq), cfg.n_fft)
+    need = 2 * cfg.block_cpis + 4
+    if n_t < need:
+        n_need = cfg.n_fft + (need - 1) * int(round(cfg.n_fft * 0.5))
+        problem = f"has {len(flight.iq)} pulses = {n_t} CPIs of {cfg.n_fft}"
+        expected = f">= {need} CPIs = {n_need} pulses (two held-out folds of diagnosis.block_cpis={cfg.block_cpis})"
+        raise Undiagnosable(fid, "iq", problem, expected,
+                            reason=f"flight too short: iq: {problem} (expected {expected})")
+    return log
+
+
+def _check_measured(fid, M, tests: dict, cfg: DiagnosisConfig) -> None:
+    """:class:`Undiagnosable` when the measurement leaves nothing to test: too few
+    usable CPIs, or no test of the rotors' lines possible (none visible)."""
+    nv = int(M.valid.sum())
+    if nv < 2 * cfg.block_cpis or not any(t.testable for t in tests.values()):
+        problem = (f"has {nv} of {len(M.t_s)} CPIs usable (body Doppler outside the clutter notch, "
+                   f"no floor artifact, within the motor log's span)")
+        expected = f">= {2 * cfg.block_cpis} usable CPIs"
+        raise Undiagnosable(fid, "iq", problem, expected,
+                            reason=f"too few usable CPIs: iq: {problem} (expected {expected})")
+    if not any(tests[c].testable for c in ROTOR_CAUSES):
+        problem = ("shows no rotor lines: no HERM sideband pair above the noise and too few CPIs whose line "
+                   "pattern matches the motor log's")
+        raise Undiagnosable(fid, "iq", problem, "visible HERM lines of the rotors",
+                            reason=f"no visible rotor sidebands: iq: {problem}")
 
 
 def run_tests(flight, motor_log: MotorLog, cfg: DiagnosisConfig):
@@ -161,16 +387,43 @@ def run_tests(flight, motor_log: MotorLog, cfg: DiagnosisConfig):
     return M, calib, tests
 
 
+def _significant(t, thr: float) -> bool:
+    # the e-value bound holds only for likelihood ratios scored on held-out data
+    return bool(t.testable and t.held_out and t.log_e >= thr)
+
+
 def decide(tests: dict, cfg: DiagnosisConfig) -> tuple[str, float]:
     """The named cause and the e-value threshold (log)."""
     n = sum(t.testable for t in tests.values())
     thr = float(np.log(max(n, 1) / cfg.alpha))
-    cands = [t for t in tests.values() if t.testable and t.log_e >= thr and t.relevant]
+    cands = [t for t in tests.values() if _significant(t, thr) and t.relevant]
     if not cands:
         return "none", thr
     # strongest: the largest held-out log-likelihood ratio per scored observation (the
     # statistics differ in size: per-CPI values vs. periodogram ordinates)
     return max(cands, key=lambda t: t.log_e / max(t.n_obs, 1)).cause, thr
+
+
+def gain(t) -> dict:
+    """The ``gain`` of a report entry: the held-out negative log-likelihood per
+    observation of the cause's statistic without (baseline) and with (extended) its
+    extension; ``held_out`` is the test's own record of whether each fold was scored
+    with parameters fitted on the other fold only."""
+    return {"metric": f"nll_per_obs:{t.statistic}", "baseline": t.nll_base, "extended": t.nll_ext,
+            "held_out": bool(t.held_out)}
+
+
+def cause_entry(t, thr: float) -> dict:
+    """One entry of a flight's ``causes`` list (report 2)."""
+    return {"cause": t.cause,
+            "extension": {"name": t.cause, "params": {k: float(v) for k, v in t.params.items()}},
+            "gain": gain(t),
+            "evidence": {"log_evalue": t.log_e, "log_evalue_threshold": thr, "n_heldout_obs": t.n_obs,
+                         "effect": t.effect, **t.evidence}}
+
+
+def skipped_entry(flight_id: str, reason: str) -> dict:
+    return {"flight_id": flight_id, "cause": "skipped", "causes": [], "reason": reason}
 
 
 def _r(x, nd=4):
@@ -201,44 +454,40 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     Returns
     -------
     dict
-        The report entry: flight_id, cause, extension, gain, evidence.
+        The report entry (``diagnosis-report/2``): flight_id, cause (the first of
+        ``causes`` or ``"none"``), causes (0 or 1 entries today, each with its
+        extension, held-out gain and evidence) and the flight's evidence (every
+        test, the calibration).
+
+    Raises
+    ------
+    Undiagnosable
+        (an :class:`InputError` naming the field) when the flight cannot be
+        diagnosed: see :func:`check_diagnosable`; also when no rotor line is visible.
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
     t0 = time.perf_counter()
     fid = flight.flight_id
-    if flight.attrs.get("target") != "drone":
-        raise InputError(fid, "attrs.target", f"is {flight.attrs.get('target')!r}", "'drone' (only drones are diagnosed)")
-    log = flight_log(flight, motor_log)
-    if log is None:
-        raise InputError(fid, "motors", "no motor log", "motors/time_s + motors/rpm or a motor log")
-    if len(flight.iq) < 4 * cfg.n_fft:
-        raise InputError(fid, "iq", f"has {len(flight.iq)} pulses", f">= {4 * cfg.n_fft} (4 CPIs)")
+    log = check_diagnosable(flight, motor_log, cfg)
     M, calib, tests = run_tests(flight, log, cfg)
+    _check_measured(fid, M, tests, cfg)
     cause, thr = decide(tests, cfg)
-    ordered = sorted((t for t in tests.values() if t.testable), key=lambda t: -t.log_e)
-    top = tests[cause] if cause != "none" else (ordered[0] if ordered else None)
     evidence = {
         "log_evalue_threshold": thr,
         "calibration": {"s_body": calib["s_body"], "s_blade": calib["s_blade"], "alpha_s": calib["alpha_s"]},
         "per_harmonic_power_error_db": calib["per_harmonic_power_error_db"],
-        "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": bool(t.testable and t.log_e >= thr),
+        "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": _significant(t, thr),
                       "relevant": bool(t.relevant), "testable": bool(t.testable), "params": t.params,
-                      "statistic": t.statistic, **t.evidence}
+                      "statistic": t.statistic, "heldout_nll_base": t.nll_base, "heldout_nll_ext": t.nll_ext,
+                      "held_out": bool(t.held_out), **t.evidence}
                   for c, t in tests.items()},
         "n_cpis": int(len(M.t_s)), "n_valid_cpis": int(M.valid.sum()),
         "motor_log_speed_hz": float(np.median(M.f_log_hz)),
         "seconds": time.perf_counter() - t0,
     }
-    if cause == "none":
-        ext = None
-    else:
-        ext = {"name": cause, "params": {k: float(v) for k, v in tests[cause].params.items()}}
-    gain = {"metric": f"heldout_nll_per_obs:{top.statistic if top else 'none'}",
-            "baseline": top.nll_base if top else None,
-            "extended": (top.nll_ext if cause != "none" else top.nll_base) if top else None,
-            "held_out": True}
-    entry = {"flight_id": fid, "cause": cause, "extension": ext, "gain": gain, "evidence": evidence}
-    entry = _r(entry)
+    causes = [] if cause == "none" else [cause_entry(tests[cause], thr)]
+    entry = _r({"flight_id": fid, "cause": causes[0]["cause"] if causes else "none", "causes": causes,
+                "evidence": evidence})
     if figure_path is not None and cfg.figures:
         from .figure import plot_diagnosis
 
@@ -255,27 +504,29 @@ def write_json(obj, path) -> Path:
 
 def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None,
              log=print) -> dict:
-    """Diagnose the drone flights at ``paths`` and write the report JSON.
+    """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``).
 
-    Flights that are not drones or have no motor log are skipped (logged).
-    ``motor_logs`` maps flight_id -> MotorLog (overrides the stores' own logs).
+    Every flight appears in the report: flights that cannot be diagnosed (birds,
+    target-free recordings, Minis, drones without a usable motor log, too short, no
+    visible rotor lines) with cause ``skipped`` and the ``reason``. A store that
+    breaks the format is an error (:class:`InputError`). ``motor_logs`` maps
+    flight_id -> MotorLog (overrides the stores' own logs).
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
     entries = []
     for p in paths:
         f = read_flight(p)
         ml = (motor_logs or {}).get(f.flight_id)
-        if f.attrs.get("target") != "drone":
-            log(f"skip {f.flight_id}: target {f.attrs.get('target')}")
-            continue
-        if ml is None and not f.has_motor_log:
-            log(f"skip {f.flight_id}: no motor log")
-            continue
         fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
-        e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
-        log(f"{f.flight_id}: {e['cause']} {e['extension']['params'] if e['extension'] else ''} "
-            f"({e['evidence']['seconds']:.1f} s)")
+        try:
+            e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
+        except Undiagnosable as exc:
+            e = skipped_entry(f.flight_id, exc.reason)
+            log(f"{f.flight_id}: skipped: {exc.reason}")
+        else:
+            params = e["causes"][0]["extension"]["params"] if e["causes"] else ""
+            log(f"{f.flight_id}: {e['cause']} {params} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
-    report = {"catalog": list(CATALOG), "flights": entries}
+    report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}
     write_json(report, out_json)
     return report

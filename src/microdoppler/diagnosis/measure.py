@@ -24,7 +24,7 @@ class Measurements:
     """Per-CPI statistics (arrays [n_t] unless noted)."""
 
     t_s: np.ndarray
-    valid: np.ndarray            # bool: CPI usable (body clear of clutter, no artifact)
+    valid: np.ndarray            # bool: CPI usable (body clear of clutter, no artifact, within the log)
     f_body_hz: np.ndarray
     body_pow: np.ndarray         # noise-subtracted body power (periodogram units)
     body_sd_db: np.ndarray       # noise-only std of 10 log10 body_pow
@@ -166,7 +166,9 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
             ok[i, k] = good and not art[i]
     bg = stft_power(flight.background_iq, prf, n_fft) if flight.background_iq is not None else None
     rng_m = np.interp(st.t_s, flight.track_time_s, flight.track_range_m)
-    valid = body_valid & ~art
+    # CPIs outside the motor log's span: the log's speeds there are unknown
+    in_log = (st.t_s >= log.time_s[0]) & (st.t_s <= log.time_s[-1])
+    valid = body_valid & ~art & in_log
     return Measurements(st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
                         up, lo, up_sd, lo_sd, ok, model_h, log=log, stft=st, bg_stft=bg, sim_stft=sim,
                         info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()), "match_q": float(np.nanmedian(q))})

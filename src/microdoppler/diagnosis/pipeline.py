@@ -4,11 +4,12 @@ their diagnosis into the ``extended`` variant's extensions."""
 from __future__ import annotations
 
 import json
+from dataclasses import fields
 from pathlib import Path
 
 import pandas as pd
 
-from ..errors import InputError
+from ..errors import ConfigError, InputError
 from ..extensions import save_extensions
 from .aggregate import aggregate
 from .core import DiagnosisConfig, diagnose
@@ -16,12 +17,37 @@ from .core import DiagnosisConfig, diagnose
 #: keys of the ``diagnosis:`` config section that are pipeline settings, not
 #: :class:`DiagnosisConfig` fields
 PIPELINE_KEYS = ("sets", "min_fraction")
+#: the split's sets (``results/splits/flights.csv``)
+SETS = ("train", "validation", "test")
 
 
-def split_settings(settings: dict | None) -> tuple[dict, DiagnosisConfig]:
-    s = dict(settings or {})
-    pipe = {"sets": list(s.pop("sets", ["train"])), "min_fraction": float(s.pop("min_fraction", 0.25))}
-    return pipe, DiagnosisConfig.from_dict(s)
+def split_settings(settings: dict | None, *, source="config") -> tuple[dict, DiagnosisConfig]:
+    """The ``diagnosis:`` section of a config: ``({"sets", "min_fraction"}, DiagnosisConfig)``.
+
+    ``sets`` (split sets to diagnose, default ``[train]``) and ``min_fraction``
+    (default 0.25) are the pipeline's keys; every other key is a
+    :class:`DiagnosisConfig` field. An invalid value raises :class:`ConfigError`
+    ``<source>: diagnosis.<key>: <problem> (expected ...)``.
+    """
+    if settings is None:
+        settings = {}
+    if not isinstance(settings, dict):
+        raise ConfigError(source, "diagnosis", f"is a {type(settings).__name__}", "a mapping of diagnosis settings")
+    s = dict(settings)
+    names = [*PIPELINE_KEYS, *(f.name for f in fields(DiagnosisConfig))]
+    for k in s:
+        if k not in names:
+            raise ConfigError(source, f"diagnosis.{k}", "unknown key", f"one of {', '.join(names)}")
+    sets = s.pop("sets", ["train"])
+    if isinstance(sets, (str, bytes)) or not isinstance(sets, (list, tuple)) or not sets:
+        raise ConfigError(source, "diagnosis.sets", f"is {sets!r}", f"a non-empty list of split sets from {list(SETS)}")
+    for i, x in enumerate(sets):
+        if x not in SETS:
+            raise ConfigError(source, f"diagnosis.sets[{i}]", f"is {x!r}", f"one of {', '.join(SETS)}")
+    mf = s.pop("min_fraction", 0.25)
+    if isinstance(mf, bool) or not isinstance(mf, (int, float)) or not 0 <= float(mf) <= 1:
+        raise ConfigError(source, "diagnosis.min_fraction", f"is {mf!r}", "a number in [0, 1]")
+    return {"sets": list(sets), "min_fraction": float(mf)}, DiagnosisConfig.from_dict(s, source=source)
 
 
 def _training_drones(split_csv, sets) -> pd.DataFrame:
@@ -35,7 +61,8 @@ def _training_drones(split_csv, sets) -> pd.DataFrame:
 def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print) -> dict:
     """Diagnose the drone flights of ``settings['sets']`` (default: train) with
     :func:`.core.diagnose`, using their ingested motor logs (or the stores' own);
-    flights without a log are skipped (logged)."""
+    flights that cannot be diagnosed (no usable log, Minis, ...) are listed as
+    ``skipped`` with the reason."""
     from ..inventory import read_ingested_log
 
     pipe, cfg = split_settings(settings)
