@@ -1,10 +1,15 @@
-"""A run killed with SIGKILL part-way recovers with ``snakemake --unlock`` and the same
-command again, no further flags (the default workflow profile, profiles/default,
-reruns the jobs left incomplete), and its results equal an uninterrupted run's.
+"""Whole-workflow runs of CI's small real target (``--configfile config/test.yaml``),
+each compared file by file with one uninterrupted local reference run:
 
-Both runs are CI's small real target (``--configfile config/test.yaml``) in the same
-temporary working directory (the finished reference is moved aside first: some
-outputs record absolute paths of their inputs), never in the repository's results/.
+- a run killed with SIGKILL part-way recovers with ``snakemake --unlock`` and the same
+  command again, no further flags (the default workflow profile, profiles/default,
+  reruns the jobs left incomplete);
+- a run through ``--executor cluster-generic`` (profiles/local-cluster: every job its
+  own process, started by the submit command) gives the same results.
+
+Every run uses the same temporary working directory (a finished run is moved aside
+first: some outputs record absolute paths of their inputs), never the repository's
+results/.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -139,44 +145,74 @@ def results(work: Path) -> dict:
     return out
 
 
-@pytest.mark.slow
-def test_killed_run_recovers_with_unlock_and_gives_the_same_results(tmp_path):
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The uninterrupted local run: (root, its results); moved aside to root/reference."""
     ulog = yaml.safe_load((REPO / "config/config.yaml").read_text())["figures"]["ulog"]
     if not (REPO / ulog).is_file():  # an input of the run: a failure, not a skip (as in conftest)
         pytest.fail(f"the PX4 log for Fig. 2c (figures.ulog: {ulog}) is not there: expected "
                     f"{(REPO / ulog).resolve()}", pytrace=False)
-
-    # 1. uninterrupted reference, then moved aside (the same path is reused below)
-    work = new_workdir(tmp_path)
-    assert run(work, *RUN, log=tmp_path / "reference.log") == 0, (tmp_path / "reference.log").read_text()[-3000:]
-    reference = results(work)
-    work.rename(tmp_path / "reference")
-
-    # 2. the same run, killed once the first classifier job has written its outputs
-    work = new_workdir(tmp_path)
-    rc = run_and_kill(work, tmp_path / "killed.log", "results/logs/train_classifier/*.log", training_outputs)
-    assert rc == -signal.SIGKILL
-    assert not (work / "results/reports/metrics.csv").exists()
-    # without the workflow profile Snakemake stops at the incomplete outputs
-    no_profile = tmp_path / "no_profile.log"
-    assert run(work, *RUN, "-n", "--workflow-profile", "none", log=no_profile) != 0
-    assert "IncompleteFilesException" in no_profile.read_text(), no_profile.read_text()[-3000:]
-
-    # 3. what the README says: unlock, then the same command again
-    assert run(work, "--unlock", log=tmp_path / "unlock.log") == 0, (tmp_path / "unlock.log").read_text()
-    rerun_log = tmp_path / "rerun.log"
-    assert run(work, *RUN, log=rerun_log) == 0, rerun_log.read_text()[-3000:]
-    text = rerun_log.read_text()
-    assert "workflow specific profile" in text and "profiles/default" in text
-    assert run(work, *RUN, "-n", log=tmp_path / "after.log") == 0
-    assert "Nothing to be done" in (tmp_path / "after.log").read_text()
-
-    # 4. the same files, with the same content (timings aside)
-    recovered = results(work)
-    assert sorted(recovered) == sorted(reference), (
-        f"only after the kill: {sorted(set(recovered) - set(reference))}; "
-        f"only in the reference: {sorted(set(reference) - set(recovered))}")
-    differ = [f for f in reference if recovered[f] != reference[f]]
-    assert not differ, f"differ from the uninterrupted run: {differ}"
+    root = tmp_path_factory.mktemp("workflow")
+    work = new_workdir(root)
+    assert run(work, *RUN, log=root / "reference.log") == 0, (root / "reference.log").read_text()[-3000:]
+    ref = results(work)
+    work.rename(root / "reference")
     for f in ("results/reports/metrics.csv", "results/reports/table_v.csv", "results/splits/flights.csv"):
-        assert f in reference
+        assert f in ref
+    return root, ref
+
+
+def assert_same_results(got: dict, reference: dict) -> None:
+    assert sorted(got) == sorted(reference), (
+        f"only in this run: {sorted(set(got) - set(reference))}; "
+        f"only in the reference: {sorted(set(reference) - set(got))}")
+    differ = [f for f in reference if got[f] != reference[f]]
+    assert not differ, f"differ from the uninterrupted local run: {differ}"
+
+
+@pytest.mark.slow
+def test_killed_run_recovers_with_unlock_and_gives_the_same_results(reference):
+    root, ref = reference
+    # the same run, killed once the first classifier job has written its outputs
+    work = new_workdir(root)
+    try:
+        rc = run_and_kill(work, root / "killed.log", "results/logs/train_classifier/*.log", training_outputs)
+        assert rc == -signal.SIGKILL
+        assert not (work / "results/reports/metrics.csv").exists()
+        # without the workflow profile Snakemake stops at the incomplete outputs
+        no_profile = root / "no_profile.log"
+        assert run(work, *RUN, "-n", "--workflow-profile", "none", log=no_profile) != 0
+        assert "IncompleteFilesException" in no_profile.read_text(), no_profile.read_text()[-3000:]
+
+        # what the README says: unlock, then the same command again
+        assert run(work, "--unlock", log=root / "unlock.log") == 0, (root / "unlock.log").read_text()
+        rerun_log = root / "rerun.log"
+        assert run(work, *RUN, log=rerun_log) == 0, rerun_log.read_text()[-3000:]
+        text = rerun_log.read_text()
+        assert "workflow specific profile" in text and "profiles/default" in text
+        assert run(work, *RUN, "-n", log=root / "after.log") == 0
+        assert "Nothing to be done" in (root / "after.log").read_text()
+
+        # the same files, with the same content (timings aside)
+        assert_same_results(results(work), ref)
+    finally:
+        work.rename(root / "killed")
+
+
+@pytest.mark.slow
+def test_cluster_generic_run_gives_the_same_results(reference):
+    """Every job submitted through the cluster-generic executor as its own process."""
+    root, ref = reference
+    work = new_workdir(root)
+    try:
+        log = root / "cluster.log"
+        rc = run(work, "--profile", str(REPO / "profiles" / "local-cluster"), "--configfile", "config/test.yaml",
+                 log=log)
+        text = log.read_text()
+        assert rc == 0, text[-3000:]
+        n_jobs = len(re.findall(r"with external jobid", text))
+        n_rules = int(re.search(r"(\d+) of (\d+) steps \(100%\) done", text).group(2))
+        assert n_jobs >= n_rules - 1, (n_jobs, n_rules)  # all but the local target rule were submitted
+        assert_same_results(results(work), ref)
+    finally:
+        work.rename(root / "cluster")
