@@ -49,3 +49,19 @@ def good_store(tmp_path, rng):
     from microdoppler.flightzarr import write_flight
 
     return write_flight(tmp_path / "good.zarr", make_flight(rng=rng))
+
+
+def run_cli(capsys, argv):
+    """``microdoppler ARGV`` in-process: (exit status, stderr stripped)."""
+    from microdoppler.cli import main
+
+    rc = main([str(a) for a in argv])
+    return rc, capsys.readouterr().err.strip()
+
+
+def one_line(rc, err, *must):
+    """A bad-input failure: exit status 2, one line, no traceback, naming ``must``."""
+    assert rc == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for m in must:
+        assert m in err, (m, err)

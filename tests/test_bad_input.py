@@ -10,25 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO, make_flight
-from microdoppler.cli import main
+from conftest import REPO, make_flight, one_line, run_cli
 from microdoppler.flightzarr import write_flight
 from microdoppler.outputs import check_output, commit_dir, is_tool_store
 
 SIM = ["--motor-hz", "80,85", "--duration-s", "0.3", "--quiet"]
-
-
-def run_cli(capsys, argv):
-    rc = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return rc, out.err.strip()
-
-
-def one_line(rc, err, *must):
-    assert rc == 2, err
-    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
-    for m in must:
-        assert m in err, (m, err)
 
 
 @pytest.fixture

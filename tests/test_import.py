@@ -18,7 +18,7 @@ import sigmf
 import yaml
 from sigmf import SigMFFile
 
-from microdoppler.cli import main
+from conftest import one_line, run_cli
 from microdoppler.emulator.world import FlightSpec, emulate_flight
 from microdoppler.flightzarr import read_flight
 from microdoppler.inventory import list_flights
@@ -37,19 +37,6 @@ def flight():
     f, _ = emulate_flight(FlightSpec("rec1", "drone", drone_model="inspire2", duration_s=6.0, seed=3,
                                      with_background=False))
     return f
-
-
-def run_cli(capsys, argv):
-    rc = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return rc, out.err.strip()
-
-
-def one_line(rc, err, *must):
-    assert rc == 2, err
-    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
-    for m in must:
-        assert m in err, (m, err)
 
 
 def write_track(path, f, velocity=True):
