@@ -1,0 +1,229 @@
+"""Rotor speeds from the radar (microdoppler.rotorspeed): HERM line spacing per CPI.
+
+Truth per CPI is the true speed averaged over the CPI with the window's power profile
+(what a periodogram line measures: the first moment of a spectrogram line is the
+window^2-weighted mean of its instantaneous frequency).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal.windows import blackmanharris
+
+from microdoppler import synthesis
+from microdoppler.diagnosis.features import cpi_average
+from microdoppler.emulator import FlightSpec, emulate_flight
+from microdoppler.flightzarr import Flight, read_flight, write_flight
+from microdoppler.motorlog import read_motor_store
+from microdoppler.rotorspeed import RotorSpeedConfig, estimate_rotor_speeds
+
+PRF = 7300.0
+CARRIER = 1.35e9
+LAM = 299_792_458.0 / CARRIER
+N_FFT = 4096
+
+
+def cpi_truth(rev_t_s, rev_s, cpi_t_s):
+    """Window^2-weighted mean of each motor's speed over each CPI [rev/s]."""
+    w = blackmanharris(N_FFT, sym=False)
+    return np.column_stack([cpi_average(rev_t_s, rev_s[:, m], cpi_t_s, w, PRF) for m in range(rev_s.shape[1])])
+
+
+def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_db=8.0, snr_db=45.0,
+                     radial_velocity_mps=-5.0, alpha_s=0.002, seed=0, blades_until_s=None) -> Flight:
+    """A drone flight made with the paper's eq. (1)/(2) directly (no emulator): body on
+    a constant-velocity track, blades ``first_sideband_db`` below it (before the alpha
+    envelope), white noise for a body-line SNR of ``snr_db`` in the 4096-point
+    Blackman-Harris periodogram; ``blades_until_s``: the blades fall silent then."""
+    n = rev_s.shape[0]
+    dur = n / PRF
+    track = synthesis.Track.constant_velocity(1500.0, radial_velocity_mps, dur)
+    table = synthesis.BladeModel(n_blades, blade_length_m, LAM).table().astype(complex)
+    c_b = np.abs(np.fft.fft(table))[n_blades] / synthesis.TABLE_SIZE
+
+    def silence(i0, i1, t_s, x):
+        x[t_s >= blades_until_s] = 0
+
+    iq = synthesis.synthesize(rev_s, track, prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades,
+                              blade_length_m=blade_length_m,
+                              scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s), seed=seed,
+                              blade_hook=silence if blades_until_s is not None else None)
+    w = blackmanharris(N_FFT, sym=False)
+    noise = w.sum() ** 2 / (w ** 2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
+    synthesis.add_noise(iq, noise, seed + 1)
+    tt = np.linspace(0.0, dur, 40)
+    attrs = dict(schema="flight-zarr/1", flight_id="synthetic", target="drone", radar_id="synthetic",
+                 prf_hz=PRF, carrier_hz=CARRIER, drone_model="test_quad", n_motors=int(rev_s.shape[1]),
+                 n_blades=int(n_blades), blade_length_m=float(blade_length_m))
+    return Flight(attrs, iq, tt, 1500.0 + radial_velocity_mps * tt, np.full(len(tt), radial_velocity_mps))
+
+
+def rel_errors(est, truth):
+    """|mean speed / true mean - 1| and |ranked speeds / sorted truth - 1| per CPI."""
+    mean_err = np.abs(est.common_rev_s / truth.mean(axis=1) - 1)
+    rotor_err = np.abs(est.speeds_rev_s / np.sort(truth, axis=1) - 1)
+    return mean_err, rotor_err
+
+
+# ---------------------------------------------------------------- signals made without the emulator
+
+
+def test_constant_speeds_of_fig2b_give_each_rotor_and_the_herm_spacing():
+    """Four rotors at 85, 90, 95, 100 rev/s (Fig. 2b): four separate lines, each rotor to
+    better than 0.05 %, and a line spacing of B times the rotation rate."""
+    speeds = np.array([85.0, 90.0, 95.0, 100.0])
+    fl = synthetic_flight(np.tile(speeds, (int(8 * PRF), 1)), seed=11)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    assert est.valid.all() and est.separated.all()
+    assert np.all(est.n_pairs >= 3)
+    np.testing.assert_allclose(est.speeds_rev_s, np.tile(speeds, (len(est.time_s), 1)), rtol=5e-4)
+    np.testing.assert_allclose(est.line_spacing_hz, 2 * speeds.mean(), rtol=5e-4)
+    # the reported uncertainty is not wildly optimistic
+    assert np.all(np.abs(est.speeds_rev_s - speeds) <= 4 * est.speeds_std_rev_s + 0.01)
+    # the body Doppler is the centre of symmetry: -2 v / lambda
+    np.testing.assert_allclose(est.body_hz, 2 * 5.0 / LAM, atol=1.0)
+
+
+def test_blade_count_sets_the_spacing_and_equal_rotors_share_one_line():
+    """Three-blade rotors all at 60 rev/s: lines every 180 Hz, one line for all four rotors."""
+    fl = synthetic_flight(np.full((int(8 * PRF), 4), 60.0), n_blades=3, blade_length_m=0.15, seed=12)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    assert est.valid.all()
+    assert np.all(est.n_lines == 1) and not est.separated.any()
+    np.testing.assert_allclose(est.speeds_rev_s, 60.0, rtol=1e-3)
+    np.testing.assert_allclose(est.line_spacing_hz, 180.0, rtol=1e-3)
+    assert np.all(np.abs(est.common_rev_s - 60.0) <= 3 * est.common_std_rev_s)
+    # wrong blade count: the same spacing read as a different speed (B f is what is measured)
+    est2 = estimate_rotor_speeds(fl, n_blades=2)
+    np.testing.assert_allclose(np.nanmedian(est2.common_rev_s), 90.0, rtol=1e-3)
+
+
+def test_ramping_speeds_of_close_rotors():
+    """Rotors 2 % apart, all ramping 60 -> 80 rev/s over 8 s (they merge at the first
+    harmonic and separate at higher ones)."""
+    t = np.arange(int(8 * PRF)) / PRF
+    rev = np.outer(60.0 + 20.0 * t / t[-1], [0.97, 0.99, 1.01, 1.03])
+    fl = synthetic_flight(rev, snr_db=50.0, seed=13)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    truth = cpi_truth(t, rev, est.time_s)
+    mean_err, rotor_err = rel_errors(est, truth)
+    sel = est.valid & (est.n_pairs >= 2)
+    assert sel.mean() > 0.8
+    assert np.median(mean_err[sel]) < 0.003
+    assert np.percentile(mean_err[sel], 95) < 0.01
+    assert np.median(rotor_err[sel]) < 0.005
+
+
+def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
+    """Blades visible for 4 s of 8 s: estimates there, NaN after (never a guess), and the
+    motor log holds only the CPIs with an estimate."""
+    fl = synthetic_flight(np.tile([78.0, 80.0, 83.0, 86.0], (int(8 * PRF), 1)), blades_until_s=4.0, seed=15)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    half = N_FFT / 2 / PRF
+    before = est.time_s + half < 4.0   # CPI wholly before the blades fall silent
+    after = est.time_s - half >= 4.0   # wholly after
+    assert est.valid[before].all() and not est.valid[after].any()
+    assert (est.n_pairs[after] == 0).all() and np.isnan(est.speeds_rev_s[after]).all()
+    np.testing.assert_allclose(est.common_rev_s[before], 81.75, rtol=1e-3)
+    log = est.to_motor_log()
+    assert len(log.time_s) == int(est.valid.sum()) and np.isfinite(log.rpm).all()
+
+
+# ---------------------------------------------------------------- emulated flights
+
+
+@pytest.mark.parametrize("model, seed", [("inspire2", 101), ("matrice300", 202)])
+def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
+    """The issue's target: within 1 % wherever two or more sideband pairs are visible.
+    Emulated flights (gusty motor dynamics, several % speed change within a CPI, close
+    rotors interfering): the mean rotor speed is within 1 % in most CPIs (85 % in
+    benchmarks/eval_rotorspeed.py, median 0.26 %), the ranked rotors ~0.5 %."""
+    spec = FlightSpec(f"t_{model}", "drone", drone_model=model, radar_id="radar1", duration_s=15.0,
+                      mean_range_m=1200.0, snr_db=50.0, seed=seed)
+    fl, _ = emulate_flight(spec)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    truth = cpi_truth(fl.motors_time_s, fl.motors_rpm.astype(float) / 60.0, est.time_s)
+    mean_err, rotor_err = rel_errors(est, truth)
+    sel = est.valid & (est.n_pairs >= 2)
+    assert sel.mean() > 0.8, f"only {sel.sum()} of {len(sel)} CPIs with >= 2 pairs"
+    assert np.median(mean_err[sel]) < 0.006
+    assert np.mean(mean_err[sel] <= 0.01) > 0.7
+    assert np.percentile(mean_err[sel], 90) < 0.025
+    assert np.median(rotor_err[sel]) < 0.012
+    # the uncertainty: about calibrated at the core (the tails are heavier)
+    z = np.abs(est.common_rev_s - truth.mean(axis=1))[sel] / est.common_std_rev_s[sel]
+    assert 0.3 < np.median(z) < 1.8
+
+
+def test_mini_gives_no_estimate_with_a_reason():
+    """The Mini's 0.06 m blades show no sideband pair at L-band: no estimate, never a guess."""
+    fl, _ = emulate_flight(FlightSpec("t_mini", "drone", drone_model="mini2", radar_id="radar1", duration_s=12.0,
+                                      mean_range_m=600.0, seed=303))
+    est = estimate_rotor_speeds(fl)
+    assert not est.ok
+    assert "sideband pair" in est.reason and f"of {len(est.time_s)} CPIs" in est.reason
+    assert np.isnan(est.speeds_rev_s).all() and np.isnan(est.common_rev_s).all()
+    with pytest.raises(ValueError, match="no rotor-speed estimate"):
+        est.to_motor_log()
+
+
+def test_noise_and_birds_give_no_estimate(rng):
+    # white noise labelled as a drone
+    n = int(10 * PRF)
+    iq = ((rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)).astype(np.complex64)
+    iq += np.exp(2j * np.pi * 60.0 * np.arange(n) / PRF).astype(np.complex64) * 30  # a bare body line
+    tt = np.linspace(0, n / PRF, 20)
+    attrs = dict(schema="flight-zarr/1", flight_id="noise", target="drone", radar_id="r", prf_hz=PRF,
+                 carrier_hz=CARRIER, drone_model="x", n_motors=4, n_blades=2, blade_length_m=0.19)
+    v = -60.0 * LAM / 2
+    est = estimate_rotor_speeds(Flight(attrs, iq, tt, 1000 + v * tt, np.full(20, v)))
+    assert not est.ok and est.reason.startswith("no sideband pair above the noise: 0 of")
+    # a flock of birds, labelled as a drone: wing beats are no HERM comb
+    fl, _ = emulate_flight(FlightSpec("t_birds", "bird", bird_kind="small_flock", radar_id="radar1",
+                                      duration_s=12.0, mean_range_m=800.0, seed=404))
+    assert estimate_rotor_speeds(fl).reason == "target is 'bird': no rotors"
+    fl.attrs.update(target="drone", drone_model="x", n_motors=4, n_blades=2, blade_length_m=0.19)
+    est = estimate_rotor_speeds(fl)
+    assert not est.ok and np.isnan(est.common_rev_s).all()
+
+
+def test_short_flight_and_bad_arguments():
+    fl = synthetic_flight(np.full((3000, 4), 80.0))
+    est = estimate_rotor_speeds(fl)
+    assert not est.ok and "shorter than one CPI" in est.reason and len(est.time_s) == 0
+    with pytest.raises(ValueError, match="n_fft"):
+        estimate_rotor_speeds(fl, n_fft=1001)
+    with pytest.raises(ValueError, match="min_rev_s"):
+        RotorSpeedConfig(min_rev_s=300.0, max_rev_s=20.0)
+
+
+# ---------------------------------------------------------------- storage
+
+
+def test_motor_log_and_flight_store_round_trip(tmp_path):
+    t = np.arange(int(6 * PRF)) / PRF
+    rev = np.outer(70.0 + 5.0 * t / t[-1], [0.94, 0.98, 1.02, 1.06])
+    fl = synthetic_flight(rev, seed=14)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    log = est.to_motor_log()
+    v = est.valid
+    np.testing.assert_array_equal(log.time_s, est.time_s[v])
+    assert log.rpm.shape == (int(v.sum()), 4) and log.rpm.dtype == np.float32
+    np.testing.assert_allclose(log.rev_s, est.speeds_rev_s[v], rtol=1e-6)
+    common = est.to_motor_log(per_motor=False)
+    np.testing.assert_allclose(common.rev_s, np.repeat(est.common_rev_s[v, None], 4, 1), rtol=1e-6)
+    store = write_flight(tmp_path / "f.zarr", est.with_flight(fl))
+    back = read_flight(store)
+    assert back.attrs["motors_source"] == "radar"
+    meta = back.attrs["motors_radar"]
+    assert meta["method"] == "herm-pairs/1" and np.shape(meta["rpm_std"]) == (int(v.sum()), 4)
+    assert len(meta["n_pairs"]) == int(v.sum())
+    np.testing.assert_allclose(back.motors_rpm, log.rpm)
+    read_motor_store(store)  # passes the motor-log checks (plausible speeds, increasing times)
