@@ -8,6 +8,7 @@ window^2-weighted mean of its instantaneous frequency).
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.signal.windows import blackmanharris
 
@@ -227,3 +228,38 @@ def test_motor_log_and_flight_store_round_trip(tmp_path):
     assert len(meta["n_pairs"]) == int(v.sum())
     np.testing.assert_allclose(back.motors_rpm, log.rpm)
     read_motor_store(store)  # passes the motor-log checks (plausible speeds, increasing times)
+
+
+def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(tmp_path, capsys):
+    """A drone recording without a log: `import --estimate-motors` stores the radar's
+    rotor speeds (motors_source radar); the diagnosis runs on them and reports the
+    motor-log causes as untestable with that reason."""
+    from conftest import run_cli
+    from microdoppler.diagnosis import diagnose
+    from microdoppler.emulator.world import FlightSpec, emulate_flight
+    from microdoppler.flightzarr import read_flight
+
+    f, _ = emulate_flight(FlightSpec("est1", "drone", drone_model="inspire2", duration_s=20.0, snr_db=44.0,
+                                     mean_range_m=1000.0, seed=101))
+    np.save(tmp_path / "est1.npy", f.iq)
+    np.save(tmp_path / "est1_bg.npy", f.background_iq)
+    pd.DataFrame({"time_s": f.track_time_s, "range_m": f.track_range_m,
+                  "radial_velocity_mps": f.track_radial_velocity_mps}).to_csv(tmp_path / "t.csv", index=False)
+    out = tmp_path / "est1.zarr"
+    rc, err = run_cli(capsys, ["import", tmp_path / "est1.npy", "--prf-hz", f.prf_hz, "--carrier-hz", f.carrier_hz,
+                               "--radar-id", "radar1", "--target", "drone", "--drone-model", "inspire2",
+                               "--n-motors", "4", "--n-blades", "2", "--blade-length-m", "0.19",
+                               "--track", tmp_path / "t.csv", "--background", tmp_path / "est1_bg.npy",
+                               "--estimate-motors", "--out", out, "--quiet"])
+    assert rc == 0, err
+    assert "rotor speeds from the radar" in err
+    g = read_flight(out)
+    assert g.attrs["motors_source"] == "radar" and g.has_motor_log
+    true_rev_s = np.median(f.motors_rpm) / 60
+    assert np.median(g.motors_rpm) / 60 == pytest.approx(true_rev_s, rel=0.02)
+    rep = diagnose([out], tmp_path / "r.json", config={"figures": False}, log=lambda m: None)
+    (e,) = rep["flights"]
+    assert e["cause"] != "skipped", e.get("reason")
+    for name in ("motor_log_lag", "motor_speed_scale"):
+        t = e["evidence"]["tests"][name]
+        assert not t["testable"] and "motors_source is radar" in t["reason"]

@@ -82,6 +82,10 @@ def register(subparsers) -> None:
                         "column per motor), stored as motors/time_s, motors/rpm")
     p.add_argument("--motor-log-unit", choices=tuple(UNIT_TO_RPM), default="rpm",
                    help="unit of the CSV motor columns (default rpm)")
+    p.add_argument("--estimate-motors", action="store_true",
+                   help="drones without --motor-log: estimate each rotor's speed over time from the HERM lines "
+                        "and store it as the motor log (motors_source: radar, with its uncertainty); a flight "
+                        "with no visible sideband pair gets no estimate, and the reason is printed")
     p.add_argument("--quiet", action="store_true", help="no summary line on stderr (warnings are still shown)")
     add_overwrite(p)
     p.set_defaults(func=run)
@@ -130,6 +134,11 @@ def run(args) -> int:
         default_flight_id=default_flight_id_for(args.out))
     if log is not None:
         attach_motor_log(flight, log, args.motor_log)
+    if args.estimate_motors:
+        if log is not None:
+            raise InputError("--estimate-motors", "option", "given with --motor-log",
+                             "one source of rotor speeds: the log, or the radar")
+        flight = estimate_motors(flight, warns)
     if args.background:
         bg = read_recording(args.background, variable=args.variable, layout=args.layout).iq
         if len(bg) != len(flight.iq):
@@ -150,6 +159,21 @@ def attach_motor_log(flight, log, source) -> None:
                          f"n_motors={flight.attrs.get('n_motors')} of the recording")
     flight.motors_time_s, flight.motors_rpm = log.time_s.astype("float64"), log.rpm.astype("float32")
     flight.attrs["motors_source"] = "log"
+
+
+def estimate_motors(flight, warns: list):
+    """The flight with rotor speeds estimated from its HERM lines as its motor log, or
+    unchanged with the reason in ``warns`` when there is no estimate."""
+    from ..rotorspeed import estimate_rotor_speeds
+
+    if flight.attrs.get("target") != "drone":
+        raise InputError("--estimate-motors", "target", f"is {flight.attrs.get('target')!r}", "a drone recording")
+    est = estimate_rotor_speeds(flight)
+    if not est.ok:
+        warns.append(f"no rotor-speed estimate: {est.reason}")
+        return flight
+    warns.append(f"rotor speeds from the radar: {est.summary()}")
+    return est.with_flight(flight)
 
 
 def _is_own(entry: Path) -> bool:

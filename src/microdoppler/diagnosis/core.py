@@ -470,6 +470,13 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     fid = flight.flight_id
     log = check_diagnosable(flight, motor_log, cfg)
     M, calib, tests = run_tests(flight, log, cfg)
+    if motor_log is None and flight.attrs.get("motors_source") == "radar":
+        # the log was estimated from this recording's own HERM lines: it cannot be late
+        # or scaled against them
+        for name in ("motor_log_lag", "motor_speed_scale"):
+            tests[name].testable = False
+            tests[name].evidence = {"reason": "motors_source is radar: the motor log was estimated from this "
+                                              "recording's HERM lines, so lag and scale are not testable"}
     _check_measured(fid, M, tests, cfg)
     cause, thr = decide(tests, cfg)
     evidence = {
