@@ -64,3 +64,29 @@ def test_empty_directory_is_an_error(tmp_path):
     (tmp_path / "m").mkdir()
     with pytest.raises(InputError, match="no \\*.zarr stores"):
         list_flights(tmp_path / "m")
+
+
+def test_ingest_estimates_missing_logs_from_the_radar(tmp_path):
+    """estimate_missing: a drone without a log gets the radar's rotor speeds (status
+    estimated, motors_source radar, a log the diagnosis recognises); a Mini (no
+    visible sideband) stays skipped with the reason."""
+    from microdoppler.emulator import FlightSpec, emulate_flight
+    from microdoppler.inventory import RADAR_SOURCE
+
+    d = tmp_path / "measured"
+    drone, _ = emulate_flight(FlightSpec("d1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0,
+                                         mean_range_m=1000.0, seed=101))
+    true_rpm = float(np.median(drone.motors_rpm))
+    drone.motors_time_s = drone.motors_rpm = None
+    mini, _ = emulate_flight(FlightSpec("m1", "drone", drone_model="mini2", duration_s=8.0, seed=5))
+    write_flight(d / "d1.zarr", drone)
+    write_flight(d / "m1.zarr", mini)
+    status = ingest_flight_logs(d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", estimate_missing=True,
+                                log=lambda *_: None).set_index("flight_id")
+    assert status.loc["d1", "status"] == "estimated" and status.loc["d1", "source"] == "radar"
+    assert status.loc["m1", "status"] == "skipped" and "no estimate from the radar" in status.loc["m1", "reason"]
+    log = read_ingested_log(tmp_path / "logs.zarr", "d1")
+    assert log.source.startswith(RADAR_SOURCE)
+    assert np.median(log.rpm) == pytest.approx(true_rpm, rel=0.02)
+    plain = ingest_flight_logs(d, tmp_path / "logs2.zarr", tmp_path / "ingest2.csv", log=lambda *_: None)
+    assert set(plain.status) == {"skipped"}

@@ -69,11 +69,19 @@ def read_flights_table(path) -> pd.DataFrame:
     return df.set_index("flight_id")
 
 
-def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, log=print) -> pd.DataFrame:
+#: prefix of a MotorLog's ``source`` when its speeds were estimated from the radar
+RADAR_SOURCE = "radar:"
+
+
+def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, estimate_missing: bool = False,
+                       log=print) -> pd.DataFrame:
     """Ingest the motor log of every drone flight into one Zarr group per flight.
 
-    Returns the status table (flight_id, status, source, rows, duration_s, n_motors)
-    and writes it to ``out_csv``. Status: ``ingested`` or ``skipped`` (no log).
+    Returns the status table (flight_id, status, source, rows, duration_s, n_motors,
+    reason) and writes it to ``out_csv``. Status: ``ingested``, ``estimated`` (no log;
+    with ``estimate_missing`` the rotor speeds were estimated from the flight's HERM
+    lines, :mod:`microdoppler.rotorspeed`; group attribute ``motors_source: radar``)
+    or ``skipped`` (no log, and no estimate: ``reason`` says why).
     """
     flights = list_flights(measured_dir)
     table = read_flights_table(table_path) if table_path else None
@@ -97,23 +105,36 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, log=
                 ml = check_motor_log(fl.path, g["motors/time_s"][...], g["motors/rpm"][...], unit="rpm",
                                      time_field="motors/time_s", speed_field="motors/rpm")
                 source = fl.path
+            extra, state = {}, "ingested"
+            if ml is None and estimate_missing:
+                from .flightzarr import read_flight
+                from .rotorspeed import estimate_rotor_speeds
+
+                est = estimate_rotor_speeds(read_flight(fl.path))
+                if est.ok:
+                    ml, source, state, extra = est.to_motor_log(), "radar", "estimated", est.store_attrs()
+                else:
+                    why = f"no motor log, and no estimate from the radar: {est.reason}"
+            elif ml is None:
+                why = "no motor log (neither in the store nor in the flights table)"
             if ml is None:
-                log(f"{fl.flight_id}: no motor log (neither in the store nor in the flights table): skipped")
-                status.append(dict(flight_id=fl.flight_id, status="skipped", source="", rows=0, duration_s=0.0, n_motors=0))
+                log(f"{fl.flight_id}: {why}: skipped")
+                status.append(dict(flight_id=fl.flight_id, status="skipped", source="", rows=0, duration_s=0.0,
+                                   n_motors=0, reason=why))
                 continue
             g = root.require_group(fl.flight_id)
-            g.attrs.update({"source": str(source), "drone_model": fl.drone_model})
+            g.attrs.update({"source": str(source), "drone_model": fl.drone_model, **extra})
             m = g.require_group("motors")
             m.create_array("time_s", data=ml.time_s.astype(np.float64))
             m.create_array("rpm", data=ml.rpm.astype(np.float32))
-            status.append(dict(flight_id=fl.flight_id, status="ingested", source=str(source), rows=len(ml.time_s),
-                               duration_s=ml.duration_s, n_motors=ml.n_motors))
+            status.append(dict(flight_id=fl.flight_id, status=state, source=str(source), rows=len(ml.time_s),
+                               duration_s=ml.duration_s, n_motors=ml.n_motors, reason=""))
             log(f"{fl.flight_id}: {len(ml.time_s)} rows, {ml.duration_s:.1f} s, {ml.n_motors} motors from {source}")
         commit_dir(tmp, out_zarr)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
-    df = pd.DataFrame(status, columns=["flight_id", "status", "source", "rows", "duration_s", "n_motors"])
+    df = pd.DataFrame(status, columns=["flight_id", "status", "source", "rows", "duration_s", "n_motors", "reason"])
     Path(out_csv).parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(out_csv, index=False)
     return df
@@ -126,4 +147,5 @@ def read_ingested_log(logs_zarr, flight_id) -> MotorLog | None:
         return None
     t = np.asarray(g[f"{flight_id}/motors/time_s"][...])
     r = np.asarray(g[f"{flight_id}/motors/rpm"][...])
-    return MotorLog(t, r, f"{logs_zarr}/{flight_id}")
+    radar = g[flight_id].attrs.get("motors_source") == "radar"
+    return MotorLog(t, r, f"{RADAR_SOURCE if radar else ''}{logs_zarr}/{flight_id}")

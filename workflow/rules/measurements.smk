@@ -38,6 +38,7 @@ rule ingest_motor_logs:
         mem_mb=1000,
     params:
         table=motor_logs_table(),
-        code=code_version("motorlog.py", "inventory.py"),
+        estimate=config["measurements"]["estimate_missing_motor_logs"],
+        code=code_version("motorlog.py", "inventory.py", "rotorspeed.py"),
     script:
         "../scripts/ingest_motor_logs.py"

@@ -9,5 +9,6 @@ with log_to(snakemake.log[0]):
         snakemake.output.logs,
         snakemake.output.status,
         table_path=snakemake.params.table or None,
+        estimate_missing=snakemake.params.estimate,
     )
     print(status.status.value_counts().to_string())

@@ -470,7 +470,10 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     fid = flight.flight_id
     log = check_diagnosable(flight, motor_log, cfg)
     M, calib, tests = run_tests(flight, log, cfg)
-    if motor_log is None and flight.attrs.get("motors_source") == "radar":
+    from ..inventory import RADAR_SOURCE
+
+    if (flight.attrs.get("motors_source") == "radar" if motor_log is None
+            else str(motor_log.source).startswith(RADAR_SOURCE)):
         # the log was estimated from this recording's own HERM lines: it cannot be late
         # or scaled against them
         for name in ("motor_log_lag", "motor_speed_scale"):
