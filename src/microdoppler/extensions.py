@@ -40,7 +40,7 @@ import yaml
 
 from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
 from .errors import InputError
-from .flightzarr import atomic_file
+from .outputs import atomic_file
 from .motorlog import MotorLog
 from .processes import ou_process
 

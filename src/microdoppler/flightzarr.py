@@ -17,7 +17,7 @@ import numpy as np
 import zarr
 
 from .errors import InputError
-from .outputs import atomic_dir, atomic_file, commit_dir  # noqa: F401  (re-exported: the one atomic writer)
+from .outputs import atomic_dir, commit_dir
 
 SCHEMA = "flight-zarr/1"
 TARGETS = ("drone", "bird", "none")

@@ -17,7 +17,8 @@ import pandas as pd
 import zarr
 
 from .errors import InputError
-from .flightzarr import atomic_dir, commit_dir, validate_store
+from .flightzarr import validate_store
+from .outputs import atomic_dir, commit_dir
 from .motorlog import MotorLog, check_motor_log, read_motor_log
 
 TABLE_COLUMNS = ("flight_id", "motor_log", "format", "unit", "time_offset_s")

@@ -17,7 +17,7 @@ import pandas as pd
 import zarr
 
 from .errors import InputError
-from .flightzarr import atomic_dir, commit_dir
+from .outputs import atomic_dir, commit_dir
 
 #: conversion factors to rev/min
 UNIT_TO_RPM = {"rpm": 1.0, "rev/s": 60.0, "rad/s": 60.0 / (2 * np.pi)}

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from ..bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
-from ..flightzarr import atomic_file
+from ..outputs import atomic_file
 from .data import CLASSES, LARGE_DRONES, SMALL_DRONES
 from .metrics import confusion_matrix, seed_metrics
 

@@ -231,7 +231,7 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
 
 def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trainset: str) -> None:
     """Save the kept model, its config and provenance to ``path`` (atomically)."""
-    from ..flightzarr import atomic_file
+    from ..outputs import atomic_file
 
     # through a file object: torch.save given a path names the archive's entries after
     # it (the random temporary name), and the same model would not give the same bytes

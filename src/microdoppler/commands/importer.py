@@ -172,7 +172,7 @@ def estimate_motors(flight, warns: list):
     if not est.ok:
         warns.append(f"no rotor-speed estimate: {est.reason}")
         return flight
-    warns.append(f"rotor speeds from the radar: {est.summary()}")
+    print(f"rotor speeds from the radar: {est.summary()}", file=sys.stderr)  # information, not a warning
     return est.with_flight(flight)
 
 

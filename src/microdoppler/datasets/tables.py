@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..flightzarr import Flight, atomic_file
+from ..flightzarr import Flight
+from ..outputs import atomic_file
 from ..spectrogram import SpectrogramConfig
 from ..snr import flight_body_snr_db  # noqa: F401 (the one SNR measure, re-exported)
 from .split import CLASSES, SETS, n_images

@@ -19,7 +19,8 @@ import numpy as np
 
 from ..catalog import CATALOG
 from ..errors import ConfigError, InputError
-from ..flightzarr import atomic_file, read_flight
+from ..flightzarr import read_flight
+from ..outputs import atomic_file
 from ..motorlog import MotorLog, check_motor_log
 from . import causes as C
 from .measure import measure
@@ -506,7 +507,7 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
 
 
 def write_json(obj, path) -> Path:
-    """Write ``obj`` as JSON, atomically (:func:`flightzarr.atomic_file`)."""
+    """Write ``obj`` as JSON, atomically (:func:`microdoppler.outputs.atomic_file`)."""
     with atomic_file(path) as tmp:
         tmp.write_text(json.dumps(obj, indent=1))
     return Path(path)

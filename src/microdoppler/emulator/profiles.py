@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..flightzarr import atomic_file, write_flight
-from ..outputs import atomic_dir, commit_folder, is_tool_store
+from ..flightzarr import write_flight
+from ..outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
 from ..spectrogram import SpectrogramConfig
 from .world import FlightSpec, emulate_flight, measured_snr_db
 
