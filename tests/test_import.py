@@ -677,3 +677,88 @@ def test_motor_log_and_background_bad_input(tmp_path, capsys, flight, case, fiel
     rc, err = run_cli(capsys, ["import", rec, *DRONE_OPTS, "--range-m", "900", *extra, "--out", out])
     one_line(rc, err, field)
     assert not out.exists()
+
+
+def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path, capsys):
+    """A campaign of SigMF recordings (two Inspire flights, one with its motor-log CSV,
+    one without; their background recordings and tracks; a bird) imported with
+    ``--batch`` runs through the pipeline's ingest and twin rules with
+    ``measurements.source: directory``: the drone without a log gets rotor speeds from
+    the radar, and both twins are calibrated within the tolerance."""
+    import shutil
+    import subprocess
+    import sys
+
+    import pandas as pd
+
+    repo = Path(__file__).resolve().parents[1]
+    rec = tmp_path / "recordings"
+    rec.mkdir()
+    specs = [FlightSpec("c1", "drone", drone_model="inspire2", duration_s=14.0, snr_db=44.0, mean_range_m=1000.0,
+                        seed=21, radar_id="radar1"),
+             FlightSpec("c2", "drone", drone_model="inspire2", duration_s=14.0, snr_db=44.0, mean_range_m=1300.0,
+                        seed=22, radar_id="radar2"),
+             FlightSpec("c3", "bird", bird_kind="single", duration_s=8.0, seed=23, radar_id="radar1")]
+    rows = []
+    for spec in specs:
+        f, _ = emulate_flight(spec)
+        fid = spec.flight_id
+        write_sigmf(rec, fid, f.iq, sample_rate=f.prf_hz, carrier_hz=f.carrier_hz, label=spec.target)
+        write_sigmf(rec, f"{fid}_bg", f.background_iq, sample_rate=f.prf_hz, carrier_hz=f.carrier_hz, label="none")
+        write_track(rec / f"{fid}.csv", f)
+        row = {"file": f"recordings/{fid}.sigmf-meta", "background": f"recordings/{fid}_bg.sigmf-meta",
+               "track": f"recordings/{fid}.csv", "flight_id": fid, "target": spec.target,
+               "radar_id": spec.radar_id, "motor_log": ""}
+        if spec.target == "drone":
+            row.update({k: f.attrs[k] for k in GEOMETRY})
+        if fid == "c1":
+            pd.DataFrame({"time_s": f.motors_time_s, **{f"m{k + 1}": f.motors_rpm[:, k]
+                                                         for k in range(f.motors_rpm.shape[1])}}
+                         ).to_csv(rec / "c1_log.csv", index=False, float_format="%.17g")
+            row["motor_log"] = "recordings/c1_log.csv"
+        rows.append(row)
+    table = tmp_path / "campaign.csv"
+    pd.DataFrame(rows).to_csv(table, index=False)
+    wd = tmp_path / "wd"
+    rc, err = run_cli(capsys, ["import", "--batch", table, "--out", wd / "results" / "measured", "--quiet"])
+    assert rc == 0, err
+    assert read_flight(wd / "results/measured/c1.zarr").attrs["motors_source"] == "log"
+    assert read_flight(wd / "results/measured/c2.zarr").motors_rpm is None
+    cfg = yaml.safe_load((repo / "config/config.yaml").read_text())
+    cfg["measurements"].update(source="directory", directory="results/measured", estimate_missing_motor_logs=True)
+    (wd / "config.yaml").write_text(yaml.safe_dump(cfg))
+    exe = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
+    r = subprocess.run([exe, "results/reports/table_iv_sub_cpi.csv", "--cores", "2", "-s", str(repo / "Snakefile"),
+                        "-d", str(wd), "--configfile", "config.yaml", "-q", "progress"],
+                       cwd=wd, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    ingest = pd.read_csv(wd / "results/motors/ingest.csv").set_index("flight_id")
+    assert ingest.loc["c1", "status"] == "ingested" and ingest.loc["c2", "status"] == "estimated"
+    assert ingest.loc["c2", "source"] == "radar"
+    t4 = pd.read_csv(wd / "results/reports/table_iv_sub_cpi.csv").set_index("flight_id")
+    assert sorted(t4.index) == ["c1", "c2"]
+    assert (t4.status == "ok").all(), t4.T
+    tol = cfg["datasets"]["calibration"]["tolerance_db"]
+    assert (t4.body_error_db.abs() <= tol).all() and (t4.sideband1_error_db.abs() <= tol).all()
+    assert t4.loc["c2", "n_pairs_twin"] == pytest.approx(t4.loc["c2", "n_pairs_measured"], abs=1)
+
+
+@pytest.mark.parametrize("cell, extra, expect", [
+    ({"motor_log_unit": "rps"}, [], ("row 2", "motor_log_unit", "'rps'", "rev/s")),
+    ({"motor_log": "nolog.csv"}, [], ("nolog.csv", "does not exist")),
+    ({"background": "short.npy"}, [], ("short.npy", "samples", "4096")),
+    ({}, ["--background", "x.npy"], ("--background", "given with --batch", "background column")),
+    ({}, ["--motor-log", "x.csv"], ("--motor-log", "given with --batch", "motor_log column")),
+])
+def test_batch_background_and_motor_log_columns_bad_input(capsys, tmp_path, cell, extra, expect):
+    np.save(tmp_path / "r.npy", _iq())
+    np.save(tmp_path / "short.npy", _iq(100))
+    row = {"file": "r.npy", "prf_hz": 7300, "carrier_hz": 1.35e9, "radar_id": "r1", "target": "bird",
+           "range_m": 500, **cell}
+    import pandas as pd
+
+    pd.DataFrame([row]).to_csv(tmp_path / "t.csv", index=False)
+    out = tmp_path / "out"
+    rc, err = run_cli(capsys, ["import", "--batch", tmp_path / "t.csv", "--out", out, *extra])
+    one_line(rc, err, *expect)
+    assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

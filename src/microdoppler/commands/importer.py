@@ -16,8 +16,11 @@ both go into the store's ``import`` attribute.
 column ``file`` (relative to the table) plus optional columns named like the sidecar
 keys (``prf_hz``, ``carrier_hz``, ``radar_id``, ``target``, ``drone_model``,
 ``n_motors``, ``n_blades``, ``blade_length_m``, ``range_m``, ``flight_id``,
-``n_samples``, ``track``, ``layout``, ``variable``, and ``sidecar``); a row's cell
-beats the command-line option. FOLDER then holds ``<flight_id>.zarr`` stores only,
+``n_samples``, ``track``, ``layout``, ``variable``, and ``sidecar``) and the files
+that ``--background`` and ``--motor-log`` name for one recording (columns
+``background``, ``motor_log``, ``motor_log_unit``); a row's cell beats the
+command-line option, and ``--estimate-motors`` applies to the drone rows without a
+``motor_log``. FOLDER then holds ``<flight_id>.zarr`` stores only,
 ready for ``measurements.source: directory``. It is written atomically: a bad row
 leaves nothing behind.
 """
@@ -41,7 +44,9 @@ from . import add_overwrite, positive, positive_int
 #: parameters that have a command-line option (n_samples is a sidecar/table key only)
 OPTION_KEYS = ("prf_hz", "carrier_hz", "radar_id", "target", "drone_model", "n_motors", "n_blades",
                "blade_length_m", "range_m", "flight_id")
-TABLE_COLUMNS = ("file", "sidecar", *SIDECAR_KEYS)
+#: batch-table columns that name a file (relative to the table) besides ``track``
+ROW_FILES = ("file", "sidecar", "background", "motor_log")
+TABLE_COLUMNS = (*ROW_FILES, "motor_log_unit", *SIDECAR_KEYS)
 
 
 def register(subparsers) -> None:
@@ -125,29 +130,44 @@ def run(args) -> int:
         return run_batch(args)
     check_output(args.out, kind="store", overwrite=args.overwrite)
     sidecar = read_sidecar(args.sidecar) if args.sidecar else {}
-    log = None
-    if args.motor_log:
-        opts = {} if str(args.motor_log).lower().endswith(".ulg") else {"unit": args.motor_log_unit}
-        log = read_motor_log(args.motor_log, **opts)
+    log = load_motor_log(args.motor_log, args.motor_log_unit)
     flight, warns = import_recording(
         args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
         default_flight_id=default_flight_id_for(args.out))
-    if log is not None:
-        attach_motor_log(flight, log, args.motor_log)
-    if args.estimate_motors:
-        if log is not None:
-            raise InputError("--estimate-motors", "option", "given with --motor-log",
-                             "one source of rotor speeds: the log, or the radar")
-        flight = estimate_motors(flight, warns)
-    if args.background:
-        bg = read_recording(args.background, variable=args.variable, layout=args.layout).iq
-        if len(bg) != len(flight.iq):
-            raise InputError(args.background, "samples", f"has {len(bg)}",
-                             f"{len(flight.iq)} samples, as the recording (background/iq pairs pulse by pulse)")
-        flight.background_iq = bg
+    flight = complete_flight(flight, warns, log=log, log_path=args.motor_log, estimate=args.estimate_motors,
+                             background=args.background, variable=args.variable, layout=args.layout)
     write_flight(args.out, flight)
     _report(_summary(args.recording, args.out, flight, warns), args.quiet)
     return 0
+
+
+def load_motor_log(path, unit: str = "rpm"):
+    """The motor log at ``path`` (ULog, or CSV in ``unit``), or None."""
+    if not path:
+        return None
+    opts = {} if str(path).lower().endswith(".ulg") else {"unit": unit}
+    return read_motor_log(path, **opts)
+
+
+def complete_flight(flight, warns: list, *, log=None, log_path=None, estimate: bool = False, background=None,
+                    variable=None, layout=None):
+    """Attach what the recording itself does not hold: the motor log (or rotor speeds
+    estimated from the radar when ``estimate`` and there is no log) and the
+    background recording (``background/iq``, same format and length)."""
+    if log is not None:
+        if estimate:
+            raise InputError("--estimate-motors", "option", f"given with a motor log ({log_path})",
+                             "one source of rotor speeds: the log, or the radar")
+        attach_motor_log(flight, log, log_path)
+    elif estimate:
+        flight = estimate_motors(flight, warns)
+    if background:
+        bg = read_recording(background, variable=variable, layout=layout).iq
+        if len(bg) != len(flight.iq):
+            raise InputError(background, "samples", f"has {len(bg)}",
+                             f"{len(flight.iq)} samples, as the recording (background/iq pairs pulse by pulse)")
+        flight.background_iq = bg
+    return flight
 
 
 def attach_motor_log(flight, log, source) -> None:
@@ -208,11 +228,16 @@ def read_batch_table(path) -> list[dict]:
             if not v:
                 continue
             label = f"{where} column {c}"
-            if c in ("file", "sidecar", "track"):
+            if c in ROW_FILES or c == "track":
                 v = Path(v) if Path(v).is_absolute() else path.parent / v
                 if c != "track":
                     row[c] = v
                     continue
+            elif c == "motor_log_unit":
+                if v not in UNIT_TO_RPM:
+                    raise InputError(where, c, f"is {v!r}", " or ".join(UNIT_TO_RPM))
+                row[c] = v
+                continue
             elif c in PARAM_TYPES:
                 v = convert(c, v, where, c)
             elif c == "layout" and v not in LAYOUTS:
@@ -226,8 +251,10 @@ def read_batch_table(path) -> list[dict]:
 
 def run_batch(args) -> int:
     check_output(args.out, kind="folder", overwrite=args.overwrite, is_own=_is_own)
-    if args.flight_id:
-        raise InputError("--flight-id", "option", "given with --batch", "a flight_id column in the table")
+    for opt, col in (("flight_id", "flight_id"), ("background", "background"), ("motor_log", "motor_log")):
+        if getattr(args, opt):
+            raise InputError("--" + opt.replace("_", "-"), "option", "given with --batch",
+                             f"a {col} column in the table (one per recording)")
     rows = read_batch_table(args.batch)
     cli_sidecar = read_sidecar(args.sidecar) if args.sidecar else {}
     cli_opts = _options(args)
@@ -249,6 +276,12 @@ def run_batch(args) -> int:
                 row["file"], options=opts, sidecar=sidecar,
                 layout=vals.get("layout", (args.layout,))[0], variable=vals.get("variable", (args.variable,))[0],
                 default_flight_id=default_flight_id_for(row["file"]))
+            log = load_motor_log(row.get("motor_log"), row.get("motor_log_unit", args.motor_log_unit))
+            layout, variable = vals.get("layout", (args.layout,))[0], vals.get("variable", (args.variable,))[0]
+            flight = complete_flight(
+                flight, warns, log=log, log_path=row.get("motor_log"), background=row.get("background"),
+                estimate=args.estimate_motors and log is None and flight.attrs.get("target") == "drone",
+                variable=variable, layout=layout)
             fid = flight.flight_id
             if fid in seen:
                 raise InputError(row["line"], "flight_id", f"{fid!r} is also the flight id of {seen[fid]}",
