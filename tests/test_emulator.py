@@ -318,6 +318,78 @@ def test_plans_are_deterministic_and_sized():
         assert abs(tiles - n_img) <= 0.02 * n_img
 
 
+def _effects_by_model(plan):
+    return {m: [s.effects for s in plan if s.drone_model == m] for m in ("inspire2", "matrice300", "mini2")}
+
+
+@pytest.mark.parametrize("profile", ["default", "paper"])
+def test_world_effects_have_a_population_structure(profile):
+    """Per large model: one systematic asymmetry (same sign, within +-0.5 dB of the
+    world's per-model value, on most flights), per-flight effects on top, >= 30 % of
+    flights with two effects, some clean flights; Minis clean; no fixed cycle; all
+    from the seed, and a different seed gives a different world."""
+    from microdoppler.catalog import CAUSES
+    from microdoppler.emulator.profiles import PER_FLIGHT, world_population
+
+    for seed in (11, 20221, 5):
+        plan = plan_world(profile, seed)
+        assert plan == plan_world(profile, seed)
+        pop = world_population(seed)
+        by = _effects_by_model(plan)
+        assert all(e == {} for e in by["mini2"])
+        for model in ("inspire2", "matrice300"):
+            eff = by[model]
+            a0 = pop[model]["asymmetry_db"]
+            assert 3.5 <= abs(a0) <= 5.5
+            asym = [e["sideband_asymmetry"]["asymmetry_db"] for e in eff if "sideband_asymmetry" in e]
+            assert len(asym) >= 0.6 * len(eff)
+            assert all(np.sign(a) == np.sign(a0) and abs(a - a0) <= 0.5 + 1e-9 for a in asym)
+            assert all(abs(a) >= 3.0 for a in asym)  # catalog: detectable |a| >= 3 dB
+            n_eff = np.array([len(e) for e in eff])
+            assert (n_eff == 2).mean() >= 0.30 and (n_eff == 0).sum() >= 1 and (n_eff == 1).sum() >= 1
+            own = {c for e in eff for c in e if c != "sideband_asymmetry"}
+            assert own <= set(PER_FLIGHT) and len(own) >= 2
+            for e in eff:
+                validate_effects(e)
+                assert set(e) <= set(CAUSES)
+                if "motor_log_lag" in e:
+                    assert 0.3 <= abs(e["motor_log_lag"]["lag_s"]) <= 0.7
+                if "motor_speed_scale" in e:
+                    assert 0.05 <= abs(e["motor_speed_scale"]["scale"] - 1) <= 0.10 + 1e-9
+                if "sideband_fading" in e:
+                    assert 3 <= e["sideband_fading"]["fading_std_db"] <= 6
+                    assert 1 <= e["sideband_fading"]["timescale_s"] <= 2
+                if "body_fluctuation" in e:
+                    assert 3 <= e["body_fluctuation"]["body_std_db"] <= 6
+                    assert 0.15 <= e["body_fluctuation"].get("timescale_s", 0.3) <= 1.0
+    # the seed decides: the per-model values and the flights that carry effects change
+    a, b = plan_world(profile, 11), plan_world(profile, 12)
+    assert world_population(11) != world_population(12)
+    assert [s.effects for s in a] != [s.effects for s in b]
+    # both signs occur over worlds (the sign is drawn, not fixed)
+    signs = {np.sign(world_population(s)[m]["asymmetry_db"]) for s in range(10) for m in ("inspire2", "matrice300")}
+    assert signs == {-1.0, 1.0}
+
+
+def test_world_key_records_effects_and_population(tmp_path):
+    """The key of a default-profile world (two flights emulated) lists every flight's
+    effects, which of them are systematic, and the per-model systematic values."""
+    from microdoppler.emulator.profiles import world_population
+
+    plan = plan_world("default", 11)
+    two = [s for s in plan if s.drone_model == "inspire2" and len(s.effects) == 2][:1]
+    two += [s for s in plan if s.drone_model == "matrice300" and not s.effects][:1]
+    two = [replace(s, duration_s=2.0) for s in two]
+    key = tmp_path / "key.json"
+    emulate_world("default", 11, tmp_path / "w", key_path=key, progress=False, workers=1, specs=two)
+    k = json.loads(key.read_text())
+    assert k["population"]["systematic"] == json.loads(json.dumps(world_population(11)))
+    for s in two:
+        entry = k["flights"][s.flight_id]
+        assert set(entry["effects"]) == set(s.effects)
+        assert entry["systematic"] == (["sideband_asymmetry"] if "sideband_asymmetry" in s.effects else [])
+
+
 def test_motor_model_calibrated_against_real_log(capsys, ulog_path):
     """Emulated motors differ and fluctuate like the real PX4 log's (same rate, relative
     units): every statistic within a factor 2.5 of the real one. The log comes from the

@@ -185,4 +185,5 @@ def all_targets():
     targets += dataset_targets()
     targets += classifier_targets()
     targets += ["results/diagnosis/report.json", "results/diagnosis/extended.yaml"]
+    targets += ["results/reports/table_vi.csv", "results/reports/fig_fidelity.png"]
     return targets

@@ -37,6 +37,8 @@ rule aggregate_extensions:
         extensions="results/diagnosis/extended.yaml",
     log:
         "results/logs/aggregate_extensions.log",
+    benchmark:
+        "results/benchmarks/aggregate_extensions.tsv"
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
@@ -44,6 +46,7 @@ rule aggregate_extensions:
         mem_mb=500,
     params:
         diagnosis=config["diagnosis"],
+        mode=config["datasets"]["extended"]["mode"],
         code=DIAGNOSIS_CODE,
     script:
         "../scripts/aggregate_extensions.py"

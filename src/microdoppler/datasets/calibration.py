@@ -35,14 +35,16 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from ..diagnosis.causes import folds
 from ..flightzarr import Flight, read_flight
 from ..inventory import list_flights, read_ingested_log
 from ..snr import noise_floor_db
-from ..spectrogram import SpectrogramConfig, spectrogram
+from ..spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 from ..synthesis import BladeModel, Scaling, Track, synthesize
 from .injection import SYNTHETIC_SCHEMA, inject
 from .lines import LineSNR, body_doppler_hz, log_rate_at, measure_lines, rotor_rate_at
-from .speeds import SPEEDS_SCHEMA
+from .extended import twin_extensions
+from .speeds import BASE_SAMPLING, SPEEDS_SCHEMA
 from .stores import flight_ids, open_store, put_array, stable_seed, writing_store
 from .tables import TABLE_IV_COLUMNS
 
@@ -74,6 +76,12 @@ class CalibrationConfig:
         is stronger than the body (common in measured data) could not be fitted.
         The body line is then set by S_body alone, as the paper's separate body and
         blade scaling intends.
+    holdout_block_cpis : int
+        The calibration targets (and the twin's lines it compares with them) are
+        measured on fold A only: alternating blocks of this many CPIs, CPI i in fold
+        A when ``(i // holdout_block_cpis) % 2 == 0`` (as the diagnosis' folds,
+        ``diagnosis.causes.folds``); fold B is left for held-out fidelity scoring
+        (``microdoppler.fidelity``). 0 fits on every CPI.
     """
 
     tolerance_db: float = 2.0
@@ -85,6 +93,7 @@ class CalibrationConfig:
     n_alpha: int = 12
     max_iter: int = 8
     remove_blade_mean: bool = True
+    holdout_block_cpis: int = 8
 
     def __post_init__(self):
         if not self.tolerance_db > 0:
@@ -97,6 +106,14 @@ class CalibrationConfig:
             raise ValueError(f"alpha_min_s={self.alpha_min_s}, alpha_max_s={self.alpha_max_s} must satisfy 0 < min < max")
         if self.n_alpha < 1 or self.max_iter < 1:
             raise ValueError(f"n_alpha={self.n_alpha} and max_iter={self.max_iter} must be >= 1")
+        if self.holdout_block_cpis < 0:
+            raise ValueError(f"holdout_block_cpis={self.holdout_block_cpis} must be >= 0")
+
+    def fit_mask(self, n_timesteps: int) -> np.ndarray:
+        """CPIs the calibration sees: bool [n_timesteps] (fold A; all when holdout is off)."""
+        if self.holdout_block_cpis == 0:
+            return np.ones(n_timesteps, bool)
+        return folds(n_timesteps, self.holdout_block_cpis) == 0
 
     def alphas(self) -> np.ndarray:
         return np.concatenate([[0.0], np.geomspace(self.alpha_min_s, self.alpha_max_s, self.n_alpha)])
@@ -122,15 +139,22 @@ class TwinMeter:
     """Measures body and sideband lines of records of one flight (measured or twin).
 
     ``rotor_rev_s`` [n_timesteps] and ``half_spread_rev_s`` place the HERM windows.
+    ``fit_mask`` (bool [n_timesteps], optional) keeps only those timesteps in every
+    measurement (the calibration's fold).
     """
 
-    def __init__(self, flight: Flight, spec_cfg: SpectrogramConfig, cfg: CalibrationConfig):
+    def __init__(self, flight: Flight, spec_cfg: SpectrogramConfig, cfg: CalibrationConfig,
+                 fit_mask: np.ndarray | None = None):
         self.flight, self.spec_cfg, self.cfg = flight, spec_cfg, cfg
         self.n_blades = int(flight.attrs["n_blades"])
         self.measured_spec = spectrogram(flight.iq, flight.prf_hz, spec_cfg)
         self.time_s = self.measured_spec.time_s
         self.body_hz = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m,
                                        self.time_s)
+        n_t = len(self.time_s)
+        self.fit_mask = cfg.fit_mask(n_t) if fit_mask is None else np.asarray(fit_mask, bool)
+        if self.fit_mask.shape != (n_t,) or not self.fit_mask.any():
+            raise ValueError(f"fit_mask must be bool [{n_t}] with at least one True, got {self.fit_mask.shape}")
 
     def spec(self, iq):
         return spectrogram(iq, self.flight.prf_hz, self.spec_cfg)
@@ -138,9 +162,19 @@ class TwinMeter:
     def lines(self, spec, rotor_rev_s, half_spread_rev_s) -> LineSNR:
         body = body_doppler_hz(self.flight.track_time_s, self.flight.track_radial_velocity_mps,
                                self.flight.wavelength_m, spec.time_s)
-        return measure_lines(spec, body, rotor_rev_s, n_blades=self.n_blades,
+        rate = None if rotor_rev_s is None else np.asarray(rotor_rev_s)[self.fit_mask]
+        return measure_lines(_masked(spec, self.fit_mask), body[self.fit_mask], rate, n_blades=self.n_blades,
                              rotor_half_spread_rev_s=half_spread_rev_s, n_harmonics=self.cfg.n_harmonics,
                              search_hz=self.cfg.search_hz)
+
+
+def _masked(spec: Spectrogram, mask: np.ndarray) -> Spectrogram:
+    """The timesteps of ``spec`` where ``mask`` [n_timesteps] is True."""
+    if mask.all():
+        return spec
+    if len(mask) != len(spec.time_s):
+        raise ValueError(f"fit_mask has {len(mask)} timesteps, the spectrogram {len(spec.time_s)}")
+    return Spectrogram(spec.power_db[mask], spec.time_s[mask], spec.doppler_hz)
 
 
 def _abs_peak_db(lines_db: np.ndarray, spec) -> float:
@@ -177,7 +211,8 @@ def fit_scales(meter: TwinMeter, body_unit, blade_unit, background, targets: Lin
 def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: SpectrogramConfig,
              cfg: CalibrationConfig = CalibrationConfig(), seed: int = 0,
              synth_kwargs: Callable[[int], dict] | None = None,
-             post: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, dict]:
+             post: Callable[[np.ndarray], np.ndarray] | None = None,
+             fit_mask: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """Synthesise and calibrate the twin of one measured drone flight.
 
     Parameters
@@ -192,18 +227,24 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         ``synth_kwargs(seed) -> dict`` extra arguments of ``synthesize`` (extensions).
     post : callable, optional
         ``post(iq) -> iq`` applied to the target echo (extensions); must be linear.
+    fit_mask : ndarray, bool [n_timesteps], optional
+        Spectrogram timesteps (CPIs) the calibration targets are measured on; default
+        ``cfg.fit_mask`` (fold A of ``cfg.holdout_block_cpis``; every CPI when 0).
+        The other CPIs are never seen by the fit (held-out fidelity scoring).
 
     Returns
     -------
     iq : ndarray, complex64 [n_pulses]
         The calibrated twin, target only.
     result : dict
-        Fitted alpha_s, s_body, s_blade, measured and achieved SNRs, errors, status.
+        Fitted alpha_s, s_body, s_blade, measured and achieved SNRs (on the fit CPIs),
+        errors, status, ``holdout_block_cpis`` (None for a caller's ``fit_mask``, whose
+        CPI indices are then in ``fit_cpis``) and ``n_fit_cpis``/``n_cpis``.
     """
     t0 = time.perf_counter()
     n = len(flight.iq)
     bg = flight.background_iq
-    meter = TwinMeter(flight, spec_cfg, cfg)
+    meter = TwinMeter(flight, spec_cfg, cfg, fit_mask)
     # measured flight: HERM windows from the log
     m_rate, m_spread = log_rate_at(motor_log.time_s, motor_log.rev_s, meter.time_s)
     m_spread_flight = float(np.percentile(m_spread, 90))
@@ -238,13 +279,13 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
     body_unit = synth(Scaling(1.0, 0.0, 0.0))
     bg_floor = float(np.mean(noise_floor_db(meter.spec(bg))))
     spec_b = meter.spec(body_unit)
-    s_body0 = _db_gain(targets.body_db + bg_floor - _abs_peak_db(meter.lines(spec_b, None, 0).body_db, spec_b))
+    s_body0 = _db_gain(targets.body_db + bg_floor - _abs_peak_db(meter.lines(spec_b, None, 0).body_db, _masked(spec_b, meter.fit_mask)))
     tol = cfg.tolerance_db
     trials = []
     for alpha in cfg.alphas():
         blade_unit = synth(Scaling(0.0, 1.0, float(alpha)))
         spec_m = meter.spec(blade_unit)
-        pk = _abs_peak_db(meter.lines(spec_m, t_rate, t_spread_flight).pair_db[0], spec_m)
+        pk = _abs_peak_db(meter.lines(spec_m, t_rate, t_spread_flight).pair_db[0], _masked(spec_m, meter.fit_mask))
         s_blade0 = _db_gain(targets.sideband1_db + bg_floor - pk) if np.isfinite(pk + targets.sideband1_db) else 1e-6
         s_b, s_m, lines = fit_scales(meter, body_unit, blade_unit, bg, targets, t_rate, t_spread_flight,
                                      s_body0=s_body0, s_blade0=s_blade0, max_iter=max(3, cfg.max_iter // 2), tol_db=tol)
@@ -274,6 +315,9 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         body_snr_measured_db=targets.body_db, body_snr_twin_db=got.body_db, body_error_db=float(e_body),
         sideband1_snr_measured_db=targets.sideband1_db, sideband1_snr_twin_db=got.sideband1_db,
         sideband1_error_db=float(e_sb), status="ok" if ok else "missed",
+        holdout_block_cpis=int(cfg.holdout_block_cpis) if fit_mask is None else None,
+        n_fit_cpis=int(meter.fit_mask.sum()), n_cpis=len(meter.fit_mask),
+        **({} if fit_mask is None else {"fit_cpis": np.flatnonzero(meter.fit_mask).tolist()}),
         fit_seconds=round(time.perf_counter() - t0, 2),
     )
     return iq, result
@@ -282,7 +326,13 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
 def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant: str, spec_cfg: SpectrogramConfig,
                 cfg: CalibrationConfig, seed: int, extensions=None, log=print) -> pd.DataFrame:
     """Write ``results/synthetic/{variant}.zarr`` (group per twin: ``iq`` target only,
-    calibration in attrs) and the per-flight Table IV of the variant."""
+    calibration in attrs) and the per-flight Table IV of the variant.
+
+    ``extensions`` (``extended`` variant): a
+    :class:`~microdoppler.datasets.extended.TwinExtensions` (each twin its own
+    flight's causes, or a population draw; recorded in the twin's ``extensions``
+    attribute) or one set for every twin. The ``extended`` twins use ``sub_cpi``'s
+    seeds, so a twin without extensions equals its ``sub_cpi`` twin."""
     speeds = open_store(speeds_zarr, SPEEDS_SCHEMA)
     flights = list_flights(measured_dir).set_index("flight_id")
     rows = [dict(flight_id=fid, variant=variant, drone_model=flights.drone_model.get(fid, ""),
@@ -300,17 +350,23 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
                 rows.append({**base, "status": "skipped: no background"})
                 continue
             ml = read_ingested_log(logs_zarr, fid)
-            if extensions is not None:
-                ml = extensions.transform_log(ml)
-            fseed = stable_seed(seed, "twin", variant, fid)
+            ext = twin_extensions(extensions, fid, flight.attrs["drone_model"], seed=seed)
+            active = ext is not None and bool(getattr(ext, "effects", True))
+            if active:
+                ml = ext.transform_log(ml)
+            # extended twins share sub_cpi's seed: a twin without extensions is its sub_cpi twin
+            fseed = stable_seed(seed, "twin", BASE_SAMPLING.get(variant, variant), fid)
             kw, post = {}, None
-            if extensions is not None:
-                kw["synth_kwargs"] = lambda s, n=len(flight.iq), prf=flight.prf_hz: extensions.synth_kwargs(
+            if active:
+                kw["synth_kwargs"] = lambda s, n=len(flight.iq), prf=flight.prf_hz, e=ext: e.synth_kwargs(
                     prf_hz=prf, n_pulses=n, seed=s)
-                post = lambda x, prf=flight.prf_hz, s=fseed: extensions.post(x, prf_hz=prf, seed=s)
+                post = lambda x, prf=flight.prf_hz, s=fseed, e=ext: e.post(x, prf_hz=prf, seed=s)
             iq, res = fit_twin(flight, np.asarray(g["rev_s"][...]), ml, spec_cfg=spec_cfg, cfg=cfg, seed=fseed,
                                post=post, **kw)
             h = root.require_group(fid)
+            if ext is not None and hasattr(ext, "effects"):
+                h.attrs["extensions"] = {"effects": {c: dict(p) for c, p in ext.effects.items()},
+                                         "source": dict(getattr(ext, "meta", {})).get("source", "uniform")}
             h.attrs.update({**flight.attrs, "variant": variant, "twin_of": fid, "twin_seed": fseed,
                             "calibration": {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
                                             for k, v in res.items()}, "speeds": dict(g.attrs)})

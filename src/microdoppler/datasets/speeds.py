@@ -6,8 +6,9 @@ motor log is reported and skipped (never guessed). The ``sub_cpi`` and
 ``single_motor`` rolling-average window is drawn per flight, uniformly in
 [window_pulses_min, window_pulses_max], from a seed of (seed, variant, flight_id).
 ``fixed_speeds`` draws one speed around the model's typical speed
-(``radar.DRONE_MODELS``). ``extended`` is ``sub_cpi`` on the log as transformed by the
-model extensions (``ext.transform_log``).
+(``radar.DRONE_MODELS``). ``extended`` is ``sub_cpi`` (same seed) on the log as
+transformed by the twin's model extensions (``ext.transform_log``; per flight, see
+:mod:`.extended`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from .. import sampling
 from ..errors import ConfigError
 from ..inventory import list_flights, read_ingested_log
 from ..radar import DRONE_MODELS
+from .extended import twin_extensions
 from .split import TWIN_MODELS
 from .stores import put_array, stable_seed, writing_store
 
@@ -84,8 +86,9 @@ def build_speeds(measured_dir, logs_zarr, out, *, variant: str, settings: dict, 
                 status.append(dict(flight_id=fl.flight_id, drone_model=fl.drone_model, status="skipped", detail="no motor log"))
                 continue
             if extensions is not None:
-                ml = extensions.transform_log(ml)
-            fseed = stable_seed(seed, variant, fl.flight_id)
+                ml = twin_extensions(extensions, fl.flight_id, fl.drone_model, seed=seed).transform_log(ml)
+            # extended draws sub_cpi's window: a twin without extensions is its sub_cpi twin
+            fseed = stable_seed(seed, BASE_SAMPLING.get(variant, variant), fl.flight_id)
             rev, attrs = resample_flight(variant, ml, int(fl.n_pulses), fl.prf_hz, fl.drone_model,
                                          settings=settings, n_fft=n_fft, seed=fseed)
             g = root.require_group(fl.flight_id)

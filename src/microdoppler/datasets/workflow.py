@@ -35,12 +35,14 @@ def split_and_table_iii(measured_dir, *, spec_cfg: SpectrogramConfig, search_hz:
 
 
 def load_extensions(path):
-    """The diagnosis' model extensions (``microdoppler.extensions``), or None without a path.
+    """The diagnosis' model extensions, or None without a path: ``extensions/2`` ->
+    per-twin :class:`~.extended.TwinExtensions`, ``extensions/1`` -> one
+    :class:`~microdoppler.extensions.ExtensionSet` for every twin.
 
-    Imported lazily: only the ``extended`` variant needs that module.
+    Imported lazily: only the ``extended`` variant needs those modules.
     """
     if not path:
         return None
-    from .. import extensions
+    from .extended import load_twin_extensions
 
-    return extensions.load_extensions(path)
+    return load_twin_extensions(path)

@@ -1,8 +1,14 @@
-"""Aggregate the diagnosis of the training flights into the ``extended`` variant."""
+"""Aggregate the diagnosis of the training flights into the ``extended`` variant.
+
+:func:`aggregate_twins` (``extensions/2``): each twin gets its own flight's causes, or
+a draw from their per-model population. :func:`aggregate` (``extensions/1``): one set
+of median parameters for every twin (kept for comparison).
+"""
 
 from __future__ import annotations
 
 from collections import Counter
+from typing import Mapping
 
 import numpy as np
 
@@ -61,3 +67,91 @@ def aggregate(report: dict, *, min_fraction: float = 0.25, flight_ids=None) -> E
             "cause_counts": {**dict(counts), **({"none": n_none} if n_none else {})},
             "min_fraction": min_fraction, "parameters": "median over the flights that named the cause"}
     return ExtensionSet(effects, meta)
+
+
+def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids=None, mode: str = "per_flight",
+                    source="report"):
+    """The ``extended`` variant's per-twin extensions (``extensions/2``) from a report.
+
+    Parameters
+    ----------
+    report : dict
+        A diagnosis report (``diagnosis-report/2``, or report 1).
+    drone_models : mapping
+        ``{flight_id: drone_model}`` (e.g. from the split table); a flight missing
+        here is taken from the report entry's ``drone_model`` if any.
+    flight_ids : iterable of str, optional
+        Only these flights (e.g. the training set).
+    mode : {"per_flight", "population"}
+        How the twins pick their extensions (:mod:`microdoppler.datasets.extended`).
+    source : str
+        Named in errors.
+
+    Returns
+    -------
+    TwinExtensions
+        Per-flight map (each flight's causes with their catalog parameters; skipped
+        flights with status ``skipped``) and per-model population (incidence and
+        parameter sets of each cause over the model's diagnosed flights).
+    """
+    from ..datasets.extended import MODES, TwinExtensions, catalog_params, fit_population
+    from ..errors import InputError
+
+    if mode not in MODES:
+        raise InputError(source, "mode", f"is {mode!r}", " or ".join(MODES))
+    flights = report.get("flights", []) if isinstance(report, dict) else None
+    if not isinstance(flights, list):
+        raise InputError(source, "flights", "is missing or not a list", "a list of flight entries")
+    keep = None if flight_ids is None else set(flight_ids)
+    out = {}
+    for i, f in enumerate(flights):
+        if not isinstance(f, dict) or "flight_id" not in f:
+            raise InputError(source, f"flights[{i}]", "has no flight_id", "a mapping with flight_id")
+        fid = str(f["flight_id"])
+        if keep is not None and fid not in keep:
+            continue
+        model = drone_models.get(fid) or f.get("drone_model") or ""
+        if f.get("cause") == "skipped":
+            out[fid] = {"drone_model": model, "status": "skipped", "extensions": {}, "reason": f.get("reason", "")}
+            continue
+        effects = {}
+        for c in flight_causes(f):
+            cause = c.get("cause")
+            if cause in (None, "none") or cause in effects:
+                continue
+            if cause not in CAUSES:
+                raise InputError(source, f"flights[{i}].causes.{cause}", "is not a catalog cause", f"one of {list(CAUSES)}")
+            effects[cause] = catalog_params(cause, (c.get("extension") or {}).get("params"))
+        out[fid] = {"drone_model": model, "status": "diagnosed", "extensions": effects}
+    n_diag = sum(1 for e in out.values() if e["status"] == "diagnosed")
+    meta = {"base_variant": "sub_cpi", "report_schema": report.get("schema", ""), "n_flights": len(out),
+            "n_diagnosed": n_diag, "n_skipped": len(out) - n_diag,
+            "cause_counts": dict(Counter(c for e in out.values() for c in e["extensions"])),
+            "parameters": "per_flight: each flight's own fitted parameters; population: per drone model, "
+                          "incidence = fraction of its diagnosed flights naming the cause, parameters drawn "
+                          "from the flights that named it"}
+    return TwinExtensions(out, fit_population(out), mode, meta)
+
+
+def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mode: str = "per_flight"):
+    """``extended.yaml`` (``extensions/2``) from the report's flights in the split sets
+    of ``settings['sets']`` (the ``diagnosis:`` config section); drone models from the
+    split table. Returns the :class:`~microdoppler.datasets.extended.TwinExtensions`."""
+    import json
+    from pathlib import Path
+
+    from ..datasets.extended import save_twin_extensions
+    from ..errors import InputError
+    from .pipeline import _training_drones, split_settings
+
+    pipe, _ = split_settings(settings)
+    try:
+        report = json.loads(Path(report_json).read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(report_json, "file", f"cannot be read as JSON ({type(exc).__name__})",
+                         "a diagnosis-report/2 JSON file") from None
+    drones = _training_drones(split_csv, pipe["sets"])
+    models = dict(zip(drones["flight_id"].astype(str), drones.get("drone_model", [""] * len(drones))))
+    ext = aggregate_twins(report, models, flight_ids=set(models), mode=mode, source=report_json)
+    save_twin_extensions(ext, out_yaml)
+    return ext

@@ -3,11 +3,18 @@
 ``test``     6 flights of 30-40 s (CI; seconds to emulate).
 ``default``  48 flights: 24 birds (10 single, 6 pairs, 5 small and 3 large flocks) of
              30-45 s, 9 Inspire, 8 Matrice, 7 Mini flights of 40-60 s (about 35 min of
-             flight), both radars; sideband asymmetry (|a| 3-6 dB) on a third and sideband
-             fading (3-6 dB, 1-2 s) on another third of the Inspire/Matrice flights.
+             flight), both radars.
 ``paper``    Table III: 491 bird, 69 Inspire, 52 Matrice, 62 Mini flights with
              durations that give Table III's image counts per class (5814, 2183, 1899,
              1709 tiles of 20 timesteps), ~50:50 radars. Large: planned on demand.
+
+Effects of the ``default`` and ``paper`` worlds (:func:`plan_effects`) have a
+population structure: each Inspire/Matrice model has a systematic sideband asymmetry
+(blade geometry; sign and size drawn once per world, |a| 3.5-5.5 dB, +-0.5 dB per
+flight) that most of its flights show; per-flight effects (sideband fading, body
+fluctuation, motor-log lag, motor-speed scale) come on top; >= 35 % of a model's
+flights carry two effects and >= 15 % none. The key file records every flight's
+effects and the world's per-model systematic values (``population``).
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..catalog import CAUSES
 from ..flightzarr import write_flight
 from ..outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
 from ..spectrogram import SpectrogramConfig
@@ -47,7 +55,7 @@ def _drone_spec(fid, model, rng, seed, duration_s, radar_id, effects=None) -> Fl
     return FlightSpec(
         flight_id=fid, target="drone", drone_model=model, radar_id=radar_id, duration_s=float(duration_s),
         mean_range_m=float(rng.uniform(1000, 3000)), height_m=float(rng.choice([60.0, 80.0, 100.0])),
-        speed_mps=float(rng.uniform(3, 8) if mini else rng.uniform(3, 12)), effects=effects or {},
+        speed_mps=float(rng.uniform(5, 10) if mini else rng.uniform(3, 12)), effects=effects or {},
         seed=int(seed), direction=int(rng.choice([1, -1])))
 
 
@@ -58,17 +66,99 @@ def _bird_spec(fid, kind, rng, seed, duration_s, radar_id) -> FlightSpec:
         speed_mps=float(rng.uniform(5, 20)), seed=int(seed))
 
 
-def _world_effects(rng, model, slot: int | None = None) -> dict:
-    """Effects of a world flight: a third of the large-drone flights get sideband
-    asymmetry, a third sideband fading (``slot`` % 3 picks which; default random)."""
-    if model not in ("inspire2", "matrice300"):
-        return {}
-    u = rng.uniform() if slot is None else (slot % 3 + 0.5) / 3
-    if u < 1 / 3:
-        return {"sideband_asymmetry": {"asymmetry_db": float(rng.choice([-1, 1]) * rng.uniform(3, 6))}}
-    if u < 2 / 3:
-        return {"sideband_fading": {"fading_std_db": float(rng.uniform(3, 6)), "timescale_s": float(rng.uniform(1, 2))}}
-    return {}
+#: drone models whose flights carry effects (the Mini has no motor log and its blades
+#: sit below the noise: nothing a diagnosis could see)
+EFFECT_MODELS = ("inspire2", "matrice300")
+#: the systematic effect of every large model (blade geometry): its per-model size
+#: |asymmetry_db| [dB], drawn once per world, and the per-flight jitter (uniform +-) [dB]
+SYSTEMATIC_RANGE_DB = (3.5, 5.5)
+SYSTEMATIC_JITTER_DB = 0.5
+#: per-flight effects and the ranges their parameters are drawn from (catalog units;
+#: uniform, except the body fluctuation's timescale_s, log-uniform; lag and scale
+#: with a random sign)
+PER_FLIGHT = {
+    "sideband_fading": {"fading_std_db": (3.0, 6.0), "timescale_s": (1.0, 2.0)},
+    "body_fluctuation": {"body_std_db": (3.0, 6.0), "timescale_s": (0.15, 1.0)},
+    "motor_log_lag": {"lag_s": (0.3, 0.7)},
+    "motor_speed_scale": {"scale": (0.05, 0.10)},
+}
+#: share of a model's flights with two effects, and with none (quotas, rounded up)
+TWO_SHARE, CLEAN_SHARE = 0.35, 0.15
+#: share of one-effect flights whose effect is the systematic one, and of two-effect
+#: flights whose pair includes it (quotas, rounded up)
+SYSTEMATIC_IN_ONE, SYSTEMATIC_IN_TWO = 0.7, 0.8
+
+
+def world_population(seed: int) -> dict:
+    """The per-model systematic effects of a world, deterministic in ``seed``.
+
+    Returns ``{model: {"cause": "sideband_asymmetry", "asymmetry_db": a, "jitter_db": j}}``
+    for each model of :data:`EFFECT_MODELS`: the sign and size of ``a`` are drawn once
+    per world (|a| uniform in :data:`SYSTEMATIC_RANGE_DB`); every flight of the model
+    that shows the effect carries a + uniform(-j, j).
+    """
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1001])
+    pop = {}
+    for model in EFFECT_MODELS:
+        a = float(rng.choice([-1.0, 1.0]) * rng.uniform(*SYSTEMATIC_RANGE_DB))
+        pop[model] = {"cause": "sideband_asymmetry", "asymmetry_db": round(a, 3), "jitter_db": SYSTEMATIC_JITTER_DB}
+    return pop
+
+
+def _per_flight_effect(rng, cause: str) -> dict:
+    if cause == "motor_log_lag":
+        return {"lag_s": round(float(rng.choice([-1.0, 1.0]) * rng.uniform(*PER_FLIGHT[cause]["lag_s"])), 3)}
+    if cause == "motor_speed_scale":
+        return {"scale": round(float(1.0 + rng.choice([-1.0, 1.0]) * rng.uniform(*PER_FLIGHT[cause]["scale"])), 4)}
+    out = {}
+    for k, r in PER_FLIGHT[cause].items():
+        v = np.exp(rng.uniform(*np.log(r))) if (cause, k) == ("body_fluctuation", "timescale_s") else rng.uniform(*r)
+        if k in {p.name for p in CAUSES[cause].params}:  # knobs the catalog has
+            out[k] = round(float(v), 3)
+    return out
+
+
+def plan_effects(models: list[str], seed: int) -> list[dict]:
+    """Effects of a world's flights (one dict per entry of ``models``, in order).
+
+    Per drone model of :data:`EFFECT_MODELS`, the flights are shuffled (seeded) into
+    quotas: ceil(:data:`TWO_SHARE` n) with two effects, ceil(:data:`CLEAN_SHARE` n)
+    with none, the rest with one. Of the one-effect flights, ceil(:data:`SYSTEMATIC_IN_ONE`
+    n_one) carry the model's systematic effect (:func:`world_population`), the others
+    one per-flight effect; of the two-effect flights, ceil(:data:`SYSTEMATIC_IN_TWO`
+    n_two) carry the systematic one and one per-flight effect, the others two distinct
+    per-flight effects. Per-flight effects (:data:`PER_FLIGHT`) are drawn uniformly
+    with parameters uniform in their ranges. Other models and birds: ``{}``.
+    Everything derives from ``seed``.
+    """
+    pop = world_population(seed)
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1002])
+    out: list[dict] = [{} for _ in models]
+    causes = list(PER_FLIGHT)
+    for model in EFFECT_MODELS:
+        idx = [i for i, m in enumerate(models) if m == model]
+        n = len(idx)
+        if n == 0:
+            continue
+        n_two, n_clean = int(np.ceil(TWO_SHARE * n)), int(np.ceil(CLEAN_SHARE * n))
+        n_clean = min(n_clean, n - n_two)
+        n_one = n - n_two - n_clean
+        s_two, s_one = int(np.ceil(SYSTEMATIC_IN_TWO * n_two)), int(np.ceil(SYSTEMATIC_IN_ONE * n_one))
+        plan = ([(2, True)] * s_two + [(2, False)] * (n_two - s_two) + [(1, True)] * s_one
+                + [(1, False)] * (n_one - s_one) + [(0, False)] * n_clean)
+        order = rng.permutation(n)
+        sys_ = pop[model]
+        for i, j in zip(idx, order):
+            k, with_sys = plan[j]
+            eff: dict = {}
+            if with_sys:
+                a = sys_["asymmetry_db"] + rng.uniform(-sys_["jitter_db"], sys_["jitter_db"])
+                eff["sideband_asymmetry"] = {"asymmetry_db": round(float(a), 3)}
+            n_own = int(k) - int(with_sys)
+            for cause in rng.choice(causes, size=n_own, replace=False) if n_own else []:
+                eff[str(cause)] = _per_flight_effect(rng, str(cause))
+            out[i] = eff
+    return out
 
 
 def plan_world(profile: str, seed: int) -> list[FlightSpec]:
@@ -96,16 +186,13 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
     if profile == "default":
         classes = ([("bird", k) for k in ["single"] * 10 + ["pair"] * 6 + ["small_flock"] * 5 + ["large_flock"] * 3]
                    + [("drone", "inspire2")] * 9 + [("drone", "matrice300")] * 8 + [("drone", "mini2")] * 7)
-        slots: dict = {}
         for i, (tg, what) in enumerate(classes):
             rid = "radar1" if i % 2 == 0 else "radar2"
             if tg == "bird":
                 specs.append(_bird_spec(f"d{i:03d}_bird", what, rng, nxt(), rng.uniform(30, 45), rid))
             else:
-                slots[what] = slots.get(what, -1) + 1
-                specs.append(_drone_spec(f"d{i:03d}_{what}", what, rng, nxt(), rng.uniform(40, 60), rid,
-                                         _world_effects(rng, what, slots[what])))
-        return [replace(s, site_seed=int(seed)) for s in specs]
+                specs.append(_drone_spec(f"d{i:03d}_{what}", what, rng, nxt(), rng.uniform(40, 60), rid))
+        return _with_effects(specs, seed)
     # paper
     kinds = ["single"] * 50 + ["pair"] * 25 + ["small_flock"] * 17 + ["large_flock"] * 8
     i = 0
@@ -125,9 +212,31 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
             if cls == "bird":
                 specs.append(_bird_spec(fid, kinds[int(rng.integers(len(kinds)))], rng, nxt(), dur, rid))
             else:
-                specs.append(_drone_spec(fid, cls, rng, nxt(), dur, rid, _world_effects(rng, cls)))
+                specs.append(_drone_spec(fid, cls, rng, nxt(), dur, rid))
             i += 1
-    return [replace(s, site_seed=int(seed)) for s in specs]
+    return _with_effects(specs, seed)
+
+
+def _with_effects(specs: list[FlightSpec], seed: int) -> list[FlightSpec]:
+    """``specs`` with the world's site seed and the effects of :func:`plan_effects`."""
+    effects = plan_effects([s.drone_model if s.target == "drone" else "" for s in specs], seed)
+    return [replace(s, site_seed=int(seed), effects=e) for s, e in zip(specs, effects)]
+
+
+def population_key(seed: int) -> dict:
+    """The ``population`` section of the key: per-model systematic effects
+    (:func:`world_population`), the per-flight effects' ranges and the quotas."""
+    return {"systematic": world_population(seed),
+            "per_flight": {c: {k: list(r) for k, r in p.items()} for c, p in PER_FLIGHT.items()},
+            "signed": {"motor_log_lag": "lag_s = +-U(range)", "motor_speed_scale": "scale = 1 +- U(range)"},
+            "two_effects_share_min": TWO_SHARE, "clean_share_min": CLEAN_SHARE,
+            "systematic_in_one": SYSTEMATIC_IN_ONE, "systematic_in_two": SYSTEMATIC_IN_TWO}
+
+
+def _systematic(spec: FlightSpec, pop: dict) -> list[str]:
+    """The flight's effects that are its model's systematic ones."""
+    sys_ = pop.get("systematic", {}).get(spec.drone_model) if spec.target == "drone" else None
+    return [sys_["cause"]] if sys_ and sys_["cause"] in dict(spec.effects) else []
 
 
 def _spec_json(spec: FlightSpec) -> dict:
@@ -178,9 +287,13 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
             shutil.rmtree(out, ignore_errors=True)
     flown = sum(r["duration_s"] for r in results)
     if key_path is not None:
+        pop = population_key(seed) if profile != "test" else {}
         key = {"schema": "emulator-key/1", "profile": profile, "seed": int(seed),
                "note": "hidden truth of the emulated world; never read downstream",
-               "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"], "spec": _spec_json(r["spec"]),
+               "population": pop,
+               "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"],
+                                                 "systematic": _systematic(r["spec"], pop),
+                                                 "spec": _spec_json(r["spec"]),
                                                  "truth": r["truth"], "measured_snr_db": r["snr_mean"],
                                                  "measured_snr_std_db": r["snr_std"]} for r in results}}
         with atomic_file(key_path) as tmp:

@@ -20,7 +20,7 @@ from ..snr import flight_body_snr_db
 from . import background as bg
 from .bird import KINDS, plan_group, render
 from .drone import DYNAMICS, loop_path, motor_speeds, write_log
-from .knobs import BODY_FLUCTUATION_TAU_S, SlowGain, asymmetry_envelope, ou_process, validate_effects
+from .knobs import SlowGain, asymmetry_envelope, ou_process, validate_effects
 from .radars import radar_site
 
 TARGETS = ("drone", "bird")
@@ -236,7 +236,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         fad = effects.get("sideband_fading")
         fading = SlowGain(spec.duration_s + 1, fad["fading_std_db"], fad["timescale_s"], r_bl) if fad else None
         bf = effects.get("body_fluctuation")
-        bodyfl = SlowGain(spec.duration_s + 1, bf["body_std_db"], BODY_FLUCTUATION_TAU_S, r_bl) if bf else None
+        bodyfl = SlowGain(spec.duration_s + 1, bf["body_std_db"], bf["timescale_s"], r_bl) if bf else None
 
         def blade_hook(i0, i1, ts, x):
             g = blade_nat.amplitude(ts)

@@ -1,0 +1,408 @@
+"""Direct fidelity of the synthetic twins (issue 12 §1, Table VI).
+
+Each twin, injected into its flight's background (``results/injected/{variant}.zarr``),
+is compared with the measured flight feature by feature, on the CPIs its calibration
+did not see (fold B of ``datasets.calibration.holdout_block_cpis``, recorded in the
+twin's ``calibration`` attrs).
+
+Per CPI (one timestep of the paper's spectrogram, :mod:`microdoppler.spectrogram`:
+4096-point Blackman-Harris STFT, 50 % overlap), with the body line at the track's
+Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor log
+(the same ruler for flight and twin, as the calibration's targets use):
+
+- ``line_hz`` [n_harmonics]: body-relative frequency of the k-th HERM line [Hz]: the
+  power centroid of the bins >= ``visible_db`` over the median floor within 0.45 line
+  spacings of the expected line, on the stronger side (the four rotors make a
+  cluster of lines whose strongest member changes from CPI to CPI, so a single peak
+  would jump within the cluster), minus the parabolic-refined body peak
+  (``diagnosis.features.refine_peak``); NaN where no bin is visible;
+- ``n_pairs``: consecutive sideband pairs from k = 1 whose SNR (the project's one
+  measure, ``snr.line_snr_db`` via ``datasets.lines.measure_lines``) is >= ``visible_db``;
+- ``first_pair_db``: SNR of the first pair (stronger side) minus the body's [dB];
+- ``asymmetry_db``: upper minus lower first sideband [dB];
+- ``blade_db``: SNR of the first pair [dB] (its std over time is the blade fading,
+  its autocorrelation's 1/e time the fading timescale [s]);
+- ``body_db``: body-line SNR [dB] (its std over time);
+- ``floor_db``: median power of the bins next to the clutter line, from the
+  high-pass edge to ``clutter_span_hz`` beyond it (lines excluded), over the CPI's
+  median floor [dB].
+
+Per flight and feature one distance between twin and flight (:func:`distances`): the
+mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
+visible) and the scored CPIs for ``line_hz``, and |twin - measured| of the
+flight-level statistic (mean, std or timescale over the scored CPIs) for the others.
+Table VI (:func:`fidelity_table`) gives per variant the mean distance over flights
+with a 95 % flight-bootstrap interval, and paired variant differences.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
+from .datasets.injection import INJECTED_SCHEMA
+from .datasets.lines import body_doppler_hz, log_rate_at, measure_lines
+from .datasets.stores import flight_ids, open_store
+from .diagnosis.causes import folds
+from .diagnosis.features import Stft, refine_peak
+from .errors import InputError
+from .flightzarr import read_flight
+from .inventory import read_ingested_log
+from .outputs import atomic_file
+from .snr import noise_floor_db
+from .spectrogram import Spectrogram, SpectrogramConfig, spectrogram
+
+#: distances of Table VI (name: unit), in column order
+DISTANCES = {"line_hz": "Hz", "n_pairs": "pairs", "first_pair_db": "dB", "asymmetry_db": "dB",
+             "blade_std_db": "dB", "blade_timescale_s": "s", "body_std_db": "dB", "floor_db": "dB"}
+#: the paper's ordering of the sampling variants (sub-CPI > per-CPI ~ single-motor >
+#: fixed-speeds, as Table V's; classifier.reports is not imported: it needs torch)
+ORDER = ("sub_cpi", "per_cpi", "single_motor", "fixed_speeds")
+
+
+def pairs(variants) -> list[tuple[str, str]]:
+    """Paired differences reported: neighbours in :data:`ORDER` among the variants
+    present (sub_cpi - fixed_speeds when only those two are built), then
+    ``extended - sub_cpi``."""
+    chain = [v for v in ORDER if v in variants]
+    out = list(zip(chain[:-1], chain[1:]))
+    return out + ([("extended", "sub_cpi")] if {"extended", "sub_cpi"} <= set(variants) else [])
+
+
+@dataclass(frozen=True)
+class FidelityConfig:
+    """Settings of the feature measurement.
+
+    Parameters
+    ----------
+    visible_db : float
+        SNR at or above which a sideband pair counts as visible [dB].
+    search_hz : float
+        Search half-width of the body line and base half-width of the sidebands [Hz].
+    n_harmonics : int
+        Sideband pairs measured.
+    clutter_span_hz : float
+        Width of the band next to the clutter line (beyond the high-pass edge) whose
+        floor is read [Hz].
+    max_lag_cpis : int
+        Longest lag of the blade-power autocorrelation [CPIs]; a timescale that is
+        not reached is reported as this lag (censored).
+    """
+
+    visible_db: float = 10.0
+    search_hz: float = 10.0
+    n_harmonics: int = 6
+    clutter_span_hz: float = 30.0
+    max_lag_cpis: int = 16
+
+    def __post_init__(self):
+        if not self.search_hz > 0:
+            raise ValueError(f"search_hz={self.search_hz} must be > 0")
+        if self.n_harmonics < 1:
+            raise ValueError(f"n_harmonics={self.n_harmonics} must be >= 1")
+        if not self.clutter_span_hz > 0:
+            raise ValueError(f"clutter_span_hz={self.clutter_span_hz} must be > 0")
+        if self.max_lag_cpis < 1:
+            raise ValueError(f"max_lag_cpis={self.max_lag_cpis} must be >= 1")
+
+
+@dataclass
+class CpiFeatures:
+    """Per-CPI features of one record (see the module doc).
+
+    Attributes
+    ----------
+    time_s : ndarray [n_t]
+        CPI centres [s].
+    line_hz : ndarray [n_harmonics, n_t]
+        Body-relative HERM-line frequency per harmonic [Hz] (NaN outside the spectrogram).
+    pair_db : ndarray [n_harmonics, n_t]
+        SNR of each sideband pair, stronger side [dB] (-inf outside the spectrogram).
+    n_pairs : ndarray, int [n_t]
+    first_pair_db, asymmetry_db, blade_db, body_db, floor_db : ndarray [n_t]
+        [dB]; NaN where not measurable.
+    hop_s : float
+        Time between CPIs [s].
+    """
+
+    time_s: np.ndarray
+    line_hz: np.ndarray
+    pair_db: np.ndarray
+    n_pairs: np.ndarray
+    first_pair_db: np.ndarray
+    asymmetry_db: np.ndarray
+    blade_db: np.ndarray
+    body_db: np.ndarray
+    floor_db: np.ndarray
+    hop_s: float
+
+
+def _finite(x) -> np.ndarray:
+    x = np.asarray(x, float)
+    return np.where(np.isfinite(x), x, np.nan)
+
+
+def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half_spread_rev_s: float = 0.0,
+                 highpass_hz: float = 15.0, cfg: FidelityConfig = FidelityConfig()) -> CpiFeatures:
+    """Per-CPI features of a spectrogram.
+
+    Parameters
+    ----------
+    spec : Spectrogram
+        The paper's spectrogram of the record.
+    body_hz : ndarray [n_t]
+        Expected body Doppler [Hz].
+    rotor_rev_s : ndarray [n_t]
+        Mean rotor rate [rev/s] placing the HERM windows.
+    half_spread_rev_s : float
+        Half-spread of the motors' rates [rev/s] (widens the sideband windows).
+    highpass_hz : float
+        The spectrogram's high-pass edge [Hz]; the clutter floor is read beyond it.
+    """
+    body_hz = np.asarray(body_hz, float)
+    h_hz = n_blades * np.asarray(rotor_rev_s, float)
+    lines = measure_lines(spec, body_hz, rotor_rev_s, n_blades=n_blades, rotor_half_spread_rev_s=half_spread_rev_s,
+                          n_harmonics=cfg.n_harmonics, search_hz=cfg.search_hz)
+    pair = lines.pair_db
+    n_pairs = np.cumprod(pair >= cfg.visible_db, axis=0).sum(axis=0)
+    # line frequencies: power centroid of the stronger side's visible bins, relative to
+    # the refined body peak
+    st = Stft(10.0 ** (spec.power_db.astype(np.float64) / 10), spec.time_s, spec.doppler_hz, np.empty(0))
+    f_body = refine_peak(st, body_hz, cfg.search_hz)
+    snr_db = spec.power_db - noise_floor_db(spec)[:, None]
+    line_hz = np.full(pair.shape, np.nan)
+    for k in range(1, cfg.n_harmonics + 1):
+        sign = np.where(lines.upper_db[k - 1] >= lines.lower_db[k - 1], 1.0, -1.0)
+        centre = f_body + sign * k * h_hz
+        w = (np.abs(spec.doppler_hz[None, :] - centre[:, None]) <= 0.45 * h_hz[:, None]) & (snr_db >= cfg.visible_db)
+        p = np.where(w, st.p, 0.0)
+        with np.errstate(invalid="ignore"):
+            f_line = (p @ spec.doppler_hz) / p.sum(axis=1)
+        line_hz[k - 1] = np.where(np.isfinite(pair[k - 1]) & w.any(axis=1), np.abs(f_line - f_body), np.nan)
+    # floor next to the clutter line, the target's lines excluded
+    f = spec.doppler_hz[None, :]
+    near = (np.abs(f) > highpass_hz) & (np.abs(f) <= highpass_hz + cfg.clutter_span_hz)
+    near = near & (np.abs(f - body_hz[:, None]) > cfg.search_hz)  # [n_t, n_bins]
+    for k in range(1, cfg.n_harmonics + 1):
+        for sign in (1, -1):
+            near &= np.abs(f - (body_hz + sign * k * h_hz)[:, None]) > cfg.search_hz
+    floor = np.full(len(spec.time_s), np.nan)
+    has = near.any(axis=1)
+    floor[has] = np.nanmedian(np.where(near, spec.power_db, np.nan)[has], axis=1)
+    hop_s = float(np.median(np.diff(spec.time_s))) if len(spec.time_s) > 1 else float("nan")
+    return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - lines.body_db),
+                       _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(lines.body_db),
+                       floor - noise_floor_db(spec), hop_s)
+
+
+def flight_features(flight, iq, motor_log, *, spec_cfg: SpectrogramConfig,
+                    cfg: FidelityConfig = FidelityConfig()) -> CpiFeatures:
+    """Features of ``iq`` (the flight's own or its injected twin) with the flight's
+    track and motor log placing the lines (as ``fit_twin`` measures its targets)."""
+    spec = spectrogram(iq, flight.prf_hz, spec_cfg)
+    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
+    rate, spread = log_rate_at(motor_log.time_s, motor_log.rev_s, spec.time_s)
+    return cpi_features(spec, body, rate, n_blades=int(flight.attrs["n_blades"]),
+                        half_spread_rev_s=float(np.percentile(spread, 90)), highpass_hz=spec_cfg.highpass_hz, cfg=cfg)
+
+
+def correlation_timescale_s(x, mask, hop_s: float, max_lag: int) -> float:
+    """1/e time of the autocorrelation of ``x`` [n_t] over the CPIs in ``mask`` [s].
+
+    Lag L uses the pairs (i, i + L) both in ``mask`` (held-out blocks are not
+    contiguous); the crossing is interpolated linearly; ``max_lag * hop_s`` when the
+    autocorrelation stays above 1/e (censored); NaN with fewer than 3 values."""
+    x = np.asarray(x, float)
+    ok = np.asarray(mask, bool) & np.isfinite(x)
+    if ok.sum() < 3:
+        return float("nan")
+    y = np.where(ok, x - x[ok].mean(), 0.0)
+    var = float(np.mean(y[ok] ** 2))
+    if var <= 0:
+        return float("nan")
+    r_prev, lag_prev = 1.0, 0
+    for lag in range(1, min(max_lag, len(x) - 1) + 1):
+        both = ok[:-lag] & ok[lag:]
+        if not both.any():
+            continue
+        r = float(np.mean((y[:-lag] * y[lag:])[both])) / var
+        if r < np.exp(-1):
+            return hop_s * (lag_prev + (r_prev - np.exp(-1)) / (r_prev - r) * (lag - lag_prev))
+        r_prev, lag_prev = r, lag
+    return hop_s * max_lag
+
+
+def _mean(x, mask) -> float:
+    x = np.asarray(x, float)[mask]
+    x = x[np.isfinite(x)]
+    return float(np.mean(x)) if x.size else float("nan")
+
+
+def _std(x, mask) -> float:
+    x = np.asarray(x, float)[mask]
+    x = x[np.isfinite(x)]
+    return float(np.std(x, ddof=1)) if x.size > 1 else float("nan")
+
+
+def summarise(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> dict:
+    """Flight-level statistics over the CPIs in ``mask`` (bool [n_t]): mean visible
+    pairs, first-pair level, asymmetry and floor, std of blade and body SNR, the
+    blade fading timescale [s]."""
+    mask = np.asarray(mask, bool)
+    return {"n_pairs": _mean(f.n_pairs, mask), "first_pair_db": _mean(f.first_pair_db, mask),
+            "asymmetry_db": _mean(f.asymmetry_db, mask), "blade_std_db": _std(f.blade_db, mask),
+            "blade_timescale_s": correlation_timescale_s(f.blade_db, mask, f.hop_s, cfg.max_lag_cpis),
+            "body_std_db": _std(f.body_db, mask), "floor_db": _mean(f.floor_db, mask)}
+
+
+def distances(measured: CpiFeatures, twin: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> dict:
+    """Per-feature distance twin vs measured flight over the CPIs in ``mask`` (the
+    keys of :data:`DISTANCES`; see the module doc)."""
+    mask = np.asarray(mask, bool)
+    if measured.line_hz.shape != twin.line_hz.shape:
+        raise ValueError(f"measured and twin have {measured.line_hz.shape} and {twin.line_hz.shape} lines x CPIs")
+    med = np.array([np.median(r[np.isfinite(r)]) if np.isfinite(r).any() else -np.inf
+                    for r in measured.pair_db[:, mask]])
+    vis = np.flatnonzero(np.cumprod(med >= cfg.visible_db))
+    ks = vis if vis.size else np.array([0])
+    d = np.abs(twin.line_hz[ks][:, mask] - measured.line_hz[ks][:, mask])
+    out = {"line_hz": float(np.mean(d[np.isfinite(d)])) if np.isfinite(d).any() else float("nan")}
+    a, b = summarise(measured, mask, cfg), summarise(twin, mask, cfg)
+    out.update({k: abs(b[k] - a[k]) for k in a})
+    return {k: out[k] for k in DISTANCES}
+
+
+def scoring_mask(calibration: dict, n_t: int) -> tuple[np.ndarray, bool]:
+    """CPIs the calibration did not see, from a twin's ``calibration`` attrs: (bool
+    [n_t], held_out). Without a held-out fold recorded, every CPI (held_out False)."""
+    if calibration.get("fit_cpis") is not None:
+        mask = ~np.isin(np.arange(n_t), np.asarray(calibration["fit_cpis"], int))
+    elif int(calibration.get("holdout_block_cpis") or 0) > 0:
+        mask = folds(n_t, int(calibration["holdout_block_cpis"])) == 1
+    else:
+        return np.ones(n_t, bool), False
+    return mask, bool(mask.any())
+
+
+def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_cfg: SpectrogramConfig,
+                  cfg: FidelityConfig = FidelityConfig(), cache: dict | None = None, log=print) -> pd.DataFrame:
+    """Distances of every injected twin of one variant to its measured flight.
+
+    Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored
+    and the :data:`DISTANCES`. ``cache`` (flight_id -> measured CpiFeatures) spares
+    recomputing the measured flights across variants."""
+    cache = {} if cache is None else cache
+    root = open_store(injected_zarr, INJECTED_SCHEMA)
+    rows = []
+    for fid in flight_ids(root):
+        g = root[fid]
+        path = Path(measured_dir) / f"{fid}.zarr"
+        flight = read_flight(path)
+        ml = read_ingested_log(logs_zarr, fid)
+        if ml is None:
+            raise InputError(str(logs_zarr), f"{fid}/motors", "missing", "the motor log the twin was fitted with")
+        if fid not in cache:
+            cache[fid] = flight_features(flight, flight.iq, ml, spec_cfg=spec_cfg, cfg=cfg)
+        twin = flight_features(flight, np.asarray(g["iq"][...]), ml, spec_cfg=spec_cfg, cfg=cfg)
+        mask, held_out = scoring_mask(dict(g.attrs.get("calibration", {})), len(twin.time_s))
+        d = distances(cache[fid], twin, mask, cfg)
+        rows.append({"flight_id": fid, "variant": variant, "drone_model": g.attrs.get("drone_model", ""),
+                     "held_out": held_out, "n_cpis_scored": int(mask.sum()), **d})
+        log(f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
+            + " ".join(f"{k}={v:.3g}" for k, v in d.items()))
+    return pd.DataFrame(rows, columns=["flight_id", "variant", "drone_model", "held_out", "n_cpis_scored",
+                                       *DISTANCES])
+
+
+def _order(variants) -> list[str]:
+    variants = list(dict.fromkeys(variants))
+    order = ORDER + ("extended",)
+    return [v for v in order if v in variants] + sorted(v for v in variants if v not in order)
+
+
+def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int = 0) -> pd.DataFrame:
+    """Table VI from the per-flight distances (:func:`score_variant` rows).
+
+    One row per variant: ``n_flights`` and per distance m ``m_mean`` (mean over the
+    flights where it is finite) and ``m_ci95_low``/``m_ci95_high`` (95 % percentile
+    interval, flights drawn with replacement, :mod:`microdoppler.bootstrap`). Then
+    paired rows ``a - b`` (adjacent orderings of :data:`PAIRS` present): per flight
+    the difference of the two twins' distances (negative = a closer to the
+    measurement) of :func:`pairs`, its mean, interval from the same draws, and
+    ``m_resolved`` (the interval excludes 0).
+    """
+    cols = ["variant", "n_flights"] + [f"{m}_{s}" for m in DISTANCES for s in ("mean", "ci95_low", "ci95_high",
+                                                                               "resolved")]
+    variants = _order(per_flight["variant"])
+    flights = sorted(per_flight["flight_id"].unique())
+    if not flights:
+        return pd.DataFrame(columns=cols)
+    draws = draw_flights(flights, n_boot=n_boot, seed=seed)
+    table = {v: per_flight[per_flight["variant"] == v].set_index("flight_id").reindex(flights) for v in variants}
+
+    def stats(values: np.ndarray) -> tuple[float, float, float, int]:
+        ok = np.isfinite(values)
+        if not ok.any():
+            return float("nan"), float("nan"), float("nan"), 0
+        lo, hi = interval(ratio_replicates(np.where(ok, values, 0.0), ok.astype(float), draws))
+        return float(values[ok].mean()), lo, hi, int(ok.sum())
+
+    rows = []
+    for v in variants:
+        row = {"variant": v, "n_flights": int(table[v]["variant"].notna().sum())}
+        for m in DISTANCES:
+            row[f"{m}_mean"], row[f"{m}_ci95_low"], row[f"{m}_ci95_high"], _ = stats(table[v][m].to_numpy(float))
+        rows.append(row)
+    for a, b in pairs(variants):
+        row = {"variant": f"{a} - {b}"}
+        for m in DISTANCES:
+            mean, lo, hi, n = stats(table[a][m].to_numpy(float) - table[b][m].to_numpy(float))
+            row.update({f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)})
+            row["n_flights"] = max(row.get("n_flights", 0), n)
+        rows.append(row)
+    return pd.DataFrame(rows).reindex(columns=cols)
+
+
+def plot_fidelity(table: pd.DataFrame, path) -> None:
+    """Per distance, the mean and 95 % interval of every variant (Table VI's first rows)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = table[~table["variant"].str.contains(" - ")]
+    fig, axes = plt.subplots(2, 4, figsize=(13, 5.5), squeeze=False)
+    x = np.arange(len(t))
+    for ax, (m, unit) in zip(axes.ravel(), DISTANCES.items()):
+        mean = t[f"{m}_mean"].to_numpy(float)
+        err = np.abs(np.vstack([mean - t[f"{m}_ci95_low"].to_numpy(float), t[f"{m}_ci95_high"].to_numpy(float) - mean]))
+        ax.errorbar(x, mean, yerr=np.nan_to_num(err), fmt="o", color="black", capsize=3)
+        ax.set_xticks(x, t["variant"], rotation=30, fontsize=8)
+        ax.set_xlim(-0.5, len(t) - 0.5)
+        ax.set_title(f"|Δ {m}| [{unit}]", fontsize=9)
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle("Twin vs measured flight on held-out CPIs: mean distance over flights, 95 % flight bootstrap")
+    fig.tight_layout()
+    with atomic_file(path) as tmp:
+        fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+
+
+def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, figure_png, flights_csv, *,
+                          spec_cfg: SpectrogramConfig, cfg: FidelityConfig = FidelityConfig(), n_boot: int = N_BOOT,
+                          seed: int = 0, log=print) -> pd.DataFrame:
+    """Score every variant's injected twins (``injected``: variant -> store), write the
+    per-flight distances, Table VI and its figure; returns Table VI."""
+    cache: dict = {}
+    per_flight = pd.concat([score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache,
+                                          log=log) for v, path in injected.items()], ignore_index=True)
+    table = fidelity_table(per_flight, n_boot=n_boot, seed=seed)
+    for df, path in ((per_flight, flights_csv), (table, table_csv)):
+        with atomic_file(path) as tmp:
+            df.to_csv(tmp, index=False, float_format="%.6g")
+    plot_fidelity(table, figure_png)
+    return table
