@@ -178,6 +178,29 @@ def test_different_seeds_differ(tiny_tiles):
     assert not np.allclose(a["train_loss"], b["train_loss"])
 
 
+def test_weight_averaging_keeps_the_mean_of_the_last_epochs(tiny_tiles):
+    """average_last_epochs K: the kept weights are the element-wise mean of the last
+    K epochs' weights (one run, one seed), and the history marks those epochs."""
+    from dataclasses import replace
+
+    from microdoppler.classifier.training import average_states
+
+    tr, va, te = tiny_tiles
+    cfg = replace(TINY, max_epochs=3, average_last_epochs=2)
+    res = train(tr, va, cfg, seed=5, threads=1)
+    assert list(res.history["selected"]) == [False, True, True]
+    # the same run stopped after 2 and after 3 epochs gives the two states averaged
+    s2 = train(tr, va, replace(cfg, max_epochs=2, average_last_epochs=1), seed=5, threads=1).model.state_dict()
+    s3 = train(tr, va, replace(cfg, average_last_epochs=1), seed=5, threads=1).model.state_dict()
+    want = average_states([s2, s3])
+    for k, v in res.model.state_dict().items():
+        torch.testing.assert_close(v, want[k])
+        if torch.is_floating_point(v) and not torch.equal(s2[k], s3[k]):
+            assert not torch.equal(v, s3[k])
+    with pytest.raises(InputError):
+        TrainConfig(average_last_epochs=-1)
+
+
 def test_config_validation():
     with pytest.raises(InputError):
         TrainConfig(learning_rate=0)

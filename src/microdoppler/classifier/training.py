@@ -58,6 +58,11 @@ class TrainConfig:
     reevaluate_train : bool
         Evaluate the end-of-epoch model on the whole training set (paper); False uses
         the running mini-batch loss and accuracy of the epoch (cheaper).
+    average_last_epochs : int
+        0 (paper): keep the epoch with the largest train + validation accuracy. K > 0:
+        keep the average of the weights after each of the last K epochs run (stochastic
+        weight averaging within one seed's run; no ensembling across seeds), which
+        does not depend on a small validation set's noisy accuracy.
     normalisation : Normalisation
     """
 
@@ -74,13 +79,15 @@ class TrainConfig:
     max_epochs: int = 12
     exceed_limit: int = 10
     reevaluate_train: bool = False
+    average_last_epochs: int = 0
     normalisation: Normalisation = Normalisation()
 
     def __post_init__(self):
         checks = [("learning_rate", self.learning_rate > 0, "> 0"), ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
                   ("weight_decay", self.weight_decay >= 0, ">= 0"), ("batch_size", self.batch_size >= 1, ">= 1"),
                   ("lr_step_epochs", self.lr_step_epochs >= 1, ">= 1"), ("lr_gamma", 0 < self.lr_gamma <= 1, "in (0, 1]"),
-                  ("max_epochs", self.max_epochs >= 1, ">= 1"), ("exceed_limit", self.exceed_limit >= 1, ">= 1")]
+                  ("max_epochs", self.max_epochs >= 1, ">= 1"), ("exceed_limit", self.exceed_limit >= 1, ">= 1"),
+                  ("average_last_epochs", self.average_last_epochs >= 0, ">= 0")]
         for name, ok, want in checks:
             if not ok:
                 raise ConfigError("classifier", name, f"{name}={getattr(self, name)} must be {want}")
@@ -220,13 +227,32 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
             logger.info("stopping: validation loss exceeded training loss %d times", cfg.exceed_limit)
             break
     hist = pd.DataFrame(rows)
-    best = best_epoch(hist["train_accuracy"], hist["val_accuracy"])
-    hist["selected"] = hist.index == best
-    model.load_state_dict(states[best])
+    if cfg.average_last_epochs > 0:
+        kept = states[-cfg.average_last_epochs:]
+        model.load_state_dict(average_states(kept))
+        best = len(states) - 1
+        hist["selected"] = hist.index >= len(states) - len(kept)
+        logger.info("kept the average of the weights of epochs %d-%d", len(states) - len(kept) + 1, len(states))
+    else:
+        best = best_epoch(hist["train_accuracy"], hist["val_accuracy"])
+        hist["selected"] = hist.index == best
+        model.load_state_dict(states[best])
+        logger.info("kept epoch %d (train acc %.3f + val acc %.3f)", best + 1,
+                    hist["train_accuracy"][best], hist["val_accuracy"][best])
     model.eval()
-    logger.info("kept epoch %d (train acc %.3f + val acc %.3f)", best + 1,
-                hist["train_accuracy"][best], hist["val_accuracy"][best])
     return TrainResult(model, hist, best + 1)
+
+
+def average_states(states: list[dict]) -> dict:
+    """Element-wise mean of state dicts of one model (floating tensors; integer
+    buffers are taken from the last state)."""
+    out = {}
+    for k, v in states[-1].items():
+        if torch.is_floating_point(v):
+            out[k] = torch.stack([s[k] for s in states]).mean(0).to(v.dtype)
+        else:
+            out[k] = v.clone()
+    return out
 
 
 def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trainset: str) -> None:
