@@ -4,7 +4,8 @@ SGD with momentum and L2 (weight decay), step learning-rate decay, mini-batches
 reshuffled every epoch. After every epoch the model is evaluated on the training
 and validation sets. Training stops once the validation loss has exceeded the
 training loss ``exceed_limit`` times (or at ``max_epochs``); the kept model is the
-one of the epoch with the largest sum of training and validation accuracy.
+one of the epoch with the largest sum of training and validation accuracy (paper), or
+with ``average_last_epochs`` K > 0 the average of the last K epochs' weights.
 """
 
 from __future__ import annotations
