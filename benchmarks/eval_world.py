@@ -37,13 +37,15 @@ def main(argv=None) -> pd.DataFrame:
     ap.add_argument("--seed", type=int, default=0, help="world seed")
     ap.add_argument("--draw-seed", type=int, default=5, help="seed of the flights drawn from the plan")
     ap.add_argument("--max-duration-s", type=float, default=None)
+    ap.add_argument("--classes", default=",".join(TABLE_III), help="comma-separated classes")
     ap.add_argument("--csv", default=None, help="write the per-flight rows here")
     args = ap.parse_args(argv)
     specs = plan_world(args.profile, args.seed)
     rng = np.random.default_rng(args.draw_seed)
     rows = []
     t0 = time.perf_counter()
-    for cls in TABLE_III:
+    classes = [c for c in args.classes.split(",") if c]
+    for cls in classes:
         pool = [s for s in specs if s.cls == cls]
         for i in rng.choice(len(pool), min(args.per_class, len(pool)), replace=False):
             s = pool[i]
@@ -61,7 +63,8 @@ def main(argv=None) -> pd.DataFrame:
     if args.csv:
         df.to_csv(args.csv, index=False)
     out = []
-    for cls, (p_mean, p_std) in TABLE_III.items():
+    for cls in classes:
+        p_mean, p_std = TABLE_III[cls]
         d = df[df["class"] == cls].reset_index(drop=True)
         draws = draw_flights(d.flight_id, seed=args.draw_seed)
         w = draws.weights / draws.weights.sum(axis=1, keepdims=True)

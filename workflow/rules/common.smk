@@ -88,9 +88,26 @@ DATASET_CODE = code_version(
     "datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py"
 )
 
+# Flight batches (datasets.flight_batches): with N > 1, synthesize_flights and
+# inject_background run once per (variant, batch) on the flights whose stable id hash
+# falls in the batch (microdoppler.datasets.batches.flight_batch), and rule
+# merge_flight_batches gathers them into the per-variant products. With N = 1 they
+# write those products directly (today's jobs and paths).
+FLIGHT_BATCHES = int(config["datasets"]["flight_batches"])
+BATCHES = [str(b) for b in range(FLIGHT_BATCHES)]
+VARIANT_BATCH = "{variant}" if FLIGHT_BATCHES == 1 else "{variant}/batch{batch}"
+SYNTHETIC_BATCH = f"results/synthetic/{VARIANT_BATCH}.zarr"
+INJECTED_BATCH = f"results/injected/{VARIANT_BATCH}.zarr"
+TABLE_IV_BATCH = (
+    "results/reports/table_iv_{variant}.csv"
+    if FLIGHT_BATCHES == 1
+    else "results/reports/table_iv_{variant}/batch{batch}.csv"
+)
+
 
 wildcard_constraints:
     dataset="|".join(DATASETS),
+    batch="|".join(BATCHES),
 
 
 def variant_settings(wildcards):

@@ -54,12 +54,12 @@ rule synthesize_flights:
     input:
         unpack(twins_inputs),
     output:
-        twins=directory("results/synthetic/{variant}.zarr"),
-        table="results/reports/table_iv_{variant}.csv",
+        twins=directory(SYNTHETIC_BATCH),
+        table=TABLE_IV_BATCH,
     log:
-        "results/logs/synthesize_flights/{variant}.log",
+        f"results/logs/synthesize_flights/{VARIANT_BATCH}.log",
     benchmark:
-        "results/benchmarks/synthesize_flights/{variant}.tsv"
+        f"results/benchmarks/synthesize_flights/{VARIANT_BATCH}.tsv"
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
@@ -71,6 +71,7 @@ rule synthesize_flights:
         search_hz=config["datasets"]["snr_search_hz"],
         spectrogram=config["spectrogram"],
         seed=config["sampling"]["seed"],
+        flight_batches=FLIGHT_BATCHES,
         code=DATASET_CODE,
     script:
         "../scripts/synthesize_flights.py"
@@ -79,13 +80,13 @@ rule synthesize_flights:
 rule inject_background:
     input:
         measured=MEASURED_DIR,
-        twins="results/synthetic/{variant}.zarr",
+        twins=SYNTHETIC_BATCH,
     output:
-        injected=directory("results/injected/{variant}.zarr"),
+        injected=directory(INJECTED_BATCH),
     log:
-        "results/logs/inject_background/{variant}.log",
+        f"results/logs/inject_background/{VARIANT_BATCH}.log",
     benchmark:
-        "results/benchmarks/inject_background/{variant}.tsv"
+        f"results/benchmarks/inject_background/{VARIANT_BATCH}.tsv"
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
@@ -95,6 +96,31 @@ rule inject_background:
         code=DATASET_CODE,
     script:
         "../scripts/inject_background.py"
+
+
+if FLIGHT_BATCHES > 1:
+
+    rule merge_flight_batches:
+        input:
+            speeds="results/speeds/{variant}.zarr",
+            injected=expand(INJECTED_BATCH, variant="{variant}", batch=BATCHES),
+            tables=expand(TABLE_IV_BATCH, variant="{variant}", batch=BATCHES),
+        output:
+            injected=directory("results/injected/{variant}.zarr"),
+            table="results/reports/table_iv_{variant}.csv",
+        log:
+            "results/logs/merge_flight_batches/{variant}.log",
+        benchmark:
+            "results/benchmarks/merge_flight_batches/{variant}.tsv"
+        conda:
+            "../envs/microdoppler.yaml"
+        threads: 1
+        resources:
+            mem_mb=1000,
+        params:
+            code=DATASET_CODE,
+        script:
+            "../scripts/merge_flight_batches.py"
 
 
 rule tile_spectrograms:

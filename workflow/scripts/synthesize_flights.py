@@ -1,4 +1,5 @@
-"""Rule synthesize_flights: calibrated synthetic twins of one variant and its Table IV."""
+"""Rule synthesize_flights: calibrated synthetic twins of one variant (one flight batch
+of it when datasets.flight_batches > 1) and their Table IV rows."""
 
 from microdoppler.datasets.calibration import CalibrationConfig, build_twins
 from microdoppler.datasets.workflow import load_extensions
@@ -6,6 +7,7 @@ from microdoppler.runlog import log_to
 from microdoppler.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
+    batch = snakemake.wildcards.get("batch")
     table = build_twins(
         snakemake.input.measured,
         snakemake.input.speeds,
@@ -17,5 +19,6 @@ with log_to(snakemake.log[0]):
         cfg=CalibrationConfig(search_hz=snakemake.params.search_hz, **snakemake.params.calibration),
         seed=snakemake.params.seed,
         extensions=load_extensions(snakemake.input.get("extensions")),
+        batch=None if batch is None else (int(batch), snakemake.params.flight_batches),
     )
     print(table.status.value_counts().to_string())

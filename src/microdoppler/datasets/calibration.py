@@ -43,6 +43,7 @@ from ..spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 from ..synthesis import BladeModel, Scaling, Track, synthesize
 from .injection import SYNTHETIC_SCHEMA, inject
 from .lines import LineSNR, body_doppler_hz, log_rate_at, measure_lines, rotor_rate_at
+from .batches import batch_filter
 from .extended import twin_extensions
 from .speeds import BASE_SAMPLING, SPEEDS_SCHEMA
 from .stores import flight_ids, open_store, put_array, stable_seed, writing_store
@@ -324,9 +325,14 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
 
 
 def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant: str, spec_cfg: SpectrogramConfig,
-                cfg: CalibrationConfig, seed: int, extensions=None, log=print) -> pd.DataFrame:
+                cfg: CalibrationConfig, seed: int, extensions=None, batch: tuple[int, int] | None = None,
+                log=print) -> pd.DataFrame:
     """Write ``results/synthetic/{variant}.zarr`` (group per twin: ``iq`` target only,
     calibration in attrs) and the per-flight Table IV of the variant.
+
+    ``batch`` = (index, n_batches): only the flights of that flight batch
+    (:func:`~microdoppler.datasets.batches.flight_batch`); their twins equal those
+    written with ``batch`` None (the seeds depend on the flight id only).
 
     ``extensions`` (``extended`` variant): a
     :class:`~microdoppler.datasets.extended.TwinExtensions` (each twin its own
@@ -335,11 +341,12 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
     seeds, so a twin without extensions equals its ``sub_cpi`` twin."""
     speeds = open_store(speeds_zarr, SPEEDS_SCHEMA)
     flights = list_flights(measured_dir).set_index("flight_id")
+    mine = batch_filter(*(batch or (None, 1)))
     rows = [dict(flight_id=fid, variant=variant, drone_model=flights.drone_model.get(fid, ""),
                  radar_id=flights.radar_id.get(fid, ""), status=f"skipped: {why}")
-            for fid, why in dict(speeds.attrs.get("skipped", {})).items()]
+            for fid, why in dict(speeds.attrs.get("skipped", {})).items() if mine(fid)]
     with writing_store(out, {"schema": SYNTHETIC_SCHEMA, "variant": variant, "target_only": True}) as root:
-        for fid in flight_ids(speeds):
+        for fid in filter(mine, flight_ids(speeds)):
             g = speeds[fid]
             flight = read_flight(flights.loc[fid, "path"])
             base = dict(flight_id=fid, variant=variant, drone_model=flight.attrs["drone_model"],
