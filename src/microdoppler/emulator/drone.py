@@ -110,10 +110,10 @@ def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_
     # turn radius and leg orientation set the time the body spends in the 15 Hz notch
     # at the turns, which dominates a flight's SNR spread: calibrated to Table III's
     # per-flight std (Inspire 7.0, Matrice 7.5, Mini 5.7 dB; benchmarks/README.md)
-    radius = rng.uniform(20.0, 60.0)
+    radius = rng.uniform(15.0, 40.0)
     leg = rng.uniform(100.0, 400.0)
     # legs laid out roughly along the line of sight (trials want a Doppler signature)
-    orient = az0 + rng.uniform(-0.35, 0.35)
+    orient = az0 + rng.uniform(-0.25, 0.25)
     vs = speed_mps * (1 + _smooth(ou_process(n, dt, 0.15 if hand_flown else 0.06, 3.0, rng), 2.0))
     vs = np.maximum(vs, 0.5)
     if straight:
