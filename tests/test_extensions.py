@@ -142,3 +142,70 @@ def test_save_load_roundtrip_and_bad_input(tmp_path):
         ExtensionSet({"gremlins": {}})
     with pytest.raises(InputError, match="scale"):
         ExtensionSet({"motor_speed_scale": {"scale": -1}})
+
+
+# ---------------------------------------------------------------- canonical parameters (issue 12)
+
+def test_old_yaml_without_the_new_parameters_is_read(tmp_path):
+    """A file written before body timescale_s and skirt_dbc_hz existed: the body's
+    timescale defaults to 0.3 s and the skirt follows from rms_rad (flat process)."""
+    from microdoppler.catalog import flat_skirt_dbc_hz
+
+    (tmp_path / "old.yaml").write_text("schema: extensions/1\nextensions:\n  body_fluctuation: {body_std_db: 3.0}\n"
+                                       "  phase_noise: {rms_rad: 0.01}\nmeta: {}\n")
+    e = load_extensions(tmp_path / "old.yaml")
+    assert e.effects["body_fluctuation"] == {"body_std_db": 3.0, "timescale_s": 0.3}
+    assert e.effects["phase_noise"]["skirt_dbc_hz"] == pytest.approx(flat_skirt_dbc_hz(0.01))
+    assert e.effects["phase_noise"]["skirt_dbc_hz"] == pytest.approx(10 * np.log10(0.01 ** 2 / 200), abs=0.01)
+
+
+def test_body_timescale_is_used_and_skirt_defines_rms(tmp_path):
+    slow = ExtensionSet({"body_fluctuation": {"body_std_db": 4.0, "timescale_s": 2.0}})
+    fast = ExtensionSet({"body_fluctuation": {"body_std_db": 4.0, "timescale_s": 0.05}})
+    n = int(20 * PRF)
+
+    def gain_db(e):
+        hook = e.synth_kwargs(prf_hz=PRF, n_pulses=n, seed=4)["body_hook"]
+        x = np.ones(n, np.complex64)
+        hook(0, n, np.arange(n) / PRF, x)
+        return 20 * np.log10(np.abs(x[:: int(PRF / 100)]))  # every 10 ms
+
+    def lag_corr(y, k):
+        return np.corrcoef(y[:-k], y[k:])[0, 1]
+
+    ys, yf = gain_db(slow), gain_db(fast)
+    assert lag_corr(ys, 50) > 0.6 and abs(lag_corr(yf, 50)) < 0.2  # 0.5 s apart
+    pn = ExtensionSet({"phase_noise": {"skirt_dbc_hz": -60.0}}).effects["phase_noise"]
+    assert pn["rms_rad"] == pytest.approx(np.sqrt(2 * 100 * 10 ** -6.0), rel=1e-3)
+    back = load_extensions(save_extensions(ExtensionSet({"phase_noise": {"skirt_dbc_hz": -60.0}}), tmp_path / "p.yaml"))
+    assert back.effects["phase_noise"] == pytest.approx(pn)
+    with pytest.raises(InputError, match="timescale_s"):
+        ExtensionSet({"body_fluctuation": {"body_std_db": 3.0, "timescale_s": 0.0}})
+    with pytest.raises(InputError, match="skirt_dbc_hz"):
+        ExtensionSet({"phase_noise": {"skirt_dbc_hz": "loud"}})
+
+
+def test_flat_skirt_matches_the_emulated_phase_noise_spectrum():
+    """skirt_dbc_hz of the emulator's knob, computed analytically, against the
+    measured spectrum of exp(j theta) of its own process."""
+    from microdoppler.catalog import flat_skirt_dbc_hz
+    from microdoppler.emulator.knobs import band_limited_phase, validate_effects
+
+    rms = 0.02
+    key = validate_effects({"phase_noise": {"rms_rad": rms}, "body_fluctuation": {"body_std_db": 3.0}})
+    assert key["body_fluctuation"]["timescale_s"] == 0.3
+    assert key["phase_noise"]["skirt_dbc_hz"] == pytest.approx(flat_skirt_dbc_hz(rms))
+    assert validate_effects({"phase_noise": {"skirt_dbc_hz": -60.0}})["phase_noise"]["rms_rad"] > 0
+    with pytest.raises(ValueError, match="disagrees"):
+        validate_effects({"phase_noise": {"rms_rad": 0.02, "skirt_dbc_hz": -40.0}})
+    n, segs = 1 << 14, 64
+    rng = np.random.default_rng(7)
+    th = band_limited_phase(n * segs, PRF, rms, rng)
+    x = np.exp(1j * th).reshape(segs, n)
+    w = np.hanning(n)
+    p = (np.abs(np.fft.fft(x * w, axis=1)) ** 2).mean(0) / (w ** 2).sum() / PRF  # [1/Hz], carrier power ~1
+    f = np.fft.fftfreq(n, 1 / PRF)
+    band = (np.abs(f) > 40) & (np.abs(f) < 60)
+    carrier = np.abs(x.mean()) ** 2
+    measured = 10 * np.log10(p[band].mean() / carrier)
+    assert measured == pytest.approx(key["phase_noise"]["skirt_dbc_hz"], abs=0.3)

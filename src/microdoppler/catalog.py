@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class Param:
@@ -52,8 +54,9 @@ CAUSES: dict[str, Cause] = {
         Cause(
             "body_fluctuation",
             "the body return's power fluctuates from CPI to CPI (RCS scintillation)",
-            (Param("body_std_db", "dB", "standard deviation of the body power gain in dB, "
-                   "correlation time ~0.3 s", ">= 3"),),
+            (Param("body_std_db", "dB", "standard deviation of the body power gain in dB", ">= 3"),
+             Param("timescale_s", "s", "1/e correlation time of the body power gain (default 0.3 s when "
+                   "not given)", "0.05-3 s")),
         ),
         Cause(
             "motor_log_lag",
@@ -71,11 +74,41 @@ CAUSES: dict[str, Cause] = {
             "phase_noise",
             "the radar's phase noise spreads strong lines into a raised skirt",
             (Param("rms_rad", "rad", "rms of the radar phase error theta(t), Gaussian, band-limited to "
-                   "|f| < 100 Hz (flat PSD); multiplies the whole echo incl. clutter by exp(j theta)",
-                   "raises the floor within 100 Hz of the clutter line by >= 6 dB"),),
+                   "|f| < 100 Hz (flat PSD); multiplies the whole echo incl. clutter by exp(j theta). For "
+                   "another spectral shape: the rms of the flat process with the same skirt at 50 Hz",
+                   "raises the floor within 100 Hz of the clutter line by >= 6 dB"),
+             Param("skirt_dbc_hz", "dBc/Hz", "single-sideband phase-noise density at 50 Hz from the carrier, "
+                   "relative to the carrier (any spectral shape; for the flat process "
+                   ":func:`flat_skirt_dbc_hz` of rms_rad)", ">= about -75 dBc/Hz")),
         ),
     ]
 }
 
 CATALOG: tuple[str, ...] = tuple(CAUSES)
 PHASE_NOISE_BANDWIDTH_HZ = 100.0
+#: offset from the carrier at which ``skirt_dbc_hz`` is read [Hz]
+SKIRT_OFFSET_HZ = 50.0
+
+
+def flat_skirt_dbc_hz(rms_rad: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ,
+                      offset_hz: float = SKIRT_OFFSET_HZ) -> float:
+    """``skirt_dbc_hz`` of the catalog's flat phase noise of rms ``rms_rad`` [rad].
+
+    theta(t) Gaussian with a flat two-sided PSD S = rms^2 / (2 B) on |f| < B. The
+    spectrum of exp(j theta) relative to its carrier (weight exp(-rms^2)) is
+    L(f) = sum_n S^{*n}(f) / n!; the first two terms are kept (the third is below
+    1e-4 of the first for rms < 0.1 rad): L(f) = S + S^2 (2B - |f|) / 2 [1/Hz].
+    Returns 10 log10 L(offset_hz) [dBc/Hz]; -inf for rms 0.
+    """
+    a = float(rms_rad) ** 2 / (2 * bandwidth_hz)
+    lin = a + 0.5 * a * a * max(2 * bandwidth_hz - offset_hz, 0.0)
+    return float(10 * np.log10(lin)) if lin > 0 else float("-inf")
+
+
+def flat_rms_rad(skirt_dbc_hz: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ,
+                 offset_hz: float = SKIRT_OFFSET_HZ) -> float:
+    """Inverse of :func:`flat_skirt_dbc_hz`: the flat process's rms [rad]."""
+    L = 10 ** (float(skirt_dbc_hz) / 10)
+    c = max(2 * bandwidth_hz - offset_hz, 0.0)
+    a = L if c == 0 else (np.sqrt(1 + 2 * c * L) - 1) / c
+    return float(np.sqrt(2 * bandwidth_hz * a))

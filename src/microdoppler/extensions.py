@@ -11,17 +11,22 @@ parameter names, units and signs:
     ``blade_hook`` multiplies the blade signal by 10^(x(t)/20), x an
     Ornstein-Uhlenbeck process in dB (std ``fading_std_db``, correlation time
     ``timescale_s``).
-``body_fluctuation``    {body_std_db}
+``body_fluctuation``    {body_std_db, timescale_s}
     ``body_hook`` multiplies the body amplitude by 10^(y(t)/20), y OU in dB with std
-    ``body_std_db`` and correlation time :data:`BODY_TIMESCALE_S` (catalog: ~0.3 s).
+    ``body_std_db`` and correlation time ``timescale_s`` (default
+    :data:`BODY_TIMESCALE_S` when not given, e.g. in files written before it existed).
 ``motor_log_lag``       {lag_s}
     A log row stamped t reports the speed at t - lag_s, so the corrected log is the
     logged one with its times moved by -lag_s (:meth:`ExtensionSet.transform_log`).
 ``motor_speed_scale``   {scale}
     true speed = scale * logged speed (:meth:`ExtensionSet.transform_log`).
-``phase_noise``         {rms_rad}
+``phase_noise``         {rms_rad, skirt_dbc_hz}
     :meth:`ExtensionSet.post` multiplies the echo by exp(j theta(t)), theta Gaussian
-    with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``.
+    with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``. ``skirt_dbc_hz`` (the
+    single-sideband density at 50 Hz [dBc/Hz]) is derived from ``rms_rad`` when not
+    given (:func:`microdoppler.catalog.flat_skirt_dbc_hz`) and vice versa; when both
+    are given (a diagnosis of a non-flat skirt) both are kept and ``rms_rad`` drives
+    the synthesis.
 
 Stochastic extensions (fading, body fluctuation, phase noise) draw their processes
 from the ``seed`` given to :meth:`~ExtensionSet.synth_kwargs` / :meth:`~ExtensionSet.post`;
@@ -38,14 +43,14 @@ import numpy as np
 import scipy.fft as sfft
 import yaml
 
-from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
+from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ, flat_rms_rad, flat_skirt_dbc_hz
 from .errors import InputError
 from .outputs import atomic_file
 from .motorlog import MotorLog
 from .processes import ou_process
 
 SCHEMA = "extensions/1"
-#: correlation time of the body fluctuation [s] (catalog: ~0.3 s)
+#: default correlation time of the body fluctuation [s] when ``timescale_s`` is not given
 BODY_TIMESCALE_S = 0.3
 #: default of the fading correlation time [s] when not given
 DEFAULT_FADING_TIMESCALE_S = 1.5
@@ -73,21 +78,26 @@ def check_params(cause: str, params: Mapping | None, *, source="extensions") -> 
             raise InputError(source, f"extensions.{cause}.{k}", "unknown parameter", f"one of {names}")
     if cause == "sideband_fading":
         params.setdefault("timescale_s", DEFAULT_FADING_TIMESCALE_S)
+    if cause == "body_fluctuation":
+        params.setdefault("timescale_s", BODY_TIMESCALE_S)  # files written before timescale_s existed
+    if cause == "phase_noise":
+        # either parameter defines the other for the flat process (an old file has rms_rad only)
+        if "rms_rad" not in params and "skirt_dbc_hz" in params:
+            v = _number(source, cause, "skirt_dbc_hz", params["skirt_dbc_hz"])
+            params["rms_rad"] = flat_rms_rad(v)
+        elif "skirt_dbc_hz" not in params and "rms_rad" in params:
+            v = _number(source, cause, "rms_rad", params["rms_rad"])
+            params["skirt_dbc_hz"] = flat_skirt_dbc_hz(v) if v > 0 else -300.0
     out = {}
     for k in names:
         if k not in params:
             raise InputError(source, f"extensions.{cause}.{k}", "missing", "a number")
-        try:
-            v = float(params[k])
-        except (TypeError, ValueError):
-            raise InputError(source, f"extensions.{cause}.{k}", f"is {params[k]!r}", "a number") from None
-        if not np.isfinite(v):
-            raise InputError(source, f"extensions.{cause}.{k}", f"is {v}", "a finite number")
-        out[k] = v
+        out[k] = _number(source, cause, k, params[k])
     bad = {
         ("sideband_fading", "fading_std_db"): out.get("fading_std_db", 0) < 0,
         ("sideband_fading", "timescale_s"): out.get("timescale_s", 1) <= 0,
         ("body_fluctuation", "body_std_db"): out.get("body_std_db", 0) < 0,
+        ("body_fluctuation", "timescale_s"): out.get("timescale_s", 1) <= 0,
         ("motor_speed_scale", "scale"): out.get("scale", 1) <= 0,
         ("phase_noise", "rms_rad"): out.get("rms_rad", 0) < 0,
     }
@@ -98,6 +108,14 @@ def check_params(cause: str, params: Mapping | None, *, source="extensions") -> 
     return out
 
 
+def _number(source, cause: str, k: str, x) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise InputError(source, f"extensions.{cause}.{k}", f"is {x!r}", "a number") from None
+    if not np.isfinite(v):
+        raise InputError(source, f"extensions.{cause}.{k}", f"is {v}", "a finite number")
+    return v
 
 
 def flat_phase_noise(n: int, prf_hz: float, rms_rad: float, rng: np.random.Generator,
@@ -195,7 +213,8 @@ class ExtensionSet:
             kw["blade_hook"] = _GainHook(dur, p["fading_std_db"], p["timescale_s"], rng)
         if "body_fluctuation" in e:
             rng = np.random.default_rng([int(seed), _STREAM["body_fluctuation"]])
-            kw["body_hook"] = _GainHook(dur, e["body_fluctuation"]["body_std_db"], BODY_TIMESCALE_S, rng)
+            p = e["body_fluctuation"]
+            kw["body_hook"] = _GainHook(dur, p["body_std_db"], p["timescale_s"], rng)
         return kw
 
     def post(self, iq: np.ndarray, *, prf_hz: float, seed: int) -> np.ndarray:

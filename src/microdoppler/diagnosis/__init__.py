@@ -8,9 +8,9 @@ in it (``skipped`` with a reason where it cannot be diagnosed);
 ``extended`` synthetic variant.
 """
 
-from .core import (REPORT_SCHEMA, DiagnosisConfig, Undiagnosable, decide, diagnose, diagnose_flight, run_tests,
-                   write_json)
+from .core import (REPORT_SCHEMA, DiagnosisConfig, Undiagnosable, decide, decide_all, diagnose, diagnose_flight,
+                   run_tests, write_json)
 from .aggregate import aggregate
 
-__all__ = ["DiagnosisConfig", "diagnose_flight", "diagnose", "aggregate", "run_tests", "decide", "write_json",
+__all__ = ["DiagnosisConfig", "diagnose_flight", "diagnose", "aggregate", "run_tests", "decide", "decide_all", "write_json",
            "Undiagnosable", "REPORT_SCHEMA"]

@@ -7,9 +7,17 @@ the log-likelihood of the cause's statistic. The two held-out likelihood ratios 
 averaged: under the baseline the average has expectation <= 1 whatever was fitted
 (each ratio is a likelihood ratio on data its fit did not see), so it is an e-value
 and P(ratio >= 1/a) <= a (Markov). A cause is *significant* when its log e-value
-exceeds ln(n_causes / alpha) (Bonferroni over the causes) and *relevant* when its
-fitted effect is at least a margin (a fraction of the catalog's detectable size);
-the named cause is the significant and relevant one with the largest e-value.
+exceeds the threshold of its greedy step (``core.step_threshold``: Bonferroni over the
+causes at level alpha / (k (k + 1)) at step k) and *relevant* when its fitted effect
+is at least a margin (a fraction of the catalog's detectable size). ``core.decide_all``
+names causes greedily, strongest first, each later step testing the remaining causes
+with the named causes' extensions in both models (``given`` of :func:`test_log`; the
+other statistics are unchanged by another cause's extension, see ``core.COUPLED``).
+
+Sizes and correlation times of the fluctuating causes are estimated jointly and
+analytically (:mod:`.timescales`: variogram of the per-window dB series, window
+averaging and noise accounted for), without simulating any process: the body's on
+short windows (:func:`.measure.body_power_fine`), the fading's on the CPIs.
 
 A test's ``held_out`` records whether its ``nll_base``/``nll_ext`` really are held-out
 scores: both folds held observations, each was scored with parameters fitted on the
@@ -23,30 +31,34 @@ Statistics (per CPI) and models:
 
 - ``sideband_asymmetry``: d = 10 log10(upper / lower sideband power) over the usable
   harmonic pairs; baseline N(0, s^2), extension N(a, s^2).
-- ``sideband_fading``: blade power over the model's prediction [dB], detrended for
-  range; baseline N(0, noise^2 + m^2), extension adds a fitted variance.
+- ``sideband_fading``: mean over the harmonics (pairs counted by their summed power)
+  of each pair's power relative to its median [dB], detrended for time and range;
+  baseline N(0, within-CPI scatter / K + m^2), extension adds a fitted variance.
 - ``body_fluctuation``: body power [dB], detrended, same models.
 - ``motor_log_lag`` / ``motor_speed_scale``: y = ln(measured HERM spacing / the one the
   log predicts at that CPI); baseline N(0, s^2), lag N(ln f(t+lag)/f(t), s^2), scale
-  N(ln scale, s^2).
+  N(ln scale, s^2), each contaminated by 5 % outliers (a wide normal, the same in both
+  models); with the other one named, it is in both models (:func:`test_log`).
 - ``phase_noise``: Whittle likelihood of the periodogram ordinates near the clutter
   line (off the target's lines): baseline PSD = the background recording's, extension
-  adds a flat skirt q * (line power) / 200 Hz around the clutter line and the body.
+  adds a skirt (line power) / 200 Hz x (q_flat + q_slope (50 Hz / f)^2) around the
+  clutter line and the body (a flat, Gaussian-shaped or 1/f-like phase-noise spectrum
+  is a mix of the two over 35-95 Hz); ``skirt_dbc_hz`` = 10 log10((q_flat + q_slope) /
+  200 Hz) is its density at 50 Hz, ``rms_rad`` = sqrt(ln(1 + q_flat + q_slope)) the
+  rms of the flat process with that skirt.
 """
 
 from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..catalog import PHASE_NOISE_BANDWIDTH_HZ
-from ..extensions import BODY_TIMESCALE_S
-from ..processes import ou_process
+from ..catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .features import DB, cpi_average
+from .timescales import fit_gain_process
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -138,58 +150,23 @@ def _ml_extra_var(e, v0):
     return s2 if nll(s2) < nll(0.0) else 0.0
 
 
-# ---------------------------------------------------------------- window maps
-
-@lru_cache(maxsize=32)
-def _window_maps(n_t: int, hop_s: float, cpi_s: float, tau_s: float, smooth: int = 0, seed: int = 12345):
-    """Std [dB] of the CPI-averaged power of an OU dB gain (after linear detrending)
-    for a grid of true stds, and the lag-2-CPI autocorrelation, by simulation."""
-    from scipy.signal.windows import blackmanharris
-
-    dt = 0.01
-    dur = (n_t - 1) * hop_s + cpi_s
-    n = int(np.ceil(dur / dt)) + 2
-    tg = np.arange(n) * dt
-    t_c = cpi_s / 2 + np.arange(n_t) * hop_s
-    w = blackmanharris(256, sym=False)
-    prf = 256 / cpi_s
-    rng = np.random.default_rng(seed)
-    grid = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 14.0])
-    base = np.array([ou_process(n, dt, 1.0, tau_s, rng) for _ in range(24)])
-    meas_sd, rho2 = [], []
-    for g in grid:
-        sds, rs = [], []
-        for b in base:
-            p = cpi_average(tg, 10 ** (g * b / 10), t_c, w, prf)
-            y = DB * np.log(p)
-            y = y - np.polyval(np.polyfit(t_c - t_c.mean(), y, 1), t_c - t_c.mean())
-            if smooth > 1:
-                y = y - _moving_average(y, smooth)
-            sds.append(y.std())
-            rs.append(np.corrcoef(y[:-2], y[2:])[0, 1] if y.std() > 0 else 0.0)
-        meas_sd.append(np.mean(sds))
-        rho2.append(np.mean(rs))
-    return grid, np.array(meas_sd), np.array(rho2)
-
-
-def _invert_std(meas_sd: float, n_t, hop_s, cpi_s, tau_s, smooth: int = 0) -> float:
-    grid, ms, _ = _window_maps(n_t, round(hop_s, 6), round(cpi_s, 6), round(tau_s, 3), smooth)
-    return float(np.interp(meas_sd, ms, grid))
-
-
-def _tau_from_rho2(rho2: float, n_t, hop_s, cpi_s) -> float:
-    taus = np.array([0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0])
-    r = np.array([_window_maps(n_t, round(hop_s, 6), round(cpi_s, 6), t)[2][5] for t in taus])  # at 3 dB
-    order = np.argsort(r)
-    return float(np.interp(rho2, r[order], taus[order]))
-
-
 # ---------------------------------------------------------------- the tests
 
 def usable_pairs(M, cfg):
     """Harmonic pairs whose weaker side is clearly above the noise in most CPIs."""
     with np.errstate(divide="ignore", invalid="ignore"):
         snr = np.minimum(M.up, M.lo) / np.maximum(np.maximum(M.up_sd, M.lo_sd), 1e-30)
+    snr = np.where(M.pair_ok, snr, np.nan)
+    med = np.array([np.nanmedian(c) if np.isfinite(c).any() else 0.0 for c in snr.T])
+    return (med >= cfg.min_pair_snr) & (np.isfinite(snr).sum(axis=0) >= 6)
+
+
+def usable_pair_sums(M, cfg):
+    """Harmonic pairs whose summed power (upper + lower) is clearly above the noise in
+    most CPIs: the fading statistic reads the sum, so a pair with one side weakened
+    (an asymmetry) still counts."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        snr = (M.up + M.lo) / np.maximum(np.sqrt(M.up_sd ** 2 + M.lo_sd ** 2), 1e-30)
     snr = np.where(M.pair_ok, snr, np.nan)
     med = np.array([np.nanmedian(c) if np.isfinite(c).any() else 0.0 for c in snr.T])
     return (med >= cfg.min_pair_snr) & (np.isfinite(snr).sum(axis=0) >= 6)
@@ -232,7 +209,7 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     return res
 
 
-def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, tau_fixed=None, smooth=0):
+def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
     res = CauseTest(cause)
     if m.sum() < 2 * cfg.block_cpis + 4:
         res.testable = False
@@ -250,24 +227,11 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, tau_fixed=None, smooth=0):
     _crossfit(f, fit, score, res)
     s2 = _ml_extra_var(e, v0)
     meas_sd = float(np.sqrt(s2))
-    hop_s = float(np.median(np.diff(M.t_s)))
-    cpi_s = 2 * hop_s
-    n_t = len(M.t_s)
-    if tau_fixed is None:
-        ee = np.zeros(n_t); ee[m] = e
-        mm = m[:-2] & m[2:]
-        var_x = max(s2, 1e-9)
-        cov2 = float(np.mean(ee[:-2][mm] * ee[2:][mm])) if mm.sum() > 4 else 0.0
-        rho2 = float(np.clip(cov2 / var_x, 0.0, 0.99))
-        tau = _tau_from_rho2(rho2, n_t, hop_s, cpi_s) if s2 > 0 else 1.5
-    else:
-        tau = tau_fixed
-    true_sd = _invert_std(meas_sd, n_t, hop_s, cpi_s, tau, smooth) if s2 > 0 else 0.0
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
     res.evidence = {"measured_excess_std_db": round(meas_sd, 2),
                     "noise_std_db": round(float(np.sqrt(np.median(sd0[m] ** 2))), 3),
                     "residual_std_db": round(float(e.std()), 2)}
-    return res, (true_sd, tau)
+    return res, s2
 
 
 def test_fading(M, cfg, fold, calib) -> CauseTest:
@@ -276,7 +240,7 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     the rotors' lines, speed changes). The baseline variance of the CPI's mean
     harmonic power [dB] is the within-CPI scatter across harmonics / K."""
     res = CauseTest("sideband_fading", statistic="mean sideband-pair power [dB], common to all harmonics")
-    use = usable_pairs(M, cfg)
+    use = usable_pair_sums(M, cfg)
     ok = M.pair_ok & use[None, :] & (M.up + M.lo > 0)
     x = np.where(ok, DB * np.log(np.maximum(M.up + M.lo, 1e-30)), np.nan)
     with np.errstate(all="ignore"), warnings.catch_warnings():
@@ -320,37 +284,61 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     s2w, s2 = fit(np.ones(len(e), bool))
     v0 = s2w / Km + cfg.model_floor_db ** 2
     meas_sd = float(np.sqrt(s2))
-    hop_s = float(np.median(np.diff(M.t_s)))
+    # size and correlation time jointly, from the variogram of the common-mode series
+    # (timescales.fit_gain_process: analytic CPI-window averaging, noise s2w / K)
     n_t = len(M.t_s)
-    ee = np.zeros(n_t); ee[m] = e
-    mm = m[:-2] & m[2:]
-    cov2 = float(np.mean(ee[:-2][mm] * ee[2:][mm])) if mm.sum() > 4 else 0.0
-    rho2 = float(np.clip(cov2 / max(s2, 1e-9), 0.0, 0.99))
-    tau = _tau_from_rho2(rho2, n_t, hop_s, 2 * hop_s) if s2 > 0 else 1.5
-    tau = float(np.clip(tau, 0.5, 4.0))
-    true_sd = _invert_std(meas_sd, n_t, hop_s, 2 * hop_s, tau) if s2 > 0 else 0.0
+    yy = np.zeros(n_t); yy[m] = e
+    nv = np.zeros(n_t); nv[m] = s2w / Km
+    # no drift term: on the CPI grid a slow drift and a fading of a few seconds
+    # cannot be told apart, and the blades have no aspect term of their own; the
+    # noise s2w / K is an upper bound (part of the harmonics' own scatter is slow)
+    est = fit_gain_process(yy, m.copy(), nv, float(np.median(np.diff(M.t_s))), M.stft.window, M.info["prf_hz"],
+                           drift=False, noise_free=True)
+    true_sd = float(est["sigma_db"]) if s2 > 0 else 0.0
+    tau = float(est["timescale_s"]) if true_sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
     res.params = {"fading_std_db": true_sd, "timescale_s": tau}
     res.effect = true_sd
     res.relevant = true_sd >= cfg.margin_std_db
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
     res.evidence = {"fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
+                    "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
+                    "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
                     "measured_common_std_db": round(meas_sd, 2),
                     "within_cpi_harmonic_std_db": round(float(np.sqrt(s2w)), 2),
                     "n_pairs_used": int(use.sum())}
     return res
 
 
+def body_estimate(M) -> dict:
+    """Size [dB] and 1/e correlation time [s] of the body power's fluctuation, from the
+    short-window body power series (:func:`.measure.body_power_fine`), detrended
+    linearly in time and log range (:func:`.timescales.fit_gain_process`)."""
+    F = M.body_fine
+    v = F["valid"]
+    y = np.zeros(len(v))
+    if v.sum() >= 20:
+        y[v] = _detrend(F["y_db"][v], F["t_s"][v], F["range_m"][v])
+    # no drift term: tried on emulated (aspect 1 dB, 4 s) and independent flights, a
+    # free drift took part of any fluctuation slower than ~0.5 s (sizes 20-35 % low)
+    return fit_gain_process(y, v, F["noise_var_db2"], F["hop_s"], F["window"], M.info["prf_hz"], drift=False)
+
+
 def test_body(M, cfg, fold) -> CauseTest:
     m = M.valid & (M.body_pow > 0)
     y = np.where(m, DB * np.log(np.maximum(M.body_pow, 1e-30)), 0.0)
-    res, p = _power_fluct_test("body_fluctuation", y, M.body_sd_db, m, M, cfg, fold, tau_fixed=BODY_TIMESCALE_S,
-                              smooth=cfg.body_smooth_cpis)
+    res, s2 = _power_fluct_test("body_fluctuation", y, M.body_sd_db, m, M, cfg, fold, smooth=cfg.body_smooth_cpis)
     res.statistic = "body power [dB], detrended"
-    if p is not None:
-        res.params = {"body_std_db": p[0]}
-        res.effect = p[0]
-        res.relevant = p[0] >= cfg.margin_body_std_db
-        res.evidence["body_std_db"] = round(p[0], 2)
+    if s2 is not None:
+        est = body_estimate(M) if s2 > 0 else {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": [],
+                                               "variogram_db2": []}
+        sd = float(est["sigma_db"])
+        tau = float(est["timescale_s"]) if sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
+        res.params = {"body_std_db": sd, "timescale_s": tau}
+        res.effect = sd
+        res.relevant = sd >= cfg.margin_body_std_db
+        res.evidence.update({"body_std_db": round(sd, 2), "timescale_s": round(tau, 3),
+                             "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
+                             "variogram_db2": [round(x, 3) for x in est["variogram_db2"]]})
     return res
 
 
@@ -369,7 +357,18 @@ def _lag_curves(M, lags):
     return out
 
 
-def test_log(M, cfg, fold) -> tuple[CauseTest, CauseTest]:
+#: outlier fraction of the lag/scale tests' contaminated-normal likelihood
+LOG_OUTLIER_FRAC = 0.05
+
+
+def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, CauseTest]:
+    """Lag and scale tests on y = ln(measured / logged HERM spacing) per CPI.
+
+    ``given``: causes already named. The other one of the pair, when named, is in
+    both models of each test, fitted on the training fold like the candidate:
+    lag given scale compares N(mu, s^2) with N(G_lag + mu, s^2); scale given lag
+    compares N(G_lag, s^2) with N(G_lag + ln scale, s^2). So one effect cannot be
+    named twice (a lag during a speed ramp looks like a scale over that ramp)."""
     m = M.dil_ok & M.valid
     lag_res = CauseTest("motor_log_lag", statistic="ln(measured / logged HERM spacing)")
     sc_res = CauseTest("motor_speed_scale", statistic="ln(measured / logged HERM spacing)")
@@ -380,35 +379,64 @@ def test_log(M, cfg, fold) -> tuple[CauseTest, CauseTest]:
     f = fold[m]
     lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, cfg.lag_step_s)
     G = _lag_curves(M, lags)[:, m]
+    with_scale = "motor_speed_scale" in given
+    with_lag = "motor_log_lag" in given
 
-    def fit_lag(sel):
-        sse = ((y[sel][None, :] - G[:, sel]) ** 2).sum(1)
+    def fit_joint(sel, use_lag: bool, use_scale: bool):
+        """(lag index or None, mu, residual variance) fitted on ``sel``."""
+        ys = y[sel]
+        if not use_lag:
+            mu = float(ys.mean()) if use_scale else 0.0
+            return None, mu, float(np.mean((ys - mu) ** 2)) + 1e-10
+        Gs = G[:, sel]
+        mus = (ys[None, :] - Gs).mean(1) if use_scale else np.zeros(len(lags))
+        sse = ((ys[None, :] - Gs - mus[:, None]) ** 2).sum(1)
         j = int(np.argmin(sse))
-        return j, float(np.mean(y[sel] ** 2)) + 1e-10, float(sse[j] / sel.sum()) + 1e-10
+        return j, float(mus[j]), float(sse[j] / sel.sum()) + 1e-10
 
-    def score_lag(th, sel):
-        j, vb, ve = th
-        return _gauss_ll(y[sel], 0.0, vb), _gauss_ll(y[sel], G[j, sel], ve)
+    def mean_of(th, sel):
+        j, mu, _ = th
+        return (G[j, sel] if j is not None else 0.0) + mu
 
-    def fit_sc(sel):
-        x = y[sel]
-        return float(x.mean()), float(np.mean(x ** 2)) + 1e-10, float(x.var()) + 1e-10
+    def crossfit(base_flags, ext_flags, res):
+        # both models are contaminated normals: a fraction LOG_OUTLIER_FRAC of the CPIs
+        # may be outliers of the spacing match (speed steps, a line lost for a CPI),
+        # N(0, 10 x the training fold's mean square); without it, a fold fitted on
+        # smooth CPIs scores the other fold's few outliers at thousands of sigma
+        def fit(sel):
+            wide = 10.0 * float(np.mean(y[sel] ** 2)) + 1e-10
+            return fit_joint(sel, *base_flags), fit_joint(sel, *ext_flags), wide
 
-    def score_sc(th, sel):
-        mu, vb, ve = th
-        return _gauss_ll(y[sel], 0.0, vb), _gauss_ll(y[sel], mu, ve)
+        def ll(x, mu, var, wide):
+            return np.logaddexp(np.log1p(-LOG_OUTLIER_FRAC) + _gauss_ll(x, mu, var),
+                                np.log(LOG_OUTLIER_FRAC) + _gauss_ll(x, 0.0, wide))
 
-    _crossfit(f, fit_lag, score_lag, lag_res)
-    _crossfit(f, fit_sc, score_sc, sc_res)
-    sse = ((y[None, :] - G) ** 2).sum(1)
-    j = int(np.argmin(sse))
-    # parabolic refinement of the lag
+        def score(th, sel):
+            tb, te, wide = th
+            return ll(y[sel], mean_of(tb, sel), tb[2], wide), ll(y[sel], mean_of(te, sel), te[2], wide)
+
+        _crossfit(f, fit, score, res)
+
+    crossfit((False, with_scale), (True, with_scale), lag_res)
+    crossfit((with_lag, False), (with_lag, True), sc_res)
+    # parameters on the whole flight: the lag with the scale in the model when the
+    # scale is named (and vice versa), else alone
+    allm = np.ones(len(y), bool)
+    j, mu_l, _ = fit_joint(allm, True, with_scale)
+    Gm = G[:, :]
+    mus = (y[None, :] - Gm).mean(1) if with_scale else np.zeros(len(lags))
+    sse = ((y[None, :] - Gm - mus[:, None]) ** 2).sum(1)
     lag = float(lags[j])
-    if 0 < j < len(lags) - 1:
+    if 0 < j < len(lags) - 1:  # parabolic refinement of the lag
         a, b, c = sse[j - 1], sse[j], sse[j + 1]
         if a - 2 * b + c > 0:
             lag += float(np.clip(0.5 * (a - c) / (a - 2 * b + c), -0.5, 0.5)) * cfg.lag_step_s
-    scale = float(np.exp(np.median(y)))
+    if with_lag:
+        jl, _, _ = fit_joint(allm, True, True)
+        scale = float(np.exp(np.median(y - G[jl])))
+    else:
+        jl = None
+        scale = float(np.exp(np.median(y)))
     lag_res.params = {"lag_s": lag}
     lag_res.effect = abs(lag)
     lag_res.relevant = abs(lag) >= cfg.margin_lag_s
@@ -416,14 +444,15 @@ def test_log(M, cfg, fold) -> tuple[CauseTest, CauseTest]:
     sc_res.effect = abs(scale - 1)
     sc_res.relevant = abs(scale - 1) >= cfg.margin_scale
     spd = M.f_log_hz[m]
-    ev = {"line_spacing_ratio": round(scale, 4), "fitted_lag_s": round(lag, 3),
+    ev = {"line_spacing_ratio": round(float(np.exp(np.median(y))), 4), "fitted_lag_s": round(lag, 3),
           "log_speed_range_hz": round(float(spd.max() - spd.min()), 2),
           "spacing_ratio_std": round(float(np.std(np.exp(y))), 4)}
-    lag_res.evidence = dict(ev)
-    sc_res.evidence = dict(ev)
-    series = {"t_s": M.t_s[m], "stat": y, "base": np.zeros_like(y)}
-    lag_res.series = {**series, "ext": G[j]}
-    sc_res.series = {**series, "ext": np.full_like(y, np.log(scale))}
+    lag_res.evidence = {**ev, "given": sorted(given & {"motor_speed_scale"})}
+    sc_res.evidence = {**ev, "given": sorted(given & {"motor_log_lag"})}
+    series = {"t_s": M.t_s[m], "stat": y}
+    lag_res.series = {**series, "base": np.full_like(y, mu_l if with_scale else 0.0), "ext": G[j] + mu_l}
+    sc_res.series = {**series, "base": G[jl] if jl is not None else np.zeros_like(y),
+                     "ext": (G[jl] if jl is not None else 0.0) + np.full_like(y, np.log(scale))}
     return lag_res, sc_res
 
 
@@ -474,7 +503,14 @@ def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
         # and a skirt around the body (a fluctuating body spreads its own line)
         Bt = max(float(M.body_pow[i]), 0.0) * df / (2 * bw)
         g2 = cfg.pn_body_skirt_hz ** 2
-        kern = np.column_stack([unit * (af < bw) + Bt * (np.abs(f[cc] - fb) < bw)] + [unit * np.exp(-af / d) for d in cfg.pn_nuisance_decay_hz]
+        # the skirt: flat, and falling as (f0 / f)^2 (f0 = 50 Hz), around the clutter
+        # line and the body both; a mix of the two follows a flat, a Gaussian or a
+        # 1/f-like phase-noise spectrum between pn_inner_hz and pn_outer_hz
+        db_ = np.abs(f[cc] - fb)
+        slope_c = (SKIRT_OFFSET_HZ / np.maximum(af, 20.0)) ** 2
+        slope_b = (SKIRT_OFFSET_HZ / np.maximum(db_, 20.0)) ** 2
+        kern = np.column_stack([unit * (af < bw) + Bt * (db_ < bw), unit * slope_c + Bt * slope_b]
+                               + [unit * np.exp(-af / d) for d in cfg.pn_nuisance_decay_hz]
                                + [Bt * g2 / ((f[cc] - fb) ** 2 + g2)])
         P.append(st.p[i, cc]); S.append(s_bg_t[min(i, len(s_bg_t) - 1), cc]); K.append(kern); F.append(np.full(len(cc), fold[i]))
     if len(P) < 4:
@@ -486,15 +522,17 @@ def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
     norm = np.maximum(K.mean(axis=0), 1e-300) / S.mean()
     Kn = K / norm
 
+    NQ = 2  # phase-noise columns (flat, sloped)
+
     def nll_x(x, sel, with_q):
-        th = x if with_q else np.concatenate([[0.0], x])
+        th = x if with_q else np.concatenate([np.zeros(NQ), x])
         v = S[sel] + Kn[sel] @ th
         return float(np.sum(np.log(v) + P[sel] / v))
 
     def fit_model(sel, with_q):
         from scipy.optimize import minimize
 
-        n = Kn.shape[1] if with_q else Kn.shape[1] - 1
+        n = Kn.shape[1] if with_q else Kn.shape[1] - NQ
         if n == 0:
             return np.zeros(0)
         best = None
@@ -509,24 +547,29 @@ def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
 
     def score(th, sel):
         xb, xe = th
-        vb = S[sel] + Kn[sel][:, 1:] @ xb
+        vb = S[sel] + Kn[sel][:, NQ:] @ xb
         ve = S[sel] + Kn[sel] @ xe
         return -(np.log(vb) + P[sel] / vb), -(np.log(ve) + P[sel] / ve)
 
     _crossfit(F, fit, score, res)
     xb, xe = fit(np.ones(len(P), bool))
-    q = float(xe[0] / norm[0])
+    q_flat, q_slope = float(xe[0] / norm[0]), float(xe[1] / norm[1])
+    q = q_flat + q_slope  # both columns are 1 at 50 Hz: the skirt there, relative, x 2 bw
     rms = float(np.sqrt(np.log1p(q)))
     inner = Kn[:, 0] > 0  # ordinates within 100 Hz of the clutter line
-    v_b = S + Kn[:, 1:] @ xe[1:]
+    v_b = S + Kn[:, NQ:] @ xe[NQ:]
     rise_meas = float(DB * np.log(np.mean(P[inner]) / np.mean(S[inner])))
-    rise_model = float(DB * np.log(np.mean((v_b + Kn[:, 0] * xe[0])[inner]) / np.mean(v_b[inner])))
-    res.params = {"rms_rad": rms}
+    rise_model = float(DB * np.log(np.mean((v_b + Kn[:, :NQ] @ xe[:NQ])[inner]) / np.mean(v_b[inner])))
+    # the skirt's density at 50 Hz relative to its line [1/Hz] (first order in q)
+    skirt = float(DB * np.log(max(q, 1e-30) / (2 * bw)))
+    res.params = {"rms_rad": rms, "skirt_dbc_hz": skirt}
     res.effect = rise_model
     res.relevant = rise_model >= cfg.margin_floor_rise_db
     res.evidence = {"floor_rise_db_vs_background": round(rise_meas, 2), "model_floor_rise_db": round(rise_model, 2),
-                    "rms_rad": round(rms, 4), "n_ordinates": int(len(P)),
-                    "nuisance_clutter_spread": [round(float(v), 4) for v in xe[1:]]}
+                    "rms_rad": round(rms, 4), "skirt_dbc_hz": round(skirt, 2),
+                    "n_ordinates": int(len(P)),
+                    "skirt_flat_and_sloped": [round(q_flat, 6), round(q_slope, 6)],
+                    "nuisance_clutter_spread": [round(float(v), 4) for v in xe[NQ:]]}
     return res
 
 

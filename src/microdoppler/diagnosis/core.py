@@ -1,8 +1,13 @@
-"""Diagnosis of one measured drone flight: which catalog cause the paper's model misses.
+"""Diagnosis of one measured drone flight: which catalog causes the paper's model misses.
 
 :func:`diagnose_flight` measures the flight against the paper's model of it
 (:mod:`.measure`), calibrates S_body, S_blade and alpha, runs one held-out
-likelihood test per cause (:mod:`.causes`) and returns the report entry of
+likelihood test per cause (:mod:`.causes`), names every significant and relevant
+cause greedily (:func:`decide_all`: each later cause tested with the named causes'
+extensions in both models, at a step-wise Bonferroni threshold,
+:func:`step_threshold`), re-tests each named cause with all the others in both
+models (dropping one that no longer holds), measures each one's gain so, and
+returns the report entry of
 ``shared/formats/flight-zarr.md`` (``diagnosis-report/2``). A flight it cannot judge
 raises :class:`Undiagnosable` (an :class:`InputError` naming the field);
 :func:`diagnose` lists such flights as ``skipped`` with the reason.
@@ -152,7 +157,8 @@ class DiagnosisConfig:
     n_fft : int
         CPI length [pulses] of the STFT the statistics are read from.
     alpha : float
-        Family-wise false-alarm level of the held-out tests (Bonferroni over causes).
+        Family-wise false-alarm level of the held-out tests: Bonferroni over the
+        causes, at alpha / (k (k + 1)) for greedy step k (:func:`step_threshold`).
     block_cpis : int
         CPIs per block of the two alternating held-out folds.
     margin_* : float
@@ -205,7 +211,7 @@ class DiagnosisConfig:
     pn_body_guard_hz: float = 40.0
     body_smooth_cpis: int = 9
     margin_asymmetry_db: float = 1.5
-    margin_std_db: float = 1.5
+    margin_std_db: float = 2.0
     margin_body_std_db: float = 2.0
     margin_lag_s: float = 0.15
     margin_scale: float = 0.025
@@ -372,7 +378,8 @@ def _check_measured(fid, M, tests: dict, cfg: DiagnosisConfig) -> None:
 
 
 def run_tests(flight, motor_log: MotorLog, cfg: DiagnosisConfig):
-    """Measurements, calibration and every cause's :class:`~.causes.CauseTest`."""
+    """Measurements, calibration and every cause's :class:`~.causes.CauseTest`
+    against the paper's model (no cause named yet)."""
     M = measure(flight, motor_log, cfg)
     calib = _calibrate(M, cfg)
     fold = C.folds(len(M.t_s), cfg.block_cpis)
@@ -388,21 +395,93 @@ def run_tests(flight, motor_log: MotorLog, cfg: DiagnosisConfig):
     return M, calib, tests
 
 
+#: pairs of causes whose statistics depend on each other: the test of one is redone
+#: with the other's extension in both models once the other is named. Every other
+#: cause's statistic is unchanged by another cause's extension in both models (the
+#: held-out likelihood ratio is the same number): the asymmetry statistic is a
+#: ratio of upper to lower sidebands (a common blade gain, i.e. fading, cancels); the
+#: fading statistic is the common-mode sideband power relative to each harmonic's
+#: median (a constant per-side gain, i.e. asymmetry, cancels, and so do lag and
+#: scale, since the sidebands are read where the measured lines are); the body
+#: statistic reads the body line only; the phase-noise likelihood keeps the body's
+#: own skirt (a fluctuating body) and the wind-blown clutter in both models.
+COUPLED = {"motor_log_lag": {"motor_speed_scale"}, "motor_speed_scale": {"motor_log_lag"}}
+
+
+def conditional_tests(M, calib, cfg: DiagnosisConfig, tests: dict, given) -> dict:
+    """The tests with the extensions of the causes in ``given`` in both models of
+    every other cause (only :data:`COUPLED` pairs need recomputing)."""
+    given = frozenset(given)
+    if not given & set(COUPLED):
+        return tests
+    fold = C.folds(len(M.t_s), cfg.block_cpis)
+    out = dict(tests)
+    for cause, partners in COUPLED.items():
+        g = given & partners
+        if not g or not tests[cause].testable:
+            continue
+        lag, sc = C.test_log(M, cfg, fold, frozenset(g))
+        out[cause] = lag if cause == "motor_log_lag" else sc
+    return out
+
+
 def _significant(t, thr: float) -> bool:
     # the e-value bound holds only for likelihood ratios scored on held-out data
     return bool(t.testable and t.held_out and t.log_e >= thr)
 
 
-def decide(tests: dict, cfg: DiagnosisConfig) -> tuple[str, float]:
-    """The named cause and the e-value threshold (log)."""
-    n = sum(t.testable for t in tests.values())
-    thr = float(np.log(max(n, 1) / cfg.alpha))
+def step_threshold(n_testable: int, step: int, alpha: float) -> float:
+    """log e-value threshold of greedy step ``step`` (1-based): Bonferroni over the
+    ``n_testable`` causes at level alpha_k = alpha / (k (k + 1)), so that the levels
+    of all steps add up to alpha (sum 1 / (k (k + 1)) = 1). Each step's e-values are
+    held-out likelihood ratios against the model with the causes already named, so
+    a step at which every true cause is already named names a spurious one with
+    probability <= alpha_k, and a flight's false names over all such steps with
+    probability <= alpha. (A step taken while a true cause is still missing tests
+    against a wrong baseline; the conditioning on the named causes and the
+    relevance margins guard that case, which the bound does not cover.)"""
+    k = max(int(step), 1)
+    return float(np.log(max(n_testable, 1) * k * (k + 1) / alpha))
+
+
+def _strength(t) -> float:
+    """Held-out log-likelihood gain per observation (the statistics differ in size:
+    per-CPI values vs. periodogram ordinates)."""
+    return t.log_e / max(t.n_obs, 1)
+
+
+def decide(tests: dict, cfg: DiagnosisConfig, step: int = 1, n_testable: int | None = None) -> tuple[str, float]:
+    """The strongest significant and relevant cause of one greedy step (``"none"``
+    when there is none) and that step's log e-value threshold (Bonferroni over
+    ``n_testable`` causes, default the testable ones in ``tests``)."""
+    n = sum(t.testable for t in tests.values()) if n_testable is None else n_testable
+    thr = step_threshold(n, step, cfg.alpha)
     cands = [t for t in tests.values() if _significant(t, thr) and t.relevant]
     if not cands:
         return "none", thr
-    # strongest: the largest held-out log-likelihood ratio per scored observation (the
-    # statistics differ in size: per-CPI values vs. periodogram ordinates)
-    return max(cands, key=lambda t: t.log_e / max(t.n_obs, 1)).cause, thr
+    return max(cands, key=_strength).cause, thr
+
+
+def decide_all(M, calib, cfg: DiagnosisConfig, tests: dict, fix=None) -> tuple[list, list]:
+    """Greedy selection of every significant and relevant cause.
+
+    Step k tests each cause not yet named against the paper's model plus the named
+    causes' extensions (both models, :func:`conditional_tests`), at the threshold
+    :func:`step_threshold` (k); the strongest passing cause is named, until none
+    passes. Returns (named causes in the order named, the steps' records)."""
+    fix = fix or (lambda t: t)
+    named, steps = [], []
+    while True:
+        cur = fix(conditional_tests(M, calib, cfg, tests, named))
+        rest = {c: t for c, t in cur.items() if c not in named}
+        n = sum(t.testable for t in cur.values())
+        cause, thr = decide(rest, cfg, step=len(named) + 1, n_testable=n)
+        steps.append({"given": list(named), "log_evalue_threshold": thr,
+                      "log_evalue": {c: t.log_e for c, t in rest.items() if t.testable}, "named": cause})
+        if cause == "none":
+            break
+        named.append(cause)
+    return named, steps
 
 
 def gain(t) -> dict:
@@ -414,13 +493,16 @@ def gain(t) -> dict:
             "held_out": bool(t.held_out)}
 
 
-def cause_entry(t, thr: float) -> dict:
-    """One entry of a flight's ``causes`` list (report 2)."""
+def cause_entry(t, thr: float, given=(), step: int = 1) -> dict:
+    """One entry of a flight's ``causes`` list (report 2): ``t`` is the cause's test
+    with the other named causes (``given``) in both models; ``thr`` the threshold of
+    the greedy step (``step``) that named it."""
     return {"cause": t.cause,
             "extension": {"name": t.cause, "params": {k: float(v) for k, v in t.params.items()}},
             "gain": gain(t),
             "evidence": {"log_evalue": t.log_e, "log_evalue_threshold": thr, "n_heldout_obs": t.n_obs,
-                         "effect": t.effect, **t.evidence}}
+                         "effect": t.effect, "named_at_step": int(step), "other_causes_in_both_models": list(given),
+                         **t.evidence}}
 
 
 def skipped_entry(flight_id: str, reason: str) -> dict:
@@ -456,9 +538,11 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     -------
     dict
         The report entry (``diagnosis-report/2``): flight_id, cause (the first of
-        ``causes`` or ``"none"``), causes (0 or 1 entries today, each with its
-        extension, held-out gain and evidence) and the flight's evidence (every
-        test, the calibration).
+        ``causes`` or ``"none"``), causes (every significant and relevant cause,
+        strongest first, each with its extension, held-out gain with the other named
+        causes in both models, and evidence; see :func:`decide_all`) and the
+        flight's evidence (every test against the paper's model, the greedy steps,
+        the calibration).
 
     Raises
     ------
@@ -473,18 +557,47 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     M, calib, tests = run_tests(flight, log, cfg)
     from ..inventory import RADAR_SOURCE
 
-    if (flight.attrs.get("motors_source") == "radar" if motor_log is None
-            else str(motor_log.source).startswith(RADAR_SOURCE)):
-        # the log was estimated from this recording's own HERM lines: it cannot be late
-        # or scaled against them
-        for name in ("motor_log_lag", "motor_speed_scale"):
-            tests[name].testable = False
-            tests[name].evidence = {"reason": "motors_source is radar: the motor log was estimated from this "
-                                              "recording's HERM lines, so lag and scale are not testable"}
+    radar_log = (flight.attrs.get("motors_source") == "radar" if motor_log is None
+                 else str(motor_log.source).startswith(RADAR_SOURCE))
+
+    def fix(ts: dict) -> dict:
+        if radar_log:
+            # the log was estimated from this recording's own HERM lines: it cannot be
+            # late or scaled against them
+            for name in ("motor_log_lag", "motor_speed_scale"):
+                ts[name].testable = False
+                ts[name].evidence = {"reason": "motors_source is radar: the motor log was estimated from this "
+                                               "recording's HERM lines, so lag and scale are not testable"}
+        return ts
+
+    tests = fix(tests)
     _check_measured(fid, M, tests, cfg)
-    cause, thr = decide(tests, cfg)
+    named, steps = decide_all(M, calib, cfg, tests, fix)
+    thr = steps[0]["log_evalue_threshold"]
+    thr_of = {c: steps[i]["log_evalue_threshold"] for i, c in enumerate(named)}
+    # each named cause re-tested with all the other named causes' extensions in both
+    # models (backward check): a cause named early that a later one explains (a lag
+    # fitted to what is a scale error) is dropped, the weakest first, until every
+    # named cause holds with the others in both models; these tests give the gains
+    dropped = []
+    while True:
+        final = {c: fix(conditional_tests(M, calib, cfg, tests, set(named) - {c}))[c] for c in named}
+        failing = [c for c in named if not (_significant(final[c], thr_of[c]) and final[c].relevant)]
+        if not failing:
+            break
+        worst = min(failing, key=lambda c: _strength(final[c]))
+        dropped.append({"cause": worst, "given": sorted(set(named) - {worst}), "log_evalue": final[worst].log_e,
+                        "log_evalue_threshold": thr_of[worst], "relevant": bool(final[worst].relevant)})
+        named.remove(worst)
+    order = sorted(named, key=lambda c: -(final[c].nll_base - final[c].nll_ext))
+    causes = [cause_entry(final[c], thr_of[c], given=sorted(set(named) - {c}),
+                          step=next(i for i, st in enumerate(steps, 1) if st["named"] == c)) for c in order]
     evidence = {
         "log_evalue_threshold": thr,
+        "multiple_testing": "greedy steps k = 1, 2, ...: Bonferroni over the testable causes at level "
+                            "alpha / (k (k + 1)) per step (levels add up to alpha)",
+        "steps": steps,
+        "dropped_with_the_others_in_both_models": dropped,
         "calibration": {"s_body": calib["s_body"], "s_blade": calib["s_blade"], "alpha_s": calib["alpha_s"]},
         "per_harmonic_power_error_db": calib["per_harmonic_power_error_db"],
         "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": _significant(t, thr),
@@ -496,13 +609,12 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
         "motor_log_speed_hz": float(np.median(M.f_log_hz)),
         "seconds": time.perf_counter() - t0,
     }
-    causes = [] if cause == "none" else [cause_entry(tests[cause], thr)]
-    entry = _r({"flight_id": fid, "cause": causes[0]["cause"] if causes else "none", "causes": causes,
-                "evidence": evidence})
+    cause = causes[0]["cause"] if causes else "none"
+    entry = _r({"flight_id": fid, "cause": cause, "causes": causes, "evidence": evidence})
     if figure_path is not None and cfg.figures:
         from .figure import plot_diagnosis
 
-        plot_diagnosis(flight, log, M, calib, tests, cause, figure_path, cfg)
+        plot_diagnosis(flight, log, M, calib, {**tests, **final}, cause, figure_path, cfg)
     return entry
 
 
@@ -535,8 +647,8 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
             e = skipped_entry(f.flight_id, exc.reason)
             log(f"{f.flight_id}: skipped: {exc.reason}")
         else:
-            params = e["causes"][0]["extension"]["params"] if e["causes"] else ""
-            log(f"{f.flight_id}: {e['cause']} {params} ({e['evidence']['seconds']:.1f} s)")
+            named = "; ".join(f"{c['cause']} {c['extension']['params']}" for c in e["causes"]) or "none"
+            log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
     report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}
     write_json(report, out_json)

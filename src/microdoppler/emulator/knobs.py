@@ -9,16 +9,21 @@ on per flight with the catalog's parameter names, units and signs:
 ``sideband_fading``     {fading_std_db, timescale_s}
     The blade signal is multiplied by 10^(x(t)/20), x an Ornstein-Uhlenbeck process in
     dB with standard deviation ``fading_std_db`` and correlation time ``timescale_s``.
-``body_fluctuation``    {body_std_db}
+``body_fluctuation``    {body_std_db, timescale_s}
     The body amplitude is multiplied by 10^(y(t)/20), y OU in dB with standard
-    deviation ``body_std_db`` and correlation time :data:`BODY_FLUCTUATION_TAU_S`.
+    deviation ``body_std_db`` and correlation time ``timescale_s`` (default
+    :data:`BODY_FLUCTUATION_TAU_S`).
 ``motor_log_lag``       {lag_s}
     A log row stamped t reports the true speed at t - lag_s.
 ``motor_speed_scale``   {scale}
     logged speed = true speed / scale.
-``phase_noise``         {rms_rad}
+``phase_noise``         {rms_rad, skirt_dbc_hz}
     The whole flight echo (target, clutter, noise) is multiplied by exp(j theta(t)),
-    theta Gaussian with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``. It is an
+    theta Gaussian with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``. Either
+    parameter may be given; the other follows analytically from this process
+    (:func:`microdoppler.catalog.flat_skirt_dbc_hz`: skirt_dbc_hz is the
+    single-sideband density at 50 Hz relative to the carrier), and the key records
+    both (given both, they must agree within 0.1 dB). It is an
     episode of the flight recording: the target-free ``background/iq`` (recorded at
     another time) does not carry it.
 """
@@ -29,13 +34,13 @@ from typing import Mapping
 
 import numpy as np
 
-from ..catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ
+from ..catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ, flat_rms_rad, flat_skirt_dbc_hz
 from ..processes import ou_process  # noqa: F401 (used here and re-exported)
 
 #: correlation time of the body_fluctuation knob [s] (catalog: ~0.3 s)
 BODY_FLUCTUATION_TAU_S = 0.3
 #: defaults of secondary parameters
-DEFAULTS = {"sideband_fading": {"timescale_s": 1.5}}
+DEFAULTS = {"sideband_fading": {"timescale_s": 1.5}, "body_fluctuation": {"timescale_s": BODY_FLUCTUATION_TAU_S}}
 #: sampling interval of the slow gain processes before interpolation to pulse rate [s]
 GAIN_DT_S = 0.01
 
@@ -60,6 +65,8 @@ def validate_effects(effects: Mapping | None) -> dict:
             if k not in names:
                 raise ValueError(f"effect {cause!r}: parameter {k!r} unknown; expected {names}")
         full = {**DEFAULTS.get(cause, {}), **params}
+        if cause == "phase_noise":
+            full = _phase_noise_params(full)
         for k in names:
             if k not in full:
                 raise ValueError(f"effect {cause!r}: parameter {k!r} missing")
@@ -70,18 +77,38 @@ def validate_effects(effects: Mapping | None) -> dict:
         if cause == "sideband_fading" and not (full["fading_std_db"] >= 0 and full["timescale_s"] > 0):
             raise ValueError(f"sideband_fading: fading_std_db={full['fading_std_db']} must be >= 0 and "
                              f"timescale_s={full['timescale_s']} > 0")
-        if cause == "body_fluctuation" and not full["body_std_db"] >= 0:
-            raise ValueError(f"body_fluctuation: body_std_db={full['body_std_db']} must be >= 0")
+        if cause == "body_fluctuation" and not (full["body_std_db"] >= 0 and full["timescale_s"] > 0):
+            raise ValueError(f"body_fluctuation: body_std_db={full['body_std_db']} must be >= 0 and "
+                             f"timescale_s={full['timescale_s']} > 0")
         if cause == "motor_speed_scale" and not full["scale"] > 0:
             raise ValueError(f"motor_speed_scale: scale={full['scale']} must be > 0")
         if cause == "phase_noise" and not full["rms_rad"] >= 0:
             raise ValueError(f"phase_noise: rms_rad={full['rms_rad']} must be >= 0")
         if cause == "motor_log_lag" and not abs(full["lag_s"]) < 10:
             raise ValueError(f"motor_log_lag: lag_s={full['lag_s']} must be within +-10 s")
-        out[cause] = full
+        out[cause] = {k: full[k] for k in names}  # the catalog's order
     return out
 
 
+def _phase_noise_params(p: dict) -> dict:
+    """rms_rad and skirt_dbc_hz of the knob's flat process, either one given."""
+    p = dict(p)
+    try:
+        vals = {k: float(v) for k, v in p.items()}
+    except (TypeError, ValueError):
+        raise ValueError(f"effect 'phase_noise': parameters {p} must be numbers") from None
+    if "rms_rad" in vals and vals["rms_rad"] < 0:
+        raise ValueError(f"phase_noise: rms_rad={vals['rms_rad']} must be >= 0")
+    if "rms_rad" in vals and "skirt_dbc_hz" in vals:
+        want = flat_skirt_dbc_hz(vals["rms_rad"]) if vals["rms_rad"] > 0 else -300.0
+        if not abs(want - vals["skirt_dbc_hz"]) <= 0.1:
+            raise ValueError(f"phase_noise: skirt_dbc_hz={vals['skirt_dbc_hz']} disagrees with rms_rad="
+                             f"{vals['rms_rad']} (whose flat skirt is {want:.2f} dBc/Hz); give one of them")
+    elif "rms_rad" in vals:
+        p["skirt_dbc_hz"] = flat_skirt_dbc_hz(vals["rms_rad"]) if vals["rms_rad"] > 0 else -300.0
+    elif "skirt_dbc_hz" in vals:
+        p["rms_rad"] = flat_rms_rad(vals["skirt_dbc_hz"])
+    return p
 
 
 class SlowGain:
