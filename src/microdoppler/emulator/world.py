@@ -27,7 +27,7 @@ TARGETS = ("drone", "bird")
 #: body SNR [dB] (spectrogram line over median floor in thermal noise) of a class at
 #: 1 km on radar 1 for a median-RCS target; calibrated so that the measured per-class
 #: means of the paper profile come out near Table III (see tests/test_emulator.py)
-SNR_REF_DB = {"bird": 41.6, "inspire2": 62.1, "matrice300": 68.0, "mini2": 55.9}
+SNR_REF_DB = {"bird": 40.4, "inspire2": 59.7, "matrice300": 64.3, "mini2": 53.2}
 #: per-flight RCS scatter [dB]
 RCS_STD_DB = {"bird": 7.0, "inspire2": 8.0, "matrice300": 8.0, "mini2": 6.0}
 TRACK_HZ = 20.0
