@@ -119,6 +119,49 @@ def test_ramping_speeds_of_close_rotors():
     assert np.median(rotor_err[sel]) < 0.005
 
 
+def test_steady_rotors_a_bin_apart_are_within_one_percent_in_every_cpi():
+    """The condition under which the 1 % target holds (benchmarks/README.md): speeds
+    steady within the CPI (here a 1 % wobble over 3 s) and the closest two rotors at
+    least one STFT bin apart at the first harmonic (1.0 rev/s = 2 Hz = 1.1 bins)."""
+    t = np.arange(int(10 * PRF)) / PRF
+    rev = np.outer(1 + 0.01 * np.sin(2 * np.pi * t / 3.0), [58.0, 59.0, 61.5, 62.6])
+    fl = synthetic_flight(rev, seed=21)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    truth = cpi_truth(t, rev, est.time_s)
+    mean_err, rotor_err = rel_errors(est, truth)
+    sel = est.valid & (est.n_pairs >= 2)
+    assert sel.mean() > 0.9
+    assert np.all(mean_err[sel] <= 0.01)
+    assert np.median(rotor_err[sel]) < 0.003
+
+
+def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
+    """Two rotors 0.1 rev/s apart never separate (their line's power swings with their
+    phase, 0 to 4 times one rotor's) beside two that do: the rotor count per line is
+    ambiguous and the mean speed is off by up to ~2 % in some CPIs (as in the emulated
+    tail, benchmarks/README.md). The reported uncertainty must say so: the error within
+    3 sigma in >= 85 % of the CPIs (it was 68 % with the counts' sharp posterior, 91 %
+    with the measured share scatter), and the CPIs off by more than 1 % flagged with
+    sigma > 0.5 %."""
+    t = np.arange(int(10 * PRF)) / PRF
+    rev = np.outer(1 + 0.01 * np.sin(2 * np.pi * t / 3.0), [81.1, 82.7, 88.0, 88.1])
+    fl = synthetic_flight(rev, seed=21)
+    est = estimate_rotor_speeds(fl)
+    assert est.ok, est.reason
+    truth = cpi_truth(t, rev, est.time_s)
+    mean_err, _ = rel_errors(est, truth)
+    sel = est.valid & (est.n_pairs >= 2)
+    assert sel.mean() > 0.9
+    assert np.mean(mean_err[sel] <= 0.01) > 0.5
+    z = np.abs(est.common_rev_s - truth.mean(axis=1)) / est.common_std_rev_s
+    assert np.mean(z[sel] <= 3) >= 0.85
+    rel_sd = est.common_std_rev_s / est.common_rev_s
+    assert np.median(rel_sd[sel & (mean_err > 0.01)]) > 0.005
+    with pytest.raises(ValueError, match="spread_share_sd"):
+        RotorSpeedConfig(spread_share_sd=0.0)
+
+
 def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
     """Blades visible for 4 s of 8 s: estimates there, NaN after (never a guess), and the
     motor log holds only the CPIs with an estimate."""
@@ -142,8 +185,9 @@ def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
 def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
     """The issue's target: within 1 % wherever two or more sideband pairs are visible.
     Emulated flights (gusty motor dynamics, several % speed change within a CPI, close
-    rotors interfering): the mean rotor speed is within 1 % in most CPIs (85 % in
-    benchmarks/eval_rotorspeed.py, median 0.26 %), the ranked rotors ~0.5 %."""
+    rotors interfering): the mean rotor speed is within 1 % in most CPIs (87 % in
+    benchmarks/eval_rotorspeed.py, median 0.26 %; the tail is the rotor count per
+    merged line), the ranked rotors ~0.4 %."""
     spec = FlightSpec(f"t_{model}", "drone", drone_model=model, radar_id="radar1", duration_s=15.0,
                       mean_range_m=1200.0, snr_db=50.0, seed=seed)
     fl, _ = emulate_flight(spec)
