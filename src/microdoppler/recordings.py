@@ -753,7 +753,8 @@ def iq_sanity(iq: np.ndarray, prf_hz: float, wavelength_m: float | None = None, 
         kappa = min(abs(C) / P, 1.0)
         if kappa > 0:
             r = (1 - math.sqrt(max(0.0, 1 - kappa ** 2))) / kappa
-            out["image_rejection_db"] = min(-20 * math.log10(r), 100.0) if r > 0 else 100.0
+            # r <= 1, so the ratio is >= 0 dB (max() also turns -0.0 into 0.0)
+            out["image_rejection_db"] = max(0.0, min(-20 * math.log10(r), 100.0)) if r > 0 else 100.0
         else:
             out["image_rejection_db"] = 100.0
         ei, eq, eiq = (P + C.real) / 2, (P - C.real) / 2, C.imag / 2
