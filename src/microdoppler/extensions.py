@@ -253,16 +253,16 @@ def save_extensions(ext: ExtensionSet, path_yaml) -> Path:
     """Write ``ext`` as YAML, atomically (temporary sibling, then rename)."""
     path = Path(path_yaml)
     with atomic_file(path) as tmp:
-        tmp.write_text(yaml.safe_dump(_plain(ext.to_dict()), sort_keys=False))
+        tmp.write_text(yaml.safe_dump(yaml_plain(ext.to_dict()), sort_keys=False))
     return path
 
 
-def _plain(x):
-    """numpy scalars -> Python (YAML-safe)."""
-    if isinstance(x, dict):
-        return {str(k): _plain(v) for k, v in x.items()}
+def yaml_plain(x):
+    """Mappings, sequences and numpy scalars -> plain Python (YAML-safe)."""
+    if isinstance(x, Mapping):
+        return {str(k): yaml_plain(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
+        return [yaml_plain(v) for v in x]
     if isinstance(x, np.generic):
         return x.item()
     return x

@@ -54,7 +54,7 @@ import yaml
 
 from ..catalog import CAUSES
 from ..errors import InputError
-from ..extensions import ExtensionSet, check_params
+from ..extensions import ExtensionSet, check_params, yaml_plain
 from ..outputs import atomic_file
 from .stores import stable_seed
 
@@ -134,7 +134,7 @@ class TwinExtensions:
                                       "drone_model": drone_model})
 
     def to_dict(self) -> dict:
-        return _plain({"schema": SCHEMA, "mode": self.mode, "flights": self.flights,
+        return yaml_plain({"schema": SCHEMA, "mode": self.mode, "flights": self.flights,
                        "population": self.population, "meta": dict(self.meta)})
 
 
@@ -268,13 +268,3 @@ def _effects(x, where: str, source) -> dict:
             raise InputError(source, f"{where}.{cause}" + exc.field.split(cause, 1)[-1], exc.problem,
                              exc.expected) from None
     return out
-
-
-def _plain(x):
-    if isinstance(x, Mapping):
-        return {str(k): _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
