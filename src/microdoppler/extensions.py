@@ -232,15 +232,26 @@ class ExtensionSet:
                 "meta": dict(self.meta)}
 
 
+def read_yaml(path, expected: str):
+    """The parsed YAML file at ``path`` ({} when empty); a missing file or one that is
+    not YAML is an :class:`InputError` naming ``expected``."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "file", "does not exist", expected)
+    try:
+        return yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise InputError(path, "file", f"is not YAML ({type(exc).__name__})", expected) from None
+
+
 def load_extensions(path_yaml) -> ExtensionSet:
     """Read an extensions YAML (as written by :func:`save_extensions`)."""
     path = Path(path_yaml)
-    if not path.exists():
-        raise InputError(path, "file", "does not exist", f"an {SCHEMA} YAML file")
-    try:
-        d = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise InputError(path, "file", f"is not YAML ({type(exc).__name__})", f"an {SCHEMA} YAML file") from None
+    return extensions_from_dict(read_yaml(path, f"an {SCHEMA} YAML file"), path)
+
+
+def extensions_from_dict(d, path) -> ExtensionSet:
+    """An ``extensions/1`` mapping (read from ``path``, named in errors) -> ExtensionSet."""
     if not isinstance(d, dict) or d.get("schema") != SCHEMA:
         raise InputError(path, "schema", f"is {d.get('schema') if isinstance(d, dict) else d!r}", repr(SCHEMA))
     ext = d.get("extensions") or {}

@@ -179,18 +179,13 @@ def load_twin_extensions(path_yaml, *, mode: str | None = None):
         (one line naming the file, the field and what was expected).
     """
     from ..extensions import SCHEMA as SCHEMA_1
-    from ..extensions import load_extensions
+    from ..extensions import extensions_from_dict, read_yaml
 
     path = Path(path_yaml)
-    if not path.exists():
-        raise InputError(path, "file", "does not exist", f"an {SCHEMA} or {SCHEMA_1} YAML file")
-    try:
-        d = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise InputError(path, "file", f"is not YAML ({type(exc).__name__})", f"an {SCHEMA} YAML file") from None
+    d = read_yaml(path, f"an {SCHEMA} or {SCHEMA_1} YAML file")
     schema = d.get("schema") if isinstance(d, dict) else None
     if schema == SCHEMA_1:
-        return load_extensions(path)
+        return extensions_from_dict(d, path)
     if schema != SCHEMA:
         raise InputError(path, "schema", f"is {schema if isinstance(d, dict) else d!r}", f"{SCHEMA!r} or {SCHEMA_1!r}")
     if mode is not None:
