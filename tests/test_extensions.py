@@ -209,3 +209,31 @@ def test_flat_skirt_matches_the_emulated_phase_noise_spectrum():
     carrier = np.abs(x.mean()) ** 2
     measured = 10 * np.log10(p[band].mean() / carrier)
     assert measured == pytest.approx(key["phase_noise"]["skirt_dbc_hz"], abs=0.3)
+
+
+def test_injection_gives_the_background_the_twins_phase_noise():
+    """Phase noise acts on everything the radar receives (the emulator and the
+    independent generator multiply target + clutter by it), so the extended twin's
+    injection puts it on the recorded background too: a strong clutter-like tone in
+    the background gets the small-angle skirt of the twin's rms (same theory as
+    above, 0.4 dB), with the same draw for the same seed; without the cause (or for
+    another cause) the background is added untouched."""
+    from microdoppler.datasets.injection import inject
+
+    n, rms = 1 << 18, 0.1
+    f0 = 168 * PRF / 4096
+    tone = (10 * np.exp(2j * np.pi * f0 * np.arange(n) / PRF)).astype(np.complex64)
+    target = np.zeros(n, np.complex64)
+    assert np.array_equal(inject(target, tone), tone)
+    assert np.array_equal(inject(target, tone, effects={"sideband_asymmetry": {"asymmetry_db": 3.0}},
+                                 prf_hz=PRF, seed=4), tone)
+    effects = {"phase_noise": {"rms_rad": rms}}
+    a = inject(target, tone, effects=effects, prf_hz=PRF, seed=4)
+    assert np.array_equal(a, inject(target, tone, effects=effects, prf_hz=PRF, seed=4))
+    assert not np.array_equal(a, inject(target, tone, effects=effects, prf_hz=PRF, seed=5))
+    sk = _skirt_around(a, f0)
+    expected = rms ** 2 * sk["width_hz"] / 200.0 + rms ** 4 / 2 * 0.2025
+    for side in ("upper", "lower"):
+        assert abs(10 * np.log10(sk[side] / sk["line"] / expected)) < 0.4, (side, sk)
+    with pytest.raises(ValueError, match="prf_hz"):
+        inject(target, tone, effects=effects)
