@@ -128,6 +128,10 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
         v0 = sign * case.speed_mps
     vr = v0 * (1 + 0.08 * np.sin(2 * np.pi * t / rng.uniform(15, 30) + rng.uniform(0, 6.3)))
     r = rng.uniform(900, 2000) + np.cumsum(vr) / prf
+    # a long inbound leg turns back at 300 m (reflected path; the Doppler flips sign)
+    turned = r < 300.0
+    r = np.where(turned, 600.0 - r, r)
+    vr = np.where(turned, -vr, vr)
     # rotor speeds: common slow variation and per-motor offsets (relative 3 %)
     tc = np.arange(-3.0, case.duration_s + 3.0, 0.01)
     common = HOVER_REV_S * rng.uniform(0.9, 1.1) * (1 + 0.05 * np.sin(2 * np.pi * tc / rng.uniform(6, 12))
