@@ -200,6 +200,45 @@ class Track:
         t = np.linspace(0.0, max(duration_s, 1e-3), 16)
         return cls(t, range_m + radial_velocity_mps * t)
 
+    @classmethod
+    def from_tracker(cls, time_s, range_m, radial_velocity_mps, smooth_s: float = 10.0) -> "Track":
+        """The target's range from a tracker's range and radial-velocity outputs.
+
+        A tracker's range is good over seconds but noisy from sample to sample
+        (range cells of metres, against wavelengths of 0.1-0.3 m): a spline through it
+        would give the twin's body a Doppler that jumps by hundreds of Hz. Its radial
+        velocity is smooth but integrates to a drifting range. A complementary filter
+        takes each where it is good: the integrated radial velocity (trapezoid), plus
+        the range's offset from it averaged over ``smooth_s`` [s] (a triangular window
+        of twice that span).
+        For a track whose range and velocity agree (the emulator's) it returns the
+        range itself to within the averaged disagreement.
+
+        Parameters
+        ----------
+        time_s, range_m, radial_velocity_mps : ndarray, float64 [n_track]
+            The flight's ``track/*`` (strictly increasing time, range > 0 [m],
+            velocity positive receding [m/s]).
+        smooth_s : float
+            Window of the range's low-frequency part [s].
+        """
+        t = np.asarray(time_s, np.float64)
+        r = np.asarray(range_m, np.float64)
+        v = np.asarray(radial_velocity_mps, np.float64)
+        if not (t.shape == r.shape == v.shape) or t.ndim != 1 or len(t) < 2:
+            raise ValueError("track time_s, range_m and radial_velocity_mps must be 1-D of one length >= 2")
+        integ = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        off = r - integ
+        dt = float(np.median(np.diff(t)))
+        w = int(max(1, round(smooth_s / dt))) | 1
+        if w >= len(t):
+            smooth_off = np.full(len(t), float(np.mean(off)))
+        else:
+            k = np.convolve(np.ones(w), np.ones(w))  # triangular: a smooth offset, no steps
+            smooth_off = np.convolve(off, k, mode="same") / np.convolve(np.ones(len(t)), k, mode="same")
+        fused = integ + smooth_off
+        return cls(t, np.maximum(fused, 1.0))
+
     def range_at(self, t_s: np.ndarray) -> np.ndarray:
         return self._spline(t_s)
 

@@ -25,7 +25,7 @@ def simulate_flight(flight, log, calib, M, ext: ExtensionSet | None, seed: int, 
     a = flight.attrs
     lg = ext.transform_log(log) if ext is not None else log
     kw = ext.synth_kwargs(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else {}
-    track = Track(flight.track_time_s, flight.track_range_m)
+    track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
     iq, _ = simulate_blades(lg, n, prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
                             blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=seed,
                             envelope_kw=kw, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track)
