@@ -528,3 +528,15 @@ def test_track_from_a_noisy_tracker_keeps_the_body_doppler():
     assert np.max(np.abs(consistent.range_m - r_true)) < 1e-3
     with pytest.raises(ValueError, match="one length"):
         Track.from_tracker(t, r_meas, v_meas[:-1])
+
+
+@pytest.mark.parametrize("n", [2, 81, 250, 401, 1000])
+def test_track_from_tracker_any_length(n):
+    """Tracks shorter than the smoothing window (a 4 s flight at 20 Hz) and longer
+    ones give a range per sample; a consistent constant-velocity track is returned
+    as it is."""
+    t = np.arange(n) * 0.05
+    r = 900.0 + 6.0 * t
+    tr = Track.from_tracker(t, r, np.full(n, 6.0))
+    assert tr.range_m.shape == (n,)
+    assert np.max(np.abs(tr.range_m - r)) < 1e-6

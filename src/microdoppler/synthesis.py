@@ -231,10 +231,10 @@ class Track:
         off = r - integ
         dt = float(np.median(np.diff(t)))
         w = int(max(1, round(smooth_s / dt))) | 1
-        if w >= len(t):
+        k = np.convolve(np.ones(w), np.ones(w))  # triangular: a smooth offset, no steps
+        if len(k) >= len(t):
             smooth_off = np.full(len(t), float(np.mean(off)))
         else:
-            k = np.convolve(np.ones(w), np.ones(w))  # triangular: a smooth offset, no steps
             smooth_off = np.convolve(off, k, mode="same") / np.convolve(np.ones(len(t)), k, mode="same")
         fused = integ + smooth_off
         return cls(t, np.maximum(fused, 1.0))
