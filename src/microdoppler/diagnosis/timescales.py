@@ -100,7 +100,7 @@ def variogram(y: np.ndarray, valid: np.ndarray, lags: np.ndarray) -> tuple[np.nd
 def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
                      window: np.ndarray, prf_hz: float, *, max_lag_s: float = 10.0,
                      tau_bounds_s: tuple = (0.01, 30.0), min_pairs: int = 20, drift: bool = True,
-                     noise_free: bool = False, noise_max_factor: float = 3.0) -> dict:
+                     noise_free: bool = False) -> dict:
     """Joint (sigma [dB], T [s]) of the gain seen in the series ``y`` [dB] on a grid
     of hops ``hop_s`` (module doc).
 
@@ -118,12 +118,8 @@ def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray
     prf_hz : float
         Sample rate of the window's points [Hz].
     noise_free : bool
-        Fit the noise level in [0, ``noise_max_factor`` x the given one] (steps of a
-        quarter of it) instead of fixing it: for a noise estimated from a scatter that
-        may be partly slow (then not white) or miss part of the fast variation.
-        Measured on 20 emulated and independent 180 s fading flights: with the bound
-        at 1x the fitted nugget sat at the bound and the timescale came out low
-        (median -9 %, 60 % within 20 %); at 3x, 75 % (at 2x, 3x, 5x and 10x alike).
+        Fit the noise level in [0, the given one] (grid of 5) instead of fixing it:
+        for a noise estimated from a scatter that may be partly slow (then not white).
     drift : bool
         Add a nuisance term kappa * L to the variogram (kappa >= 0 [dB^2/s], fitted):
         slow variations (aspect, range-cell straddle) far slower than the lags, whose
@@ -153,8 +149,7 @@ def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray
     taus = TAU_GRID_S[(TAU_GRID_S >= tau_bounds_s[0]) & (TAU_GRID_S <= t_hi)]
     sig = np.concatenate([[0.0], np.geomspace(0.1, 20.0, 120)])
     kap = np.concatenate([[0.0], np.geomspace(0.01, 10.0, 25)]) if drift else np.zeros(1)
-    nug = nv * (np.linspace(0.0, noise_max_factor, int(round(4 * noise_max_factor)) + 1) if noise_free
-                else np.ones(1))
+    nug = nv * (np.linspace(0.0, 1.0, 5) if noise_free else np.ones(1))
     Ls = lags * hop_s
     lg = np.log(g)
 
