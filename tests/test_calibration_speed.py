@@ -33,7 +33,7 @@ def drone():
 def test_stft_and_line_windows_equal_the_spectrogram_and_measure_lines(drone):
     fl, _, rev = drone
     ref = spectrogram(fl.iq, fl.prf_hz, SPEC)
-    st = calibration.Stft(len(fl.iq), fl.prf_hz, SPEC)
+    st = calibration.StftColumns(len(fl.iq), fl.prf_hz, SPEC)
     got = st.spectrogram(fl.iq)
     assert np.array_equal(got.time_s, ref.time_s) and np.array_equal(got.doppler_hz, ref.doppler_hz)
     seg = fl.background_iq[5000:19336]
@@ -71,7 +71,7 @@ def test_search_cpis_are_a_spread_subset_of_fold_a():
 def _garble_fold_b(fl, block: int, seed: int):
     """The flight with its pulses that no fold-A CPI window comes within 4096 pulses of
     replaced by strong noise (measured and background)."""
-    st = calibration.Stft(len(fl.iq), fl.prf_hz, SPEC)
+    st = calibration.StftColumns(len(fl.iq), fl.prf_hz, SPEC)
     near = np.zeros(len(fl.iq), bool)
     for s in st.frame_start[folds(st.n_timesteps, block) == 0]:
         near[max(0, s - 4096):s + SPEC.n_fft + 4096] = True

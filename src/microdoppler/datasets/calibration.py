@@ -195,7 +195,7 @@ class LineTargets:
                    lines.harmonic_medians_db())
 
 
-class Stft:
+class StftColumns:
     """The spectrogram chain of :func:`microdoppler.spectrogram.spectrogram` cut in two:
     :meth:`highpass` (linear, whole record or a segment) and :meth:`columns` (the
     complex STFT, central bins, of chosen CPIs). ``power_db(columns)`` of the whole
@@ -349,7 +349,7 @@ class TwinMeter:
                  fit_mask: np.ndarray | None = None):
         self.flight, self.spec_cfg, self.cfg = flight, spec_cfg, cfg
         self.n_blades = int(flight.attrs["n_blades"])
-        self.stft = Stft(len(flight.iq), flight.prf_hz, spec_cfg)
+        self.stft = StftColumns(len(flight.iq), flight.prf_hz, spec_cfg)
         self.measured_spec = self.stft.spectrogram(flight.iq)
         self.time_s = self.measured_spec.time_s
         self.body_hz = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m,
@@ -380,7 +380,7 @@ class TwinMeter:
         return self.windows(cpis, rotor_rev_s, half_spread_rev_s).measure(spec.power_db[cpis])[0]
 
 
-def _segments(stft: Stft, cpis: np.ndarray, margin: int) -> list[tuple[int, int]]:
+def _segments(stft: StftColumns, cpis: np.ndarray, margin: int) -> list[tuple[int, int]]:
     """Pulse spans [a, b) covering the windows of ``cpis`` plus ``margin`` pulses each
     side (clipped to the record; ``a`` on the synthesis' speed grid), merged."""
     n = stft.cfg.n_fft
