@@ -247,6 +247,17 @@ def ideal_within(size_db: float, tau_s: float, duration_s: float, n_sim: int = 4
     return p_size, p_tau
 
 
+def add_ideal(errors: dict, p: dict) -> None:
+    """Put the ideal observer's share (:func:`ideal_within`) into the ``errors`` entries
+    of the planned flight ``p``'s OU-type parameters that were estimated."""
+    for c, (size_key, tau_key) in OU_PARAMS.items():
+        if c in p["effects"]:
+            ideal = ideal_within(p["effects"][c][size_key], p["effects"][c][tau_key], p["duration_s"], seed=p["seed"])
+            for key, v in zip((size_key, tau_key), ideal):
+                if f"{c}.{key}" in errors:
+                    errors[f"{c}.{key}"]["ideal"] = v
+
+
 def evaluate_flight(p: dict) -> dict:
     """Make the planned flight at its target SNR, diagnose it, compare with its truth."""
     t0 = time.perf_counter()
@@ -282,12 +293,7 @@ def evaluate_flight(p: dict) -> dict:
                 continue
             err, ok = param_error(k, kind, truth[k], fits[c][k])
             errors[f"{c}.{k}"] = {"error": err, "ok": ok, "truth": truth[k], "fit": fits[c][k]}
-    for c, (size_key, tau_key) in OU_PARAMS.items():
-        if c in p["effects"]:
-            ideal = ideal_within(p["effects"][c][size_key], p["effects"][c][tau_key], p["duration_s"], seed=p["seed"])
-            for key, v in zip((size_key, tau_key), ideal):
-                if f"{c}.{key}" in errors:
-                    errors[f"{c}.{key}"]["ideal"] = v
+    add_ideal(errors, p)
     return {**{k: p[k] for k in ("flight_id", "kind", "generator", "radar", "drone_model", "effects", "duration_s")},
             "true": sorted(p["effects"]), "named": named, "fits": fits, "reason": reason,
             "snr_db": round(snr, 2), "target_snr_db": round(target, 2), "snr_tries": tries,
@@ -541,13 +547,7 @@ def resummarise(a) -> int:
     for r in rows:
         p = plan[r["flight_id"]]
         r.setdefault("duration_s", p["duration_s"])
-        for c, (size_key, tau_key) in OU_PARAMS.items():
-            if c in p["effects"]:
-                ideal = ideal_within(p["effects"][c][size_key], p["effects"][c][tau_key], p["duration_s"],
-                                     seed=p["seed"])
-                for key, v in zip((size_key, tau_key), ideal):
-                    if f"{c}.{key}" in r["errors"]:
-                        r["errors"][f"{c}.{key}"].setdefault("ideal", v)
+        add_ideal(r["errors"], p)
     text, out = summarise(rows, boot_seed=seed ^ 0x5EED, n_boot=a.n_boot)
     text = targets(out) + "\n\n" + text
     print(text, flush=True)

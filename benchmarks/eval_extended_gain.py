@@ -47,9 +47,9 @@ from microdoppler.datasets.extended import catalog_params  # noqa: E402
 from microdoppler.datasets.injection import inject  # noqa: E402
 from microdoppler.datasets.speeds import resample_flight  # noqa: E402
 from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
+from microdoppler.diagnosis.core import flight_log  # noqa: E402
 from microdoppler.extensions import ExtensionSet  # noqa: E402
 from microdoppler.fidelity import DISTANCES, distances, flight_features, scoring_mask  # noqa: E402
-from microdoppler.motorlog import MotorLog  # noqa: E402
 from microdoppler.outputs import atomic_file  # noqa: E402
 from microdoppler.spectrogram import SpectrogramConfig  # noqa: E402
 
@@ -64,11 +64,6 @@ CAUSE_FEATURES = {
 }
 #: the pipeline's sub_cpi settings (config/config.yaml: sampling.per_variant.sub_cpi)
 SUB_CPI = {"per_cpi": 8, "window_pulses_min": 1500, "window_pulses_max": 3000}
-
-
-def _log(flight) -> MotorLog:
-    return MotorLog(np.asarray(flight.motors_time_s, np.float64), np.asarray(flight.motors_rpm, np.float32),
-                    "flight")
 
 
 def evaluate_flight(p: dict) -> dict:
@@ -91,7 +86,7 @@ def evaluate_flight(p: dict) -> dict:
         row.update(named=[], reason=f"skipped: {exc.reason}")
         return row
     row["named"] = sorted(named)
-    ml = _log(flight)
+    ml = flight_log(flight, None)
     spec_cfg, cfg = SpectrogramConfig(), CalibrationConfig()
     seed = p["seed"] & 0x7FFFFFFF
     n, prf = len(flight.iq), flight.prf_hz
