@@ -18,6 +18,10 @@ import numpy as np
 from .knobs import SlowGain, ou_process
 
 CONTROL_HZ = 100.0
+#: wing return below the body's [dB] (drawn uniformly per bird): at L band a bird's
+#: wings scatter far less than its body, and the paper's birds "lack significant
+#: micro-Doppler" (§III)
+WING_BELOW_BODY_DB = (8.0, 22.0)
 
 
 @dataclass(frozen=True)
@@ -38,9 +42,9 @@ SPECIES = {
 #: bird kinds: (min, max) number of birds, velocity spread within the group [m/s], species
 KINDS = {
     "single": ((1, 1), 0.0, ("gull", "crow", "pigeon", "starling")),
-    "pair": ((2, 2), 0.8, ("gull", "crow", "pigeon")),
-    "small_flock": ((3, 8), 1.0, ("pigeon", "starling", "gull")),
-    "large_flock": ((12, 30), 1.5, ("starling", "pigeon")),
+    "pair": ((2, 2), 1.5, ("gull", "crow", "pigeon")),
+    "small_flock": ((3, 8), 2.0, ("pigeon", "starling", "gull")),
+    "large_flock": ((12, 30), 3.0, ("starling", "pigeon")),
 }
 
 
@@ -111,7 +115,8 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
         for i in range(nb):
             x_ = ou_process(n, dt, 1.0, 2.0, rng)
             flap[:, i] = 1 / (1 + np.exp(-4 * (x_ + 0.6)))
-    return BirdGroup(t, r, az, amp, f_wb, rng.uniform(0, 2 * np.pi, nb), rng.uniform(0.3, 0.6, nb),
+    return BirdGroup(t, r, az, amp, f_wb, rng.uniform(0, 2 * np.pi, nb),
+                     10 ** (-rng.uniform(*WING_BELOW_BODY_DB, nb) / 20),
                      0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name)
 
 

@@ -34,6 +34,8 @@ TRACK_HZ = 20.0
 #: blade current taper: the blade echo is the sum of thin wires of these fractions of
 #: the blade length, all from the hub (current 4:3:2:1 from hub to tip)
 BLADE_TAPER = (1.0, 0.75, 0.5, 0.25)
+#: large drones' further sideband fall-off per harmonic [dB], drawn log-uniformly
+FALLOFF_DB = (4.0, 16.0)
 #: maximal range-straddle loss as the target crosses resolution cells [dB]
 STRADDLE_LOSS_DB = 1.5
 
@@ -70,7 +72,7 @@ class FlightSpec:
         +1 forward, -1 reverse loop.
     first_sideband_db, harmonic_falloff_db : float, optional
         Drones: first HERM sideband (per motor line) below the body [dB] and further
-        fall-off per harmonic [dB]; default drawn (large drones 7-10 and 4-7 dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
+        fall-off per harmonic [dB]; default drawn (large drones 7-10 and 4-16 (log-uniform) dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
         Mini's blades sit below the noise).
     clutter_scale_db : float
         Added to every clutter cell's clutter-to-noise ratio.
@@ -210,7 +212,10 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
             falloff = spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None else 6.0
         else:
             first_db = spec.first_sideband_db if spec.first_sideband_db is not None else r_bl.uniform(7.0, 10.0)
-            falloff = spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None else r_bl.uniform(4.0, 7.0)
+            # log-uniform 4-16 dB per harmonic: the paper's text gives 3-8 dB at short range,
+            # its Table IV alphas (5.5e-3 to 8e-2 s) flights whose sidebands end after one pair
+            falloff = (spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None
+                       else float(np.exp(r_bl.uniform(np.log(FALLOFF_DB[0]), np.log(FALLOFF_DB[1])))))
         # tapered blade current: nested thin wires from the hub (eq. 1 kernel at
         # lengths BLADE_TAPER x L) give a current that falls towards the tip, whose
         # own HERM harmonics roll off; an exp(-alpha |f|) filter supplies the rest of
