@@ -129,7 +129,7 @@ def test_sideband_lines_found_where_the_log_puts_them(built):
 # --- twins -----------------------------------------------------------------------
 
 def test_flight_without_motor_log_is_reported_and_skipped(built):
-    assert "ins3" not in flight_ids(open_store(built["root"] / "speeds.zarr", "speeds/1"))
+    assert "ins3" not in flight_ids(speeds.open_speeds(built["root"] / "speeds.zarr"))
     assert "ins3" not in flight_ids(open_store(built["root"] / "twins.zarr", "twins/1"))
     st = built["speeds_status"].set_index("flight_id")
     assert st.loc["ins3", "status"] == "skipped"
@@ -150,7 +150,7 @@ def test_each_twin_matches_its_flight_snr_within_2_db(built):
     """Measured independently of the fit: the injected twin's body and first-sideband
     flight-mean SNR within 2 dB of its measured flight's."""
     inj = open_store(built["root"] / "injected.zarr", "injected/1")
-    rev = open_store(built["root"] / "speeds.zarr", "speeds/1")
+    rev = speeds.open_speeds(built["root"] / "speeds.zarr")
     for fid in flight_ids(inj):
         fl = read_flight(built["measured"] / f"{fid}.zarr")
         iq = np.asarray(inj[fid]["iq"][...])
@@ -161,7 +161,7 @@ def test_each_twin_matches_its_flight_snr_within_2_db(built):
         sm, st = spectrogram(fl.iq, fl.prf_hz, SPEC), spectrogram(iq, fl.prf_hz, SPEC)
         body = body_doppler_hz(fl.track_time_s, fl.track_radial_velocity_mps, fl.wavelength_m, sm.time_s)
         r_m, s_m = log_rate_at(log.time_s, log.rev_s, sm.time_s)
-        r_t, s_t = rotor_rate_at(np.asarray(rev[fid]["rev_s"][...]), st.time_s, fl.prf_hz)
+        r_t, s_t = rotor_rate_at(speeds.read_rev_s(rev[fid]), st.time_s, fl.prf_hz)
         m = measure_lines(sm, body, r_m, rotor_half_spread_rev_s=float(np.percentile(s_m, 90))).sideband_mean_db(1)
         t = measure_lines(st, body, r_t, rotor_half_spread_rev_s=float(np.percentile(s_t, 90))).sideband_mean_db(1)
         assert abs(t - m) <= 2.0, (fid, m, t)
@@ -176,7 +176,7 @@ def test_calibration_is_a_real_fit(built):
     """The paper model with unit scaling misses the measured SNRs by more than 2 dB:
     the fitted S_body/S_blade are doing the work."""
     fl = read_flight(built["measured"] / "mat1.zarr")
-    rev = np.asarray(open_store(built["root"] / "speeds.zarr", "speeds/1")["mat1"]["rev_s"][...])
+    rev = speeds.read_rev_s(speeds.open_speeds(built["root"] / "speeds.zarr")["mat1"])
     raw = synthesize(rev, Track(fl.track_time_s, fl.track_range_m), prf_hz=fl.prf_hz, wavelength_m=fl.wavelength_m,
                      n_blades=2, blade_length_m=0.22, scaling=Scaling(1.0, 1.0, 0.0), seed=1)
     b_meas = np.mean(flight_body_snr_db(fl, spec_cfg=SPEC))
@@ -190,7 +190,7 @@ def test_fit_status_tells_the_truth(built):
     """A deliberately crippled fit (one alpha, one update, 0.05 dB tolerance) is
     checked, not assumed: its status says 'missed' exactly when an error exceeds it."""
     fl = read_flight(built["measured"] / "ins2.zarr")
-    rev = np.asarray(open_store(built["root"] / "speeds.zarr", "speeds/1")["ins2"]["rev_s"][...])
+    rev = speeds.read_rev_s(speeds.open_speeds(built["root"] / "speeds.zarr")["ins2"])
     cfg = calibration.CalibrationConfig(tolerance_db=0.05, n_alpha=1, max_iter=1)
     iq, res = calibration.fit_twin(fl, rev, read_ingested_log(built["logs"], "ins2"), spec_cfg=SPEC, cfg=cfg, seed=3)
     worst = max(abs(res["body_error_db"]), abs(res["sideband1_error_db"]))

@@ -71,14 +71,22 @@ def _eval_clamped(spl: CubicSpline, t: np.ndarray, log: MotorLog, motor: int) ->
     return spl(t)
 
 
-def per_cpi(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
-    """One speed per CPI (value of the cubic spline at the CPI centre), held."""
+def per_cpi_knots(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
+    """The ``per_cpi`` speeds, one row per CPI: float64 [ceil(n_pulses / n_fft), n_motors] rev/s.
+
+    :func:`per_cpi` holds row k over pulses k * n_fft to (k + 1) * n_fft - 1.
+    """
     n_cpi = -(-n_pulses // cfg.n_fft)
     t_centre = (np.arange(n_cpi) * cfg.n_fft + cfg.n_fft / 2) / prf_hz
+    return np.column_stack([_eval_clamped(_spline(log, m), t_centre, log, m) for m in range(log.n_motors)])
+
+
+def per_cpi(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
+    """One speed per CPI (value of the cubic spline at the CPI centre), held."""
+    knots = per_cpi_knots(log, n_pulses, prf_hz, cfg)
     out = np.empty((n_pulses, log.n_motors), np.float32)
     for m in range(log.n_motors):
-        v = _eval_clamped(_spline(log, m), t_centre, log, m)
-        out[:, m] = np.repeat(v, cfg.n_fft)[:n_pulses]
+        out[:, m] = np.repeat(knots[:, m], cfg.n_fft)[:n_pulses]
     return out
 
 
@@ -93,20 +101,46 @@ def _moving_average(x: np.ndarray, w: int) -> np.ndarray:
     return (c[w:w + len(x)] - c[:len(x)]) / w
 
 
-def sub_cpi_motor(log: MotorLog, motor: int, n_pulses: int, prf_hz: float,
+#: decimated samples of edge padding against filter transients (``sub_cpi``)
+SUB_CPI_PAD = 16
+
+
+def sub_cpi_knots(log: MotorLog, motor: int, n_pulses: int, prf_hz: float,
                   cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
-    """Sub-CPI sampling of one motor: [n_pulses] float64 rev/s."""
+    """The decimated log of ``sub_cpi`` (before upsampling): float64 [n_knots] rev/s.
+
+    ``sub_cpi_per_cpi`` samples per CPI, i.e. one every ``up = n_fft / sub_cpi_per_cpi``
+    pulses, with :data:`SUB_CPI_PAD` samples of padding at each end:
+    n_knots = ceil(n_pulses / up) + 2 * SUB_CPI_PAD. :func:`sub_cpi_from_knots` turns
+    them into the per-pulse speeds.
+    """
     up = cfg.n_fft // cfg.sub_cpi_per_cpi
     fs_dec = prf_hz / up
     oversample = 8
-    pad = 16  # decimated samples of edge padding against filter transients
+    pad = SUB_CPI_PAD
     n_dec = -(-n_pulses // up) + 2 * pad
     t_fine = (np.arange(n_dec * oversample) - pad * oversample) / (fs_dec * oversample)
     fine = _eval_clamped(_spline(log, motor), t_fine, log, motor)
-    dec = decimate(fine, oversample, ftype="fir", zero_phase=True)
-    upsampled = resample_poly(dec, up, 1)
+    return decimate(fine, oversample, ftype="fir", zero_phase=True)
+
+
+def sub_cpi_from_knots(knots: np.ndarray, n_pulses: int, *, up: int, pad: int, window_pulses: int) -> np.ndarray:
+    """Per-pulse ``sub_cpi`` speeds from :func:`sub_cpi_knots`: float64 [n_pulses] rev/s.
+
+    Upsampled by ``up`` (zero insertion and a low-pass interpolating FIR,
+    ``scipy.signal.resample_poly``), cut to the flight (``pad`` knots dropped at the
+    start) and smoothed by a centred rolling average of ``window_pulses``.
+    """
+    upsampled = resample_poly(np.asarray(knots, np.float64), up, 1)
     x = upsampled[pad * up: pad * up + n_pulses]
-    return _moving_average(x, cfg.window_pulses)
+    return _moving_average(x, window_pulses)
+
+
+def sub_cpi_motor(log: MotorLog, motor: int, n_pulses: int, prf_hz: float,
+                  cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
+    """Sub-CPI sampling of one motor: [n_pulses] float64 rev/s."""
+    return sub_cpi_from_knots(sub_cpi_knots(log, motor, n_pulses, prf_hz, cfg), n_pulses,
+                              up=cfg.n_fft // cfg.sub_cpi_per_cpi, pad=SUB_CPI_PAD, window_pulses=cfg.window_pulses)
 
 
 def sub_cpi(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig(),

@@ -60,8 +60,8 @@ from .injection import SYNTHETIC_SCHEMA, inject
 from .lines import LineSNR, body_doppler_hz, log_rate_at, rotor_rate_at
 from .batches import batch_filter
 from .extended import twin_extensions
-from .speeds import BASE_SAMPLING, SPEEDS_SCHEMA
-from .stores import flight_ids, open_store, put_array, stable_seed, writing_store
+from .speeds import BASE_SAMPLING, open_speeds, read_rev_s
+from .stores import flight_ids, put_array, stable_seed, writing_store
 from .tables import TABLE_IV_COLUMNS
 
 #: pulses synthesised and high-passed beyond each end of a run of calibration CPIs:
@@ -632,7 +632,7 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
     flight's causes, or a population draw; recorded in the twin's ``extensions``
     attribute) or one set for every twin. The ``extended`` twins use ``sub_cpi``'s
     seeds, so a twin without extensions equals its ``sub_cpi`` twin."""
-    speeds = open_store(speeds_zarr, SPEEDS_SCHEMA)
+    speeds = open_speeds(speeds_zarr)
     flights = list_flights(measured_dir).set_index("flight_id")
     mine = batch_filter(*(batch or (None, 1)))
     rows = [dict(flight_id=fid, variant=variant, drone_model=flights.drone_model.get(fid, ""),
@@ -661,8 +661,8 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
                 kw["synth_kwargs"] = lambda s, n=len(flight.iq), prf=flight.prf_hz, e=ext: e.synth_kwargs(
                     prf_hz=prf, n_pulses=n, seed=s)
                 post = lambda x, prf=flight.prf_hz, s=fseed, e=ext: e.post(x, prf_hz=prf, seed=s)
-            iq, res = fit_twin(flight, np.asarray(g["rev_s"][...]), ml, spec_cfg=spec_cfg, cfg=cfg, seed=fseed,
-                               post=post, **kw)
+            iq, res = fit_twin(flight, read_rev_s(g, f"{speeds_zarr}/{fid}"), ml, spec_cfg=spec_cfg, cfg=cfg,
+                               seed=fseed, post=post, **kw)
             h = root.require_group(fid)
             if ext is not None and hasattr(ext, "effects"):
                 h.attrs["extensions"] = {"effects": {c: dict(p) for c, p in ext.effects.items()},
