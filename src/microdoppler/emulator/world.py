@@ -36,10 +36,6 @@ TRACK_HZ = 20.0
 BLADE_TAPER = (1.0, 0.75, 0.5, 0.25)
 #: large drones' further sideband fall-off per harmonic [dB], drawn log-uniformly
 FALLOFF_DB = (4.0, 16.0)
-#: slow body-RCS variation (aspect) per model: (std [dB], 1/e time [s]). The Mini, a
-#: small hand-flown airframe whose return comes from a few scatterers (motors,
-#: battery, gimbal), scintillates like a bird's body (birds: 4.5 dB, 1.5 s)
-BODY_ASPECT_DB_S = {"default": (1.0, 4.0), "mini2": (3.0, 1.5)}
 #: maximal range-straddle loss as the target crosses resolution cells [dB]
 STRADDLE_LOSS_DB = 1.5
 
@@ -240,7 +236,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
             return g
 
         # slow natural variations and the knobs' gains
-        aspect = SlowGain(spec.duration_s + 1, *BODY_ASPECT_DB_S.get(spec.drone_model, BODY_ASPECT_DB_S["default"]), r_bl)
+        aspect = SlowGain(spec.duration_s + 1, 1.0, 4.0, r_bl)
         blade_nat = SlowGain(spec.duration_s + 1, 0.5, 5.0, r_bl)
         fad = effects.get("sideband_fading")
         fading = SlowGain(spec.duration_s + 1, fad["fading_std_db"], fad["timescale_s"], r_bl) if fad else None
