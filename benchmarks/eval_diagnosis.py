@@ -116,15 +116,20 @@ def draw_params(cause: str, rng: np.random.Generator) -> dict:
 
 
 def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s: float,
-              high_share: float) -> list[dict]:
-    """The flights to make, drawn from ``seed``: one dict per flight (JSON-able)."""
+              high_share: float, causes: list[str] | None = None) -> list[dict]:
+    """The flights to make, drawn from ``seed``: one dict per flight (JSON-able).
+
+    ``causes``: restrict the one-cause flights and the two-cause pairs to these
+    catalog causes (default: all of :data:`CAUSE_LIST`); the plan then differs from
+    the full one drawn from the same seed."""
     rng = np.random.default_rng(seed)
+    cause_list = list(CAUSE_LIST) if not causes else [c for c in CAUSE_LIST if c in causes]
     groups: list[tuple[str, list[str]]] = []
-    for c in CAUSE_LIST:
+    for c in cause_list:
         groups += [("one", [c])] * per_cause
-    pairs = list(itertools.combinations(CAUSE_LIST, 2))
+    pairs = list(itertools.combinations(cause_list, 2))
     order: list = []
-    while len(order) < two_cause:
+    while pairs and len(order) < two_cause:
         order += [pairs[i] for i in rng.permutation(len(pairs))]
     groups += [("two", list(p)) for p in order[:two_cause]]
     groups += [("clean", [])] * clean
@@ -543,7 +548,7 @@ def resummarise(a) -> int:
     rows, seed = data["rows"], data["seed"]
     plan = {p["flight_id"]: p for p in make_plan(seed, data["args"]["flights_per_cause"], data["args"]["two_cause"],
                                                   data["args"]["clean"], data["args"]["duration_s"],
-                                                  data["args"]["high_snr_share"])}
+                                                  data["args"]["high_snr_share"], data["args"].get("causes"))}
     for r in rows:
         p = plan[r["flight_id"]]
         r.setdefault("duration_s", p["duration_s"])
@@ -566,6 +571,9 @@ def main(argv=None) -> int:
     ap.add_argument("--duration-s", type=float, default=40.0, help="flight duration [s] (default 40)")
     ap.add_argument("--high-snr-share", type=float, default=0.6,
                     help="share of flights with a target body SNR >= 36 dB (default 0.6)")
+    ap.add_argument("--causes", type=lambda v: [c for c in v.split(",") if c], default=None,
+                    help="comma-separated catalog causes to restrict the one- and two-cause flights to "
+                         "(default: all); e.g. sideband_fading,body_fluctuation")
     ap.add_argument("--json", default="", help="write the per-flight rows and the summary here")
     ap.add_argument("--markdown", default="", help="write the tables here")
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
@@ -584,14 +592,18 @@ def main(argv=None) -> int:
         ap.error(f"--high-snr-share={a.high_snr_share} must be in [0, 1]")
     if a.workers < 1:
         ap.error(f"--workers={a.workers} must be >= 1")
+    unknown = sorted(set(a.causes or []) - set(CAUSE_LIST))
+    if unknown:
+        ap.error(f"--causes: {unknown} not in the catalog {CAUSE_LIST}")
     seed = a.seed if a.seed is not None else secrets.randbits(32)
     print(f"seed {seed} (rerun: --seed {seed})", flush=True)
-    plan = make_plan(seed, a.flights_per_cause, a.two_cause, a.clean, a.duration_s, a.high_snr_share)
+    plan = make_plan(seed, a.flights_per_cause, a.two_cause, a.clean, a.duration_s, a.high_snr_share, a.causes)
     n = len(plan)
     if n == 0:
         ap.error("no flights planned")
     est = n * (EMU_S_PER_FLIGHT_S * a.duration_s * EMULATIONS_PER_FLIGHT + DIAG_S) / a.workers
-    print(f"{n} flights ({a.flights_per_cause} per cause x {len(CAUSE_LIST)}, {a.two_cause} two-cause, "
+    n_causes = len(a.causes) if a.causes else len(CAUSE_LIST)
+    print(f"{n} flights ({a.flights_per_cause} per cause x {n_causes}, {a.two_cause} two-cause, "
           f"{a.clean} clean), {a.duration_s:g} s each, {a.workers} worker(s): estimated {est / 60:.1f} min", flush=True)
     t0 = time.time()
     rows = []

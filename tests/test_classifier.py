@@ -201,6 +201,29 @@ def test_weight_averaging_keeps_the_mean_of_the_last_epochs(tiny_tiles):
         TrainConfig(average_last_epochs=-1)
 
 
+def test_evaluation_in_forward_chunks_gives_the_same_loss_and_accuracy():
+    """_evaluate runs the forward pass in chunks of EVAL_FORWARD_BATCH images: the
+    logits, hence the loss summed per block and the accuracy, equal one forward pass
+    per block (the speed-up must not change the history or the stopping rule)."""
+    from torch.nn import functional as F
+
+    from microdoppler.classifier.training import EVAL_FORWARD_BATCH, _evaluate
+
+    ts = toy_tiles(300, seed=8, n_bins=480)
+    x, y = torch.from_numpy(Normalisation()(ts.images)), torch.from_numpy(ts.y)
+    torch.manual_seed(4)
+    model = CompactCNN().eval()
+    assert len(x) % EVAL_FORWARD_BATCH and len(x) > 256  # ragged chunks and blocks
+    loss, correct = 0.0, 0
+    with torch.no_grad():
+        for i in range(0, len(x), 256):
+            logits = model(x[i:i + 256])
+            loss += F.cross_entropy(logits, y[i:i + 256], reduction="sum").item()
+            correct += (logits.argmax(1) == y[i:i + 256]).sum().item()
+    assert _evaluate(model, x, y, 256) == (loss / len(x), correct / len(x))
+    assert np.isnan(_evaluate(model, x[:0], y[:0], 256)[0])
+
+
 def test_config_validation():
     with pytest.raises(InputError):
         TrainConfig(learning_rate=0)

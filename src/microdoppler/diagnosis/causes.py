@@ -17,7 +17,8 @@ other statistics are unchanged by another cause's extension, see ``core.COUPLED`
 Sizes and correlation times of the fluctuating causes are estimated jointly and
 analytically (:mod:`.timescales`: variogram of the per-window dB series, window
 averaging and noise accounted for), without simulating any process: the body's on
-short windows (:func:`.measure.body_power_fine`), the fading's on the CPIs.
+short windows (:func:`.measure.body_power_fine`), the fading's on the CPIs, after
+taking out the tilt of the harmonics by the rotor-speed changes (:func:`fading_estimate`).
 
 A test's ``held_out`` records whether its ``nll_base``/``nll_ext`` really are held-out
 scores: both folds held observations, each was scored with parameters fitted on the
@@ -58,7 +59,7 @@ from scipy.optimize import minimize_scalar
 
 from ..catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .features import DB, cpi_average
-from .timescales import fit_gain_process
+from .timescales import fit_gain_process, harmonic_speed_slope
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -285,15 +286,8 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     v0 = s2w / Km + cfg.model_floor_db ** 2
     meas_sd = float(np.sqrt(s2))
     # size and correlation time jointly, from the variogram of the common-mode series
-    # (timescales.fit_gain_process: analytic CPI-window averaging, noise s2w / K)
-    n_t = len(M.t_s)
-    yy = np.zeros(n_t); yy[m] = e
-    nv = np.zeros(n_t); nv[m] = s2w / Km
-    # no drift term: on the CPI grid a slow drift and a fading of a few seconds
-    # cannot be told apart, and the blades have no aspect term of their own; the
-    # noise s2w / K is an upper bound (part of the harmonics' own scatter is slow)
-    est = fit_gain_process(yy, m.copy(), nv, float(np.median(np.diff(M.t_s))), M.stft.window, M.info["prf_hz"],
-                           drift=False, noise_free=True)
+    # with the rotor-speed tilt taken out (fading_estimate)
+    est = fading_estimate(M, x, ok, m)
     true_sd = float(est["sigma_db"]) if s2 > 0 else 0.0
     tau = float(est["timescale_s"]) if true_sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
     res.params = {"fading_std_db": true_sd, "timescale_s": tau}
@@ -303,10 +297,63 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     res.evidence = {"fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
                     "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
                     "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
+                    "speed_tilt_db_per_harmonic_rev_s": round(est["speed_tilt_db"], 4),
                     "measured_common_std_db": round(meas_sd, 2),
                     "within_cpi_harmonic_std_db": round(float(np.sqrt(s2w)), 2),
                     "n_pairs_used": int(use.sum())}
     return res
+
+
+def fading_estimate(M, x, ok, m) -> dict:
+    """Size [dB] and 1/e correlation time [s] of the fading, jointly
+    (:func:`.timescales.fit_gain_process` on the CPI grid: analytic CPI-window
+    averaging), from the harmonics' sideband-pair powers ``x`` [dB, n_t x N] (valid
+    where ``ok``, CPIs ``m``).
+
+    Each harmonic's series is detrended linearly in time and log range. Then the
+    rotor-speed tilt is taken out: under the paper's envelope exp(-alpha |f|) a
+    change u of the mean rotor speed (the motor log's, CPI-averaged) moves harmonic
+    n's power by n beta u dB; beta is fitted on the harmonics' deviations from their
+    CPI mean, where a common gain cancels (:func:`.timescales.harmonic_speed_slope`).
+    Without it, the speed changes of a flight (a few % of the rotor speed, over
+    seconds) enter the common-mode series as a second fluctuation that is not the
+    fading, and shorten its fitted time. The fit reads the variogram of the mean
+    over the harmonics, with a noise nugget up to the within-CPI scatter across the
+    harmonics / K (what each harmonic does on its own: measurement noise, the beats
+    of the rotors' lines within its cluster; an upper bound, as part of that
+    scatter is slow). No drift term: on the CPI grid a slow drift and a fading of a
+    few seconds cannot be told apart, and the blades have no aspect term of their own.
+    """
+    t, r = M.t_s, M.range_m
+    n_t, N = x.shape
+    harm = np.asarray(M.harm, float)
+    Y = np.zeros((n_t, N))
+    V = np.zeros((n_t, N), bool)
+    for k in range(N):
+        v = m & ok[:, k]
+        if v.sum() >= 4:
+            Y[v, k] = _detrend(x[v, k], t[v], r[v])
+            V[:, k] = v
+    u = np.zeros(n_t)
+    if m.sum() >= 4:
+        u[m] = _detrend(np.asarray(M.f_log_hz, float)[m], t[m], r[m])
+    beta = harmonic_speed_slope(Y, V, harm, u)
+    Y = np.where(V, Y - beta * harm[None, :] * u[:, None], 0.0)
+    Kt = V.sum(axis=1)
+    mm = m & (Kt >= 1)
+    c = Y.sum(axis=1) / np.maximum(Kt, 1)
+    multi = mm & (Kt >= 2)
+    ss = np.where(V, (Y - c[:, None]) ** 2, 0.0).sum(axis=1)
+    s2w = float(ss[multi].sum() / max((Kt[multi] - 1).sum(), 1)) if multi.any() else 0.0
+    yy = np.zeros(n_t)
+    nv = np.zeros(n_t)
+    if mm.sum() >= 4:
+        yy[mm] = _detrend(c[mm], t[mm], r[mm])
+        nv[mm] = s2w / Kt[mm]
+    est = fit_gain_process(yy, mm.copy(), nv, float(np.median(np.diff(t))), M.stft.window, M.info["prf_hz"],
+                           drift=False, noise_free=True)
+    est["speed_tilt_db"] = beta
+    return est
 
 
 def body_estimate(M) -> dict:

@@ -30,6 +30,13 @@ sigma, T and kappa, then a finer one), so every lag counts by its relative error
 for two correlation shapes (exponential and Matern 3/2, :data:`SHAPES`; the better
 fit is kept; T is always the 1/e time).
 
+For a gain common to several harmonics' sideband powers (the fading),
+:func:`harmonic_speed_slope` first measures how the rotor speed tilts the harmonics
+against each other (the paper's envelope exp(-alpha |f|) moves harmonic n by n beta u
+dB for a speed change u), from the harmonics' deviations from their mean, where the
+common gain cancels; the caller takes n beta u out before forming the common-mode
+series.
+
 Limits: when T is much shorter than a window only sigma^2 T is identifiable (the
 series is white); T is searched up to the longest lag / 2.5 (4 s by default); when
 T nears the record length / 10 the sill is poorly sampled (few independent
@@ -97,6 +104,44 @@ def variogram(y: np.ndarray, valid: np.ndarray, lags: np.ndarray) -> tuple[np.nd
     return np.array(g), np.array(npair)
 
 
+def _lag_grid(n: int, hop_s: float, max_lag_s: float) -> np.ndarray:
+    """Lags [hops] of the variogram: 1, 2, 3, 4, then ~geometric up to ``max_lag_s``
+    (and at most a third of the record)."""
+    lag_max = int(max(1, min(max_lag_s / hop_s, n // 3)))
+    cand = np.unique(np.round(np.concatenate([np.arange(1, 5), np.geomspace(4, max(lag_max, 4), 16)])).astype(int))
+    return cand[cand <= lag_max]
+
+
+def harmonic_speed_slope(Y: np.ndarray, V: np.ndarray, harm: np.ndarray, u: np.ndarray) -> float:
+    """Slope beta [dB per harmonic number per unit of ``u``] of the per-harmonic dB
+    series ``Y`` [n, K] on the rotor-speed deviation ``u`` [n], under the paper's
+    envelope exp(-alpha |f|): harmonic n's sideband power moves by n beta u (beta =
+    -20 log10(e) alpha B for u in rev/s), so a speed change tilts the harmonics
+    against each other.
+
+    Fitted by least squares on the deviations from each sample's mean over its
+    valid harmonics (``V`` [n, K]; samples with >= 2): a gain common to all the
+    harmonics (a fading) cancels there exactly, so beta is not biased by a chance
+    correlation of the fading with the speed. Returns 0 when nothing identifies it
+    (fewer than two harmonics at every sample, or a speed that does not change).
+    """
+    Y = np.asarray(Y, float)
+    V = np.asarray(V, bool)
+    Kt = V.sum(axis=1)
+    rows = Kt >= 2
+    if not rows.any():
+        return 0.0
+    Yv = np.where(V, Y, 0.0)
+    mY = Yv.sum(axis=1) / np.maximum(Kt, 1)
+    mn = (V * np.asarray(harm, float)[None, :]).sum(axis=1) / np.maximum(Kt, 1)
+    D = Y - mY[:, None]
+    G = (np.asarray(harm, float)[None, :] - mn[:, None]) * np.asarray(u, float)[:, None]
+    W = V & rows[:, None]
+    den = float(np.sum(G[W] ** 2))
+    # a speed that does not change (rms below 1e-6 of a unit) identifies nothing
+    return float(np.sum(D[W] * G[W]) / den) if den > 1e-12 * max(int(W.sum()), 1) else 0.0
+
+
 def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
                      window: np.ndarray, prf_hz: float, *, max_lag_s: float = 10.0,
                      tau_bounds_s: tuple = (0.01, 30.0), min_pairs: int = 20, drift: bool = True,
@@ -131,14 +176,21 @@ def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray
         ``sigma_db``, ``timescale_s``, the lags [s] and the measured and fitted
         variograms [dB^2], ``noise_db2`` (mean noise variance).
     """
-    n = len(y)
-    lag_max = int(max(1, min(max_lag_s / hop_s, n // 3)))
-    cand = np.unique(np.round(np.concatenate([np.arange(1, 5), np.geomspace(4, max(lag_max, 4), 16)])).astype(int))
-    lags = cand[cand <= lag_max]
+    lags = _lag_grid(len(y), hop_s, max_lag_s)
     g, npair = variogram(y, valid, lags)
+    nv = float(np.mean(noise_var_db2[valid])) if valid.any() else 0.0
+    return fit_variogram(lags, g, npair, nv, hop_s, window, prf_hz, tau_bounds_s=tau_bounds_s,
+                         min_pairs=min_pairs, drift=drift, noise_free=noise_free)
+
+
+def fit_variogram(lags: np.ndarray, g: np.ndarray, npair: np.ndarray, nv: float, hop_s: float,
+                  window: np.ndarray, prf_hz: float, *, tau_bounds_s: tuple = (0.01, 30.0),
+                  min_pairs: int = 20, drift: bool = True, noise_free: bool = False) -> dict:
+    """Fit (sigma [dB], T [s]) (and the nuisance drift) to a measured variogram ``g``
+    [dB^2] at integer ``lags`` [hops] with ``npair`` pairs each, noise variance ``nv``
+    [dB^2] (see :func:`fit_gain_process` for the other arguments and the result)."""
     ok = np.isfinite(g) & (npair >= min_pairs) & (g > 0)
     lags, g = lags[ok], g[ok]
-    nv = float(np.mean(noise_var_db2[valid])) if valid.any() else 0.0
     out = {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": (lags * hop_s).tolist(),
            "variogram_db2": g.tolist(), "noise_db2": nv}
     if len(lags) < 3:
