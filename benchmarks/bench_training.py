@@ -91,24 +91,13 @@ SCHEDULES = ((6, 5, 3), (6, 5, 2), (8, 7, 3), (8, 7, 4), (6, 4, 3), (8, 6, 3))
 
 def _epoch(model, opt, gen, xt, yt, xv, yv, batch_size):
     """One epoch as in ``training.train`` (reevaluate_train: false); CPU seconds of each part."""
-    from microdoppler.classifier.training import _evaluate
+    from microdoppler.classifier.training import _evaluate, train_epoch
 
     c0 = time.process_time()
-    model.train()
-    order = torch.randperm(len(xt), generator=gen)
-    run_loss, run_correct = 0.0, 0
-    for i in range(0, len(xt), batch_size):
-        idx = order[i:i + batch_size]
-        logits = model(xt[idx])
-        loss = F.cross_entropy(logits, yt[idx])
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
-        run_loss += loss.item() * len(idx)
-        run_correct += (logits.argmax(1) == yt[idx]).sum().item()
+    tr_loss, tr_acc = train_epoch(model, opt, gen, xt, yt, batch_size)
     c1 = time.process_time()
     va_loss, va_acc = _evaluate(model, xv, yv, 256)
-    return dict(train_loss=run_loss / len(xt), train_accuracy=run_correct / len(xt), val_loss=va_loss,
+    return dict(train_loss=tr_loss, train_accuracy=tr_acc, val_loss=va_loss,
                 val_accuracy=va_acc, cpu_train_s=c1 - c0, cpu_val_s=time.process_time() - c1)
 
 

@@ -153,6 +153,25 @@ def _evaluate(model, x: torch.Tensor, y: torch.Tensor, batch_size: int) -> tuple
     return loss / len(x), correct / len(x)
 
 
+def train_epoch(model, opt, gen: torch.Generator, xt: torch.Tensor, yt: torch.Tensor,
+                batch_size: int) -> tuple[float, float]:
+    """One epoch of SGD over ``xt`` in an order drawn from ``gen``; returns the running
+    (mean mini-batch loss, accuracy) of the epoch."""
+    model.train()
+    order = torch.randperm(len(xt), generator=gen)
+    run_loss, run_correct = 0.0, 0
+    for i in range(0, len(xt), batch_size):
+        idx = order[i:i + batch_size]
+        logits = model(xt[idx])
+        loss = F.cross_entropy(logits, yt[idx])
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        run_loss += loss.item() * len(idx)
+        run_correct += (logits.argmax(1) == yt[idx]).sum().item()
+    return run_loss / len(xt), run_correct / len(xt)
+
+
 @dataclass
 class TrainResult:
     """A trained classifier.
@@ -208,24 +227,13 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     rows, states = [], []
     for epoch in range(cfg.max_epochs):
         t0 = time.perf_counter()
-        model.train()
         lr = opt.param_groups[0]["lr"]
-        order = torch.randperm(len(xt), generator=gen)
-        run_loss, run_correct = 0.0, 0
-        for i in range(0, len(xt), cfg.batch_size):
-            idx = order[i:i + cfg.batch_size]
-            logits = model(xt[idx])
-            loss = F.cross_entropy(logits, yt[idx])
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            run_loss += loss.item() * len(idx)
-            run_correct += (logits.argmax(1) == yt[idx]).sum().item()
+        run_loss, run_acc = train_epoch(model, opt, gen, xt, yt, cfg.batch_size)
         sched.step()
         if cfg.reevaluate_train:
             tr_loss, tr_acc = _evaluate(model, xt, yt, 256)
         else:
-            tr_loss, tr_acc = run_loss / len(xt), run_correct / len(xt)
+            tr_loss, tr_acc = run_loss, run_acc
         va_loss, va_acc = _evaluate(model, xv, yv, 256)
         states.append(copy.deepcopy(model.state_dict()))
         rows.append(dict(epoch=epoch + 1, learning_rate=lr, train_loss=tr_loss, train_accuracy=tr_acc,
