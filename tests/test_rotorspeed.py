@@ -188,8 +188,10 @@ def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
     rotors interfering): the mean rotor speed is within 1 % in most CPIs (87 % in
     benchmarks/eval_rotorspeed.py, median 0.26 %; the tail is the rotor count per
     merged line), the ranked rotors ~0.4 %."""
+    # the paper text's short-range sidebands (3-8 dB per harmonic; the world's own draw
+    # since world v2 spans 4-16 dB, and its steep flights show fewer pairs)
     spec = FlightSpec(f"t_{model}", "drone", drone_model=model, radar_id="radar1", duration_s=15.0,
-                      mean_range_m=1200.0, snr_db=50.0, seed=seed)
+                      mean_range_m=1200.0, snr_db=50.0, seed=seed, harmonic_falloff_db=5.5)
     fl, _ = emulate_flight(spec)
     est = estimate_rotor_speeds(fl)
     assert est.ok, est.reason
