@@ -52,7 +52,7 @@ def test_classifier_rules_end_to_end(tmp_path):
     for name in ("fig12_boxplot.png", "confusion_real.png", "confusion_sub_cpi.csv"):
         assert (rep / name).stat().st_size > 0
     log = (tmp_path / "results/logs/train_classifier/real_seed1.log").read_text()
-    # config default average_last_epochs: 3 (the paper kept the best epoch)
+    # config default average_last_epochs: 4 (the paper kept the best epoch)
     assert "epoch   1" in log and "kept the average of the weights of epochs" in log
     report = subprocess.run([snakemake, "--report", "report.html"], cwd=tmp_path, capture_output=True, text=True)
     assert report.returncode == 0, report.stderr[-3000:]
