@@ -100,6 +100,8 @@ def evaluate(spec: FlightSpec) -> dict:
     tru = true_cpi_speeds(flight, est.time_s, est.n_fft)
     tm = tru.mean(axis=1)
     row["mean_err"] = (est.common_rev_s / tm - 1).tolist()
+    row["true_mean_rev_s"] = tm.tolist()
+    row["est_mean_rev_s"] = est.common_rev_s.tolist()
     row["rotor_err"] = (est.speeds_rev_s / np.sort(tru, axis=1) - 1).tolist()
     row["z"] = ((est.common_rev_s - tm) / est.common_std_rev_s).tolist()
     row["separated"] = est.separated.tolist()
