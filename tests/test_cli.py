@@ -112,3 +112,15 @@ def test_figures_write_pngs(tmp_path, rng, ulog_path):
     lo, hi = im.get_clim()
     assert hi - lo == 40 and ax.get_ylabel().startswith("Doppler")
     plt.close(fig)
+
+
+def test_fig8_track_stays_away_from_radar_for_paper_length_logs():
+    """The paper profile's logs run ~200 s; Fig. 8's approaching track (4 m/s on
+    average) must keep a positive range over the whole log (it went negative after
+    150 s from 600 m)."""
+    from microdoppler import figures
+
+    for dur in (6.0, 150.0, 400.0):
+        tr = figures._wavy_track(dur)
+        assert tr.time_s[-1] == pytest.approx(dur)
+        assert np.all(tr.range_m > 50.0), dur

@@ -66,8 +66,12 @@ def plot_spectrogram(ax, spec: Spectrogram, *, dynamic_range_db: float = 60.0, t
     return im
 
 
-def _wavy_track(duration_s: float, range_m: float = 600.0) -> Track:
-    """An arbitrary smooth radial-velocity profile (Fig. 2 uses one): v = -4 + 2 sin(2 pi t / 12) m/s."""
+def _wavy_track(duration_s: float, range_m: float | None = None) -> Track:
+    """An arbitrary smooth radial-velocity profile (Fig. 2 uses one): v = -4 + 2 sin(2 pi t / 12) m/s,
+    starting at ``range_m`` (default far enough that the approach never reaches the
+    radar: 600 m, or 100 m plus 5 m per second of a longer log)."""
+    if range_m is None:
+        range_m = max(600.0, 100.0 + 5.0 * duration_s)
     t = np.linspace(0.0, duration_s, max(16, int(duration_s * 4)))
     r = range_m - 4.0 * t - 2.0 * 12 / (2 * np.pi) * (1 - np.cos(2 * np.pi * t / 12))
     return Track(t, r)
