@@ -116,13 +116,19 @@ def draw_params(cause: str, rng: np.random.Generator) -> dict:
 
 
 def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s: float,
-              high_share: float, causes: list[str] | None = None) -> list[dict]:
+              high_share: float, causes: list[str] | None = None, falloff_db: tuple | None = None,
+              generators: str = "both") -> list[dict]:
     """The flights to make, drawn from ``seed``: one dict per flight (JSON-able).
 
     ``causes``: restrict the one-cause flights and the two-cause pairs to these
     catalog causes (default: all of :data:`CAUSE_LIST`); the plan then differs from
-    the full one drawn from the same seed."""
+    the full one drawn from the same seed. ``falloff_db``: (lo, hi) [dB per
+    harmonic]: the emulator flights' sideband fall-off is drawn log-uniformly in it
+    (default: the emulator's own draw, ``world.FALLOFF_DB``), from a generator of its
+    own (the rest of the plan is the same). ``generators``: ``both`` (alternating),
+    ``emulator`` or ``independent`` only."""
     rng = np.random.default_rng(seed)
+    rng_falloff = np.random.default_rng([seed, 0xFA11])
     cause_list = list(CAUSE_LIST) if not causes else [c for c in CAUSE_LIST if c in causes]
     groups: list[tuple[str, list[str]]] = []
     for c in cause_list:
@@ -140,7 +146,7 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
         # two-cause flights, the clean flights); each generator's radars alternate
         key = kind if kind != "one" else causes[0]
         k = count[key] = count.get(key, -1) + 1
-        gen = ["emulator", "independent"][k % 2]
+        gen = ["emulator", "independent"][k % 2] if generators == "both" else generators
         j = count[gen] = count.get(gen, -1) + 1
         radar = {"emulator": ["radar1", "radar2"], "independent": ["gen_l", "gen_s"]}[gen][j % 2]
         hi = rng.uniform() < high_share
@@ -152,6 +158,9 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
             p.update(drone_model=str(rng.choice(["inspire2", "matrice300"])),
                      mean_range_m=float(rng.uniform(1000, 3000)), height_m=float(rng.choice([60.0, 80.0, 100.0])),
                      speed_mps=float(rng.uniform(3, 12)), direction=int(rng.choice([1, -1])))
+            if falloff_db is not None:
+                lo, hi = np.log(falloff_db[0]), np.log(falloff_db[1])
+                p["harmonic_falloff_db"] = float(np.exp(rng_falloff.uniform(lo, hi)))
         else:
             p.update(drone_model="gen_quad", speed_mps=float(rng.uniform(5, 20)))
             if "phase_noise" in p["effects"]:
@@ -168,7 +177,7 @@ def _make(p: dict, nominal_snr_db: float):
         spec = FlightSpec(p["flight_id"], "drone", drone_model=p["drone_model"], radar_id=p["radar"],
                           duration_s=p["duration_s"], mean_range_m=p["mean_range_m"], height_m=p["height_m"],
                           speed_mps=p["speed_mps"], direction=p["direction"], snr_db=nominal_snr_db,
-                          effects=p["effects"], seed=p["seed"])
+                          effects=p["effects"], seed=p["seed"], harmonic_falloff_db=p.get("harmonic_falloff_db"))
         flight, _ = emulate_flight(spec)
         return flight
     eff = {c: dict(v) for c, v in p["effects"].items()}
@@ -300,6 +309,7 @@ def evaluate_flight(p: dict) -> dict:
             errors[f"{c}.{k}"] = {"error": err, "ok": ok, "truth": truth[k], "fit": fits[c][k]}
     add_ideal(errors, p)
     return {**{k: p[k] for k in ("flight_id", "kind", "generator", "radar", "drone_model", "effects", "duration_s")},
+            "harmonic_falloff_db": p.get("harmonic_falloff_db"),
             "true": sorted(p["effects"]), "named": named, "fits": fits, "reason": reason,
             "snr_db": round(snr, 2), "target_snr_db": round(target, 2), "snr_tries": tries,
             "pn_floor_rise_db": None if rise is None else round(rise, 2), "errors": errors,
@@ -548,7 +558,9 @@ def resummarise(a) -> int:
     rows, seed = data["rows"], data["seed"]
     plan = {p["flight_id"]: p for p in make_plan(seed, data["args"]["flights_per_cause"], data["args"]["two_cause"],
                                                   data["args"]["clean"], data["args"]["duration_s"],
-                                                  data["args"]["high_snr_share"], data["args"].get("causes"))}
+                                                  data["args"]["high_snr_share"], data["args"].get("causes"),
+                                                  data["args"].get("falloff_db"),
+                                                  data["args"].get("generators", "both"))}
     for r in rows:
         p = plan[r["flight_id"]]
         r.setdefault("duration_s", p["duration_s"])
@@ -574,6 +586,11 @@ def main(argv=None) -> int:
     ap.add_argument("--causes", type=lambda v: [c for c in v.split(",") if c], default=None,
                     help="comma-separated catalog causes to restrict the one- and two-cause flights to "
                          "(default: all); e.g. sideband_fading,body_fluctuation")
+    ap.add_argument("--falloff-db", type=lambda v: tuple(float(x) for x in v.split(",")), default=None,
+                    metavar="LO,HI", help="draw the emulator flights' sideband fall-off per harmonic log-uniformly "
+                                          "in LO-HI dB (default: the emulator's own draw, 4-16 dB); e.g. 10,16")
+    ap.add_argument("--generators", choices=("both", "emulator", "independent"), default="both",
+                    help="which generator makes the flights (default both, alternating)")
     ap.add_argument("--json", default="", help="write the per-flight rows and the summary here")
     ap.add_argument("--markdown", default="", help="write the tables here")
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
@@ -592,12 +609,15 @@ def main(argv=None) -> int:
         ap.error(f"--high-snr-share={a.high_snr_share} must be in [0, 1]")
     if a.workers < 1:
         ap.error(f"--workers={a.workers} must be >= 1")
+    if a.falloff_db is not None and not (len(a.falloff_db) == 2 and 0 < a.falloff_db[0] <= a.falloff_db[1]):
+        ap.error(f"--falloff-db={a.falloff_db}: expected LO,HI with 0 < LO <= HI [dB]")
     unknown = sorted(set(a.causes or []) - set(CAUSE_LIST))
     if unknown:
         ap.error(f"--causes: {unknown} not in the catalog {CAUSE_LIST}")
     seed = a.seed if a.seed is not None else secrets.randbits(32)
     print(f"seed {seed} (rerun: --seed {seed})", flush=True)
-    plan = make_plan(seed, a.flights_per_cause, a.two_cause, a.clean, a.duration_s, a.high_snr_share, a.causes)
+    plan = make_plan(seed, a.flights_per_cause, a.two_cause, a.clean, a.duration_s, a.high_snr_share, a.causes,
+                     a.falloff_db, a.generators)
     n = len(plan)
     if n == 0:
         ap.error("no flights planned")

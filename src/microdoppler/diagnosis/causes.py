@@ -25,16 +25,18 @@ scores: both folds held observations, each was scored with parameters fitted on 
 other alone, the scores are finite, and no fit borrowed data outside its fold (the
 fading test's within-CPI scatter falls back to the whole flight when a fold has too
 few multi-harmonic CPIs). Only held-out tests can be significant. The shared
-preprocessing (linear trend in time and log range, the body's moving average) is
-computed once on the whole flight and is the same for both models.
+preprocessing (linear trend in time and log range, the body's moving average, the
+rotor-speed tilt of the harmonics, fitted where a common gain cancels) is computed
+once on the whole flight and is the same for both models.
 
 Statistics (per CPI) and models:
 
 - ``sideband_asymmetry``: d = 10 log10(upper / lower sideband power) over the usable
   harmonic pairs; baseline N(0, s^2), extension N(a, s^2).
 - ``sideband_fading``: mean over the harmonics (pairs counted by their summed power)
-  of each pair's power relative to its median [dB], detrended for time and range;
-  baseline N(0, within-CPI scatter / K + m^2), extension adds a fitted variance.
+  of each pair's power relative to its median [dB], with the paper's envelope's
+  tilt by the rotor speed taken out (:func:`speed_tilt`), detrended for time and
+  range; baseline N(0, within-CPI scatter / K + m^2), extension adds a fitted variance.
 - ``body_fluctuation``: body power [dB], detrended, same models.
 - ``motor_log_lag`` / ``motor_speed_scale``: y = ln(measured HERM spacing / the one the
   log predicts at that CPI); baseline N(0, s^2), lag N(ln f(t+lag)/f(t), s^2), scale
@@ -238,8 +240,20 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
 def test_fading(M, cfg, fold, calib) -> CauseTest:
     """Common-mode (random-effects) test: a fading gain moves every harmonic together,
     while the paper's model leaves each harmonic's power to vary on its own (beats of
-    the rotors' lines, speed changes). The baseline variance of the CPI's mean
-    harmonic power [dB] is the within-CPI scatter across harmonics / K."""
+    the rotors' lines). The baseline variance of the CPI's mean harmonic power [dB]
+    is the within-CPI scatter across harmonics / K.
+
+    The paper's envelope exp(-alpha |f|) also moves the harmonics with the rotor
+    speed, harmonic n by n beta u dB for a speed change u (:func:`speed_tilt`): that
+    is not independent across the harmonics, and their mean moves by n_mean beta u,
+    which the within-CPI scatter does not see. It is the paper's model (alpha
+    calibrated on the flight, :func:`envelope_tilt`), so it is taken out of every
+    harmonic before the statistic is formed (both models). With a steep fall-off it
+    is large: 10 dB per harmonic beyond the wire's own roll-off at the hover speed f0
+    (60 rev/s) gives beta = -10 dB / f0 = -0.16 dB per rev/s, so a speed std of 4-5
+    rev/s moves the mean of harmonics 1-3 by 1.3-1.6 dB: clean flights of the
+    world v2 (fall-off 10-16 dB, sidebands ending after one or two pairs) showed a
+    held-out log e-value of 10-40 without it (-1 to 5 with it; threshold 7.1)."""
     res = CauseTest("sideband_fading", statistic="mean sideband-pair power [dB], common to all harmonics")
     use = usable_pair_sums(M, cfg)
     ok = M.pair_ok & use[None, :] & (M.up + M.lo > 0)
@@ -255,6 +269,8 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
         res.testable = False
         res.evidence = {"reason": "fewer than 2 usable sideband pairs"}
         return res
+    beta, u = speed_tilt(M, x, ok, m, use)
+    x = x - beta * np.asarray(M.harm, float)[None, :] * u[:, None]
     c = np.nanmean(np.where(ok, x, np.nan)[m], axis=1)
     dev = (np.where(ok, x, np.nan)[m] - c[:, None])
     Km = K[m].astype(float)
@@ -287,7 +303,8 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     meas_sd = float(np.sqrt(s2))
     # size and correlation time jointly, from the variogram of the common-mode series
     # with the rotor-speed tilt taken out (fading_estimate)
-    est = fading_estimate(M, x, ok, m)
+    est = fading_estimate(M, x, ok, m, beta=0.0)  # x has the tilt out already
+    est["speed_tilt_db"] = beta
     true_sd = float(est["sigma_db"]) if s2 > 0 else 0.0
     tau = float(est["timescale_s"]) if true_sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
     res.params = {"fading_std_db": true_sd, "timescale_s": tau}
@@ -304,7 +321,86 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     return res
 
 
-def fading_estimate(M, x, ok, m) -> dict:
+def _speed_tilt_fit(M, x, ok, m):
+    """(beta, u [n_t], Y [n_t, N], V [n_t, N]): each harmonic's series ``x`` [dB]
+    detrended in time and log range (Y, valid where V), the motor log's mean speed
+    likewise (u [rev/s], 0 off ``m``), and the slope beta of Y on n u
+    (:func:`.timescales.harmonic_speed_slope`)."""
+    t, r = M.t_s, M.range_m
+    n_t, N = x.shape
+    Y = np.zeros((n_t, N))
+    V = np.zeros((n_t, N), bool)
+    for k in range(N):
+        v = m & ok[:, k]
+        if v.sum() >= 4:
+            Y[v, k] = _detrend(x[v, k], t[v], r[v])
+            V[:, k] = v
+    u = np.zeros(n_t)
+    if m.sum() >= 4:
+        u[m] = _detrend(np.asarray(M.f_log_hz, float)[m], t[m], r[m])
+    return harmonic_speed_slope(Y, V, np.asarray(M.harm, float), u), u, Y, V
+
+
+def measured_speed(M) -> np.ndarray:
+    """Mean rotor speed [rev/s] per CPI as the measured HERM line spacing shows it:
+    the motor log's (CPI-averaged) times the measured / logged spacing (``M.dil``,
+    interpolated in time over the CPIs where it was matched, ``M.dil_ok``); the log's
+    alone where fewer than 4 CPIs matched. A late or scaled log (motor_log_lag,
+    motor_speed_scale) leaves it unchanged: the envelope's tilt follows the rotors'
+    true speed, not the log's."""
+    f = np.asarray(M.f_log_hz, float)
+    d = np.asarray(M.dil, float)
+    good = np.asarray(M.dil_ok, bool) & np.isfinite(d) & (d > 0)
+    if good.sum() < 4:
+        return f
+    return f * np.interp(M.t_s, M.t_s[good], d[good])
+
+
+def envelope_tilt(M, use) -> float:
+    """The paper's envelope exp(-alpha |f|) as a tilt of the harmonics by the rotor
+    speed: harmonic n's sideband-pair power moves by n beta u dB for a change u
+    [rev/s] of the rotor speed, beta = -20 log10(e) alpha B [dB per harmonic number
+    per rev/s] (B blades). alpha is the paper's, calibrated on this flight like
+    ``core._calibrate`` but on the pairs' summed power (the harmonics ``use``): the
+    slope of each harmonic's median measured / model power [dB] (the model without
+    envelope, so the wire's own roll-off is out) over its frequency n B f (f the
+    median logged speed), clipped to a decaying envelope (beta <= 0). A fading is
+    common to all the harmonics and leaves the medians' slope alone.
+
+    Not fitted to the fluctuations: on flights whose sidebands end after one or two
+    pairs, the slope of the harmonics' deviations from their CPI mean on the speed
+    (:func:`.timescales.harmonic_speed_slope`) rests on the few CPIs where two pairs
+    are seen at once, and on the paper world's steep fall-offs came out up to twice
+    the measured per-harmonic slope (-0.31 against -0.14 to -0.19 dB per rev/s and
+    harmonic number, calibrated -0.15), which left the speed in the common mode."""
+    hbar = float(np.median(measured_speed(M))) * M.info["n_blades"]
+    ks, g = [], []
+    for k in np.flatnonzero(use):
+        mk = M.valid & M.pair_ok[:, k] & (M.model_h[:, k] > 0) & (M.up[:, k] + M.lo[:, k] > 0)
+        if mk.sum() >= 4:
+            ks.append(k)
+            g.append(float(np.median((M.up[mk, k] + M.lo[mk, k]) / (2 * M.model_h[mk, k]))))
+    if len(ks) < 2 or not hbar > 0:
+        return 0.0
+    slope = np.polyfit(np.asarray(M.harm, float)[ks] * hbar, DB * np.log(g), 1)[0]  # dB per Hz
+    return float(min(slope, 0.0) * M.info["n_blades"])
+
+
+def speed_tilt(M, x, ok, m, use) -> tuple[float, np.ndarray]:
+    """The paper's envelope seen in the harmonics' sideband-pair powers ``x`` [dB,
+    n_t x N] (valid where ``ok``, CPIs ``m``, harmonics ``use``): harmonic n moves by
+    n beta u dB for a change u [rev/s] of the rotors' mean speed (the measured one,
+    :func:`measured_speed`, so that a late or scaled log does not enter the fading
+    statistic; detrended in time and log range like the statistic). Returns (beta
+    (:func:`envelope_tilt`), u [n_t] (0 off ``m``))."""
+    t, r = M.t_s, M.range_m
+    u = np.zeros(len(t))
+    if m.sum() >= 4:
+        u[m] = _detrend(measured_speed(M)[m], t[m], r[m])
+    return envelope_tilt(M, use), u
+
+
+def fading_estimate(M, x, ok, m, beta: float | None = None) -> dict:
     """Size [dB] and 1/e correlation time [s] of the fading, jointly
     (:func:`.timescales.fit_gain_process` on the CPI grid: analytic CPI-window
     averaging), from the harmonics' sideband-pair powers ``x`` [dB, n_t x N] (valid
@@ -313,8 +409,10 @@ def fading_estimate(M, x, ok, m) -> dict:
     Each harmonic's series is detrended linearly in time and log range. Then the
     rotor-speed tilt is taken out: under the paper's envelope exp(-alpha |f|) a
     change u of the mean rotor speed (the motor log's, CPI-averaged) moves harmonic
-    n's power by n beta u dB; beta is fitted on the harmonics' deviations from their
-    CPI mean, where a common gain cancels (:func:`.timescales.harmonic_speed_slope`).
+    n's power by n beta u dB; beta is the given one (``test_fading`` passes the
+    calibrated envelope's, :func:`envelope_tilt`, on ``x`` with the tilt already
+    out: ``beta=0``), else fitted on the harmonics' deviations from their CPI mean,
+    where a common gain cancels (:func:`.timescales.harmonic_speed_slope`).
     Without it, the speed changes of a flight (a few % of the rotor speed, over
     seconds) enter the common-mode series as a second fluctuation that is not the
     fading, and shorten its fitted time. The fit reads the variogram of the mean
@@ -327,17 +425,8 @@ def fading_estimate(M, x, ok, m) -> dict:
     t, r = M.t_s, M.range_m
     n_t, N = x.shape
     harm = np.asarray(M.harm, float)
-    Y = np.zeros((n_t, N))
-    V = np.zeros((n_t, N), bool)
-    for k in range(N):
-        v = m & ok[:, k]
-        if v.sum() >= 4:
-            Y[v, k] = _detrend(x[v, k], t[v], r[v])
-            V[:, k] = v
-    u = np.zeros(n_t)
-    if m.sum() >= 4:
-        u[m] = _detrend(np.asarray(M.f_log_hz, float)[m], t[m], r[m])
-    beta = harmonic_speed_slope(Y, V, harm, u)
+    fitted, u, Y, V = _speed_tilt_fit(M, x, ok, m)
+    beta = fitted if beta is None else float(beta)
     Y = np.where(V, Y - beta * harm[None, :] * u[:, None], 0.0)
     Kt = V.sum(axis=1)
     mm = m & (Kt >= 1)

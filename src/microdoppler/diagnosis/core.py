@@ -402,7 +402,8 @@ def run_tests(flight, motor_log: MotorLog, cfg: DiagnosisConfig):
 #: ratio of upper to lower sidebands (a common blade gain, i.e. fading, cancels); the
 #: fading statistic is the common-mode sideband power relative to each harmonic's
 #: median (a constant per-side gain, i.e. asymmetry, cancels, and so do lag and
-#: scale, since the sidebands are read where the measured lines are); the body
+#: scale, since the sidebands are read where the measured lines are and the
+#: envelope's speed tilt is taken out at the measured speed); the body
 #: statistic reads the body line only; the phase-noise likelihood keeps the body's
 #: own skirt (a fluctuating body) and the wind-blown clutter in both models.
 COUPLED = {"motor_log_lag": {"motor_speed_scale"}, "motor_speed_scale": {"motor_log_lag"}}

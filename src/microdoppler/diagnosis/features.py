@@ -61,6 +61,24 @@ def stft_power(iq: np.ndarray, prf_hz: float, n_fft: int, overlap: float = 0.5) 
     return Stft(p, t, f, w)
 
 
+def noise_power_factor(window: np.ndarray) -> float:
+    """kappa = n sum(w^4) / (sum w^2)^2 of the analysis window ``w`` [n] (2.76 for
+    Blackman-Harris): the factor by which the periodogram's noise in a band of bins
+    varies more than independent bins would.
+
+    The power of a line summed over the band of bins that holds it, minus the
+    band's noise, P = sum_k |S_k + N_k|^2 - n_b fl (fl the mean noise per bin), has
+    variance kappa (2 P fl + n_b fl^2): the cross term sum_k 2 Re(S_k N_k*) is
+    2 Re(n sum_t w_t^2 s_t nu_t*) (Parseval, the band holding the line), of variance
+    2 n^2 sigma^2 sum(w^4 |s|^2) = kappa 2 P fl for a line of constant amplitude; and
+    the window makes neighbouring bins' noise correlated, sum_d |rho_d|^2 = kappa
+    (Parseval again), so the noise term's variance is kappa n_b fl^2. Independent
+    bins (kappa = 1) understate the std of the band power by sqrt(2.76) = 1.66 for
+    Blackman-Harris (checked by simulation: 2.5-3.0 at 15-40 dB)."""
+    w2 = np.asarray(window, float) ** 2
+    return float(len(w2) * np.sum(w2 ** 2) / np.sum(w2) ** 2)
+
+
 def cpi_average(t_s: np.ndarray, x: np.ndarray, cpi_t: np.ndarray, window: np.ndarray, prf_hz: float,
                 n_points: int = 64) -> np.ndarray:
     """Average of the series ``x(t)`` over each CPI, weighted by the window's power

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..motorlog import MotorLog
-from .features import (DB, Stft, band_power, body_doppler, cpi_average, local_floor, refine_peak,
-                       simulate_blades, stft_power)
+from .features import (DB, Stft, band_power, body_doppler, cpi_average, local_floor, noise_power_factor,
+                       refine_peak, simulate_blades, stft_power)
 
 
 @dataclass
@@ -27,7 +27,7 @@ class Measurements:
     valid: np.ndarray            # bool: CPI usable (body clear of clutter, no artifact, within the log)
     f_body_hz: np.ndarray
     body_pow: np.ndarray         # noise-subtracted body power (periodogram units)
-    body_sd_db: np.ndarray       # noise-only std of 10 log10 body_pow
+    body_sd_db: np.ndarray       # noise std of 10 log10 body_pow (floor at the body: body_floor_ratio)
     floor: np.ndarray            # far noise floor per bin
     range_m: np.ndarray
     f_log_hz: np.ndarray         # CPI-average of the log's mean motor speed [rev/s]
@@ -88,12 +88,60 @@ def _dilation(st: Stft, sim: Stft, f_body, h0, n_harm, s_grid, floor, clutter_hz
     return out, q
 
 
+def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cfg,
+                     smooth_cpis: int = 2) -> np.ndarray:
+    """Floor at the body's distance from the clutter line relative to the far noise
+    floor, per CPI (>= 1) [n_t]: the median / ln 2 of the bins whose |f| is within
+    ``3 body_half_hz`` of |f_b| (both sides of the clutter line), off the target
+    (farther than ``body_half_hz + pn_body_guard_hz`` from the body and than
+    ``pn_line_guard_frac`` x the HERM spacing ``spacing_hz`` [n_t] from its lines,
+    as in the phase-noise test) and off the clutter line (``clutter_guard_hz``),
+    over the median / ln 2 of the whole spectrum; within ``6 body_half_hz`` when
+    fewer than 4 bins qualify, 1 when still fewer; averaged over +-``smooth_cpis``.
+
+    The body's band holds, besides the body, whatever random floor lies there: the
+    thermal noise, and near the clutter line the wind-blown clutter's skirt (10-20 dB
+    above the thermal floor at 20-50 Hz on radar 2's site) and the skirt a radar's
+    phase noise spreads around the clutter line (about +20 dB at 100 Hz for 0.008 rad
+    rms on radar 1, case 111 of tests/test_diagnosis.py). Both are random processes:
+    they scatter the band's power like a raised floor, which the far floor does not
+    show (body SNR 21-36 dB flights near the clutter named a white body_fluctuation).
+    Both are functions of the distance from the clutter line, so they are read at
+    the body's distance, off the body's own skirt (a fast fluctuation spreads its
+    line: 4.5 dB at 0.08 s raises the bins next to the band ~15 dB at 44 dB SNR) and
+    off the blade lines, which are no floor."""
+    n_t = len(f_body_hz)
+    far = np.median(st.p, axis=1) / np.log(2.0)
+    f = st.f_hz
+    half = cfg.body_half_hz
+    clear = np.abs(f) > cfg.clutter_guard_hz
+    r = np.ones(n_t)
+    for i in range(n_t):
+        fb, sp = f_body_hz[i], spacing_hz[i]
+        keep = clear & (np.abs(f - fb) > half + cfg.pn_body_guard_hz)
+        if np.isfinite(sp) and sp > 0:
+            for n in range(1, 16):
+                for sg in (1, -1):
+                    keep &= np.abs(f - (fb + sg * n * sp)) > cfg.pn_line_guard_frac * sp
+        dist = np.abs(np.abs(f) - abs(fb))
+        for width in (3 * half, 6 * half):
+            sel = keep & (dist <= width)
+            if sel.sum() >= 4:
+                if far[i] > 0:
+                    r[i] = float(np.median(st.p[i, sel])) / np.log(2.0) / far[i]
+                break
+    k = np.ones(2 * smooth_cpis + 1)
+    r = np.convolve(r, k, mode="same") / np.convolve(np.ones(n_t), k, mode="same")
+    return np.maximum(r, 1.0)
+
+
 #: short analysis windows of the body power series tried [pulses] (``n_fft / d``)
 FINE_DIVISORS = (8, 4, 2)
 
 
 def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray, valid_cpi: np.ndarray,
-                    n_fft: int, range_t_s=None, range_m=None, min_fraction: float = 0.4) -> dict:
+                    n_fft: int, range_t_s=None, range_m=None, min_fraction: float = 0.4,
+                    floor_ratio: np.ndarray | None = None) -> dict:
     """Body power in short windows (Blackman-Harris, 50 % overlap): the body line is
     strong, so its power can be read far faster than the CPI and a fluctuation's
     correlation time resolved down to ~0.05 s.
@@ -109,6 +157,10 @@ def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray,
     ``noise_var_db2`` [m], ``valid`` [m] (the nearest CPI valid, the body clear of
     the clutter and its power > 3 noise std), ``window``, ``hop_s``, ``range_m`` [m],
     ``n_window`` [pulses].
+
+    The noise of a window's band power is that of the floor around the body: the
+    far floor times ``floor_ratio`` [n_cpi] (:func:`body_floor_ratio`, of the
+    nearest CPI; default 1), through the window (:func:`.features.noise_power_factor`).
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -126,8 +178,9 @@ def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray,
         s = sum(st.p[rows, jc + k] for k in range(-2, 3))
         nb = 5.0
         pw = s - nb * floor
-        var = 2 * np.maximum(pw, 0) * floor + nb * floor ** 2
         near = np.clip(np.searchsorted(t_cpi, st.t_s), 0, len(t_cpi) - 1)
+        fl = floor * (floor_ratio[near] if floor_ratio is not None else 1.0)
+        var = noise_power_factor(st.window) * (2 * np.maximum(pw, 0) * fl + nb * fl ** 2)
         base = valid_cpi[near]
         ok = base & (pw > 3 * np.sqrt(var)) & (np.abs(fb) > 4.5 * df + 10.0)
         y = DB * np.log(np.maximum(pw, 1e-30))
@@ -158,12 +211,10 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     f_body = refine_peak(st, f_trk, cfg.body_search_hz)
     body_valid = np.abs(f_body) > cfg.clutter_guard_hz + cfg.body_half_hz
     body_pow = np.empty(n_t)
-    body_sd = np.empty(n_t)
+    body_nb = np.empty(n_t)
     for i in range(n_t):
-        s, nb = band_power(st.p[i], st, f_body[i], cfg.body_half_hz)
-        body_pow[i] = s - nb * floor[i]
-        var = 2 * max(body_pow[i], 0) * floor[i] + nb * floor[i] ** 2
-        body_sd[i] = DB * np.sqrt(var) / max(body_pow[i], 1e-30)
+        s, body_nb[i] = band_power(st.p[i], st, f_body[i], cfg.body_half_hz)
+        body_pow[i] = s - body_nb[i] * floor[i]
     # the paper's model (blades only, body-relative, alpha = 0)
     sim_iq, rev = simulate_blades(log, len(iq), prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
                                   blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=cfg.seed)
@@ -178,6 +229,13 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     dil, q = _dilation(st, sim, f_body, h0, cfg.n_match_harmonics, s_grid, floor, cfg.clutter_guard_hz)
     dil_ok = np.isfinite(dil) & (q > cfg.min_match) & ~art
     dil_f = np.where(np.isfinite(dil), dil, np.nanmedian(dil) if np.isfinite(dil).any() else 1.0)
+    # the random part of the body band's power: the floor at the body's distance from
+    # the clutter line, off the target (body_floor_ratio), through the window
+    # (noise_power_factor)
+    fl_ratio = body_floor_ratio(st, f_body, h0 * dil_f, cfg)
+    fl_body = floor * fl_ratio
+    var = noise_power_factor(st.window) * (2 * np.maximum(body_pow, 0) * fl_body + body_nb * fl_body ** 2)
+    body_sd = DB * np.sqrt(var) / np.maximum(body_pow, 1e-30)
     # sidebands
     N = cfg.n_harmonics
     harm = np.arange(1, N + 1)
@@ -223,7 +281,8 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     # CPIs outside the motor log's span: the log's speeds there are unknown
     in_log = (st.t_s >= log.time_s[0]) & (st.t_s <= log.time_s[-1])
     valid = body_valid & ~art & in_log
-    fine = body_power_fine(iq, prf, st.t_s, f_body, valid, n_fft, flight.track_time_s, flight.track_range_m)
+    fine = body_power_fine(iq, prf, st.t_s, f_body, valid, n_fft, flight.track_time_s, flight.track_range_m,
+                           floor_ratio=fl_ratio)
     return Measurements(st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
                         up, lo, up_sd, lo_sd, ok, model_h, log=log, stft=st, bg_stft=bg, sim_stft=sim,
                         info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()), "match_q": float(np.nanmedian(q))},
