@@ -433,6 +433,14 @@ def test_motor_model_calibrated_against_real_log(capsys, ulog_path):
         assert 0.4 <= r.ratio <= 2.5, (r.metric, r.real, r.emulated_mean)
 
 
+def test_calibration_default_log_is_the_shared_one(ulog_path):
+    """``python -m microdoppler.emulator.calibration`` without an argument reads the
+    real log from ../shared beside the repository (it once looked one level too high)."""
+    from microdoppler.emulator.calibration import DEFAULT_ULOG
+
+    assert DEFAULT_ULOG.resolve() == ulog_path.resolve()
+
+
 def test_motor_stats_detect_spread(rng):
     from microdoppler.emulator.calibration import motor_stats
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-DEFAULT_ULOG = Path(__file__).resolve().parents[4] / ".." / "shared" / "data" / "motor-logs" / "px4_esc_status.ulg"
+DEFAULT_ULOG = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "motor-logs" / "px4_esc_status.ulg"
 METRICS = ("spread_rel", "fluct_1s_rel", "fluct_5s_rel", "step_rel", "psd_low_frac")
 
 
