@@ -524,10 +524,14 @@ def test_config_direct_construction_and_split_settings():
 
     section = yaml.safe_load((REPO / "config" / "config.yaml").read_text())["diagnosis"]
     pipe, cfg = split_settings(section, source="config/config.yaml")
-    assert pipe == {"sets": section["sets"], "min_fraction": section["min_fraction"]}
+    assert pipe == {"sets": section["sets"], "population_sets": section["population_sets"],
+                    "min_fraction": section["min_fraction"]}
     assert cfg.alpha == section["alpha"] and cfg.block_cpis == section["block_cpis"]
-    assert split_settings(None) == ({"sets": ["train"], "min_fraction": 0.25}, DiagnosisConfig())
+    assert split_settings(None) == ({"sets": ["train", "validation", "test"], "population_sets": ["train"],
+                                     "min_fraction": 0.25}, DiagnosisConfig())
     for bad, field in [({"sets": "train"}, "diagnosis.sets"), ({"sets": ["training"]}, "diagnosis.sets[0]"),
+                       ({"sets": ["test"]}, "diagnosis.population_sets[0]"),
+                       ({"population_sets": ["val"]}, "diagnosis.population_sets[0]"),
                        ({"min_fraction": 2}, "diagnosis.min_fraction"), ({"alpha": 0}, "diagnosis.alpha"),
                        ({"min_frac": 0.1}, "diagnosis.min_frac")]:
         with pytest.raises(ConfigError) as exc:

@@ -137,6 +137,14 @@ def test_write_twin_extensions_from_report_and_split(tmp_path):
     assert "i3" not in ext.flights and ext.flights["m1"]["drone_model"] == "matrice300"
     back = load_twin_extensions(tmp_path / "extended.yaml")
     assert back.mode == "per_flight" and back.flights == ext.flights
+    # every set diagnosed (the default), population from train only: the test flight's
+    # twin carries its own causes, but its causes are not in the population
+    both = write_twin_extensions(report, split, tmp_path / "extended2.yaml", settings={}, mode="per_flight")
+    assert both.flights["i3"] == aggregate_twins(_report(), MODELS).flights["i3"]
+    assert both.meta["population_sets"] == ["train"] and both.meta["n_population_flights"] == 5
+    assert both.population == ext.population
+    everything = aggregate_twins(_report(), MODELS)
+    assert everything.population != ext.population  # i3 would have changed it
 
 
 @pytest.mark.parametrize("mutate, field", [

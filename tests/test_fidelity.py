@@ -172,6 +172,30 @@ def test_table_resolves_a_real_difference(rng):
     assert row["floor_db_resolved"] and row["floor_db_ci95_high"] < -1.5 and abs(row["floor_db_mean"] + 2) < 0.1
 
 
+def test_extended_rows_per_extension_source(rng):
+    """Twins carrying their own flight's causes get closer, population-drawn ones do not:
+    the per-source rows separate what the mixed ``extended - sub_cpi`` row blurs."""
+    rows = []
+    for i in range(24):
+        base = rng.uniform(1, 3, len(fidelity.DISTANCES))
+        own = i % 2 == 0
+        for v, shift, src in (("sub_cpi", 0.0, ""), ("extended", -1.0 if own else 0.3, "own" if own else "population")):
+            d = base + shift + 0.05 * rng.standard_normal(len(base))
+            rows.append({"flight_id": f"f{i}", "variant": v, "extension_source": src,
+                         **dict(zip(fidelity.DISTANCES, d))})
+    t = fidelity.fidelity_table(pd.DataFrame(rows), n_boot=400, seed=1).set_index("variant")
+    assert list(t.index[-2:]) == ["extended [own] - sub_cpi", "extended [population] - sub_cpi"]
+    own, pop, mixed = t.loc["extended [own] - sub_cpi"], t.loc["extended [population] - sub_cpi"], t.loc["extended - sub_cpi"]
+    assert own["n_flights"] == 12 and pop["n_flights"] == 12 and mixed["n_flights"] == 24
+    assert own["asymmetry_db_resolved"] and own["asymmetry_db_ci95_high"] < -0.9
+    assert pop["asymmetry_db_resolved"] and pop["asymmetry_db_ci95_low"] > 0.2
+    assert abs(mixed["asymmetry_db_mean"] - (-0.35)) < 0.05
+    # one source only (or no column): no extra rows
+    one = pd.DataFrame(rows)
+    one["extension_source"] = "own"
+    assert not fidelity.fidelity_table(one, n_boot=50, seed=1).variant.str.contains(r"\[").any()
+
+
 def test_scoring_mask_is_the_complement_of_the_fit_fold():
     cfg = calibration.CalibrationConfig(holdout_block_cpis=8)
     fit = cfg.fit_mask(41)

@@ -311,11 +311,12 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
         mask, held_out = scoring_mask(dict(g.attrs.get("calibration", {})), len(twin.time_s))
         d = distances(cache[fid], twin, mask, cfg)
         rows.append({"flight_id": fid, "variant": variant, "drone_model": g.attrs.get("drone_model", ""),
-                     "held_out": held_out, "n_cpis_scored": int(mask.sum()), **d})
+                     "held_out": held_out, "n_cpis_scored": int(mask.sum()),
+                     "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d})
         log(f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
             + " ".join(f"{k}={v:.3g}" for k, v in d.items()))
     return pd.DataFrame(rows, columns=["flight_id", "variant", "drone_model", "held_out", "n_cpis_scored",
-                                       *DISTANCES])
+                                       "extension_source", *DISTANCES])
 
 
 def _order(variants) -> list[str]:
@@ -334,6 +335,13 @@ def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int 
     the difference of the two twins' distances (negative = a closer to the
     measurement) of :func:`pairs`, its mean, interval from the same draws, and
     ``m_resolved`` (the interval excludes 0).
+
+    Where the ``extended`` twins' extensions came from more than one source (column
+    ``extension_source``: ``own`` = their own flight's diagnosed causes, ``population``
+    = drawn per drone model for flights the diagnosis did not cover, ``skipped`` =
+    none), rows ``extended [<source>] - sub_cpi`` give the paired difference over the
+    flights of each source (same draws): the gain of carrying a flight's own
+    discrepancies is the ``own`` row, not the mixture.
     """
     cols = ["variant", "n_flights"] + [f"{m}_{s}" for m in DISTANCES for s in ("mean", "ci95_low", "ci95_high",
                                                                                "resolved")]
@@ -364,7 +372,29 @@ def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int 
             row.update({f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)})
             row["n_flights"] = max(row.get("n_flights", 0), n)
         rows.append(row)
+    for src, keep in _extension_sources(per_flight, flights):
+        row = {"variant": f"extended [{src}] - sub_cpi"}
+        for m in DISTANCES:
+            diff = table["extended"][m].to_numpy(float) - table["sub_cpi"][m].to_numpy(float)
+            mean, lo, hi, n = stats(np.where(keep, diff, np.nan))
+            row.update({f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)})
+            row["n_flights"] = max(row.get("n_flights", 0), n)
+        rows.append(row)
     return pd.DataFrame(rows).reindex(columns=cols)
+
+
+def _extension_sources(per_flight: pd.DataFrame, flights: list) -> list[tuple[str, np.ndarray]]:
+    """(source, bool mask over ``flights``) of the extended twins, when they come from
+    two or more sources and sub_cpi twins exist; else []."""
+    if "extension_source" not in per_flight.columns or not {"extended", "sub_cpi"} <= set(per_flight["variant"]):
+        return []
+    ext = per_flight[per_flight["variant"] == "extended"].set_index("flight_id")["extension_source"]
+    src = ext.reindex(flights).fillna("").astype(str).to_numpy()
+    names = [s for s in dict.fromkeys(src) if s]
+    if len(names) < 2:
+        return []
+    order = {"own": 0, "population": 1, "skipped": 2}
+    return [(s, src == s) for s in sorted(names, key=lambda s: (order.get(s, 9), s))]
 
 
 def plot_fidelity(table: pd.DataFrame, path) -> None:

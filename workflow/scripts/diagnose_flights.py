@@ -1,4 +1,4 @@
-"""Rule diagnose_flights: diagnose the measured training drone flights that have a
+"""Rule diagnose_flights: diagnose the measured drone flights (of the `diagnosis.sets` split sets) that have a
 motor log; write the report JSON and one figure per flight."""
 
 from microdoppler.diagnosis.pipeline import diagnose_split

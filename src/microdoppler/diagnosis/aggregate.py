@@ -69,8 +69,8 @@ def aggregate(report: dict, *, min_fraction: float = 0.25, flight_ids=None) -> E
     return ExtensionSet(effects, meta)
 
 
-def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids=None, mode: str = "per_flight",
-                    source="report"):
+def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids=None, population_ids=None,
+                    mode: str = "per_flight", source="report"):
     """The ``extended`` variant's per-twin extensions (``extensions/2``) from a report.
 
     Parameters
@@ -81,7 +81,11 @@ def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids
         ``{flight_id: drone_model}`` (e.g. from the split table); a flight missing
         here is taken from the report entry's ``drone_model`` if any.
     flight_ids : iterable of str, optional
-        Only these flights (e.g. the training set).
+        Only these flights (e.g. the diagnosed split sets).
+    population_ids : iterable of str, optional
+        The per-model population is fitted on these flights only (e.g. the training
+        set, so that no test flight shapes a population-drawn training twin); default
+        every flight kept.
     mode : {"per_flight", "population"}
         How the twins pick their extensions (:mod:`microdoppler.datasets.extended`).
     source : str
@@ -130,17 +134,21 @@ def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids
             "parameters": "per_flight: each flight's own fitted parameters; population: per drone model, "
                           "incidence = fraction of its diagnosed flights naming the cause, parameters drawn "
                           "from the flights that named it"}
-    return TwinExtensions(out, fit_population(out), mode, meta)
+    pop_keep = None if population_ids is None else set(population_ids)
+    pop_flights = {f: e for f, e in out.items() if pop_keep is None or f in pop_keep}
+    meta["n_population_flights"] = sum(1 for e in pop_flights.values() if e["status"] == "diagnosed")
+    return TwinExtensions(out, fit_population(pop_flights), mode, meta)
 
 
 def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mode: str = "per_flight"):
     """``extended.yaml`` (``extensions/2``) from the report's flights in the split sets
-    of ``settings['sets']`` (the ``diagnosis:`` config section); drone models from the
-    split table. Returns the :class:`~microdoppler.datasets.extended.TwinExtensions`."""
+    of ``settings['sets']`` (the ``diagnosis:`` config section), the population from
+    those of ``settings['population_sets']``; drone models from the split table.
+    Returns the :class:`~microdoppler.datasets.extended.TwinExtensions`."""
     import json
     from pathlib import Path
 
-    from ..datasets.extended import save_twin_extensions
+    from ..datasets.extended import TwinExtensions, save_twin_extensions
     from ..errors import InputError
     from .pipeline import _training_drones, split_settings
 
@@ -152,6 +160,10 @@ def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mo
                          "a diagnosis-report/2 JSON file") from None
     drones = _training_drones(split_csv, pipe["sets"])
     models = dict(zip(drones["flight_id"].astype(str), drones.get("drone_model", [""] * len(drones))))
-    ext = aggregate_twins(report, models, flight_ids=set(models), mode=mode, source=report_json)
+    pop_ids = set(_training_drones(split_csv, pipe["population_sets"])["flight_id"].astype(str))
+    ext = aggregate_twins(report, models, flight_ids=set(models), population_ids=pop_ids, mode=mode,
+                          source=report_json)
+    ext = TwinExtensions(ext.flights, ext.population, ext.mode,
+                         {**ext.meta, "sets": list(pipe["sets"]), "population_sets": list(pipe["population_sets"])})
     save_twin_extensions(ext, out_yaml)
     return ext

@@ -1,4 +1,4 @@
-"""Pipeline entry points: diagnose the split's training drone flights, aggregate
+"""Pipeline entry points: diagnose the split's drone flights, aggregate
 their diagnosis into the ``extended`` variant's extensions."""
 
 from __future__ import annotations
@@ -16,16 +16,20 @@ from .core import DiagnosisConfig, diagnose
 
 #: keys of the ``diagnosis:`` config section that are pipeline settings, not
 #: :class:`DiagnosisConfig` fields
-PIPELINE_KEYS = ("sets", "min_fraction")
+PIPELINE_KEYS = ("sets", "population_sets", "min_fraction")
 #: the split's sets (``results/splits/flights.csv``)
 SETS = ("train", "validation", "test")
 
 
 def split_settings(settings: dict | None, *, source="config") -> tuple[dict, DiagnosisConfig]:
-    """The ``diagnosis:`` section of a config: ``({"sets", "min_fraction"}, DiagnosisConfig)``.
+    """The ``diagnosis:`` section of a config: ``({"sets", "population_sets",
+    "min_fraction"}, DiagnosisConfig)``.
 
-    ``sets`` (split sets to diagnose, default ``[train]``) and ``min_fraction``
-    (default 0.25) are the pipeline's keys; every other key is a
+    ``sets`` (split sets whose drone flights are diagnosed, each twin then carrying its
+    own flight's causes; default every set), ``population_sets`` (sets whose diagnoses
+    form the per-model population and the extensions/1 median; default ``[train]``, so
+    no validation or test flight shapes a training twin; a subset of ``sets``) and
+    ``min_fraction`` (default 0.25) are the pipeline's keys; every other key is a
     :class:`DiagnosisConfig` field. An invalid value raises :class:`ConfigError`
     ``<source>: diagnosis.<key>: <problem> (expected ...)``.
     """
@@ -38,16 +42,26 @@ def split_settings(settings: dict | None, *, source="config") -> tuple[dict, Dia
     for k in s:
         if k not in names:
             raise ConfigError(source, f"diagnosis.{k}", "unknown key", f"one of {', '.join(names)}")
-    sets = s.pop("sets", ["train"])
-    if isinstance(sets, (str, bytes)) or not isinstance(sets, (list, tuple)) or not sets:
-        raise ConfigError(source, "diagnosis.sets", f"is {sets!r}", f"a non-empty list of split sets from {list(SETS)}")
-    for i, x in enumerate(sets):
-        if x not in SETS:
-            raise ConfigError(source, f"diagnosis.sets[{i}]", f"is {x!r}", f"one of {', '.join(SETS)}")
+    sets = _sets(s.pop("sets", list(SETS)), "sets", source)
+    pop = _sets(s.pop("population_sets", ["train"]), "population_sets", source)
+    for i, x in enumerate(pop):
+        if x not in sets:
+            raise ConfigError(source, f"diagnosis.population_sets[{i}]", f"is {x!r}, which is not diagnosed",
+                              f"a set of diagnosis.sets ({', '.join(sets)})")
     mf = s.pop("min_fraction", 0.25)
     if isinstance(mf, bool) or not isinstance(mf, (int, float)) or not 0 <= float(mf) <= 1:
         raise ConfigError(source, "diagnosis.min_fraction", f"is {mf!r}", "a number in [0, 1]")
-    return {"sets": list(sets), "min_fraction": float(mf)}, DiagnosisConfig.from_dict(s, source=source)
+    return ({"sets": sets, "population_sets": pop, "min_fraction": float(mf)},
+            DiagnosisConfig.from_dict(s, source=source))
+
+
+def _sets(sets, key: str, source) -> list:
+    if isinstance(sets, (str, bytes)) or not isinstance(sets, (list, tuple)) or not sets:
+        raise ConfigError(source, f"diagnosis.{key}", f"is {sets!r}", f"a non-empty list of split sets from {list(SETS)}")
+    for i, x in enumerate(sets):
+        if x not in SETS:
+            raise ConfigError(source, f"diagnosis.{key}[{i}]", f"is {x!r}", f"one of {', '.join(SETS)}")
+    return list(dict.fromkeys(sets))
 
 
 def _training_drones(split_csv, sets) -> pd.DataFrame:
@@ -59,7 +73,7 @@ def _training_drones(split_csv, sets) -> pd.DataFrame:
 
 
 def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print) -> dict:
-    """Diagnose the drone flights of ``settings['sets']`` (default: train) with
+    """Diagnose the drone flights of ``settings['sets']`` (default: every set) with
     :func:`.core.diagnose`, using their ingested motor logs (or the stores' own);
     flights that cannot be diagnosed (no usable log, Minis, ...) are listed as
     ``skipped`` with the reason."""
@@ -76,10 +90,11 @@ def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *,
 
 
 def aggregate_report(report_json, split_csv, out_yaml, *, settings=None):
-    """extended.yaml from the report's flights in ``settings['sets']``."""
+    """extensions/1 (median aggregate) from the report's flights in
+    ``settings['population_sets']``."""
     pipe, _ = split_settings(settings)
     report = json.loads(Path(report_json).read_text())
-    ids = set(_training_drones(split_csv, pipe["sets"])["flight_id"])
+    ids = set(_training_drones(split_csv, pipe["population_sets"])["flight_id"])
     ext = aggregate(report, min_fraction=pipe["min_fraction"], flight_ids=ids)
     save_extensions(ext, out_yaml)
     return ext
