@@ -313,3 +313,69 @@ def test_training_without_validation_tiles(tiny_tiles):
     assert res.history["val_loss"].isna().all()
     assert res.best_epoch == 1 + best_epoch(res.history["train_accuracy"], res.history["val_accuracy"])
     assert best_epoch([0.5, 0.9], [np.nan, np.nan]) == 1
+
+
+# --- augmentation ----------------------------------------------------------------------
+
+def _line_tiles(b=3, t=4, d=201, at=150):
+    x = torch.zeros(b, t, d)
+    x[:, :, at] = 1.0
+    return x
+
+
+def test_doppler_blur_spreads_a_line_by_its_sigma_and_keeps_its_sum():
+    from microdoppler.classifier.augment import blur_doppler
+
+    x = _line_tiles()
+    y = blur_doppler(x, torch.tensor([0.0, 2.0, 5.0]))
+    assert torch.equal(y[0], x[0])  # sigma 0: unchanged
+    bins = torch.arange(x.shape[-1], dtype=torch.float32)
+    for i, s in ((1, 2.0), (2, 5.0)):
+        p = y[i, 0]
+        torch.testing.assert_close(p.sum(), torch.tensor(1.0))  # a line away from the edges keeps its sum
+        mean = (p * bins).sum()
+        sd = ((p * (bins - mean) ** 2).sum()).sqrt()
+        assert abs(float(mean) - 150) < 1e-3 and abs(float(sd) - s) < 0.05 * s
+        assert torch.equal(y[i, 0], y[i, 3])  # the same kernel on every timestep of an image
+
+
+def test_doppler_stretch_moves_lines_proportionally_about_zero_doppler():
+    from microdoppler.classifier.augment import stretch_doppler
+
+    d, c = 201, 100
+    x = _line_tiles(b=2, d=d, at=c + 40)
+    y = stretch_doppler(x, torch.tensor([1.0, 1.25]))
+    torch.testing.assert_close(y[0], x[0])
+    assert int(y[1, 0].argmax()) == c + 50  # 40 bins out, 25 % faster: 50 bins out
+    x2 = _line_tiles(b=1, d=d, at=c - 40)
+    assert int(stretch_doppler(x2, torch.tensor([0.75]))[0, 0].argmax()) == c - 30  # negative Doppler too
+
+
+def test_augmented_training_is_reproducible_and_differs_from_plain(tiny_tiles):
+    from dataclasses import replace
+
+    from microdoppler.classifier import Augmentation
+
+    tr, va, _ = tiny_tiles
+    cfg = replace(TINY, augment=Augmentation(doppler_blur_bins=3.0, doppler_stretch=0.1, probability=0.5))
+    a = train(tr, va, cfg, seed=3, threads=1).history
+    b = train(tr, va, cfg, seed=3, threads=1).history
+    plain = train(tr, va, TINY, seed=3, threads=1).history
+    pd.testing.assert_frame_equal(a.drop(columns="seconds"), b.drop(columns="seconds"))
+    assert not np.allclose(a["train_loss"], plain["train_loss"])
+    # off (any transform at 0, or probability 0) draws nothing: the plain run, bit for bit
+    off = replace(TINY, augment=Augmentation(doppler_blur_bins=3.0, probability=0.0))
+    pd.testing.assert_frame_equal(train(tr, va, off, seed=3, threads=1).history.drop(columns="seconds"),
+                                  plain.drop(columns="seconds"))
+
+
+def test_augmentation_config_errors_name_the_field():
+    from microdoppler.classifier import Augmentation
+
+    for bad in ({"doppler_blur_bins": -1.0}, {"doppler_stretch": 0.5}, {"probability": float("nan")}):
+        with pytest.raises(InputError, match=next(iter(bad))):
+            Augmentation(**bad)
+    cfg = TrainConfig.from_config({"augment": {"doppler_blur_bins": 2.0}})
+    assert cfg.augment.doppler_blur_bins == 2.0 and cfg.augment.active
+    assert cfg.to_dict()["augment"] == {"doppler_blur_bins": 2.0, "doppler_stretch": 0.0, "probability": 0.5}
+    assert not TrainConfig().augment.active

@@ -21,6 +21,7 @@ import torch
 from torch.nn import functional as F
 
 from ..errors import ConfigError, InputError
+from .augment import Augmentation
 from .data import TileSet
 from .models import Normalisation, build_model
 
@@ -65,6 +66,8 @@ class TrainConfig:
         weight averaging within one seed's run; no ensembling across seeds), which
         does not depend on a small validation set's noisy accuracy.
     normalisation : Normalisation
+    augment : Augmentation
+        Doppler-axis augmentation of training tiles (default: none).
     """
 
     architecture: str = "compact"
@@ -82,6 +85,7 @@ class TrainConfig:
     reevaluate_train: bool = False
     average_last_epochs: int = 0
     normalisation: Normalisation = Normalisation()
+    augment: Augmentation = Augmentation()
 
     def __post_init__(self):
         checks = [("learning_rate", self.learning_rate > 0, "> 0"), ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
@@ -98,12 +102,14 @@ class TrainConfig:
         """From the config's ``classifier:`` mapping (unknown keys are ignored)."""
         cfg = dict(cfg or {})
         norm = Normalisation(**cfg.pop("normalisation", {}) or {})
-        names = {f for f in cls.__dataclass_fields__} - {"normalisation"}
-        return cls(normalisation=norm, **{k: v for k, v in cfg.items() if k in names})
+        aug = Augmentation(**cfg.pop("augment", {}) or {})
+        names = {f for f in cls.__dataclass_fields__} - {"normalisation", "augment"}
+        return cls(normalisation=norm, augment=aug, **{k: v for k, v in cfg.items() if k in names})
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d["normalisation"] = asdict(self.normalisation)
+        d["augment"] = asdict(self.augment)
         return d
 
 
@@ -154,15 +160,17 @@ def _evaluate(model, x: torch.Tensor, y: torch.Tensor, batch_size: int) -> tuple
 
 
 def train_epoch(model, opt, gen: torch.Generator, xt: torch.Tensor, yt: torch.Tensor,
-                batch_size: int) -> tuple[float, float]:
-    """One epoch of SGD over ``xt`` in an order drawn from ``gen``; returns the running
-    (mean mini-batch loss, accuracy) of the epoch."""
+                batch_size: int, augment: Augmentation | None = None) -> tuple[float, float]:
+    """One epoch of SGD over ``xt`` in an order drawn from ``gen`` (mini-batches
+    augmented by ``augment`` with draws from ``gen``); returns the running (mean
+    mini-batch loss, accuracy) of the epoch."""
     model.train()
     order = torch.randperm(len(xt), generator=gen)
     run_loss, run_correct = 0.0, 0
     for i in range(0, len(xt), batch_size):
         idx = order[i:i + batch_size]
-        logits = model(xt[idx])
+        xb = augment(xt[idx], gen) if augment is not None and augment.active else xt[idx]
+        logits = model(xb)
         loss = F.cross_entropy(logits, yt[idx])
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -228,7 +236,7 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     for epoch in range(cfg.max_epochs):
         t0 = time.perf_counter()
         lr = opt.param_groups[0]["lr"]
-        run_loss, run_acc = train_epoch(model, opt, gen, xt, yt, cfg.batch_size)
+        run_loss, run_acc = train_epoch(model, opt, gen, xt, yt, cfg.batch_size, cfg.augment)
         sched.step()
         if cfg.reevaluate_train:
             tr_loss, tr_acc = _evaluate(model, xt, yt, 256)
