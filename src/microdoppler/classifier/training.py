@@ -169,7 +169,7 @@ def train_epoch(model, opt, gen: torch.Generator, xt: torch.Tensor, yt: torch.Te
     run_loss, run_correct = 0.0, 0
     for i in range(0, len(xt), batch_size):
         idx = order[i:i + batch_size]
-        xb = augment(xt[idx], gen) if augment is not None and augment.active else xt[idx]
+        xb = augment(xt[idx], gen) if augment is not None else xt[idx]  # inactive: returned as is, no draws
         logits = model(xb)
         loss = F.cross_entropy(logits, yt[idx])
         opt.zero_grad(set_to_none=True)
