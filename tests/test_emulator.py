@@ -111,6 +111,66 @@ def test_world_draws_falloff_over_table_iv_range():
     assert np.mean(falls <= 8.0) >= 0.3 and np.mean(falls > 10.0) >= 0.15, falls
 
 
+def test_weak_blades_sink_the_sidebands(rng):
+    """World v3: a weak-blade flight's first sideband sits WEAK_BLADE_DB below the body
+    (the same seed with normal blades: 5-10.5 dB); the worlds mark about
+    WEAK_BLADE_SHARE of their large drones, never a Mini or a bird."""
+    from microdoppler.emulator.world import WEAK_BLADE_DB, WEAK_BLADE_SHARE
+
+    seed = int(rng.integers(2 ** 31))
+    below = {}
+    for weak in (False, True):
+        spec = _drone(rng, "inspire2", seed=seed, snr_db=50.0, harmonic_falloff_db=5.0, weak_blades=weak)
+        f, tr = emulate_flight(spec)
+        body, sb, _ = _sideband_levels(f, tr, n_harm=1)
+        _, sbl, _ = _sideband_levels(f, tr, n_harm=1, upper=False)
+        below[weak] = float(np.median(body) - np.median(0.5 * (sb[0] + sbl[0])))
+        assert tr["weak_blades"] is weak
+    assert 5.0 <= below[False] <= 10.5, below
+    # the measured line has the noise under it: at 50 dB body SNR a sideband 20-35 dB
+    # down stands 15-30 dB over the floor, so the measurement reads it within ~1 dB
+    assert WEAK_BLADE_DB[0] - 3.0 <= below[True] <= WEAK_BLADE_DB[1] + 1.0, below
+    specs = plan_world("paper", 5)
+    large = [s for s in specs if s.drone_model in ("inspire2", "matrice300")]
+    share = np.mean([s.weak_blades for s in large])
+    # 121 large drones: binomial sd 0.042
+    assert abs(share - WEAK_BLADE_SHARE) < 0.13, share
+    assert not any(s.weak_blades for s in specs if s.drone_model not in ("inspire2", "matrice300"))
+
+
+def test_birds_manoeuvre_and_mini_wander_are_drawn():
+    """World v3: bird groups turn and surge by drawn amounts (their radial velocity
+    wanders more than without), and the Mini's wander scales with ``wander_m``."""
+    from microdoppler.emulator.bird import SPEED_SURGE, TURN_RATE_SD_RAD_S, plan_group
+    from microdoppler.emulator.drone import loop_path
+
+    def vr_wobble(g):  # radial velocity's deviation from a straight fit, over 20 s
+        v = np.gradient(g.centre_range_m, g.t_s)
+        return float(np.std(v - np.polyval(np.polyfit(g.t_s, v, 2), g.t_s)))
+
+    calm, manoeuvring = [], []
+    for k in range(12):
+        kw = dict(duration_s=20.0, mean_range_m=1000.0, height_m=60.0, speed_mps=12.0)
+        g0 = plan_group("single", rng=np.random.default_rng([k, 1]), **kw)
+        g1 = plan_group("single", rng=np.random.default_rng([k, 1]), manoeuvre_rng=np.random.default_rng([k, 8]), **kw)
+        assert TURN_RATE_SD_RAD_S[0] <= g1.turn_rate_sd <= TURN_RATE_SD_RAD_S[1]
+        assert SPEED_SURGE[0] <= g1.speed_surge <= SPEED_SURGE[1]
+        assert g0.turn_rate_sd == 0.0 and g0.speed_surge == 0.0
+        calm.append(vr_wobble(g0))
+        manoeuvring.append(vr_wobble(g1))
+    assert np.median(manoeuvring) > 1.5 * np.median(calm), (calm, manoeuvring)
+
+    def wander(w):
+        p = loop_path(60.0, mean_range_m=1500.0, height_m=80.0, speed_mps=6.0, direction=1, hand_flown=True,
+                      rng=np.random.default_rng(3), wander_m=w)
+        return p.pos_m
+    base = loop_path(60.0, mean_range_m=1500.0, height_m=80.0, speed_mps=6.0, direction=1, hand_flown=True,
+                     rng=np.random.default_rng(3), wander_m=0.0).pos_m
+    d1 = np.std(wander(1.5)[:, :2] - base[:, :2])
+    d5 = np.std(wander(5.0)[:, :2] - base[:, :2])
+    assert d5 == pytest.approx(d1 * 5.0 / 1.5, rel=1e-6), (d1, d5)
+
+
 def test_mini_has_no_visible_sidebands(rng):
     spec = _drone(rng, "mini2", snr_db=40.0)
     f, tr = emulate_flight(spec)

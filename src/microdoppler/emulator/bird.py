@@ -22,6 +22,12 @@ CONTROL_HZ = 100.0
 #: wings scatter far less than its body, and the paper's birds "lack significant
 #: micro-Doppler" (§III)
 WING_BELOW_BODY_DB = (8.0, 22.0)
+#: how much a group manoeuvres (world v3), drawn per group: the std of its turn rate
+#: [rad/s] (log-uniform; urban gulls circle and pigeons wheel round buildings) and its
+#: speed surge over the flap-glide cycle, relative (uniform; for species that do not
+#: glide, a 1 s speed process of that size)
+TURN_RATE_SD_RAD_S = (0.05, 0.5)
+SPEED_SURGE = (0.0, 0.3)
 
 
 @dataclass(frozen=True)
@@ -62,6 +68,8 @@ class BirdGroup:
     wing_excursion_m: np.ndarray
     flapping: np.ndarray      # [n_ctrl, n_birds] 0..1
     species: str
+    turn_rate_sd: float = 0.0
+    speed_surge: float = 0.0
 
     @property
     def n_birds(self) -> int:
@@ -74,7 +82,10 @@ class BirdGroup:
 
 
 def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: float, speed_mps: float,
-               rng: np.random.Generator) -> BirdGroup:
+               rng: np.random.Generator, manoeuvre_rng: np.random.Generator | None = None) -> BirdGroup:
+    """A group's trajectories, wings and flapping; with ``manoeuvre_rng`` the group also
+    turns and surges as drawn from :data:`TURN_RATE_SD_RAD_S` and :data:`SPEED_SURGE`
+    (from that generator only, so the other draws do not move)."""
     if kind not in KINDS:
         raise ValueError(f"bird_kind={kind!r} must be one of {list(KINDS)}")
     (nlo, nhi), vspread, species_opts = KINDS[kind]
@@ -87,6 +98,11 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
     az0 = rng.uniform(-np.pi / 4, np.pi / 4)
     h0 = az0 + rng.choice([0.0, np.pi]) + rng.uniform(-1.0, 1.0)
     heading = h0 + np.cumsum(ou_process(n, dt, 0.03, 5.0, rng)) * dt
+    turn_sd = surge = 0.0
+    if manoeuvre_rng is not None:
+        turn_sd = float(np.exp(manoeuvre_rng.uniform(*np.log(TURN_RATE_SD_RAD_S))))
+        surge = float(manoeuvre_rng.uniform(*SPEED_SURGE))
+        heading = heading + np.cumsum(ou_process(n, dt, turn_sd, 5.0, manoeuvre_rng)) * dt
     speed = speed_mps * (1 + ou_process(n, dt, 0.08, 3.0, rng))
     p0 = mean_range_m * np.array([np.cos(az0), np.sin(az0)])
     # start so the group passes near mean_range half-way through
@@ -115,9 +131,16 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
         for i in range(nb):
             x_ = ou_process(n, dt, 1.0, 2.0, rng)
             flap[:, i] = 1 / (1 + np.exp(-4 * (x_ + 0.6)))
+    if surge > 0:
+        # flapping speeds the bird up, gliding slows it: a radial velocity surge along
+        # the group's line-of-sight component of the heading
+        radial = np.gradient(rng_c, dt) / np.maximum(speed, 1e-3)
+        for i in range(nb):
+            cyc = flap[:, i] - flap[:, i].mean() if sp.glides else ou_process(n, dt, 0.5, 1.0, manoeuvre_rng)
+            r[:, i] += np.cumsum(surge * speed * cyc * radial) * dt
     return BirdGroup(t, r, az, amp, f_wb, rng.uniform(0, 2 * np.pi, nb),
                      10 ** (-rng.uniform(*WING_BELOW_BODY_DB, nb) / 20),
-                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name)
+                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name, turn_sd, surge)
 
 
 def render(group: BirdGroup, n_pulses: int, prf_hz: float, wavelength_m: float, body_amp: float,

@@ -98,10 +98,12 @@ class DronePath:
 
 
 def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_mps: float,
-              direction: int, hand_flown: bool, rng: np.random.Generator, straight: bool = False) -> DronePath:
+              direction: int, hand_flown: bool, rng: np.random.Generator, straight: bool = False,
+              wander_m: float = 5.0) -> DronePath:
     """A stadium loop around a centre ``mean_range_m`` from the radar, or with
     ``straight`` one long leg within 17 deg of the line of sight through that centre
-    (receding for ``direction`` +1): no turns, the body Doppler never nears zero."""
+    (receding for ``direction`` +1): no turns, the body Doppler never nears zero.
+    ``wander_m`` is the std of a hand-flown drone's smooth deviations from the plan."""
     dt = 1.0 / CONTROL_HZ
     t = np.arange(-PAD_S, duration_s + PAD_S + dt, dt)
     n = len(t)
@@ -140,11 +142,11 @@ def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_
     a4 = s >= 2 * leg + np.pi * radius
     th = (s[a4] - 2 * leg - np.pi * radius) / radius + np.pi / 2
     x[a4], y[a4] = -leg / 2 + radius * np.cos(th), radius * np.sin(th)
-    if hand_flown:  # the pilot's wander: smooth (2 s) deviations of ~5 m from the plan
+    if hand_flown:  # the pilot's wander: smooth (2 s) deviations of wander_m from the plan
         kw = np.hanning(int(2.0 * CONTROL_HZ) | 1)
         kw /= kw.sum()
-        x += np.convolve(ou_process(n, dt, 5.0, 6.0, rng), kw, mode="same")
-        y += np.convolve(ou_process(n, dt, 5.0, 6.0, rng), kw, mode="same")
+        x += np.convolve(ou_process(n, dt, wander_m, 6.0, rng), kw, mode="same")
+        y += np.convolve(ou_process(n, dt, wander_m, 6.0, rng), kw, mode="same")
     c, sn = np.cos(orient), np.sin(orient)
     px = centre[0] + c * x - sn * y
     py = centre[1] + sn * x + c * y

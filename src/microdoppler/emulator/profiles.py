@@ -35,7 +35,7 @@ from ..catalog import CAUSES
 from ..flightzarr import write_flight
 from ..outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
 from ..spectrogram import SpectrogramConfig
-from .world import FlightSpec, emulate_flight, measured_snr_db
+from .world import WEAK_BLADE_SHARE, FlightSpec, emulate_flight, measured_snr_db
 
 PROFILES = ("test", "default", "paper")
 PRF_HZ = 7300.0
@@ -218,9 +218,12 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
 
 
 def _with_effects(specs: list[FlightSpec], seed: int) -> list[FlightSpec]:
-    """``specs`` with the world's site seed and the effects of :func:`plan_effects`."""
+    """``specs`` with the world's site seed, the effects of :func:`plan_effects` and
+    weak blades on :data:`~.world.WEAK_BLADE_SHARE` of the large drones (own stream)."""
     effects = plan_effects([s.drone_model if s.target == "drone" else "" for s in specs], seed)
-    return [replace(s, site_seed=int(seed), effects=e) for s, e in zip(specs, effects)]
+    weak = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1003]).uniform(size=len(specs)) < WEAK_BLADE_SHARE
+    return [replace(s, site_seed=int(seed), effects=e, weak_blades=bool(w and s.drone_model in EFFECT_MODELS))
+            for s, e, w in zip(specs, effects, weak)]
 
 
 def population_key(seed: int) -> dict:
