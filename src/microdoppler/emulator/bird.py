@@ -28,6 +28,10 @@ WING_BELOW_BODY_DB = (8.0, 22.0)
 #: glide, a 1 s speed process of that size)
 TURN_RATE_SD_RAD_S = (0.05, 0.5)
 SPEED_SURGE = (0.0, 0.3)
+#: body scintillation std [dB] over 1.5 s, drawn uniformly per group with the
+#: manoeuvres (without: 4.5 dB); with the turns' notch crossings it gives Table III's
+#: per-flight SNR std of birds (5.5 dB; benchmarks/README.md)
+SCINT_DB = (2.0, 6.0)
 
 
 @dataclass(frozen=True)
@@ -70,6 +74,7 @@ class BirdGroup:
     species: str
     turn_rate_sd: float = 0.0
     speed_surge: float = 0.0
+    scint_db: float = 4.5
 
     @property
     def n_birds(self) -> int:
@@ -99,9 +104,11 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
     h0 = az0 + rng.choice([0.0, np.pi]) + rng.uniform(-1.0, 1.0)
     heading = h0 + np.cumsum(ou_process(n, dt, 0.03, 5.0, rng)) * dt
     turn_sd = surge = 0.0
+    scint = 4.5
     if manoeuvre_rng is not None:
         turn_sd = float(np.exp(manoeuvre_rng.uniform(*np.log(TURN_RATE_SD_RAD_S))))
         surge = float(manoeuvre_rng.uniform(*SPEED_SURGE))
+        scint = float(manoeuvre_rng.uniform(*SCINT_DB))
         heading = heading + np.cumsum(ou_process(n, dt, turn_sd, 5.0, manoeuvre_rng)) * dt
     speed = speed_mps * (1 + ou_process(n, dt, 0.08, 3.0, rng))
     p0 = mean_range_m * np.array([np.cos(az0), np.sin(az0)])
@@ -140,7 +147,7 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
             r[:, i] += np.cumsum(surge * speed * cyc * radial) * dt
     return BirdGroup(t, r, az, amp, f_wb, rng.uniform(0, 2 * np.pi, nb),
                      10 ** (-rng.uniform(*WING_BELOW_BODY_DB, nb) / 20),
-                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name, turn_sd, surge)
+                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name, turn_sd, surge, scint)
 
 
 def render(group: BirdGroup, n_pulses: int, prf_hz: float, wavelength_m: float, body_amp: float,
@@ -149,9 +156,8 @@ def render(group: BirdGroup, n_pulses: int, prf_hz: float, wavelength_m: float, 
     out = np.zeros(n_pulses, np.complex64)
     k = 4 * np.pi / wavelength_m
     dur = n_pulses / prf_hz
-    # body RCS scintillation (aspect, wing-body shadowing): 4.5 dB over 1.5 s gives
-    # Table III's per-flight SNR std of birds (5.5 dB; benchmarks/README.md)
-    scint = [SlowGain(dur + 1, 4.5, 1.5, rng) for _ in range(group.n_birds)]
+    # body RCS scintillation (aspect, wing-body shadowing) over 1.5 s
+    scint = [SlowGain(dur + 1, group.scint_db, 1.5, rng) for _ in range(group.n_birds)]
     for i0 in range(0, n_pulses, chunk):
         i1 = min(n_pulses, i0 + chunk)
         t = np.arange(i0, i1) / prf_hz
