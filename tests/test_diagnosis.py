@@ -462,6 +462,27 @@ def test_no_visible_rotor_lines_is_skipped():
     assert exc.value.reason.startswith("no visible rotor sidebands")
 
 
+def test_weak_blades_make_sideband_causes_untestable_with_a_reason():
+    """World v3's weak blades: a faint first sideband lets the flight be diagnosed (the
+    rotor lines are seen) but not the sideband causes; the report says why instead of
+    naming them or calling the flight clean of them."""
+    for first_db in (28.0, 31.0):
+        faint, _ = emulate_flight(FlightSpec("weak", "drone", drone_model="inspire2", duration_s=24.0, snr_db=42.0,
+                                             first_sideband_db=first_db, seed=11,
+                                             effects={"sideband_asymmetry": {"asymmetry_db": 5.0}}))
+        try:
+            entry = diagnose_flight(faint, config={"figures": False})
+        except InputError as exc:  # too faint even to see the rotor lines: skipped
+            assert exc.reason.startswith("no visible rotor sidebands")
+            continue
+        t = entry["evidence"]["tests"]["sideband_asymmetry"]
+        assert "sideband_asymmetry" not in [c["cause"] for c in entry["causes"]]
+        assert not t["testable"] and "usable sideband pairs" in t["reason"], t
+        break
+    else:
+        pytest.fail("both flights were skipped: no case of a faint but visible rotor line")
+
+
 # ---------------------------------------------------------------- the report file
 
 def test_report_file_follows_the_format_and_figure(tmp_path):

@@ -184,6 +184,8 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     res = CauseTest("sideband_asymmetry", statistic="upper/lower sideband power [dB]")
     if m.sum() < 2 * cfg.block_cpis:
         res.testable = False
+        res.evidence = {"reason": f"usable sideband pairs (median >= {cfg.min_pair_snr:g} dB over the floor) "
+                                  f"in {int(m.sum())} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"}
         return res
     d = DB * np.log(U[m] / L[m])
     f = fold[m]
@@ -216,6 +218,7 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
     res = CauseTest(cause)
     if m.sum() < 2 * cfg.block_cpis + 4:
         res.testable = False
+        res.evidence = {"reason": f"{int(m.sum())} usable CPIs (expected >= {2 * cfg.block_cpis + 4})"}
         return res, None
     e = _detrend(y[m], M.t_s[m], M.range_m[m], smooth)
     v0 = sd0[m] ** 2 + cfg.model_floor_db ** 2
