@@ -29,8 +29,9 @@ WING_BELOW_BODY_DB = (8.0, 22.0)
 TURN_RATE_SD_RAD_S = (0.05, 0.5)
 SPEED_SURGE = (0.0, 0.3)
 #: body scintillation std [dB] over 1.5 s, drawn uniformly per group with the
-#: manoeuvres (without: 4.5 dB); with the turns' notch crossings it gives Table III's
-#: per-flight SNR std of birds (5.5 dB; benchmarks/README.md)
+#: manoeuvres (without: 4.5 dB); with the turns' notch crossings the paper profile's
+#: training birds measure 6.7 dB of per-flight SNR std (Table III: 5.5 +- 1.5;
+#: benchmarks/README.md, "World v3")
 SCINT_DB = (2.0, 6.0)
 
 
@@ -89,8 +90,9 @@ class BirdGroup:
 def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: float, speed_mps: float,
                rng: np.random.Generator, manoeuvre_rng: np.random.Generator | None = None) -> BirdGroup:
     """A group's trajectories, wings and flapping; with ``manoeuvre_rng`` the group also
-    turns and surges as drawn from :data:`TURN_RATE_SD_RAD_S` and :data:`SPEED_SURGE`
-    (from that generator only, so the other draws do not move)."""
+    turns, surges and scintillates as drawn from :data:`TURN_RATE_SD_RAD_S`,
+    :data:`SPEED_SURGE` and :data:`SCINT_DB` (from that generator only, so the other
+    draws do not move)."""
     if kind not in KINDS:
         raise ValueError(f"bird_kind={kind!r} must be one of {list(KINDS)}")
     (nlo, nhi), vspread, species_opts = KINDS[kind]

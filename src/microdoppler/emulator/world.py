@@ -85,7 +85,8 @@ class FlightSpec:
         +1 forward, -1 reverse loop.
     first_sideband_db, harmonic_falloff_db : float, optional
         Drones: first HERM sideband (per motor line) below the body [dB] and further
-        fall-off per harmonic [dB]; default drawn (large drones 7-10 and 4-16 (log-uniform) dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
+        fall-off per harmonic [dB]; default drawn (large drones 7-10, with
+        ``weak_blades`` :data:`WEAK_BLADE_DB`, and 4-16 (log-uniform) dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
         Mini's blades sit below the noise).
     clutter_scale_db : float
         Added to every clutter cell's clutter-to-noise ratio.
@@ -265,7 +266,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
             return g
 
         # slow natural variations and the knobs' gains
-        aspect = SlowGain(spec.duration_s + 1, 1.0, 4.0, r_bl)
+        aspect = SlowGain(spec.duration_s + 1, 1.0, 4.0, r_bl)  # drawn for every drone: r_bl's later draws stay
         if dyn.hand_flown:
             aspect = SlowGain(spec.duration_s + 1, scint_db, MINI_SCINT_S, r_v3)
         blade_nat = SlowGain(spec.duration_s + 1, 0.5, 5.0, r_bl)
