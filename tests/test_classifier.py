@@ -351,6 +351,29 @@ def test_doppler_stretch_moves_lines_proportionally_about_zero_doppler():
     assert int(stretch_doppler(x2, torch.tensor([0.75]))[0, 0].argmax()) == c - 30  # negative Doppler too
 
 
+def test_doppler_wander_moves_a_line_along_time_and_mask_blanks_a_band():
+    from microdoppler.classifier.augment import Augmentation, mask_doppler, stretch_doppler
+
+    d, c = 201, 100
+    x = _line_tiles(b=1, d=d, at=c + 40)
+    t = x.shape[1]
+    # a factor per timestep: the line sits at 40 * factor bins from zero Doppler in each
+    fac = torch.linspace(0.9, 1.1, t)[None, :]
+    y = stretch_doppler(x, fac)
+    got = y[0].argmax(dim=1).numpy() - c
+    np.testing.assert_allclose(got, 40 * fac[0].numpy(), atol=1.0)
+    assert got[-1] - got[0] >= 7  # it moves: 36 -> 44 bins
+    # the augmentation draws such a wandering factor; probability 1 and w > 0 move it
+    gen = torch.Generator().manual_seed(5)
+    moved = Augmentation(doppler_wander=0.2, probability=1.0)(x.repeat(8, 1, 1), gen).argmax(dim=2)
+    assert (moved.max(dim=1).values - moved.min(dim=1).values).max() >= 2
+    # mask: the band goes to the image's median, the rest is untouched
+    m = mask_doppler(x, torch.tensor([c + 30]), torch.tensor([20]))
+    assert float(m[0, :, c + 30:c + 50].max()) == float(x[0].median())
+    torch.testing.assert_close(m[0, :, :c + 30], x[0, :, :c + 30])
+    torch.testing.assert_close(mask_doppler(x, torch.tensor([c]), torch.tensor([0])), x)
+
+
 def test_augmented_training_is_reproducible_and_differs_from_plain(tiny_tiles):
     from dataclasses import replace
 
@@ -372,10 +395,13 @@ def test_augmented_training_is_reproducible_and_differs_from_plain(tiny_tiles):
 def test_augmentation_config_errors_name_the_field():
     from microdoppler.classifier import Augmentation
 
-    for bad in ({"doppler_blur_bins": -1.0}, {"doppler_stretch": 0.5}, {"probability": float("nan")}):
+    for bad in ({"doppler_blur_bins": -1.0}, {"doppler_stretch": 0.5}, {"probability": float("nan")},
+                {"doppler_wander": -0.1}, {"doppler_mask_bins": 500.0}):
         with pytest.raises(InputError, match=next(iter(bad))):
             Augmentation(**bad)
     cfg = TrainConfig.from_config({"augment": {"doppler_blur_bins": 2.0}})
     assert cfg.augment.doppler_blur_bins == 2.0 and cfg.augment.active
-    assert cfg.to_dict()["augment"] == {"doppler_blur_bins": 2.0, "doppler_stretch": 0.0, "probability": 0.5}
+    assert cfg.to_dict()["augment"] == {"doppler_blur_bins": 2.0, "doppler_stretch": 0.0, "doppler_wander": 0.0,
+                                        "doppler_mask_bins": 0.0, "probability": 0.5}
+    assert TrainConfig.from_config({"augment": {"doppler_wander": 0.05}}).augment.active
     assert not TrainConfig().augment.active

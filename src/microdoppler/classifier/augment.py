@@ -13,6 +13,14 @@ distribution along those axes; neither changes a tile's class:
   centre (zero Doppler, where the clutter notch sits) by a factor drawn uniformly in
   [1 - s, 1 + s] (linear interpolation): every line moves proportionally, as with a
   rotor a fraction s faster or slower and a body that much faster or slower.
+* ``doppler_wander``: the rescaling factor changes along the tile's time axis,
+  1 + w sin(2 pi (c t / T + phi)) with w drawn in [0, ``doppler_wander``], c in [0, 2]
+  cycles per tile and phi in [0, 1): lines move up and down over the tile's
+  timesteps as measured rotor lines do when the speeds change, where a twin made
+  with constant speeds has straight lines.
+* ``doppler_mask_bins``: a band of Doppler bins, of width drawn in [0,
+  ``doppler_mask_bins``] at a random place, is set to the tile's median (frequency
+  masking as in SpecAugment): the classifier cannot lean on one line alone.
 
 A tile is augmented with ``probability``. Every draw comes from the training run's
 own generator, so the same seed gives the same run; with both transforms off
@@ -40,12 +48,18 @@ class Augmentation:
         Largest Gaussian blur standard deviation [Doppler bins]; 0 disables.
     doppler_stretch : float
         Largest relative rescaling of the Doppler axis, in [0, 0.5); 0 disables.
+    doppler_wander : float
+        Largest amplitude of a rescaling that varies along time, in [0, 0.5); 0 disables.
+    doppler_mask_bins : float
+        Largest width of a masked Doppler band [bins], in [0, 200]; 0 disables.
     probability : float
         Share of training tiles augmented (per tile, per epoch), in [0, 1].
     """
 
     doppler_blur_bins: float = 0.0
     doppler_stretch: float = 0.0
+    doppler_wander: float = 0.0
+    doppler_mask_bins: float = 0.0
     probability: float = 0.5
 
     def __post_init__(self):
@@ -53,6 +67,10 @@ class Augmentation:
                    "in [0, 50]"),
                   ("doppler_stretch", math.isfinite(self.doppler_stretch) and 0 <= self.doppler_stretch < 0.5,
                    "in [0, 0.5)"),
+                  ("doppler_wander", math.isfinite(self.doppler_wander) and 0 <= self.doppler_wander < 0.5,
+                   "in [0, 0.5)"),
+                  ("doppler_mask_bins", math.isfinite(self.doppler_mask_bins) and 0 <= self.doppler_mask_bins <= 200,
+                   "in [0, 200]"),
                   ("probability", math.isfinite(self.probability) and 0 <= self.probability <= 1, "in [0, 1]")]
         for name, ok, want in checks:
             if not ok:
@@ -61,7 +79,8 @@ class Augmentation:
     @property
     def active(self) -> bool:
         """True when any transform is on (and applied to a non-zero share of tiles)."""
-        return self.probability > 0 and (self.doppler_blur_bins > 0 or self.doppler_stretch > 0)
+        return self.probability > 0 and (self.doppler_blur_bins > 0 or self.doppler_stretch > 0
+                                         or self.doppler_wander > 0 or self.doppler_mask_bins > 0)
 
     def __call__(self, x: torch.Tensor, gen: torch.Generator) -> torch.Tensor:
         """Augment a mini-batch ``x`` (float32 [b, T, D], normalised) with draws from ``gen``."""
@@ -72,10 +91,35 @@ class Augmentation:
         if self.doppler_stretch > 0:
             s = 1.0 + self.doppler_stretch * (2.0 * torch.rand(b, generator=gen) - 1.0)
             x = stretch_doppler(x, torch.where(on, s, torch.ones_like(s)))
+        if self.doppler_wander > 0:
+            t = x.shape[1]
+            w = self.doppler_wander * torch.rand(b, 1, generator=gen)
+            c = 2.0 * torch.rand(b, 1, generator=gen)
+            phi = torch.rand(b, 1, generator=gen)
+            tt = torch.arange(t, dtype=x.dtype)[None, :] / max(t, 1)
+            s = 1.0 + w * torch.sin(2 * math.pi * (c * tt + phi))  # [b, T]
+            x = stretch_doppler(x, torch.where(on[:, None], s, torch.ones_like(s)))
         if self.doppler_blur_bins > 0:
             sig = self.doppler_blur_bins * torch.rand(b, generator=gen)
             x = blur_doppler(x, torch.where(on, sig, torch.zeros_like(sig)))
+        if self.doppler_mask_bins > 0:
+            width = (self.doppler_mask_bins * torch.rand(b, generator=gen)).round().long()
+            start = (torch.rand(b, generator=gen) * (x.shape[2] - width + 1).clamp_min(1)).floor().long()
+            x = mask_doppler(x, torch.where(on, start, torch.zeros_like(start)),
+                             torch.where(on, width, torch.zeros_like(width)))
         return x
+
+
+def mask_doppler(x: torch.Tensor, start: torch.Tensor, width: torch.Tensor) -> torch.Tensor:
+    """Set Doppler bins [start, start + width) of each image of ``x`` [b, T, D] to that
+    image's median (width 0 leaves it unchanged)."""
+    b, t, d = x.shape
+    pos = torch.arange(d)[None, :]
+    band = (pos >= start[:, None]) & (pos < (start + width)[:, None])  # [b, D]
+    if not bool(band.any()):
+        return x
+    med = x.reshape(b, -1).median(dim=1).values[:, None, None]
+    return torch.where(band[:, None, :], med.expand(b, t, d), x)
 
 
 def blur_doppler(x: torch.Tensor, sigma_bins: torch.Tensor) -> torch.Tensor:
@@ -96,16 +140,20 @@ def blur_doppler(x: torch.Tensor, sigma_bins: torch.Tensor) -> torch.Tensor:
 
 def stretch_doppler(x: torch.Tensor, factor: torch.Tensor) -> torch.Tensor:
     """Rescale the Doppler axis (last) of ``x`` [b, T, D] about its centre by ``factor``
-    [b] (> 1 moves lines outward), by linear interpolation; bins that come from
-    outside the tile take the nearest edge value."""
+    [b] (one factor per image) or [b, T] (one per image and timestep; > 1 moves lines
+    outward), by linear interpolation; bins that come from outside the tile take the
+    nearest edge value."""
     b, t, d = x.shape
     if d < 2:
         return x
     c = (d - 1) / 2.0
+    fac = factor.to(x.dtype)
+    fac = (fac[:, None] if fac.ndim == 1 else fac)[:, :, None]  # [b, 1 or T, 1]
     pos = torch.arange(d, dtype=x.dtype)
-    src = c + (pos[None, :] - c) / factor.to(x.dtype)[:, None]  # [b, D]
+    src = c + (pos[None, None, :] - c) / fac  # [b, 1 or T, D]
     src = src.clamp(0, d - 1)
     i0 = src.floor().long().clamp(max=d - 2)
-    f = (src - i0.to(x.dtype))[:, None, :]
-    idx0 = i0[:, None, :].expand(b, t, d)
+    f = src - i0.to(x.dtype)
+    idx0 = i0.expand(b, t, d)
+    f = f.expand(b, t, d)
     return x.gather(2, idx0) * (1 - f) + x.gather(2, idx0 + 1) * f
