@@ -69,6 +69,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--boot", type=int, default=2000)
     ap.add_argument("--json")
+    ap.add_argument("--predictions", help="write every seed's test predictions (CSV)")
     a = ap.parse_args()
 
     from microdoppler.classifier import seed_metrics
@@ -90,6 +91,8 @@ def main() -> None:
         print(f"  {c}: {df[c].mean():.2f} +- {df[c].std(ddof=1):.2f}  (min {df[c].min():.1f}, max {df[c].max():.1f})")
     ci = flight_ci([r[1] for r in runs], a.boot)
     print(f"  accuracy, seed mean, 95 % flight-bootstrap CI: [{ci[0]:.2f}, {ci[1]:.2f}]")
+    if a.predictions:
+        pd.concat([t.assign(seed=s) for s, t, _ in runs]).to_csv(a.predictions, index=False)
     if a.json:
         with open(a.json, "w") as fh:
             json.dump({"trainset": a.trainset, "classifier": cfg, "per_seed": rows, "accuracy_ci95": ci}, fh, indent=1)

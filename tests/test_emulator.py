@@ -567,3 +567,46 @@ def test_straight_path_keeps_body_out_of_the_notch(rng):
     assert np.all(fb > 30)  # approaching: positive Doppler, far from the 15 Hz notch
     assert np.mean(line_snr_db(sp, fb)) >= 36.0
     assert list(tr["effects"]) == ["motor_log_lag"]
+
+
+def test_gliding_birds_show_a_bare_body_line():
+    """World v3d: gliding species glide for their drawn share of the time, and while a
+    bird glides its echo is a bare body line (no wing Doppler swing, no wingbeat
+    sidebands), while flapping spreads power 6-60 Hz around it."""
+    from dataclasses import replace
+
+    from microdoppler.emulator.bird import GLIDE_SHARE, GLIDE_TIME_S, SPECIES, plan_group, render
+
+    shares, drawn = [], []
+    for k in range(40):
+        g = plan_group("single", 600.0, mean_range_m=1000.0, height_m=60.0, speed_mps=12.0,
+                       rng=np.random.default_rng([k, 1]), manoeuvre_rng=np.random.default_rng([k, 8]))
+        if not SPECIES[g.species].glides:
+            assert g.glide_share == 0.0 and np.all(g.flapping == 1.0)
+            continue
+        assert GLIDE_SHARE[0] <= g.glide_share <= GLIDE_SHARE[1]
+        assert GLIDE_TIME_S[0] <= g.glide_time_s <= GLIDE_TIME_S[1]
+        drawn.append(g.glide_share)
+        shares.append(float(np.mean(g.flapping[:, 0] < 0.5)))
+    assert len(drawn) >= 15
+    err = np.abs(np.array(shares) - np.array(drawn))
+    assert np.median(err) < 0.1 and np.corrcoef(shares, drawn)[0, 1] > 0.6, (shares, drawn)
+
+    prf, lam = 2000.0, 0.23
+    g = plan_group("single", 10.0, mean_range_m=1000.0, height_m=60.0, speed_mps=12.0,
+                   rng=np.random.default_rng(7))
+    g = replace(g, wing_rel=np.array([10 ** (-8 / 20)]))  # loud wings: the test's contrast
+
+    def off_body_share(flap_level):
+        h = replace(g, flapping=np.full_like(g.flapping, flap_level))
+        x = render(h, int(8 * prf), prf, lam, 1.0, np.random.default_rng(3))
+        # remove the body's Doppler (from the plan's own range) before the spectrum
+        t = np.arange(len(x)) / prf
+        x = x * np.exp(1j * 4 * np.pi / lam * np.interp(t, h.t_s, h.range_m[:, 0]))
+        p = np.abs(np.fft.fftshift(np.fft.fft(x * np.hanning(len(x))))) ** 2
+        f = np.fft.fftshift(np.fft.fftfreq(len(x), 1 / prf))
+        band = (np.abs(f) > 6) & (np.abs(f) < 60)
+        return p[band].sum() / p.sum()
+
+    glide, flap = off_body_share(0.0), off_body_share(1.0)
+    assert glide < 0.01 and flap > 50 * glide, (glide, flap)

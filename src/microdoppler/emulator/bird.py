@@ -12,6 +12,7 @@ velocities, so the spectrogram shows several body lines.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -33,6 +34,13 @@ SPEED_SURGE = (0.0, 0.3)
 #: training birds measure 6.7 dB of per-flight SNR std (Table III: 5.5 +- 1.5;
 #: benchmarks/README.md, "World v3")
 SCINT_DB = (2.0, 6.0)
+#: flap-glide cycle of the species that glide (world v3d), drawn per group with the
+#: manoeuvres: the share of time spent gliding (uniform) and the cycle's correlation
+#: time [s] (log-uniform). A gliding bird's wings hold still: its return is a bare
+#: body line, with neither the wings' Doppler swing nor the wingbeat's sidebands
+#: (without: 27 % gliding, 2 s)
+GLIDE_SHARE = (0.25, 0.65)
+GLIDE_TIME_S = (2.0, 8.0)
 
 
 @dataclass(frozen=True)
@@ -76,6 +84,8 @@ class BirdGroup:
     turn_rate_sd: float = 0.0
     speed_surge: float = 0.0
     scint_db: float = 4.5
+    glide_share: float = 0.0
+    glide_time_s: float = 0.0
 
     @property
     def n_birds(self) -> int:
@@ -107,11 +117,16 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
     heading = h0 + np.cumsum(ou_process(n, dt, 0.03, 5.0, rng)) * dt
     turn_sd = surge = 0.0
     scint = 4.5
+    glide_share, glide_time = (NormalDist().cdf(-0.6), 2.0) if sp.glides else (0.0, 0.0)
     if manoeuvre_rng is not None:
         turn_sd = float(np.exp(manoeuvre_rng.uniform(*np.log(TURN_RATE_SD_RAD_S))))
         surge = float(manoeuvre_rng.uniform(*SPEED_SURGE))
         scint = float(manoeuvre_rng.uniform(*SCINT_DB))
         heading = heading + np.cumsum(ou_process(n, dt, turn_sd, 5.0, manoeuvre_rng)) * dt
+        share = float(manoeuvre_rng.uniform(*GLIDE_SHARE))
+        time_s = float(np.exp(manoeuvre_rng.uniform(*np.log(GLIDE_TIME_S))))
+        if sp.glides:
+            glide_share, glide_time = share, time_s
     speed = speed_mps * (1 + ou_process(n, dt, 0.08, 3.0, rng))
     p0 = mean_range_m * np.array([np.cos(az0), np.sin(az0)])
     # start so the group passes near mean_range half-way through
@@ -137,9 +152,11 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
     f_wb = rng.uniform(*sp.wingbeat_hz, nb)
     flap = np.ones((n, nb))
     if sp.glides:
+        # flapping while a unit OU process is above the glide share's quantile
+        edge = NormalDist().inv_cdf(glide_share)
         for i in range(nb):
-            x_ = ou_process(n, dt, 1.0, 2.0, rng)
-            flap[:, i] = 1 / (1 + np.exp(-4 * (x_ + 0.6)))
+            x_ = ou_process(n, dt, 1.0, glide_time, rng)
+            flap[:, i] = 1 / (1 + np.exp(-4 * (x_ - edge)))
     if surge > 0:
         # flapping speeds the bird up, gliding slows it: a radial velocity surge along
         # the group's line-of-sight component of the heading
@@ -149,7 +166,8 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
             r[:, i] += np.cumsum(surge * speed * cyc * radial) * dt
     return BirdGroup(t, r, az, amp, f_wb, rng.uniform(0, 2 * np.pi, nb),
                      10 ** (-rng.uniform(*WING_BELOW_BODY_DB, nb) / 20),
-                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name, turn_sd, surge, scint)
+                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name, turn_sd, surge, scint,
+                     glide_share, glide_time)
 
 
 def render(group: BirdGroup, n_pulses: int, prf_hz: float, wavelength_m: float, body_amp: float,
@@ -171,7 +189,7 @@ def render(group: BirdGroup, n_pulses: int, prf_hz: float, wavelength_m: float, 
             a = body_amp * group.amp[b] * scint[b].amplitude(t)
             body = a * (1 + 0.15 * fl * np.cos(ph)) * np.exp(-1j * k * (rb + 0.01 * fl * np.sin(ph)))
             wr = rb + group.wing_excursion_m[b] * fl * np.sin(ph)
-            wing = a * group.wing_rel[b] * (0.6 + 0.4 * np.cos(ph + 0.5)) * np.exp(-1j * k * wr)
+            wing = a * group.wing_rel[b] * (0.6 + 0.4 * fl * np.cos(ph + 0.5)) * np.exp(-1j * k * wr)
             acc += body + wing
         out[i0:i1] = acc
     return out

@@ -329,7 +329,8 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         truth.update({"bird_kind": spec.bird_kind, "species": group.species, "n_birds": group.n_birds,
                       "wingbeat_hz": group.wingbeat_hz.tolist(),
                       "turn_rate_sd_rad_s": group.turn_rate_sd, "speed_surge": group.speed_surge,
-                      "body_scint_db": group.scint_db,
+                      "body_scint_db": group.scint_db, "glide_share": group.glide_share,
+                      "glide_time_s": group.glide_time_s,
                       "body_doppler_offsets_hz": (-2 * (np.gradient(group.range_m, group.t_s, axis=0)
                                                         - np.gradient(centre, group.t_s)[:, None]).mean(0) / lam).tolist()})
     cells = bg.cell_ids(range_tt, az_tt)
