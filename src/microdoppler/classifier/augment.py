@@ -18,12 +18,9 @@ distribution along those axes; neither changes a tile's class:
   cycles per tile and phi in [0, 1): lines move up and down over the tile's
   timesteps as measured rotor lines do when the speeds change, where a twin made
   with constant speeds has straight lines.
-* ``doppler_mask_bins``: a band of Doppler bins, of width drawn in [0,
-  ``doppler_mask_bins``] at a random place, is set to the tile's median (frequency
-  masking as in SpecAugment): the classifier cannot lean on one line alone.
 
 A tile is augmented with ``probability``. Every draw comes from the training run's
-own generator, so the same seed gives the same run; with both transforms off
+own generator, so the same seed gives the same run; with every transform off
 (default) nothing is drawn and training is exactly as without this module.
 """
 
@@ -50,8 +47,6 @@ class Augmentation:
         Largest relative rescaling of the Doppler axis, in [0, 0.5); 0 disables.
     doppler_wander : float
         Largest amplitude of a rescaling that varies along time, in [0, 0.5); 0 disables.
-    doppler_mask_bins : float
-        Largest width of a masked Doppler band [bins], in [0, 200]; 0 disables.
     probability : float
         Share of training tiles augmented (per tile, per epoch), in [0, 1].
     """
@@ -59,7 +54,6 @@ class Augmentation:
     doppler_blur_bins: float = 0.0
     doppler_stretch: float = 0.0
     doppler_wander: float = 0.0
-    doppler_mask_bins: float = 0.0
     probability: float = 0.5
 
     def __post_init__(self):
@@ -69,8 +63,6 @@ class Augmentation:
                    "in [0, 0.5)"),
                   ("doppler_wander", math.isfinite(self.doppler_wander) and 0 <= self.doppler_wander < 0.5,
                    "in [0, 0.5)"),
-                  ("doppler_mask_bins", math.isfinite(self.doppler_mask_bins) and 0 <= self.doppler_mask_bins <= 200,
-                   "in [0, 200]"),
                   ("probability", math.isfinite(self.probability) and 0 <= self.probability <= 1, "in [0, 1]")]
         for name, ok, want in checks:
             if not ok:
@@ -80,7 +72,7 @@ class Augmentation:
     def active(self) -> bool:
         """True when any transform is on (and applied to a non-zero share of tiles)."""
         return self.probability > 0 and (self.doppler_blur_bins > 0 or self.doppler_stretch > 0
-                                         or self.doppler_wander > 0 or self.doppler_mask_bins > 0)
+                                         or self.doppler_wander > 0)
 
     def __call__(self, x: torch.Tensor, gen: torch.Generator) -> torch.Tensor:
         """Augment a mini-batch ``x`` (float32 [b, T, D], normalised) with draws from ``gen``."""
@@ -102,24 +94,7 @@ class Augmentation:
         if self.doppler_blur_bins > 0:
             sig = self.doppler_blur_bins * torch.rand(b, generator=gen)
             x = blur_doppler(x, torch.where(on, sig, torch.zeros_like(sig)))
-        if self.doppler_mask_bins > 0:
-            width = (self.doppler_mask_bins * torch.rand(b, generator=gen)).round().long()
-            start = (torch.rand(b, generator=gen) * (x.shape[2] - width + 1).clamp_min(1)).floor().long()
-            x = mask_doppler(x, torch.where(on, start, torch.zeros_like(start)),
-                             torch.where(on, width, torch.zeros_like(width)))
         return x
-
-
-def mask_doppler(x: torch.Tensor, start: torch.Tensor, width: torch.Tensor) -> torch.Tensor:
-    """Set Doppler bins [start, start + width) of each image of ``x`` [b, T, D] to that
-    image's median (width 0 leaves it unchanged)."""
-    b, t, d = x.shape
-    pos = torch.arange(d)[None, :]
-    band = (pos >= start[:, None]) & (pos < (start + width)[:, None])  # [b, D]
-    if not bool(band.any()):
-        return x
-    med = x.reshape(b, -1).median(dim=1).values[:, None, None]
-    return torch.where(band[:, None, :], med.expand(b, t, d), x)
 
 
 def blur_doppler(x: torch.Tensor, sigma_bins: torch.Tensor) -> torch.Tensor:

@@ -41,6 +41,8 @@ SCINT_DB = (2.0, 6.0)
 #: (without: 27 % gliding, 2 s)
 GLIDE_SHARE = (0.25, 0.65)
 GLIDE_TIME_S = (2.0, 8.0)
+#: the flap-glide cycle without drawn manoeuvres (as before v3d): share, time [s]
+GLIDE_FIXED = (NormalDist().cdf(-0.6), 2.0)
 
 
 @dataclass(frozen=True)
@@ -117,12 +119,13 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
     heading = h0 + np.cumsum(ou_process(n, dt, 0.03, 5.0, rng)) * dt
     turn_sd = surge = 0.0
     scint = 4.5
-    glide_share, glide_time = (NormalDist().cdf(-0.6), 2.0) if sp.glides else (0.0, 0.0)
+    glide_share, glide_time = GLIDE_FIXED if sp.glides else (0.0, 0.0)
     if manoeuvre_rng is not None:
         turn_sd = float(np.exp(manoeuvre_rng.uniform(*np.log(TURN_RATE_SD_RAD_S))))
         surge = float(manoeuvre_rng.uniform(*SPEED_SURGE))
         scint = float(manoeuvre_rng.uniform(*SCINT_DB))
         heading = heading + np.cumsum(ou_process(n, dt, turn_sd, 5.0, manoeuvre_rng)) * dt
+        # drawn for every species, so a pigeon's stream stays aligned with a gull's
         share = float(manoeuvre_rng.uniform(*GLIDE_SHARE))
         time_s = float(np.exp(manoeuvre_rng.uniform(*np.log(GLIDE_TIME_S))))
         if sp.glides:
