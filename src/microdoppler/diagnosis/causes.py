@@ -17,8 +17,13 @@ other statistics are unchanged by another cause's extension, see ``core.COUPLED`
 Sizes and correlation times of the fluctuating causes are estimated jointly and
 analytically (:mod:`.timescales`: variogram of the per-window dB series, window
 averaging and noise accounted for), without simulating any process: the body's on
-short windows (:func:`.measure.body_power_fine`), the fading's on the CPIs, after
-taking out the tilt of the harmonics by the rotor-speed changes (:func:`fading_estimate`).
+short windows (:func:`.measure.body_power_fine`), the fading's on short windows too
+(:func:`fading_estimate_fine`: the harmonics' cluster powers on windows of n_fft / 2
+pulses, the rotors' beats taken out as a nuisance measured where the fading
+cancels, exact likelihood), on the CPIs where too few short windows are usable
+(:func:`fading_estimate`), both after taking out the tilt of the harmonics by the
+rotor-speed changes. The fading is named by the CPI grid's size (as before the
+short windows).
 
 A test's ``held_out`` records whether its ``nll_base``/``nll_ext`` really are held-out
 scores: both folds held observations, each was scored with parameters fitted on the
@@ -61,7 +66,7 @@ from scipy.optimize import minimize_scalar
 
 from ..catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .features import DB, cpi_average
-from .timescales import fit_gain_process, harmonic_speed_slope
+from .timescales import _lag_grid, fit_gain_process, fit_gain_process_ml, fit_variogram, harmonic_speed_slope
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -308,11 +313,18 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     # with the rotor-speed tilt taken out (fading_estimate)
     est = fading_estimate(M, x, ok, m, beta=0.0)  # x has the tilt out already
     est["speed_tilt_db"] = beta
-    true_sd = float(est["sigma_db"]) if s2 > 0 else 0.0
-    tau = float(est["timescale_s"]) if true_sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
+    cpi_sd = float(est["sigma_db"]) if s2 > 0 else 0.0
+    # on short windows where enough are usable (fading_estimate_fine); the CPI grid's otherwise
+    fine = fading_estimate_fine(M, ok, m, beta, u) if cpi_sd > 0 else None
+    if fine is not None:
+        true_sd, tau = float(fine["sigma_db"]), float(fine["timescale_s"])
+    else:
+        true_sd = cpi_sd
+        tau = float(est["timescale_s"]) if true_sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
     res.params = {"fading_std_db": true_sd, "timescale_s": tau}
     res.effect = true_sd
-    res.relevant = true_sd >= cfg.margin_std_db
+    # named by the CPI grid's size (the naming as before the short windows)
+    res.relevant = cpi_sd >= cfg.margin_std_db
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
     res.evidence = {"fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
                     "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
@@ -320,7 +332,10 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
                     "speed_tilt_db_per_harmonic_rev_s": round(est["speed_tilt_db"], 4),
                     "measured_common_std_db": round(meas_sd, 2),
                     "within_cpi_harmonic_std_db": round(float(np.sqrt(s2w)), 2),
-                    "n_pairs_used": int(use.sum())}
+                    "n_pairs_used": int(use.sum()),
+                    "estimate_grid": "short windows" if fine is not None else "CPI",
+                    "cpi_grid_fading_std_db": round(cpi_sd, 2),
+                    "cpi_grid_timescale_s": round(float(est["timescale_s"]), 2)}
     return res
 
 
@@ -445,6 +460,100 @@ def fading_estimate(M, x, ok, m, beta: float | None = None) -> dict:
     est = fit_gain_process(yy, mm.copy(), nv, float(np.median(np.diff(t))), M.stft.window, M.info["prf_hz"],
                            drift=False, noise_free=True)
     est["speed_tilt_db"] = beta
+    return est
+
+
+def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: int = 200,
+                         max_lag_s: float = 10.0) -> dict | None:
+    """Size [dB] and 1/e correlation time [s] of the fading from the short-window
+    sideband powers (:func:`.measure.sideband_power_fine`, ``M.side_fine``), or None
+    when fewer than ``min_windows`` windows are usable (the caller then keeps the CPI
+    grid's :func:`fading_estimate`).
+
+    A window's harmonic is used where its nearest CPI uses it (``ok`` [n_t, N],
+    CPIs ``m``); its dB series is 10 log10 of the summed upper + lower cluster
+    power (at least one noise std), detrended linearly in time and log range, with
+    the rotor-speed tilt n ``beta`` u taken out (``u`` [n_t] the CPIs' speed
+    deviation, interpolated to the windows; :func:`speed_tilt`). The statistic is
+    the mean over the usable harmonics, detrended again.
+
+    In a short window the four rotors' lines of a cluster are not resolved and
+    their power beats (n x a few Hz): a nuisance of 2-10 dB^2 per harmonic, white on
+    the window grid (its variogram is flat from one hop on) and independent between
+    the harmonics, like the measurement noise. Its variance is measured where the
+    fading cancels, in the harmonics' deviations from their mean: for pairs of
+    windows L = 1-4 hops apart, over the K >= 2 harmonics usable in both, the
+    increments d_k and their mean d give n = mean[sum_k (d_k - d)^2 / (2 (K - 1))]
+    (unbiased whatever each harmonic's level); the mean of K harmonics carries
+    n / K.
+
+    The fading's (sigma, T) are then the exact Gaussian likelihood's
+    (:func:`.timescales.fit_gain_process_ml`: window-averaged exponential
+    correlation plus the white nuisance n / K, restricted to the residual of the
+    trend in time and log range; T up to the longest lag / 2.5; where it still
+    rises there, the variogram's estimate is kept), started from the variogram fit
+    with the nuisance subtracted lag by lag (gamma(L) = mean[d^2 / 2] - n(L)
+    mean[1 / K], :func:`.timescales.fit_variogram`, no nugget, no drift). Tuned on
+    plans 777-780 (benchmarks/README.md, "Fading timescale on short windows")."""
+    F = getattr(M, "side_fine", None)
+    if F is None or m.sum() < 4:
+        return None
+    j = F["cpi"]
+    harm = np.asarray(M.harm, float)
+    P = F["up"] + F["lo"]
+    sd = np.sqrt(F["up_sd"] ** 2 + F["lo_sd"] ** 2)
+    V = F["inside"] & ok[j] & m[j][:, None]
+    y = DB * np.log(np.maximum(P, np.maximum(sd, 1e-30)))
+    t, r = F["t_s"], F["range_m"]
+    uf = np.interp(t, M.t_s[m], u[m])
+    Y = np.zeros_like(y)
+    for k in range(y.shape[1]):
+        v = V[:, k]
+        if v.sum() >= 20:
+            Y[v, k] = _detrend(y[v, k], t[v], r[v]) - beta * harm[k] * uf[v]
+        else:
+            V[:, k] = False
+    Kt = V.sum(1)
+    use = Kt >= 1
+    if use.sum() < min_windows:
+        return None
+    lags = _lag_grid(len(t), F["hop_s"], max_lag_s)
+    g, npair, nh = [], [], {}
+    for L in lags:
+        Vc = V[:-L] & V[L:]
+        K = Vc.sum(1)
+        D = np.where(Vc, Y[L:] - Y[:-L], 0.0)
+        s1 = K >= 1
+        s2 = K >= 2
+        if s2.sum() < 20:
+            g.append(np.nan); npair.append(0)
+            continue
+        d = D.sum(1) / np.maximum(K, 1)
+        dd = np.where(Vc, D - d[:, None], 0.0)
+        nh[int(L)] = 0.5 * float(np.mean((dd[s2] ** 2).sum(1) / (K[s2] - 1)))
+        g.append(0.5 * float(np.mean(d[s1] ** 2)) - nh[int(L)] * float(np.mean(1.0 / K[s1])))
+        npair.append(int(s1.sum()))
+    est = fit_variogram(lags, np.array(g), np.array(npair), 0.0, F["hop_s"], F["window"], M.info["prf_hz"],
+                        drift=False)
+    short = [nh[L] for L in (1, 2, 3, 4) if L in nh]
+    if not (est["sigma_db"] > 0 and np.isfinite(est["timescale_s"])) or not short:
+        return None
+    n_h = float(np.mean(short))
+    c = np.zeros(len(t))
+    c[use] = _detrend(np.where(V, Y, 0.0).sum(1)[use] / Kt[use], t[use], r[use])
+    # T searched up to the longest lag / 2.5, as the variogram fit (beyond, sigma and T trade off)
+    t_hi = min(30.0, float(lags[-1]) * F["hop_s"] / 2.5)
+    ml = fit_gain_process_ml(c, use, np.where(use, n_h / np.maximum(Kt, 1), 0.0), F["hop_s"], F["window"],
+                             M.info["prf_hz"], (est["sigma_db"], est["timescale_s"]), tau_bounds_s=(0.01, t_hi),
+                             design=np.column_stack([np.ones(len(t)), t - t[use].mean(),
+                                                     np.log10(r / r[use].mean())]))
+    est["variogram_sigma_db"], est["variogram_timescale_s"] = est["sigma_db"], est["timescale_s"]
+    # a likelihood still rising at the longest T searched has not seen the sill (a
+    # record of a few tens of T): the variogram's estimate is kept there
+    if ml["n_eval"] > 0 and ml["timescale_s"] < 0.98 * t_hi:
+        est["sigma_db"], est["timescale_s"] = ml["sigma_db"], ml["timescale_s"]
+    est["nuisance_db2_per_harmonic"] = n_h
+    est["n_windows"] = int(use.sum())
     return est
 
 
