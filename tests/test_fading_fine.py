@@ -11,6 +11,7 @@ import pytest
 
 from microdoppler.diagnosis import causes as C
 from microdoppler.diagnosis.measure import sideband_power_fine
+from test_fidelity import ou_db  # the tests' own OU process (not the emulator's)
 
 PRF = 6500.0
 N_FFT = 4096
@@ -23,13 +24,7 @@ F_BODY = 400.0
 
 def _gain_db(n, dt, std, tau, rng, kind):
     if kind == "ou":
-        a = np.exp(-dt / tau)
-        e = rng.standard_normal(n) * std * np.sqrt(1 - a * a)
-        x = np.empty(n)
-        x[0] = rng.standard_normal() * std
-        for i in range(1, n):
-            x[i] = a * x[i - 1] + e[i]
-        return x
+        return ou_db(n, dt, tau, std, rng)
     # symmetric telegraph (+-std), switching rate 1 / (2 tau): correlation exp(-t / tau)
     flips = rng.random(n) < dt / (2 * tau)
     s = np.where(np.cumsum(flips) % 2 == 0, 1.0, -1.0)
