@@ -85,7 +85,7 @@ may be present"); the format has no place for extra arrays.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, is_dataclass, replace
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -94,11 +94,14 @@ from scipy.signal import find_peaks
 
 from .flightzarr import Flight
 from .motorlog import MotorLog
+from .rotorfit import FitConfig, refine_cpi
 from .snr import body_doppler_hz
 from .spectrogram import SpectrogramConfig, spectrogram
 
-#: identifies the method (and its version) in stored attributes
-METHOD = "herm-pairs/1"
+#: identifies the method (and its version) in stored attributes: the periodogram's
+#: lines alone, or refined by least squares on the I/Q (step 9)
+METHOD_LINES = "herm-pairs/1"
+METHOD = "herm-pairs+iq-fit/2"
 #: relative width of a cell of the Viterbi speed grid
 LOG_STEP = 0.005
 
@@ -156,6 +159,12 @@ class RotorSpeedConfig:
         A flight needs this many CPIs with two or more visible harmonic orders.
     block_cpis : int
         CPIs per STFT block (memory).
+    refine : bool
+        Step 9: refit every CPI with an estimate by least squares on its I/Q
+        (:mod:`microdoppler.rotorfit`, settings ``fit``); False keeps the periodogram's
+        estimate (``herm-pairs/1``).
+    fit : FitConfig
+        Settings of the least-squares refinement.
     """
 
     min_rev_s: float = 20.0
@@ -185,6 +194,8 @@ class RotorSpeedConfig:
     rel_floor: float = 0.008
     min_cpis: int = 3
     block_cpis: int = 64
+    refine: bool = True
+    fit: FitConfig = field(default_factory=FitConfig)
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -302,7 +313,7 @@ class RotorEstimate:
             raise ValueError(f"{self.flight_id}: {int(v.sum())} CPI with an estimate; a motor log needs 2 rows")
         rev = self.speeds_rev_s[v] if per_motor else np.repeat(self.common_rev_s[v, None], self.n_motors, axis=1)
         return MotorLog(self.time_s[v].astype(np.float64), (rev * 60.0).astype(np.float32),
-                        f"{self.flight_id}: radar ({METHOD})")
+                        f"{self.flight_id}: radar ({self.info.get('method', METHOD)})")
 
     def store_attrs(self, *, per_motor: bool = True) -> dict:
         """Group attributes that go with :meth:`to_motor_log` in a flight-zarr/1 store:
@@ -313,7 +324,7 @@ class RotorEstimate:
         return {
             "motors_source": "radar",
             "motors_radar": {
-                "method": METHOD,
+                "method": self.info.get("method", METHOD),
                 "n_fft": int(self.n_fft),
                 "columns": "ascending speed per row (rotor ranks, not physical motors)" if per_motor
                            else "mean rotor speed in every column",
@@ -434,7 +445,8 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     n_pulses = len(flight.iq)
     n_cpi = 1 + (n_pulses - n_fft) // hop if n_pulses >= n_fft else 0
     t = (np.arange(n_cpi) * hop + n_fft / 2) / prf
-    info = {"settings": {k: getattr(cfg, k) for k in cfg.__dataclass_fields__}, "n_cpi": int(n_cpi)}
+    info = {"settings": {k: (asdict(v) if is_dataclass(v) else v) for k, v in
+                         ((k, getattr(cfg, k)) for k in cfg.__dataclass_fields__)}, "n_cpi": int(n_cpi)}
     target = attrs.get("target", "drone")
     if target != "drone":
         return _no_estimate(fid, n_cpi, t, M, B or 0, n_fft, f"target is {target!r}: no rotors", info)
@@ -494,13 +506,17 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         common_sd[i] = np.sqrt(lines[i].mean_var(cnt) + var_alloc)
         n_pairs[i] = lines[i].n_pairs
         n_lines[i] = sum(min(len(m), int(k)) for m, k in zip(lines[i].members, cnt))
+    n_refined = 0
+    if cfg.refine:
+        n_refined = _refine(flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M)
     # a rotor speed outside the plausible range is not one
     out = ~((common >= cfg.min_rev_s) & (common <= cfg.max_rev_s))
     speeds[out], sds[out], common[out], common_sd[out] = np.nan, np.nan, np.nan, np.nan
     n_pairs[out], n_lines[out] = 0, 0
     n_ok = int(np.isfinite(common).sum())
     n_comb = int((np.isfinite(common) & (n_pairs >= 2)).sum())
-    info.update({"n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
+    info.update({"method": METHOD if cfg.refine else METHOD_LINES, "n_cpi_refined": int(n_refined),
+                 "n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
                  "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum())})
     reason = None
     if n_ok == 0:
@@ -516,6 +532,32 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         est.n_pairs = n_pairs
         return est
     return RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info)
+
+
+def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M) -> int:
+    """Step 9: each CPI with an estimate refitted on its I/Q (in place); returns the
+    number of CPIs refined. A CPI whose fit leaves its lines' range keeps the
+    periodogram's estimate."""
+    n = 0
+    valid = np.flatnonzero(np.isfinite(common))
+    if len(valid) == 0:
+        return 0
+    prf = float(flight.prf_hz)
+    # the group's and the body's rates of change from the neighbouring CPIs
+    rate = np.gradient(np.interp(t, t[valid], common[valid]), t) if len(valid) > 1 else np.zeros(len(t))
+    body_rate = np.gradient(body, t) if len(t) > 1 else np.zeros(len(t))
+    for i in valid:
+        x = np.asarray(flight.iq[i * hop:i * hop + n_fft])
+        sp = speeds[i][np.isfinite(speeds[i])]
+        lines = np.unique(np.round(sp, 9))
+        res = refine_cpi(x, prf, B, M, body_hz=float(body[i]), body_rate_hz_s=float(body_rate[i]),
+                         lines_rev_s=lines, rate_rev_s2=float(rate[i]), config=cfg.fit)
+        if res is None:
+            continue
+        speeds[i], sds[i] = res.speeds_rev_s, res.speeds_std_rev_s
+        common[i], common_sd[i] = float(res.speeds_rev_s.mean()), res.mean_std_rev_s
+        n += 1
+    return n
 
 
 def _line_evidence(z: np.ndarray, cfg: RotorSpeedConfig) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,298 @@
+"""Rotor speeds by least squares on the slow-time I/Q: the harmonic-chirp model of one CPI.
+
+:mod:`microdoppler.rotorspeed` reads each rotor's speed from the HERM lines of a
+periodogram. Where rotors turn within a bin of each other and their speeds drift within
+the CPI, their lines merge into one smeared band whose power does not tell how many
+rotors it holds (the estimator's tail). This module fits the CPI's samples themselves.
+
+A rotor of B blades turning with phase theta_r(t) returns a periodic function of
+B theta_r (eq. (1): the blades flash in turn), so its echo is a Fourier series
+sum_n c_rn exp(j n B theta_r(t)) riding on the body's Doppler phase psi(t). Over one CPI
+both phases are taken quadratic (a speed and a rate of change):
+
+    x(t) ~ exp(j psi(t)) [c_0 + sum_r sum_{0 < |n| <= N} c_rn exp(j n B theta_r(t))] + clutter,
+    psi(t) = 2 pi (f_b t + a_b t^2 / 2),  theta_r(t) = 2 pi (f_r t + g_r t^2 / 2),
+
+with t from the CPI's centre, the complex amplitudes c linear (projected out: variable
+projection) and (f_b, a_b, f_r, g_r) fitted by Gauss-Newton with Levenberg damping
+(Kaufman's Jacobian), the residual weighted by the STFT's Blackman-Harris window so
+that f_r is the window^2-weighted mean speed a periodogram line measures. A weak
+Gaussian prior ties each g_r to the group's rate from the neighbouring CPIs
+(``chirp_sd_rev_s2``); a low-order polynomial absorbs the clutter at zero Doppler.
+Every harmonic of every rotor shares its rotor's two parameters, so the rotor count per
+line, the periodogram's ambiguity, is not a choice here: each of the M rotors is fitted.
+
+Starts: the periodogram's lines (:mod:`microdoppler.rotorspeed`). With k < M distinct
+lines every composition of M rotors on them is tried (at two spreads around each shared
+line), first with ``harmonics[0]`` harmonics (a wide basin), the ``keep`` best carried on
+to ``harmonics[-1]``. A fit whose weakest rotor has under ``min_power`` of the median
+rotor's power holds a spare rotor (two true rotors coincide) and loses against one that
+does not; the weakest rotor is then re-seeded ``reseed`` times at the strongest harmonic
+comb of the residual. A fit leaving the lines' range by more than ``bound_bins`` is
+dropped (the periodogram's estimate stands).
+
+Uncertainty: the Gauss-Newton covariance (residual variance times the inverse of
+J^T J with the prior), plus a relative floor ``rel_floor`` for what the quadratic
+phase does not capture.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal.windows import blackmanharris
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """Settings of :func:`refine_cpi` (see the module docstring)."""
+
+    harmonics: tuple = (2, 5)
+    iterations: int = 10
+    tolerance: float = 1e-5
+    keep: int = 3
+    chirp_sd_rev_s2: float = 10.0
+    spreads_bins: tuple = (0.6, 1.5)
+    bound_bins: float = 5.0
+    min_power: float = 0.2
+    reseed: int = 2
+    rel_floor: float = 0.001
+
+
+@dataclass(frozen=True)
+class CpiFit:
+    """One CPI's fit: rotor speeds [rev/s] ascending, their one-sigma, the mean's
+    one-sigma, and how the winning start was found."""
+
+    speeds_rev_s: np.ndarray
+    speeds_std_rev_s: np.ndarray
+    mean_std_rev_s: float
+    start: str
+
+
+class _Model:
+    """The harmonic-chirp model of one CPI (``x``: complex samples, ``prf``)."""
+
+    def __init__(self, x: np.ndarray, prf: float, B: int, M: int, cfg: FitConfig):
+        n = len(x)
+        self.tt = (np.arange(n) - n / 2) / prf
+        self.w = blackmanharris(n, sym=False)
+        self.y = np.asarray(x, np.complex128) * self.w
+        self.B, self.M, self.cfg = B, M, cfg
+        s = self.tt / self.tt.max()
+        self.clutter = self.w[:, None] * np.column_stack([np.ones(n), s, s * s])
+        self.g0 = 0.0
+        self.s2 = 0.0
+        self.power = np.ones(M)
+
+    def build(self, p: np.ndarray, N: int) -> np.ndarray:
+        tt, B, M = self.tt, self.B, self.M
+        eb = self.w * np.exp(2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt ** 2))
+        K = 2 * N
+        A = np.empty((len(tt), 1 + M * K + 3), complex)
+        A[:, 0] = eb
+        for r in range(M):
+            e1 = np.exp(2j * np.pi * B * (p[2 + r] * tt + 0.5 * p[2 + M + r] * tt ** 2))
+            pw = np.empty((len(tt), N), complex)
+            pw[:, 0] = e1
+            for k in range(1, N):
+                pw[:, k] = pw[:, k - 1] * e1
+            base = 1 + r * K
+            A[:, base:base + N] = (eb[:, None] * pw.conj())[:, ::-1]  # n = -N .. -1
+            A[:, base + N:base + K] = eb[:, None] * pw  # n = 1 .. N
+        A[:, -3:] = self.clutter
+        return A
+
+    def solve(self, A: np.ndarray):
+        G = A.conj().T @ A
+        G[np.diag_indices_from(G)] += 1e-9 * np.trace(G).real / len(G)
+        L = np.linalg.cholesky(G)
+        c = np.linalg.solve(L.conj().T, np.linalg.solve(L, A.conj().T @ self.y))
+        r = self.y - A @ c
+        return L, c, r, float(np.vdot(r, r).real)
+
+    def prior(self, p: np.ndarray) -> float:
+        d = (p[2 + self.M:] - self.g0) / self.cfg.chirp_sd_rev_s2
+        return float(0.5 * self.s2 * np.sum(d * d))
+
+    def _jacobian(self, p, A, L, c, ns):
+        """Kaufman's Jacobian of the projected residual, stacked real/imaginary [2n, P]."""
+        M, B, tt = self.M, self.B, self.tt
+        K = len(ns)
+        mb = A[:, :1 + M * K] @ c[:1 + M * K]
+        D = np.empty((len(tt), 2 + 2 * M), complex)
+        D[:, 0] = 2j * np.pi * tt * mb
+        D[:, 1] = 1j * np.pi * tt ** 2 * mb
+        for q in range(M):
+            sl = slice(1 + q * K, 1 + (q + 1) * K)
+            s = A[:, sl] @ (ns * c[sl])
+            D[:, 2 + q] = 2j * np.pi * B * tt * s
+            D[:, 2 + M + q] = 1j * np.pi * B * tt ** 2 * s
+        J = -(D - A @ np.linalg.solve(L.conj().T, np.linalg.solve(L, A.conj().T @ D)))
+        return np.vstack([J.real, J.imag])
+
+    def fit(self, p: np.ndarray, N: int, iterations: int | None = None):
+        """Gauss-Newton from ``p`` with ``N`` harmonics: (p, cost). Leaves J^T J (with
+        the prior), the amplitudes, residual and per-rotor power at the result."""
+        cfg, M = self.cfg, self.M
+        iterations = cfg.iterations if iterations is None else iterations
+        ns = np.r_[np.arange(-N, 0), np.arange(1, N + 1)].astype(float)
+        K = len(ns)
+        A = self.build(p, N)
+        L, c, r, cost = self.solve(A)
+        cost += self.prior(p)
+        lam = 1e-3
+        gi = np.arange(2 + M, 2 + 2 * M)
+        prior_h = 0.5 * self.s2 / cfg.chirp_sd_rev_s2 ** 2
+        for _ in range(iterations):
+            Jr = self._jacobian(p, A, L, c, ns)
+            JtJ = Jr.T @ Jr
+            JtJ[gi, gi] += prior_h
+            g = Jr.T @ np.r_[r.real, r.imag]
+            g[gi] += prior_h * (p[gi] - self.g0)
+            sc = np.sqrt(np.diag(JtJ)) + 1e-30
+            accepted, rel = False, 0.0
+            for _try in range(6):
+                d = -np.linalg.solve(JtJ / np.outer(sc, sc) + lam * np.eye(len(p)), g / sc) / sc
+                pn = p + d
+                An = self.build(pn, N)
+                Ln, cn, rn, costn = self.solve(An)
+                costn += self.prior(pn)
+                if costn < cost:
+                    rel = (cost - costn) / cost
+                    p, A, L, c, r, cost = pn, An, Ln, cn, rn, costn
+                    lam = max(lam / 4, 1e-8)
+                    accepted = True
+                    break
+                lam *= 6
+            if not accepted or rel < cfg.tolerance:
+                break
+        self.power = np.array([np.sum(np.abs(c[1 + q * K:1 + (q + 1) * K]) ** 2) for q in range(M)])
+        self.c, self.A, self.r, self._L, self._ns = c, A, r, L, ns
+        return p, cost
+
+    def information(self, p: np.ndarray) -> np.ndarray:
+        """J^T J with the prior at ``p`` (after :meth:`fit` at ``p``)."""
+        Jr = self._jacobian(p, self.A, self._L, self.c, self._ns)
+        JtJ = Jr.T @ Jr
+        gi = np.arange(2 + self.M, 2 + 2 * self.M)
+        JtJ[gi, gi] += 0.5 * self.s2 / self.cfg.chirp_sd_rev_s2 ** 2
+        return JtJ
+
+    def comb_peak(self, r: np.ndarray, p: np.ndarray, N: int, lo: float, hi: float, step: float) -> float:
+        """Speed [rev/s] in [lo, hi] where the residual's harmonic comb is strongest."""
+        tt, B = self.tt, self.B
+        z = r * np.exp(-2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt ** 2))
+        nfft = 4 * len(tt)
+        prf = 1.0 / (tt[1] - tt[0])
+        grid = np.arange(lo, hi, step)
+        S = np.zeros(len(grid))
+        for n in range(1, N + 1):
+            for sign in (1, -1):
+                Z = np.abs(np.fft.fft(z * np.exp(-1j * sign * np.pi * n * B * self.g0 * tt ** 2), nfft)) ** 2
+                S += Z[np.round(sign * n * B * grid / prf * nfft).astype(int) % nfft]
+        return float(grid[np.argmax(S)])
+
+
+def _compositions(M: int, k: int):
+    for cut in itertools.combinations(range(1, M), k - 1):
+        b = (0,) + cut + (M,)
+        yield [b[i + 1] - b[i] for i in range(k)]
+
+
+def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_hz: float, body_rate_hz_s: float,
+               lines_rev_s, rate_rev_s2: float, config: FitConfig | None = None) -> CpiFit | None:
+    """Fit the harmonic-chirp model to one CPI's samples ``x``.
+
+    Parameters
+    ----------
+    x : complex ndarray [n_fft]
+        The CPI's slow-time samples.
+    prf : float
+        Pulse repetition frequency [Hz].
+    n_blades, n_motors : int
+    body_hz, body_rate_hz_s : float
+        Start of the body's Doppler [Hz] and its rate [Hz/s].
+    lines_rev_s : sequence of float
+        The periodogram's distinct rotor lines [rev/s] (1 to ``n_motors`` of them).
+    rate_rev_s2 : float
+        The rotor group's rate of change [rev/s^2] (prior mean of each g_r).
+
+    Returns
+    -------
+    CpiFit or None
+        None where no start stays within ``bound_bins`` of the lines.
+    """
+    cfg = config or FitConfig()
+    B, M = int(n_blades), int(n_motors)
+    lines = np.sort(np.asarray(lines_rev_s, float))
+    k = len(lines)
+    if k == 0 or k > M or not np.all(np.isfinite(lines)):
+        return None
+    bin_rev = prf / len(x) / B
+    F = _Model(x, prf, B, M, cfg)
+    Ns = tuple(cfg.harmonics)
+    p0 = np.r_[body_hz, body_rate_hz_s, np.resize(lines, M), np.full(M, rate_rev_s2)]
+    F.g0 = float(rate_rev_s2)
+    F.s2 = F.solve(F.build(p0, Ns[0]))[3] / len(x)
+    lo, hi = lines[0] - cfg.bound_bins * bin_rev, lines[-1] + cfg.bound_bins * bin_rev
+
+    def inside(p):
+        f = p[2:2 + M]
+        return bool(np.all((f >= lo) & (f <= hi)))
+
+    starts = []
+    for comp in (_compositions(M, k) if k < M else [[1] * M]):
+        for sp in (cfg.spreads_bins if max(comp) > 1 else cfg.spreads_bins[:1]):
+            f0 = np.concatenate([ln + (np.arange(m) - (m - 1) / 2) * sp * bin_rev for ln, m in zip(lines, comp)])
+            starts.append((f0, "+".join(map(str, comp))))
+    cands = []
+    for f0, name in starts:
+        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0])
+        if inside(p):
+            cands.append((cost, name, p))
+    cands.sort(key=lambda c: c[0])
+    best = None
+    for cost, name, p in cands[:cfg.keep]:
+        for N in Ns[1:]:
+            p, cost = F.fit(p, N)
+        if not inside(p):
+            continue
+        key = (bool(F.power.min() < cfg.min_power * np.median(F.power)), cost)
+        if best is None or key < best[0]:
+            best = (key, p, name)
+    if best is None:
+        return None
+    (_, cost), p, name = best
+    N = Ns[-1]
+    K = 2 * N
+    for _ in range(cfg.reseed):
+        F.fit(p, N, iterations=0)
+        q = int(np.argmin(F.power))
+        sl = slice(1 + q * K, 1 + (q + 1) * K)
+        r = F.r + F.A[:, sl] @ F.c[sl]
+        pm = p.copy()
+        pm[2 + q] = F.comb_peak(r, p, N, lo, hi, 0.1 * bin_rev)
+        pm[2 + M + q] = F.g0
+        pn, cn = F.fit(pm, N)
+        if cn < cost and inside(pn):
+            p, cost, name = pn, cn, name + "/reseed"
+        else:
+            break
+    F.fit(p, N, iterations=0)
+    dof = max(2 * len(x) - 2 * (1 + M * K + 3) - len(p), 1)
+    s2 = (cost - F.prior(p)) / dof
+    try:
+        cov = s2 * np.linalg.inv(F.information(p))
+    except np.linalg.LinAlgError:
+        return None
+    f = p[2:2 + M]
+    order = np.argsort(f)
+    a = np.zeros(len(p))
+    a[2:2 + M] = 1.0 / M
+    floor = cfg.rel_floor * f
+    sd = np.sqrt(np.clip(np.diag(cov)[2:2 + M], 0, None) + floor ** 2)
+    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + (cfg.rel_floor * f.mean()) ** 2))
+    return CpiFit(f[order], sd[order], mean_sd, name)
