@@ -25,15 +25,17 @@ line, the periodogram's ambiguity, is not a choice here: each of the M rotors is
 Starts: the periodogram's lines (:mod:`microdoppler.rotorspeed`). With k < M distinct
 lines every composition of M rotors on them is tried (at two spreads around each shared
 line), first with ``harmonics[0]`` harmonics (a wide basin), the ``keep`` best carried on
-to ``harmonics[-1]``. A fit whose weakest rotor has under ``min_power`` of the median
-rotor's power holds a spare rotor (two true rotors coincide) and loses against one that
-does not; the weakest rotor is then re-seeded ``reseed`` times at the strongest harmonic
-comb of the residual. A fit leaving the lines' range by more than ``bound_bins`` is
+to ``harmonics[-1]``. A fit whose weakest rotor has under ``min_power`` of the strongest
+rotor's power holds a spare rotor (its true lines coincide with another rotor's) and
+loses against one that does not; the weakest rotor is then re-seeded ``reseed`` times at
+the strongest harmonic comb of the residual, and a spare rotor left at the end is put on
+the strongest line (per rotor already there): the speed of a spare is not measured. A fit leaving the lines' range by more than ``bound_bins`` is
 dropped (the periodogram's estimate stands).
 
 Uncertainty: the Gauss-Newton covariance (residual variance times the inverse of
-J^T J with the prior), plus a relative floor ``rel_floor`` for what the quadratic
-phase does not capture.
+J^T J with the prior), plus the spread of the mean over the lines a spare rotor could
+share, plus a relative floor ``rel_floor`` for what the quadratic phase does not
+capture.
 """
 
 from __future__ import annotations
@@ -51,14 +53,16 @@ class FitConfig:
 
     harmonics: tuple = (2, 5)
     iterations: int = 10
+    screen_iterations: int = 4
     tolerance: float = 1e-5
-    keep: int = 3
+    keep: int = 2
     chirp_sd_rev_s2: float = 10.0
     spreads_bins: tuple = (0.6, 1.5)
     bound_bins: float = 5.0
-    min_power: float = 0.2
-    reseed: int = 2
-    rel_floor: float = 0.001
+    min_power: float = 0.15
+    reseed: int = 3
+    reseed_rel: float = 0.12
+    rel_floor: float = 0.0004
 
 
 @dataclass(frozen=True)
@@ -106,10 +110,11 @@ class _Model:
         return A
 
     def solve(self, A: np.ndarray):
-        G = A.conj().T @ A
+        Ah = A.conj().T
+        G = Ah @ A
         G[np.diag_indices_from(G)] += 1e-9 * np.trace(G).real / len(G)
         L = np.linalg.cholesky(G)
-        c = np.linalg.solve(L.conj().T, np.linalg.solve(L, A.conj().T @ self.y))
+        c = np.linalg.solve(L.conj().T, np.linalg.solve(L, Ah @ self.y))
         r = self.y - A @ c
         return L, c, r, float(np.vdot(r, r).real)
 
@@ -250,7 +255,8 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
             starts.append((f0, "+".join(map(str, comp))))
     cands = []
     for f0, name in starts:
-        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0])
+        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0],
+                        cfg.screen_iterations)
         if inside(p):
             cands.append((cost, name, p))
     cands.sort(key=lambda c: c[0])
@@ -260,7 +266,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
             p, cost = F.fit(p, N)
         if not inside(p):
             continue
-        key = (bool(F.power.min() < cfg.min_power * np.median(F.power)), cost)
+        key = (bool(np.any(_spare(F.power, cfg))), cost)
         if best is None or key < best[0]:
             best = (key, p, name)
     if best is None:
@@ -268,16 +274,23 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     (_, cost), p, name = best
     N = Ns[-1]
     K = 2 * N
-    for _ in range(cfg.reseed):
+    # re-seed the weakest rotor at the residual's strongest comb, searched over the
+    # group's plausible spread (a rotor the periodogram missed lies outside the lines)
+    mid = 0.5 * (lines[0] + lines[-1])
+    wlo, whi = min(lo, mid * (1 - cfg.reseed_rel)), max(hi, mid * (1 + cfg.reseed_rel))
+    for k_seed in range(cfg.reseed):
         F.fit(p, N, iterations=0)
+        if k_seed > 0 and not _spare(F.power, cfg).any():
+            break
         q = int(np.argmin(F.power))
         sl = slice(1 + q * K, 1 + (q + 1) * K)
         r = F.r + F.A[:, sl] @ F.c[sl]
         pm = p.copy()
-        pm[2 + q] = F.comb_peak(r, p, N, lo, hi, 0.1 * bin_rev)
+        pm[2 + q] = F.comb_peak(r, p, N, wlo, whi, 0.1 * bin_rev)
         pm[2 + M + q] = F.g0
         pn, cn = F.fit(pm, N)
-        if cn < cost and inside(pn):
+        f = pn[2:2 + M]
+        if cn < cost and np.all((f >= wlo) & (f <= whi)):
             p, cost, name = pn, cn, name + "/reseed"
         else:
             break
@@ -288,11 +301,33 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
         cov = s2 * np.linalg.inv(F.information(p))
     except np.linalg.LinAlgError:
         return None
-    f = p[2:2 + M]
-    order = np.argsort(f)
+    f = p[2:2 + M].copy()
+    sd = np.sqrt(np.clip(np.diag(cov)[2:2 + M], 0, None))
+    # a spare rotor (its lines coincide with another's) turns with the strongest line
+    spare = _spare(F.power, cfg)
+    weight = np.ones(M)
+    var_count = 0.0
+    if spare.any():
+        # which line a spare shares is not measured: the spread of the mean over the
+        # lines it could share adds to the uncertainty
+        strong = f[~spare]
+        var_count = float(spare.sum() * np.var(strong)) / M ** 2
+        joined = np.zeros(M)
+        for q in np.flatnonzero(spare):
+            j = int(np.argmax(np.where(spare, -np.inf, F.power / (1.0 + joined))))
+            f[q], sd[q] = f[j], sd[j]
+            joined[j] += 1
+            weight[j] += 1
+            weight[q] = 0
+        name += f"/{int(spare.sum())} spare"
     a = np.zeros(len(p))
-    a[2:2 + M] = 1.0 / M
-    floor = cfg.rel_floor * f
-    sd = np.sqrt(np.clip(np.diag(cov)[2:2 + M], 0, None) + floor ** 2)
-    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + (cfg.rel_floor * f.mean()) ** 2))
+    a[2:2 + M] = weight / M
+    sd = np.sqrt(sd ** 2 + (cfg.rel_floor * f) ** 2)
+    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (cfg.rel_floor * f.mean()) ** 2))
+    order = np.argsort(f)
     return CpiFit(f[order], sd[order], mean_sd, name)
+
+
+def _spare(power: np.ndarray, cfg: FitConfig) -> np.ndarray:
+    """bool [M]: rotors with under ``min_power`` of the strongest rotor's power."""
+    return power < cfg.min_power * power.max()
