@@ -26,6 +26,7 @@ line (assigning each true rotor to its nearest estimated line would be within 1 
 line positions (every rotor on its own line, or shared lines).
 
     .venv/bin/python benchmarks/eval_rotorspeed.py --per-model 12 --seed 1 --json out.json
+    .venv/bin/python benchmarks/eval_rotorspeed.py --per-model 12 --seed 3 --baseline   # against herm-pairs/1
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from scipy.signal.windows import blackmanharris
 from microdoppler.bootstrap import draw_flights, interval, ratio_replicates
 from microdoppler.diagnosis.features import cpi_average
 from microdoppler.emulator.world import FlightSpec, emulate_flight
-from microdoppler.rotorspeed import estimate_rotor_speeds
+from microdoppler.rotorspeed import RotorSpeedConfig, estimate_rotor_speeds
 from microdoppler.snr import flight_body_snr_db
 
 PAIR_BINS = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 99)]
@@ -83,11 +84,16 @@ def draw_effects(rng: np.random.Generator, k: int) -> dict:
     return {}
 
 
-def evaluate(spec: FlightSpec) -> dict:
+def evaluate(spec: FlightSpec, baseline: bool = False) -> dict:
     flight, truth = emulate_flight(spec)
     t0 = time.perf_counter()
     est = estimate_rotor_speeds(flight)
     dt = time.perf_counter() - t0
+    lines = None
+    if baseline:  # the periodogram's lines alone (herm-pairs/1), on the same flight
+        t1 = time.perf_counter()
+        lines = estimate_rotor_speeds(flight, config=RotorSpeedConfig(refine=False))
+        dt_lines = time.perf_counter() - t1
     n = len(est.time_s)
     snr = flight_body_snr_db(flight)[:n]
     row = {"flight": spec.flight_id, "spec": {**asdict(spec), "effects": dict(spec.effects)},
@@ -100,6 +106,10 @@ def evaluate(spec: FlightSpec) -> dict:
     tru = true_cpi_speeds(flight, est.time_s, est.n_fft)
     tm = tru.mean(axis=1)
     row["mean_err"] = (est.common_rev_s / tm - 1).tolist()
+    if lines is not None:
+        row["mean_err_lines"] = (lines.common_rev_s / tm - 1).tolist()
+        row["n_pairs_lines"] = lines.n_pairs.tolist()
+        row["seconds_lines"] = dt_lines
     row["true_mean_rev_s"] = tm.tolist()
     row["est_mean_rev_s"] = est.common_rev_s.tolist()
     row["rotor_err"] = (est.speeds_rev_s / np.sort(tru, axis=1) - 1).tolist()
@@ -196,6 +206,35 @@ def tail_tables(rows: list[dict]) -> list[str]:
     return out
 
 
+def baseline_table(rows: list[dict]) -> list[str]:
+    """Within 1 % (CPIs with >= 2 pairs), the periodogram's lines alone against the
+    estimate with the I/Q fit, on the same CPIs; paired flight bootstrap (95 %)."""
+    out = ["| CPIs with >= 2 pairs | lines alone (herm-pairs/1) | with the I/Q fit | difference | "
+           "median error, lines -> fit | estimation time per flight, lines -> fit |", "|---|---|---|---|---|---|"]
+    a_n, b_n, den = [], [], []
+    ea, eb = [], []
+    for r in rows:
+        a = np.abs(np.asarray(r["mean_err_lines"], float))
+        b = np.abs(np.asarray(r["mean_err"], float))
+        s = (np.asarray(r["n_pairs_lines"]) >= 2) & np.isfinite(a) & np.isfinite(b)
+        a_n.append(float(np.sum(a[s] <= 0.01)))
+        b_n.append(float(np.sum(b[s] <= 0.01)))
+        den.append(float(s.sum()))
+        ea.append(a[s])
+        eb.append(b[s])
+    a_n, b_n, den = np.array(a_n), np.array(b_n), np.array(den)
+    draws = draw_flights([r["flight"] for r in rows], seed=0)
+    ra, rb = ratio_replicates(a_n, den, draws), ratio_replicates(b_n, den, draws)
+    (la, ha), (lb, hb), (ld, hd) = interval(ra), interval(rb), interval(rb - ra)
+    ea, eb = np.concatenate(ea), np.concatenate(eb)
+    out.append(f"| {int(den.sum())} | {100 * a_n.sum() / den.sum():.1f} % [{100 * la:.1f}, {100 * ha:.1f}] | "
+               f"{100 * b_n.sum() / den.sum():.1f} % [{100 * lb:.1f}, {100 * hb:.1f}] | "
+               f"{100 * (b_n.sum() - a_n.sum()) / den.sum():+.1f} [{100 * ld:+.1f}, {100 * hd:+.1f}] points | "
+               f"{100 * np.median(ea):.3f} % -> {100 * np.median(eb):.3f} % | "
+               f"{np.median([r['seconds_lines'] for r in rows]):.2f} s -> {np.median([r['seconds'] for r in rows]):.2f} s |")
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-model", type=int, default=12, help="Inspire and Matrice flights each (default 12)")
@@ -203,6 +242,9 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=20.0, help="flight length [s] (default 20)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", default=None, help="also write every flight's per-CPI numbers here")
+    ap.add_argument("--baseline", action="store_true",
+                    help="also run the periodogram's lines alone (herm-pairs/1, no I/Q fit) on every flight and "
+                         "report the paired difference")
     args = ap.parse_args(argv)
     rng = np.random.default_rng([args.seed, 4242])
     specs = []
@@ -216,7 +258,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows = []
     for s in specs:
-        r = evaluate(s)
+        r = evaluate(s, args.baseline)
         rows.append(r)
         me = np.abs(np.asarray(r["mean_err"], float))
         fin = np.isfinite(me)
@@ -259,6 +301,9 @@ def main(argv=None) -> int:
                   f"rotors median {100 * np.median(re[s]):.2f} %, p90 {100 * np.percentile(re[s], 90):.2f} %")
     print()
     print("\n".join(tail_tables(rows)))
+    if args.baseline:
+        print()
+        print("\n".join(baseline_table([r for r in rows if r["ok"] and "mean_err_lines" in r])))
     print(f"flights with an estimate: {sum(r['ok'] for r in rows)} of {len(rows)}")
     bad = [(k, e) for k, e in neg if e.ok]
     print(f"negatives (Mini, birds relabelled as drones): {len(neg) - len(bad)} of {len(neg)} without an estimate"
