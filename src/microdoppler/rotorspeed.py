@@ -53,23 +53,29 @@ Method (arrays per CPI):
 8. Uncertainty: centroid noise (per-bin periodogram variance) plus a floor
    ``rel_floor`` per measurement, inflated by the scatter over harmonics (Birge
    ratio), plus the placement of lines that share a cluster.
+9. I/Q fit (``refine``, on by default): every CPI with an estimate is refitted by
+   least squares on its samples (:mod:`microdoppler.rotorfit`): each of the M rotors
+   is a harmonic series in its own phase with a speed and a rate of change, all
+   harmonics sharing them, started from the lines of steps 5-7 (every composition of
+   the M rotors on them). Fitting every rotor removes the rotor-count choice of step
+   7; a rotor whose lines coincide with another's (too weak to be its own) turns
+   with the strongest line and its ambiguity adds to the uncertainty. Where no fit
+   stays near the lines, the periodogram's estimate stands.
 
 A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a lone
 mirror pair can be clutter or birds); otherwise there is no estimate and ``reason``
 says why. CPIs without a visible pair are NaN; speeds outside ``min_rev_s`` to
 ``max_rev_s`` are dropped.
 
-Accuracy (``benchmarks/eval_rotorspeed.py``, 3 x 24 emulated Inspire/Matrice
-flights, both radars, 500-3000 m): in CPIs with two or more visible pairs the mean
-rotor speed is within 1 % of the truth in 83-87 % (median error 0.26 %); the ranked
-rotors' median error is 0.2 % where every rotor has its own line, 0.6 % where rotors
-share lines. The tail is the rotor count per line (~70 % of it): rotors within a bin
-of each other whose speeds spread by 1-5 % within a 0.56 s CPI merge and interfere,
-and a merged line's power tells its rotor count only to +-0.1 of the group's. Where
-the speeds are steady within the CPI (spread < 1 %) and the closest rotors are a bin
-apart at the first harmonic, 405 of 417 CPIs (97 %, seeds 1-2) are within 1 %; a reported
-sigma <= 0.4 % means within 1 % in ~94 %. On constant or ramping speeds
-made with eq. (1) directly the error is < 0.05 % (median).
+Accuracy (``benchmarks/eval_rotorspeed.py``, 24 emulated Inspire/Matrice flights
+per seed, both radars, 500-3000 m; ``benchmarks/README.md``, "The I/Q fit"): in CPIs
+with two or more visible pairs the mean rotor speed is within 1 % of the truth in
+~92 % (median error 0.03 %) with step 9; the periodogram's lines alone (steps 1-8,
+``herm-pairs/1``) reach ~80 % (median 0.26 %), their tail the rotor count per merged
+line: rotors within a bin of each other whose speeds spread by 1-5 % within a 0.56 s
+CPI merge and interfere, and a merged line's power tells its rotor count only to
++-0.1 of the group's. On constant or ramping speeds made with eq. (1) directly the
+error is < 0.05 % (median).
 
 Motor identity: the radar cannot tell which rotor is which, so the columns of
 ``speeds_rev_s`` are ranks (ascending speed in every CPI), not physical motors.
