@@ -512,15 +512,18 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         common_sd[i] = np.sqrt(lines[i].mean_var(cnt) + var_alloc)
         n_pairs[i] = lines[i].n_pairs
         n_lines[i] = sum(min(len(m), int(k)) for m, k in zip(lines[i].members, cnt))
+    def plausible():
+        # a rotor speed outside the plausible range is not one
+        out = ~((common >= cfg.min_rev_s) & (common <= cfg.max_rev_s))
+        speeds[out], sds[out], common[out], common_sd[out] = np.nan, np.nan, np.nan, np.nan
+        n_pairs[out], n_lines[out] = 0, 0
+        return int(np.isfinite(common).sum()), int((np.isfinite(common) & (n_pairs >= 2)).sum())
+
+    n_ok, n_comb = plausible()
     n_refined = 0
-    if cfg.refine:
+    if cfg.refine and n_ok > 0 and n_comb >= cfg.min_cpis:  # step 9 only where there is an estimate
         n_refined = _refine(flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M)
-    # a rotor speed outside the plausible range is not one
-    out = ~((common >= cfg.min_rev_s) & (common <= cfg.max_rev_s))
-    speeds[out], sds[out], common[out], common_sd[out] = np.nan, np.nan, np.nan, np.nan
-    n_pairs[out], n_lines[out] = 0, 0
-    n_ok = int(np.isfinite(common).sum())
-    n_comb = int((np.isfinite(common) & (n_pairs >= 2)).sum())
+        n_ok, n_comb = plausible()
     info.update({"method": METHOD if cfg.refine else METHOD_LINES, "n_cpi_refined": int(n_refined),
                  "n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
                  "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum())})
