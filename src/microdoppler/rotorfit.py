@@ -74,7 +74,6 @@ class CpiFit:
     speeds_std_rev_s: np.ndarray
     mean_std_rev_s: float
     start: str
-    rates_rev_s2: np.ndarray | None = None
 
 
 class _Model:
@@ -209,8 +208,7 @@ def _compositions(M: int, k: int):
 
 
 def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_hz: float, body_rate_hz_s: float,
-               lines_rev_s, rate_rev_s2: float, config: FitConfig | None = None,
-               track=None) -> CpiFit | None:
+               lines_rev_s, rate_rev_s2: float, config: FitConfig | None = None) -> CpiFit | None:
     """Fit the harmonic-chirp model to one CPI's samples ``x``.
 
     Parameters
@@ -226,8 +224,6 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
         The periodogram's distinct rotor lines [rev/s] (1 to ``n_motors`` of them).
     rate_rev_s2 : float
         The rotor group's rate of change [rev/s^2] (prior mean of each g_r).
-    track : (speeds, rates) of ndarray [n_motors], optional
-        The previous CPI's fitted rotors carried to this CPI's centre: one more start.
 
     Returns
     -------
@@ -257,13 +253,10 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
         for sp in (cfg.spreads_bins if max(comp) > 1 else cfg.spreads_bins[:1]):
             f0 = np.concatenate([ln + (np.arange(m) - (m - 1) / 2) * sp * bin_rev for ln, m in zip(lines, comp)])
             starts.append((f0, "+".join(map(str, comp))))
-    g_starts = [np.full(M, rate_rev_s2)] * len(starts)
-    if track is not None and np.all(np.isfinite(track[0])) and np.all(np.isfinite(track[1])):
-        starts.append((np.asarray(track[0], float), "track"))
-        g_starts.append(np.asarray(track[1], float))
     cands = []
-    for (f0, name), g_start in zip(starts, g_starts):
-        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, g_start], Ns[0], cfg.screen_iterations)
+    for f0, name in starts:
+        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0],
+                        cfg.screen_iterations)
         if inside(p):
             cands.append((cost, name, p))
     cands.sort(key=lambda c: c[0])
@@ -332,7 +325,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     sd = np.sqrt(sd ** 2 + (cfg.rel_floor * f) ** 2)
     mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (cfg.rel_floor * f.mean()) ** 2))
     order = np.argsort(f)
-    return CpiFit(f[order], sd[order], mean_sd, name, p[2 + M:][order])
+    return CpiFit(f[order], sd[order], mean_sd, name)
 
 
 def _spare(power: np.ndarray, cfg: FitConfig) -> np.ndarray:

@@ -555,17 +555,12 @@ def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_s
     # the group's and the body's rates of change from the neighbouring CPIs
     rate = np.gradient(np.interp(t, t[valid], common[valid]), t) if len(valid) > 1 else np.zeros(len(t))
     body_rate = np.gradient(body, t) if len(t) > 1 else np.zeros(len(t))
-    prev = None  # the previous CPI's fit and its index
     for i in valid:
         x = np.asarray(flight.iq[i * hop:i * hop + n_fft])
         sp = speeds[i][np.isfinite(speeds[i])]
         lines = np.unique(np.round(sp, 9))
-        track = None
-        if prev is not None and prev[1] == i - 1:  # the neighbour's rotors carried one hop on
-            track = (prev[0].speeds_rev_s + prev[0].rates_rev_s2 * (t[i] - t[i - 1]), prev[0].rates_rev_s2)
         res = refine_cpi(x, prf, B, M, body_hz=float(body[i]), body_rate_hz_s=float(body_rate[i]),
-                         lines_rev_s=lines, rate_rev_s2=float(rate[i]), config=cfg.fit, track=track)
-        prev = (res, i) if res is not None else None
+                         lines_rev_s=lines, rate_rev_s2=float(rate[i]), config=cfg.fit)
         if res is None:
             continue
         speeds[i], sds[i] = res.speeds_rev_s, res.speeds_std_rev_s
