@@ -173,9 +173,13 @@ def test_the_iq_fit_counts_every_rotor_where_lines_merge():
     t = np.arange(int(10 * PRF)) / PRF
     rev = np.outer(1 + 0.01 * np.sin(2 * np.pi * t / 3.0), [81.1, 82.7, 88.0, 88.1])
     fl = synthetic_flight(rev, seed=21)
-    est = estimate_rotor_speeds(fl)
+    calls = []
+    est = estimate_rotor_speeds(fl, progress=lambda done, total: calls.append((done, total)))
     assert est.ok, est.reason
     assert est.info["method"] == "herm-pairs+iq-fit/2"
+    # the long step reports its progress, ending at every CPI with an estimate
+    assert calls and calls[-1][0] == calls[-1][1] >= est.valid.sum()
+    assert [c[0] for c in calls] == sorted(c[0] for c in calls)
     sel = est.valid & (est.n_pairs >= 2)
     assert est.info["n_cpi_refined"] >= sel.sum() - 1
     truth = cpi_truth(t, rev, est.time_s)

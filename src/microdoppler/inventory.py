@@ -111,7 +111,8 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, esti
                 from .flightzarr import read_flight
                 from .rotorspeed import estimate_rotor_speeds
 
-                est = estimate_rotor_speeds(read_flight(fl.path))
+                est = estimate_rotor_speeds(read_flight(fl.path), progress=lambda done, total, fid=fl.flight_id:
+                                            log(f"{fid}: rotor speeds from the radar: I/Q fit, {done} of {total} CPIs"))
                 if est.ok:
                     ml, source, state, extra = est.to_motor_log(), "radar", "estimated", est.store_attrs()
                 else:

@@ -188,7 +188,10 @@ def estimate_motors(flight, warns: list):
 
     if flight.attrs.get("target") != "drone":
         raise InputError("--estimate-motors", "target", f"is {flight.attrs.get('target')!r}", "a drone recording")
-    est = estimate_rotor_speeds(flight)
+    def progress(done, total):
+        print(f"rotor speeds from the radar: I/Q fit, {done} of {total} CPIs", file=sys.stderr, flush=True)
+
+    est = estimate_rotor_speeds(flight, progress=progress)
     if not est.ok:
         warns.append(f"no rotor-speed estimate: {est.reason}")
         return flight
