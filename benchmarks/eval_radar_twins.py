@@ -3,9 +3,11 @@
     .venv/bin/python benchmarks/eval_radar_twins.py [--per-model 5] [--seed 1] [--duration-s 20]
 
 For emulated Inspire 2 and Matrice 300 flights on both radars, builds the calibrated
-``sub_cpi`` twin (microdoppler.datasets.calibration.fit_twin) twice: driven by the
-flight's motor log, and by ``microdoppler.rotorspeed`` from the flight's own HERM lines
-(as for a flight without a log). Fidelity terms per flight and twin:
+``sub_cpi`` twin (microdoppler.datasets.calibration.fit_twin) three times: driven by the
+flight's motor log (``log``), and by ``microdoppler.rotorspeed`` from the flight's own
+HERM lines (as for a flight without a log), its rows either the instants whose spline
+has the estimates as CPI means (``radar``, what the tool stores) or the CPI means
+themselves (``radar_cpi_means``, before 2026-11-24). Fidelity terms per flight and twin:
 
 - ``line_error_pct``: HERM line spacing of the twin (twin + background, measured with
   the same rotor-speed estimator) against the measured flight's, median over CPIs of
@@ -15,7 +17,8 @@ flight's motor log, and by ``microdoppler.rotorspeed`` from the flight's own HER
 - ``pairs_error``: visible sideband pairs, twin minus measured.
 
 Prints per-flight rows, the mean over flights with a 95 % bootstrap interval (the
-flight is the unit: microdoppler.bootstrap) and the paired difference radar - log.
+flight is the unit: microdoppler.bootstrap) and the paired differences radar - log,
+radar_cpi_means - log and radar - radar_cpi_means.
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ def one_flight(spec: FlightSpec, spec_cfg: SpectrogramConfig) -> list[dict]:
     logs = {"log": MotorLog(flight.motors_time_s, flight.motors_rpm, "log")}
     if est.ok:
         logs["radar"] = est.to_motor_log()
+        logs["radar_cpi_means"] = est.to_motor_log(cpi_means=True)
     rows = []
     for source, log in logs.items():
         rev_s = resample("sub_cpi", log, len(flight.iq), flight.prf_hz)
@@ -69,21 +73,27 @@ def one_flight(spec: FlightSpec, spec_cfg: SpectrogramConfig) -> list[dict]:
     return rows
 
 
+PAIRS = (("radar", "log"), ("radar_cpi_means", "log"), ("radar", "radar_cpi_means"))
+
+
 def summarise(df: pd.DataFrame, seed: int) -> pd.DataFrame:
-    """Mean |term| per source with a flight-bootstrap 95 % interval, and radar - log."""
+    """Mean |term| per pair of sources with flight-bootstrap 95 % intervals, and their
+    paired difference (:data:`PAIRS`)."""
     both = df.pivot_table(index="flight_id", columns="source", values=list(TERMS), aggfunc="first")
-    both = both.dropna(subset=[(t, s) for t in TERMS[:1] for s in ("log", "radar")])
+    both = both.dropna(subset=[(TERMS[0], s) for s in ("log", "radar", "radar_cpi_means")])
     draws = draw_flights(both.index, n_boot=2000, seed=seed)
     out = []
     ones = np.ones(len(both))
-    for t in TERMS:
-        a = np.abs(both[(t, "log")].to_numpy(float))
-        b = np.abs(both[(t, "radar")].to_numpy(float))
-        ra, rb = ratio_replicates(a, ones, draws), ratio_replicates(b, ones, draws)
-        lo, hi = interval(rb - ra)
-        out.append({"term": f"|{t}|", "log": a.mean(), "log_ci95": interval(ra), "radar": b.mean(),
-                    "radar_ci95": interval(rb), "radar_minus_log": b.mean() - a.mean(), "diff_ci95": (lo, hi),
-                    "resolved": resolved(lo, hi), "n_flights": len(both)})
+    for first, second in PAIRS:
+        for t in TERMS:
+            a = np.abs(both[(t, second)].to_numpy(float))
+            b = np.abs(both[(t, first)].to_numpy(float))
+            ra, rb = ratio_replicates(a, ones, draws), ratio_replicates(b, ones, draws)
+            lo, hi = interval(rb - ra)
+            out.append({"difference": f"{first} - {second}", "term": f"|{t}|", "second": a.mean(),
+                        "second_ci95": interval(ra), "first": b.mean(), "first_ci95": interval(rb),
+                        "first_minus_second": b.mean() - a.mean(), "diff_ci95": (lo, hi),
+                        "resolved": resolved(lo, hi), "n_flights": len(both)})
     return pd.DataFrame(out)
 
 
@@ -103,7 +113,7 @@ def main(argv=None) -> int:
                               speed_mps=float(rng.uniform(3, 10)), snr_db=float(rng.uniform(38, 46)),
                               seed=int(rng.integers(2**31)))
             rows += one_flight(spec, spec_cfg)
-            print(pd.DataFrame(rows[-2:]).to_string(index=False, header=len(rows) <= 2), flush=True)
+            print(pd.DataFrame(rows[-3:]).to_string(index=False, header=len(rows) <= 3), flush=True)
     df = pd.DataFrame(rows)
     pd.set_option("display.width", 200)
     print()

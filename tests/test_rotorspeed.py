@@ -17,7 +17,8 @@ from microdoppler.diagnosis.features import cpi_average
 from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.flightzarr import Flight, read_flight, write_flight
 from microdoppler.motorlog import read_motor_store
-from microdoppler.rotorspeed import RotorSpeedConfig, estimate_rotor_speeds
+from microdoppler.rotorspeed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
+                                     instants_from_cpi_means)
 
 PRF = 7300.0
 CARRIER = 1.35e9
@@ -293,8 +294,11 @@ def test_motor_log_and_flight_store_round_trip(tmp_path):
     v = est.valid
     np.testing.assert_array_equal(log.time_s, est.time_s[v])
     assert log.rpm.shape == (int(v.sum()), 4) and log.rpm.dtype == np.float32
-    np.testing.assert_allclose(log.rev_s, est.speeds_rev_s[v], rtol=1e-6)
-    common = est.to_motor_log(per_motor=False)
+    # the rows are instants whose spline has the estimates as its CPI means
+    np.testing.assert_allclose(cpi_means_of_spline(log.time_s, log.rev_s.astype(float), log.time_s, N_FFT, PRF),
+                               est.speeds_rev_s[v], rtol=1e-5)
+    np.testing.assert_allclose(est.to_motor_log(cpi_means=True).rev_s, est.speeds_rev_s[v], rtol=1e-6)
+    common = est.to_motor_log(per_motor=False, cpi_means=True)
     np.testing.assert_allclose(common.rev_s, np.repeat(est.common_rev_s[v, None], 4, 1), rtol=1e-6)
     store = write_flight(tmp_path / "f.zarr", est.with_flight(fl))
     back = read_flight(store)
@@ -304,6 +308,29 @@ def test_motor_log_and_flight_store_round_trip(tmp_path):
     assert len(meta["n_pairs"]) == int(v.sum())
     np.testing.assert_allclose(back.motors_rpm, log.rpm)
     read_motor_store(store)  # passes the motor-log checks (plausible speeds, increasing times)
+
+
+def test_motor_log_rows_are_instants_whose_cpi_means_are_the_estimates():
+    """A manoeuvre (speed +-4 % at 1 Hz plus a ramp): the CPI means of the true
+    history smooth its curvature; the log's rows recovered from them lie at the true
+    instantaneous speeds, and the spline a twin drives its rotors with (natural cubic
+    through the rows) has the measured CPI means, which the means themselves do not."""
+    prf, n_fft = PRF, N_FFT
+    hop = n_fft // 2
+    t_f = np.arange(int(12 * prf)) / prf
+    v = 80.0 + 3.2 * np.sin(2 * np.pi * 1.0 * t_f + 0.4) + 0.5 * t_f
+    t = (np.arange(1 + (len(t_f) - n_fft) // hop) * hop + n_fft / 2) / prf
+    w = blackmanharris(n_fft, sym=False) ** 2
+    means = np.array([np.sum(w * v[i * hop:i * hop + n_fft]) / w.sum() for i in range(len(t))])[:, None]
+    x = instants_from_cpi_means(t, means, n_fft, prf)
+    true_at = np.interp(t, t_f, v)[:, None]
+    inner = slice(2, -2)  # the ends hold the curve flat, as the sampling does
+    err_means = np.abs(means - true_at)[inner].max()
+    err_x = np.abs(x - true_at)[inner].max()
+    assert err_means > 0.15  # rev/s: the means miss the peaks by ~0.25 %
+    assert err_x < 0.25 * err_means
+    np.testing.assert_allclose(cpi_means_of_spline(t, x, t, n_fft, prf), means, rtol=1e-6)
+    assert np.abs(cpi_means_of_spline(t, means, t, n_fft, prf) - means)[inner].max() > 0.15
 
 
 def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(tmp_path, capsys):

@@ -81,7 +81,13 @@ Motor identity: the radar cannot tell which rotor is which, so the columns of
 ``speeds_rev_s`` are ranks (ascending speed in every CPI), not physical motors.
 
 Storage (flight-zarr/1): :meth:`RotorEstimate.to_motor_log` gives ``motors/time_s``
-(CPI centres) and ``motors/rpm`` [n_log, n_motors] (the CPIs with an estimate);
+(CPI centres) and ``motors/rpm`` [n_log, n_motors] (the CPIs with an estimate). A motor
+log holds speeds at instants, the radar measures each CPI's window^2-weighted mean, and
+the curve a twin drives its rotors with (:mod:`microdoppler.sampling`: a natural cubic
+spline through the rows) smooths the curvature of a speed history: through the CPI
+means themselves its CPI means are off by ~0.08 of the second difference (up to ~1 %
+on manoeuvres). The rows are therefore the spline's nodes whose CPI means equal the
+estimates (:func:`instants_from_cpi_means`); ``cpi_means=True`` gives the estimates.
 :meth:`RotorEstimate.store_attrs` gives the group attributes ``motors_source:
 "radar"`` and ``motors_radar`` (method, settings, the per-row one-sigma ``rpm_std``
 [rev/min], pair and line counts), which flight-zarr/1 preserves ("other attributes
@@ -95,8 +101,10 @@ from dataclasses import asdict, dataclass, field, is_dataclass, replace
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
+from scipy.interpolate import CubicSpline
 from scipy.ndimage import maximum_filter1d
 from scipy.signal import find_peaks
+from scipy.signal.windows import blackmanharris
 
 from .flightzarr import Flight
 from .motorlog import MotorLog
@@ -301,11 +309,13 @@ class RotorEstimate:
         """Mean HERM line spacing B f [Hz], float64 [n_cpi]."""
         return self.n_blades * self.common_rev_s
 
-    def to_motor_log(self, *, per_motor: bool = True) -> MotorLog:
+    def to_motor_log(self, *, per_motor: bool = True, cpi_means: bool = False) -> MotorLog:
         """The estimate as a :class:`MotorLog` (``motors/time_s``, ``motors/rpm``).
 
         Rows are the CPIs with an estimate. ``per_motor`` (default) gives each
-        rank's speed; otherwise every column holds the mean rotor speed.
+        rank's speed; otherwise every column holds the mean rotor speed. The speeds
+        are instants (:func:`instants_from_cpi_means`: a natural cubic spline through
+        the rows has the estimates as its CPI means) unless ``cpi_means``.
 
         Raises
         ------
@@ -318,7 +328,10 @@ class RotorEstimate:
         if v.sum() < 2:
             raise ValueError(f"{self.flight_id}: {int(v.sum())} CPI with an estimate; a motor log needs 2 rows")
         rev = self.speeds_rev_s[v] if per_motor else np.repeat(self.common_rev_s[v, None], self.n_motors, axis=1)
-        return MotorLog(self.time_s[v].astype(np.float64), (rev * 60.0).astype(np.float32),
+        t = self.time_s[v].astype(np.float64)
+        if not cpi_means:
+            rev = instants_from_cpi_means(t, rev, self.n_fft, float(self.info["prf_hz"]))
+        return MotorLog(t, (rev * 60.0).astype(np.float32),
                         f"{self.flight_id}: radar ({self.info.get('method', METHOD)})")
 
     def store_attrs(self, *, per_motor: bool = True) -> dict:
@@ -335,6 +348,8 @@ class RotorEstimate:
                 "columns": "ascending speed per row (rotor ranks, not physical motors)" if per_motor
                            else "mean rotor speed in every column",
                 "rpm_std": np.round(std * 60.0, 1).tolist(),
+                "rows": "cubic-spline nodes whose window^2-weighted CPI means equal the estimates; rpm_std is "
+                        "the CPI mean's one-sigma",
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
                 "settings": self.info.get("settings", {}),
@@ -455,7 +470,8 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     n_cpi = 1 + (n_pulses - n_fft) // hop if n_pulses >= n_fft else 0
     t = (np.arange(n_cpi) * hop + n_fft / 2) / prf
     info = {"settings": {k: (asdict(v) if is_dataclass(v) else v) for k, v in
-                         ((k, getattr(cfg, k)) for k in cfg.__dataclass_fields__)}, "n_cpi": int(n_cpi)}
+                         ((k, getattr(cfg, k)) for k in cfg.__dataclass_fields__)}, "n_cpi": int(n_cpi),
+            "prf_hz": prf}
     target = attrs.get("target", "drone")
     if target != "drone":
         return _no_estimate(fid, n_cpi, t, M, B or 0, n_fft, f"target is {target!r}: no rotors", info)
@@ -544,6 +560,39 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         est.n_pairs = n_pairs
         return est
     return RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info)
+
+
+def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,
+                        n_points: int = 64) -> np.ndarray:
+    """Window^2-weighted mean (Blackman-Harris, ``n_fft`` pulses at ``prf_hz``) over each
+    CPI centred on ``cpi_t`` of the natural cubic spline through (``t_s``, ``nodes``)
+    [n, k], held constant beyond its ends as :mod:`microdoppler.sampling` holds a log:
+    float [len(cpi_t), k]."""
+    w = blackmanharris(n_fft, sym=False) ** 2
+    k = np.linspace(0, n_fft - 1, n_points).astype(int)
+    wk = w[k] / w[k].sum()
+    tt = np.clip(cpi_t[:, None] + (k[None, :] - n_fft / 2) / prf_hz, t_s[0], t_s[-1])
+    return np.einsum("ikm,k->im", CubicSpline(t_s, nodes, bc_type="natural", axis=0)(tt), wk)
+
+
+def instants_from_cpi_means(t_s: np.ndarray, means: np.ndarray, n_fft: int, prf_hz: float, *,
+                            iterations: int = 12, rtol: float = 1e-7) -> np.ndarray:
+    """Speeds at the CPI centres ``t_s`` whose natural cubic spline has the CPI means
+    ``means`` [n, k] (:func:`cpi_means_of_spline`): the fixed point of
+    x <- x + (means - A x), A the CPI-mean operator (close to the identity: its
+    off-diagonal weights are ~0.08, so the iteration contracts). Fewer than 3 rows,
+    or no convergence, leave the means as they are."""
+    m = np.asarray(means, float)
+    if len(t_s) < 3:
+        return m.copy()
+    x = m.copy()
+    for _ in range(iterations):
+        r = m - cpi_means_of_spline(t_s, x, t_s, n_fft, prf_hz)
+        x = x + r
+        if np.max(np.abs(r)) <= rtol * np.max(np.abs(m)):
+            return x
+    return x if np.max(np.abs(m - cpi_means_of_spline(t_s, x, t_s, n_fft, prf_hz))) <= 1e-5 * np.max(np.abs(m)) \
+        else m.copy()
 
 
 def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M,
