@@ -14,7 +14,11 @@ themselves (``radar_cpi_means``, before 2026-11-24). Fidelity terms per flight a
   |twin / measured - 1| [%];
 - ``body_error_db``, ``sideband1_error_db``: the calibration's achieved minus measured
   SNR of the body and of the first sideband pair [dB];
-- ``pairs_error``: visible sideband pairs, twin minus measured.
+- ``pairs_error``: visible sideband pairs, twin minus measured;
+- Table VI's distances (``microdoppler.fidelity.distances``, prefixed ``vi_``: HERM
+  line frequency [Hz], visible pairs, first-pair level, asymmetry, blade-power std and
+  timescale, body-power std, floor), on the CPIs the calibration did not see, with
+  the flight's own log placing the lines for every twin (the same ruler).
 
 Prints per-flight rows, the mean over flights with a 95 % bootstrap interval (the
 flight is the unit: microdoppler.bootstrap) and the paired differences radar - log,
@@ -31,12 +35,13 @@ import pandas as pd
 from microdoppler.bootstrap import draw_flights, interval, ratio_replicates, resolved
 from microdoppler.datasets.calibration import fit_twin
 from microdoppler.emulator import FlightSpec, emulate_flight
+from microdoppler.fidelity import DISTANCES, distances, flight_features, scoring_mask
 from microdoppler.motorlog import MotorLog
 from microdoppler.rotorspeed import estimate_rotor_speeds
 from microdoppler.sampling import resample
 from microdoppler.spectrogram import SpectrogramConfig
 
-TERMS = ("line_error_pct", "body_error_db", "sideband1_error_db", "pairs_error")
+TERMS = ("line_error_pct", "body_error_db", "sideband1_error_db", "pairs_error", *(f"vi_{k}" for k in DISTANCES))
 
 
 def _spacing(flight, iq):
@@ -56,17 +61,22 @@ def one_flight(spec: FlightSpec, spec_cfg: SpectrogramConfig) -> list[dict]:
         logs["radar"] = est.to_motor_log()
         logs["radar_cpi_means"] = est.to_motor_log(cpi_means=True)
     rows = []
+    measured_features = flight_features(flight, flight.iq, logs["log"], spec_cfg=spec_cfg)
     for source, log in logs.items():
         rev_s = resample("sub_cpi", log, len(flight.iq), flight.prf_hz)
         iq, res = fit_twin(flight, rev_s, log, spec_cfg=spec_cfg, seed=spec.seed)
         twin = _spacing(flight, iq + flight.background_iq)
         n = min(len(twin), len(measured))
         rel = np.abs(twin[:n] / measured[:n] - 1) * 100
+        twin_features = flight_features(flight, iq + flight.background_iq, logs["log"], spec_cfg=spec_cfg)
+        mask, _ = scoring_mask(res, len(twin_features.time_s))
+        vi = distances(measured_features, twin_features, mask)
         rows.append({"flight_id": spec.flight_id, "drone_model": spec.drone_model, "radar_id": spec.radar_id,
                      "source": source, "status": res["status"],
                      "line_error_pct": float(np.nanmedian(rel)) if np.isfinite(rel).any() else np.nan,
                      "body_error_db": res["body_error_db"], "sideband1_error_db": res["sideband1_error_db"],
-                     "pairs_error": res["n_pairs_twin"] - res["n_pairs_measured"]})
+                     "pairs_error": res["n_pairs_twin"] - res["n_pairs_measured"],
+                     **{f"vi_{k}": v for k, v in vi.items()}})
     if not est.ok:
         rows.append({"flight_id": spec.flight_id, "drone_model": spec.drone_model, "radar_id": spec.radar_id,
                      "source": "radar", "status": f"no estimate: {est.reason}"})
@@ -113,7 +123,7 @@ def main(argv=None) -> int:
                               speed_mps=float(rng.uniform(3, 10)), snr_db=float(rng.uniform(38, 46)),
                               seed=int(rng.integers(2**31)))
             rows += one_flight(spec, spec_cfg)
-            print(pd.DataFrame(rows[-3:]).to_string(index=False, header=len(rows) <= 3), flush=True)
+            print(pd.DataFrame(rows[-3:]).round(4).to_string(index=False, header=len(rows) <= 3), flush=True)
     df = pd.DataFrame(rows)
     pd.set_option("display.width", 200)
     print()
