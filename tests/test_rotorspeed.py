@@ -305,7 +305,8 @@ def test_motor_log_and_flight_store_round_trip(tmp_path):
     assert back.attrs["motors_source"] == "radar"
     meta = back.attrs["motors_radar"]
     assert meta["method"] == "herm-pairs+iq-fit/2" and np.shape(meta["rpm_std"]) == (int(v.sum()), 4)
-    assert len(meta["n_pairs"]) == int(v.sum())
+    assert len(meta["n_pairs"]) == int(v.sum()) and meta["rows"].startswith("cubic-spline nodes")
+    assert est.store_attrs(cpi_means=True)["motors_radar"]["rows"].startswith("the estimates")
     np.testing.assert_allclose(back.motors_rpm, log.rpm)
     read_motor_store(store)  # passes the motor-log checks (plausible speeds, increasing times)
 

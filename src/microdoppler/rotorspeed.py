@@ -334,10 +334,11 @@ class RotorEstimate:
         return MotorLog(t, (rev * 60.0).astype(np.float32),
                         f"{self.flight_id}: radar ({self.info.get('method', METHOD)})")
 
-    def store_attrs(self, *, per_motor: bool = True) -> dict:
+    def store_attrs(self, *, per_motor: bool = True, cpi_means: bool = False) -> dict:
         """Group attributes that go with :meth:`to_motor_log` in a flight-zarr/1 store:
         ``motors_source = "radar"`` and ``motors_radar`` (JSON: method, settings,
-        ``rpm_std`` [n_log][n_motors] rev/min, ``n_pairs`` and ``n_lines`` per row)."""
+        ``rpm_std`` [n_log][n_motors] rev/min, what the rows are (``rows``, as
+        ``to_motor_log(cpi_means=...)``), ``n_pairs`` and ``n_lines`` per row)."""
         v = self.valid
         std = self.speeds_std_rev_s[v] if per_motor else np.repeat(self.common_std_rev_s[v, None], self.n_motors, 1)
         return {
@@ -348,19 +349,20 @@ class RotorEstimate:
                 "columns": "ascending speed per row (rotor ranks, not physical motors)" if per_motor
                            else "mean rotor speed in every column",
                 "rpm_std": np.round(std * 60.0, 1).tolist(),
-                "rows": "cubic-spline nodes whose window^2-weighted CPI means equal the estimates; rpm_std is "
-                        "the CPI mean's one-sigma",
+                "rows": ("the estimates (window^2-weighted CPI means)" if cpi_means else
+                         "cubic-spline nodes whose window^2-weighted CPI means equal the estimates")
+                        + "; rpm_std is the CPI mean's one-sigma",
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
                 "settings": self.info.get("settings", {}),
             },
         }
 
-    def with_flight(self, flight: Flight, *, per_motor: bool = True) -> Flight:
+    def with_flight(self, flight: Flight, *, per_motor: bool = True, cpi_means: bool = False) -> Flight:
         """A copy of ``flight`` carrying this estimate as its motor log (for
         :func:`microdoppler.flightzarr.write_flight`)."""
-        log = self.to_motor_log(per_motor=per_motor)
-        attrs = {**flight.attrs, **self.store_attrs(per_motor=per_motor)}
+        log = self.to_motor_log(per_motor=per_motor, cpi_means=cpi_means)
+        attrs = {**flight.attrs, **self.store_attrs(per_motor=per_motor, cpi_means=cpi_means)}
         return replace(flight, attrs=attrs, motors_time_s=log.time_s, motors_rpm=log.rpm)
 
     def summary(self) -> str:
