@@ -238,7 +238,8 @@ def fit_variogram(lags: np.ndarray, g: np.ndarray, npair: np.ndarray, nv: float,
 
 def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
                         window: np.ndarray, prf_hz: float, start: tuple, *, block: int = 512,
-                        tau_bounds_s: tuple = (0.01, 30.0), design: np.ndarray | None = None) -> dict:
+                        tau_bounds_s: tuple = (0.01, 30.0), design: np.ndarray | None = None,
+                        free_white: bool = False) -> dict:
     """Joint (sigma [dB], T [s]) of the gain in the series ``y`` [dB] (mean zero,
     e.g. detrended) by its exact Gaussian likelihood: covariance c(L) of the
     window-averaged exponentially correlated gain (:func:`model_cov_db2`, window
@@ -252,6 +253,11 @@ def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndar
     part of the gain the trend took out is not read as missing variance, which on
     a record of a few tens of T biases sigma low (a 40 s flight with T = 2.5 s:
     sigma 38 % low without it).
+
+    With ``free_white`` a third parameter, a white variance w [dB^2] added to every
+    sample's ``noise_var_db2``, is fitted with them (returned as ``extra_white_db2``):
+    for a nuisance whose size is only partly known (the part of the rotors' beats that
+    is common to the harmonics).
 
     The series is cut into consecutive stretches of ``block`` samples whose
     likelihoods are summed (cost linear in the record; the correlation across a
@@ -268,7 +274,8 @@ def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndar
 
     y = np.asarray(y, float)
     idx = np.flatnonzero(np.asarray(valid, bool))
-    out = {"sigma_db": float(start[0]), "timescale_s": float(start[1]), "nll": float("nan"), "n_eval": 0}
+    out = {"sigma_db": float(start[0]), "timescale_s": float(start[1]), "nll": float("nan"), "n_eval": 0,
+           "extra_white_db2": 0.0}
     if len(idx) < 20 or not (start[0] > 0 and np.isfinite(start[1]) and start[1] > 0):
         return out
     ds, W = window_offsets(window, prf_hz)
@@ -284,15 +291,16 @@ def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndar
         X = X[:, Rd > 1e-8 * max(float(Rd.max()), 1e-300)]
 
     def nll(p):
-        ls, lt = p
-        if not (lo <= lt <= hi) or not (-3.0 <= ls <= 3.0):
+        ls, lt = p[:2]
+        lw = p[2] if free_white else -np.inf
+        if not (lo <= lt <= hi) or not (-3.0 <= ls <= 3.0) or lw > 5.0:
             return 1e12
         cl = model_cov_db2(np.arange(n_lag) * hop_s, np.exp(ls), np.exp(lt), ds, W)
         tot = 0.0
         A = g = None
         for b, L in zip(blocks, lag_idx):
             C = cl[L]
-            C[np.diag_indices_from(C)] += nv[b]
+            C[np.diag_indices_from(C)] += nv[b] + np.exp(lw)
             try:
                 cf = cho_factor(C, lower=True, check_finite=False)
             except np.linalg.LinAlgError:
@@ -310,9 +318,12 @@ def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndar
             tot += 0.5 * logdet - 0.5 * float(g @ np.linalg.solve(A, g))
         return tot
 
-    r = minimize(nll, np.log([start[0], start[1]]), method="Nelder-Mead",
-                 options={"xatol": 0.005, "fatol": 0.01, "maxiter": 300})
+    x0 = np.log([start[0], start[1]])
+    if free_white:  # from a small extra white, a tenth of the known noise (at least 0.01 dB^2)
+        x0 = np.r_[x0, np.log(max(0.1 * float(np.mean(nv[idx])), 0.01))]
+    r = minimize(nll, x0, method="Nelder-Mead",
+                 options={"xatol": 0.005, "fatol": 0.01, "maxiter": 300 if not free_white else 600})
     if np.isfinite(r.fun) and r.fun < 1e11:
         out.update({"sigma_db": float(np.exp(r.x[0])), "timescale_s": float(np.exp(r.x[1])), "nll": float(r.fun),
-                    "n_eval": int(r.nfev)})
+                    "n_eval": int(r.nfev), "extra_white_db2": float(np.exp(r.x[2])) if free_white else 0.0})
     return out
