@@ -101,7 +101,6 @@ from dataclasses import asdict, dataclass, field, is_dataclass, replace
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy.interpolate import CubicSpline
 from scipy.ndimage import maximum_filter1d
 from scipy.signal import find_peaks
 from scipy.signal.windows import blackmanharris
@@ -109,6 +108,7 @@ from scipy.signal.windows import blackmanharris
 from .flightzarr import Flight
 from .motorlog import MotorLog
 from .rotorfit import FitConfig, refine_cpi
+from .sampling import log_curve
 from .snr import body_doppler_hz
 from .spectrogram import SpectrogramConfig, spectrogram
 
@@ -567,14 +567,14 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
 def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,
                         n_points: int = 64) -> np.ndarray:
     """Window^2-weighted mean (Blackman-Harris, ``n_fft`` pulses at ``prf_hz``) over each
-    CPI centred on ``cpi_t`` of the natural cubic spline through (``t_s``, ``nodes``)
-    [n, k], held constant beyond its ends as :mod:`microdoppler.sampling` holds a log:
+    CPI centred on ``cpi_t`` of the curve through (``t_s``, ``nodes``) [n, k] that every
+    sampling variant reads from a log (:func:`microdoppler.sampling.log_curve`):
     float [len(cpi_t), k]."""
     w = blackmanharris(n_fft, sym=False) ** 2
     k = np.linspace(0, n_fft - 1, n_points).astype(int)
     wk = w[k] / w[k].sum()
-    tt = np.clip(cpi_t[:, None] + (k[None, :] - n_fft / 2) / prf_hz, t_s[0], t_s[-1])
-    return np.einsum("ikm,k->im", CubicSpline(t_s, nodes, bc_type="natural", axis=0)(tt), wk)
+    tt = cpi_t[:, None] + (k[None, :] - n_fft / 2) / prf_hz
+    return np.einsum("ikm,k->im", log_curve(t_s, nodes)(tt), wk)
 
 
 def instants_from_cpi_means(t_s: np.ndarray, means: np.ndarray, n_fft: int, prf_hz: float, *,

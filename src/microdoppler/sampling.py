@@ -62,13 +62,17 @@ class SamplingConfig:
             raise ValueError(f"fixed_spread={self.fixed_spread} must be in [0, 1)")
 
 
-def _spline(log: MotorLog, motor: int) -> CubicSpline:
-    return CubicSpline(log.time_s, log.rev_s[:, motor], bc_type="natural", extrapolate=False)
+def log_curve(time_s: np.ndarray, values: np.ndarray):
+    """The curve a motor log's rows stand for, as every variant reads it: the natural
+    cubic spline through (``time_s``, ``values`` [n] or [n, k]), held at its end values
+    beyond the rows. Returns ``f(t)``."""
+    spl = CubicSpline(time_s, values, bc_type="natural", extrapolate=False, axis=0)
+    lo, hi = time_s[0], time_s[-1]
+    return lambda t: spl(np.clip(t, lo, hi))
 
 
-def _eval_clamped(spl: CubicSpline, t: np.ndarray, log: MotorLog, motor: int) -> np.ndarray:
-    t = np.clip(t, log.time_s[0], log.time_s[-1])
-    return spl(t)
+def _spline(log: MotorLog, motor: int):
+    return log_curve(log.time_s, log.rev_s[:, motor])
 
 
 def per_cpi_knots(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
@@ -78,7 +82,7 @@ def per_cpi_knots(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConf
     """
     n_cpi = -(-n_pulses // cfg.n_fft)
     t_centre = (np.arange(n_cpi) * cfg.n_fft + cfg.n_fft / 2) / prf_hz
-    return np.column_stack([_eval_clamped(_spline(log, m), t_centre, log, m) for m in range(log.n_motors)])
+    return np.column_stack([_spline(log, m)(t_centre) for m in range(log.n_motors)])
 
 
 def per_cpi(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
@@ -120,7 +124,7 @@ def sub_cpi_knots(log: MotorLog, motor: int, n_pulses: int, prf_hz: float,
     pad = SUB_CPI_PAD
     n_dec = -(-n_pulses // up) + 2 * pad
     t_fine = (np.arange(n_dec * oversample) - pad * oversample) / (fs_dec * oversample)
-    fine = _eval_clamped(_spline(log, motor), t_fine, log, motor)
+    fine = _spline(log, motor)(t_fine)
     return decimate(fine, oversample, ftype="fir", zero_phase=True)
 
 
