@@ -23,7 +23,11 @@ log: the largest rotor's window^2-weighted speed spread within the CPI, and the
 closest two rotors' separation in STFT bins at the first harmonic), and the tail
 (CPIs with >= 2 pairs and an error over 1 %) by cause: gross (> 5 %), rotor count per
 line (assigning each true rotor to its nearest estimated line would be within 1 %),
-line positions (every rotor on its own line, or shared lines).
+line positions (every rotor on its own line, or shared lines). Last, whether the
+reported uncertainty holds: the share of CPIs whose mean speed (and of ranked rotors
+whose speed) lies within 1 and 2 reported sigma, by the I/Q fit's power balance
+(:attr:`microdoppler.rotorspeed.RotorEstimate.balance`), with flight-bootstrap
+intervals.
 
     .venv/bin/python benchmarks/eval_rotorspeed.py --per-model 12 --seed 1 --json out.json
     .venv/bin/python benchmarks/eval_rotorspeed.py --per-model 12 --seed 3 --baseline   # against herm-pairs/1
@@ -50,6 +54,7 @@ SNR_BINS = [(-99, 20), (20, 30), (30, 40), (40, 50), (50, 60), (60, 99)]
 SIGMA_BINS = [(0.0, 0.003), (0.003, 0.004), (0.004, 0.005), (0.005, 0.007), (0.007, 1.0)]
 CHIRP_BINS = [(0.0, 0.01), (0.01, 0.02), (0.02, 1.0)]
 GAP_BINS = [(0.0, 1.0), (1.0, 2.0), (2.0, 1e9)]
+BALANCE_BINS = [(0.0, 0.15), (0.15, 0.3), (0.3, 0.45), (0.45, 0.6), (0.6, 0.75), (0.75, 1.01)]
 
 
 def true_cpi_speeds(flight, time_s: np.ndarray, n_fft: int) -> np.ndarray:
@@ -114,6 +119,8 @@ def evaluate(spec: FlightSpec, baseline: bool = False) -> dict:
     row["est_mean_rev_s"] = est.common_rev_s.tolist()
     row["rotor_err"] = (est.speeds_rev_s / np.sort(tru, axis=1) - 1).tolist()
     row["z"] = ((est.common_rev_s - tm) / est.common_std_rev_s).tolist()
+    row["z_rotor"] = ((est.speeds_rev_s - np.sort(tru, axis=1)) / est.speeds_std_rev_s).tolist()
+    row["balance"] = (est.balance if est.balance is not None else np.full(n, np.nan)).tolist()
     row["separated"] = est.separated.tolist()
     row["sigma_rel"] = (est.common_std_rev_s / est.common_rev_s).tolist()
     row["chirp_rel"] = intra_cpi_spread(flight, est.time_s, est.n_fft).tolist()
@@ -203,6 +210,42 @@ def tail_tables(rows: list[dict]) -> list[str]:
     out += ["", f"tail (>= 2 pairs, error > 1 %): {int(bad.sum())} CPIs: gross > 5 % {int(gross.sum())}; "
             f"rotor count per line {int(count.sum())}; line positions {int(rest.sum())} "
             f"({int((rest & sep).sum())} with every rotor on its own line, {int((rest & ~sep).sum())} shared)"]
+    return out
+
+
+def coverage_table(rows: list[dict]) -> list[str]:
+    """Within 1 and 2 reported sigma (CPIs with >= 2 pairs), by the I/Q fit's power
+    balance; 95 % flight-bootstrap intervals for the mean speed within 2 sigma."""
+    ok = [r for r in rows if r["ok"]]
+    out = ["| fit balance | CPIs (>= 2 pairs) | mean within 2 sigma | 95 % CI (flights) | mean within 1 sigma "
+           "| ranked rotors within 2 sigma | median sigma of the mean |", "|---|---|---|---|---|---|---|"]
+    draws = draw_flights([r["flight"] for r in ok], seed=0)
+    groups = [(f"{lo:.2f}-{min(hi, 1.0):.2f}", lo, hi) for lo, hi in BALANCE_BINS] + [("all refitted", 0.0, 1.01),
+                                                                                     ("all", None, None)]
+    for name, lo, hi in groups:
+        n2, n1, den, r2, rden, sig = [], [], [], [], [], []
+        for r in ok:
+            z = np.abs(np.asarray(r["z"], float))
+            zr = np.abs(np.asarray(r["z_rotor"], float).reshape(len(z), -1))
+            b = np.asarray(r["balance"], float)
+            s = np.isfinite(z) & (np.asarray(r["n_pairs"]) >= 2)
+            if lo is not None:
+                s &= (b >= lo) & (b < hi)
+            n2.append(float(np.sum(z[s] <= 2)))
+            n1.append(float(np.sum(z[s] <= 1)))
+            den.append(float(s.sum()))
+            zs = zr[s][np.isfinite(zr[s])]
+            r2.append(float(np.sum(zs <= 2)))
+            rden.append(float(zs.size))
+            sig.append(np.asarray(r["sigma_rel"], float)[s])
+        n2, n1, den = np.array(n2), np.array(n1), np.array(den)
+        if den.sum() == 0:
+            continue
+        lo2, hi2 = interval(ratio_replicates(n2, den, draws))
+        out.append(f"| {name} | {int(den.sum())} | {100 * n2.sum() / den.sum():.1f} % "
+                   f"| {100 * lo2:.1f}-{100 * hi2:.1f} % "
+                   f"| {100 * n1.sum() / den.sum():.1f} % | {100 * sum(r2) / max(sum(rden), 1):.1f} % "
+                   f"| {100 * np.median(np.concatenate(sig)):.3f} % |")
     return out
 
 
@@ -301,6 +344,8 @@ def main(argv=None) -> int:
                   f"rotors median {100 * np.median(re[s]):.2f} %, p90 {100 * np.percentile(re[s], 90):.2f} %")
     print()
     print("\n".join(tail_tables(rows)))
+    print()
+    print("\n".join(coverage_table(rows)))
     if args.baseline:
         print()
         print("\n".join(baseline_table([r for r in rows if r["ok"] and "mean_err_lines" in r])))

@@ -192,6 +192,42 @@ def test_the_iq_fit_counts_every_rotor_where_lines_merge():
     assert np.mean(z[sel] <= 3) >= 0.85
 
 
+def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
+    """Rotors within a bin or two of each other (speeds 0.8 % apart, rms) whose speeds
+    wobble by 0.5-3 % over 0.5-2 s, so lines cross and smear within a CPI: the fitted
+    composition is sometimes wrong, and the Gauss-Newton sigma alone then covers the
+    mean's error within 2 sigma in ~72 % of CPIs and the ranked rotors' in ~66 %. With
+    the composition's ambiguity (the fit's power balance; rotorfit's docstring) >= 90 %
+    of both lie within 2 sigma. Where the rotors are steady and a bin apart, the fit is
+    balanced and the mean's sigma stays at its floor (under 0.1 %). The draws come from
+    this test's own seed; the ambiguity's constants were calibrated on emulated flights."""
+    rng = np.random.default_rng(20261125)
+    t = np.arange(int(6 * PRF)) / PRF
+    z_mean, z_rotor = [], []
+    for _ in range(3):
+        base = rng.uniform(60.0, 95.0)
+        off = np.sort(rng.normal(0.0, 0.008, 4))
+        wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
+                                                   + rng.uniform(0, 2 * np.pi, 4))
+        rev = base * (1 + off + wobble)
+        fl = synthetic_flight(rev, seed=int(rng.integers(1000)), snr_db=float(rng.uniform(38, 50)),
+                              first_sideband_db=float(rng.uniform(4, 10)))
+        est = estimate_rotor_speeds(fl)
+        assert est.ok, est.reason
+        truth = cpi_truth(t, rev, est.time_s)
+        sel = est.valid & (est.n_pairs >= 2)
+        assert sel.mean() > 0.8
+        z_mean += list(np.abs(est.common_rev_s - truth.mean(axis=1))[sel] / est.common_std_rev_s[sel])
+        z_rotor += list((np.abs(est.speeds_rev_s - np.sort(truth, axis=1)) / est.speeds_std_rev_s)[sel].ravel())
+    assert np.mean(np.array(z_mean) <= 2) >= 0.9
+    assert np.mean(np.array(z_rotor) <= 2) >= 0.9
+    steady = synthetic_flight(np.tile([58.0, 59.0, 61.5, 62.6], (int(6 * PRF), 1)), seed=22)
+    est = estimate_rotor_speeds(steady)
+    assert est.ok, est.reason
+    assert np.nanmedian(est.common_std_rev_s / est.common_rev_s) < 1e-3
+    np.testing.assert_allclose(est.common_rev_s[est.valid], 60.275, rtol=1e-3)
+
+
 def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
     """Blades visible for 4 s of 8 s: estimates there, NaN after (never a guess), and the
     motor log holds only the CPIs with an estimate."""
@@ -234,9 +270,12 @@ def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
     assert np.mean(mean_err[sel] <= 0.01) > 0.85
     assert np.percentile(mean_err[sel], 90) < 0.025
     assert np.median(rotor_err[sel]) < 0.012
-    # the uncertainty: about calibrated at the core (the tails are heavier)
+    # the uncertainty: the error within 2 sigma in most CPIs (95 % in benchmarks/
+    # eval_rotorspeed.py), and sigma not uselessly wide (the errors are a sharp core
+    # plus a tail, so the median error sits at 0.1-0.5 sigma)
     z = np.abs(est.common_rev_s - truth.mean(axis=1))[sel] / est.common_std_rev_s[sel]
-    assert 0.3 < np.median(z) < 1.8
+    assert np.mean(z <= 2) >= 0.85
+    assert 0.1 < np.median(z) < 1.8
 
 
 def test_mini_gives_no_estimate_with_a_reason():

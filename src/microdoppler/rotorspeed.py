@@ -272,6 +272,11 @@ class RotorEstimate:
         Why there is no estimate (None when there is one).
     info : dict
         Settings and counts (JSON-serialisable).
+    balance : ndarray, float64 [n_cpi] or None
+        The I/Q fit's power balance per CPI (its weakest rotor's power over its
+        strongest's, :class:`microdoppler.rotorfit.CpiFit`); NaN where the CPI was not
+        refitted; None without step 9. Low balance: the rotors' composition on the lines
+        is in doubt, and the uncertainty says so.
     """
 
     flight_id: str
@@ -288,6 +293,7 @@ class RotorEstimate:
     n_fft: int
     reason: str | None = None
     info: dict = field(default_factory=dict)
+    balance: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -338,7 +344,8 @@ class RotorEstimate:
         """Group attributes that go with :meth:`to_motor_log` in a flight-zarr/1 store:
         ``motors_source = "radar"`` and ``motors_radar`` (JSON: method, settings,
         ``rpm_std`` [n_log][n_motors] rev/min, what the rows are (``rows``, as
-        ``to_motor_log(cpi_means=...)``), ``n_pairs`` and ``n_lines`` per row)."""
+        ``to_motor_log(cpi_means=...)``), ``n_pairs``, ``n_lines`` and the I/Q fit's
+        ``balance`` per row)."""
         v = self.valid
         std = self.speeds_std_rev_s[v] if per_motor else np.repeat(self.common_std_rev_s[v, None], self.n_motors, 1)
         return {
@@ -354,6 +361,8 @@ class RotorEstimate:
                         + "; rpm_std is the CPI mean's one-sigma",
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
+                **({"balance": [None if not np.isfinite(b) else round(float(b), 3) for b in self.balance[v]]}
+                   if self.balance is not None else {}),
                 "settings": self.info.get("settings", {}),
             },
         }
@@ -542,9 +551,13 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
 
     n_ok, n_comb = plausible()
     n_refined = 0
+    balance = None
     if cfg.refine and n_ok > 0 and n_comb >= cfg.min_cpis:  # step 9 only where there is an estimate
-        n_refined = _refine(flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M, progress)
+        balance = np.full(n_cpi, np.nan)
+        n_refined = _refine(flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M, progress,
+                            balance)
         n_ok, n_comb = plausible()
+        balance[~np.isfinite(common)] = np.nan
     info.update({"method": METHOD if cfg.refine else METHOD_LINES, "n_cpi_refined": int(n_refined),
                  "n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
                  "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum())})
@@ -561,7 +574,8 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         est = _no_estimate(fid, n_cpi, t, M, B, n_fft, reason, info)
         est.n_pairs = n_pairs
         return est
-    return RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info)
+    return RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
+                         balance)
 
 
 def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,
@@ -598,10 +612,10 @@ def instants_from_cpi_means(t_s: np.ndarray, means: np.ndarray, n_fft: int, prf_
 
 
 def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M,
-            progress=None) -> int:
-    """Step 9: each CPI with an estimate refitted on its I/Q (in place); returns the
-    number of CPIs refined. A CPI whose fit leaves its lines' range keeps the
-    periodogram's estimate."""
+            progress=None, balance=None) -> int:
+    """Step 9: each CPI with an estimate refitted on its I/Q (in place, with each fit's
+    power balance into ``balance``); returns the number of CPIs refined. A CPI whose
+    fit leaves its lines' range keeps the periodogram's estimate."""
     n = 0
     valid = np.flatnonzero(np.isfinite(common))
     if len(valid) == 0:
@@ -622,6 +636,8 @@ def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_s
             continue
         speeds[i], sds[i] = res.speeds_rev_s, res.speeds_std_rev_s
         common[i], common_sd[i] = float(res.speeds_rev_s.mean()), res.mean_std_rev_s
+        if balance is not None:
+            balance[i] = res.balance
         n += 1
     if progress is not None:
         progress(len(valid), len(valid))
