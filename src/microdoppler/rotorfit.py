@@ -74,7 +74,6 @@ class FitConfig:
     reseed: int = 3
     reseed_rel: float = 0.12
     rel_floor: float = 0.0004
-    split_below: float = 0.0
     ambiguity_bins: float = 5.3
     ambiguity_scale: float = 0.13
     ambiguity_rotor_bins: float = 4.0
@@ -313,18 +312,6 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
         else:
             break
     F.fit(p, N, iterations=0)
-    if cfg.split_below > 0 and not _spare(F.power, cfg).any() and F.power.min() < cfg.split_below * F.power.max():
-        # an unbalanced fit: two rotors may share the strongest line while the weakest
-        # sits on a line of none; try the weakest split off the strongest
-        q, j = int(np.argmin(F.power)), int(np.argmax(F.power))
-        for sp in cfg.spreads_bins[:1]:
-            pm = p.copy()
-            pm[2 + j], pm[2 + q] = p[2 + j] - 0.5 * sp * bin_rev, p[2 + j] + 0.5 * sp * bin_rev
-            pm[2 + M + q] = p[2 + M + j]
-            pn, cn = F.fit(pm, N)
-            if cn < cost and inside(pn) and not _spare(F.power, cfg).any():
-                p, cost, name = pn, cn, name + "/split"
-        F.fit(p, N, iterations=0)
     dof = max(2 * len(x) - 2 * (1 + M * K + 3) - len(p), 1)
     s2 = (cost - F.prior(p)) / dof
     try:
