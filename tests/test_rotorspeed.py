@@ -345,6 +345,10 @@ def test_motor_log_and_flight_store_round_trip(tmp_path):
     meta = back.attrs["motors_radar"]
     assert meta["method"] == "herm-pairs+iq-fit/2" and np.shape(meta["rpm_std"]) == (int(v.sum()), 4)
     assert len(meta["n_pairs"]) == int(v.sum()) and meta["rows"].startswith("cubic-spline nodes")
+    # the I/Q fit's power balance per row, where the rows' uncertainty comes from
+    assert len(meta["balance"]) == int(v.sum())
+    assert all(b is None or 0.0 <= b <= 1.0 for b in meta["balance"])
+    np.testing.assert_allclose([np.nan if b is None else b for b in meta["balance"]], est.balance[v], atol=5e-4)
     assert est.store_attrs(cpi_means=True)["motors_radar"]["rows"].startswith("the estimates")
     np.testing.assert_allclose(back.motors_rpm, log.rpm)
     read_motor_store(store)  # passes the motor-log checks (plausible speeds, increasing times)
