@@ -41,12 +41,13 @@ fitted as one line, and another rotor on a line of its own that is not a rotor's
 error is a large part of a bin, not a small multiple of sigma. The rotors of one drone
 return about equal power, so the fit's balance (its weakest rotor's power over its
 strongest's) tells how far to trust the composition: a balanced fit (>= 0.6) is within
-0.15 bin in 95 % of emulated CPIs, one under 0.3 off by over a bin in 10-40 %. The
-ambiguity term is ``ambiguity_bins`` x exp(-balance / ``ambiguity_scale``) bins of the
-first harmonic for the mean speed (``ambiguity_rotor_*`` for each ranked rotor),
-calibrated on the emulated flights of one seed so that 95 % of the errors lie within 2
-sigma at every balance (``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``,
-"The I/Q fit's uncertainty").
+0.15 bin in 95 % of emulated CPIs, one under 0.3 off by over 1 % (~0.8 bin) in
+10-40 %. The ambiguity term is ``ambiguity_bins`` x exp(-balance / ``ambiguity_scale``)
+bins of the first harmonic for the mean speed (``ambiguity_rotor_*`` for each ranked
+rotor), calibrated on the emulated flights of one seed so that 95 % of the errors lie
+within 2 sigma at every balance (``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``,
+"The I/Q fit's uncertainty"). Sigma is then a scale, not a Gaussian one-sigma: the
+errors are a sharp core plus a tail, and 87-89 % of them lie within 1 sigma.
 """
 
 from __future__ import annotations

@@ -256,7 +256,8 @@ class RotorEstimate:
         Rotor speeds [rev/s], ascending in every CPI (ranks, not physical motors;
         a line shared by several rotors repeats); NaN where no pair is visible.
     speeds_std_rev_s : ndarray, float64 [n_cpi, n_motors]
-        One-sigma uncertainty of each speed [rev/s].
+        Uncertainty of each speed [rev/s]: with the I/Q fit, 95 % of the errors lie
+        within 2 of it (:mod:`microdoppler.rotorfit`, its docstring).
     common_rev_s, common_std_rev_s : ndarray, float64 [n_cpi]
         Mean rotor speed and its uncertainty [rev/s] (what can be said where the
         rotors are not separated).
@@ -358,7 +359,8 @@ class RotorEstimate:
                 "rpm_std": np.round(std * 60.0, 1).tolist(),
                 "rows": ("the estimates (window^2-weighted CPI means)" if cpi_means else
                          "cubic-spline nodes whose window^2-weighted CPI means equal the estimates")
-                        + "; rpm_std is the CPI mean's one-sigma",
+                        + "; rpm_std is the CPI mean's uncertainty (95 % of errors within 2 rpm_std where "
+                          "n_pairs >= 2)",
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
                 **({"balance": [None if not np.isfinite(b) else round(float(b), 3) for b in self.balance[v]]}
