@@ -43,10 +43,12 @@ return about equal power, so the fit's balance (its weakest rotor's power over i
 strongest's) tells how far to trust the composition: a balanced fit (>= 0.6) is within
 0.15 bin in 95 % of emulated CPIs, one under 0.3 off by over 1 % (~0.8 bin) in
 10-40 %. The ambiguity term is ``ambiguity_bins`` x exp(-balance / ``ambiguity_scale``)
-bins of the first harmonic for the mean speed (``ambiguity_rotor_*`` for each ranked
-rotor), calibrated on the emulated flights of one seed so that 95 % of the errors lie
-within 2 sigma at every balance (``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``,
-"The I/Q fit's uncertainty"). Sigma is then a scale, not a Gaussian one-sigma: the
+bins of the first harmonic for the mean speed, at most ``ambiguity_max_bins`` (where a
+spare is left, the spread over the lines it could share is already in sigma), and
+``ambiguity_rotor_*`` for each ranked rotor; calibrated on the emulated flights of one
+seed so that 95 % of the errors lie within 2 sigma at every balance
+(``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``, "The I/Q fit's
+uncertainty"). Sigma is then a scale, not a Gaussian one-sigma: the
 errors are a sharp core plus a tail, and 87-89 % of them lie within 1 sigma.
 """
 
@@ -77,6 +79,7 @@ class FitConfig:
     rel_floor: float = 0.0004
     ambiguity_bins: float = 5.3
     ambiguity_scale: float = 0.13
+    ambiguity_max_bins: float = 2.0
     ambiguity_rotor_bins: float = 4.0
     ambiguity_rotor_scale: float = 0.21
 
@@ -342,7 +345,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     a = np.zeros(len(p))
     a[2:2 + M] = weight / M
     # the composition's ambiguity, by the fit's balance (see the module docstring)
-    amb = cfg.ambiguity_bins * bin_rev * np.exp(-balance / cfg.ambiguity_scale)
+    amb = min(cfg.ambiguity_bins * np.exp(-balance / cfg.ambiguity_scale), cfg.ambiguity_max_bins) * bin_rev
     amb_rotor = cfg.ambiguity_rotor_bins * bin_rev * np.exp(-balance / cfg.ambiguity_rotor_scale)
     sd = np.sqrt(sd ** 2 + (cfg.rel_floor * f) ** 2 + amb_rotor ** 2)
     mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (cfg.rel_floor * f.mean()) ** 2 + amb ** 2))
