@@ -349,6 +349,11 @@ class RotorEstimate:
         ``balance`` per row)."""
         v = self.valid
         std = self.speeds_std_rev_s[v] if per_motor else np.repeat(self.common_std_rev_s[v, None], self.n_motors, 1)
+        # the I/Q fit's sigma is calibrated (95 % within 2 sigma); the lines' alone is not
+        fitted = {} if self.balance is None else {
+            "balance": [round(float(b), 3) if np.isfinite(b) else None for b in self.balance[v]]}
+        sigma = ("the CPI mean's uncertainty (95 % of errors within 2 rpm_std where n_pairs >= 2)" if fitted
+                 else "the CPI mean's uncertainty from the periodogram's lines")
         return {
             "motors_source": "radar",
             "motors_radar": {
@@ -359,12 +364,10 @@ class RotorEstimate:
                 "rpm_std": np.round(std * 60.0, 1).tolist(),
                 "rows": ("the estimates (window^2-weighted CPI means)" if cpi_means else
                          "cubic-spline nodes whose window^2-weighted CPI means equal the estimates")
-                        + "; rpm_std is the CPI mean's uncertainty (95 % of errors within 2 rpm_std where "
-                          "n_pairs >= 2)",
+                        + "; rpm_std is " + sigma,
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
-                **({"balance": [None if not np.isfinite(b) else round(float(b), 3) for b in self.balance[v]]}
-                   if self.balance is not None else {}),
+                **fitted,
                 "settings": self.info.get("settings", {}),
             },
         }
