@@ -29,6 +29,7 @@ import numpy as np
 from scipy.signal.windows import blackmanharris
 
 from microdoppler.diagnosis.timescales import fit_gain_process_ml
+from microdoppler.processes import ou_process
 
 PRF_HZ = 7000.0
 STEP = 16  # pulses per sample of the simulated path
@@ -40,18 +41,12 @@ def draw(seed: int, noise_db2: float, window_pulses: int, duration_s: float) -> 
     tau = rng.uniform(1.0, 2.0)
     sigma = rng.uniform(3.0, 6.0)
     dt = STEP / PRF_HZ
-    n = int(duration_s / dt) + 1
-    a = np.exp(-dt / tau)
-    e = rng.normal(size=n) * sigma * np.sqrt(1 - a * a)
-    x = np.empty(n)
-    x[0] = rng.normal() * sigma
-    for i in range(1, n):
-        x[i] = a * x[i - 1] + e[i]
+    x = ou_process(int(duration_s / dt) + 1, dt, sigma, tau, rng)
     window = blackmanharris(window_pulses)
     w2 = window[::STEP] ** 2
     w2 /= w2.sum()
     hop = window_pulses // 2
-    starts = np.arange(0, n - len(w2), hop // STEP)
+    starts = np.arange(0, len(x) - len(w2), hop // STEP)
     power = 10 ** (x / 10)
     y = 10 * np.log10(np.array([power[k:k + len(w2)] @ w2 for k in starts]))
     y += rng.normal(size=len(y)) * np.sqrt(noise_db2)

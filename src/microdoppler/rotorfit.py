@@ -212,12 +212,11 @@ class _Model:
         JtJ[gi, gi] += 0.5 * self.s2 / self.cfg.chirp_sd_rev_s2 ** 2
         return JtJ
 
-    def drop_power(self, p: np.ndarray, N: int) -> np.ndarray:
-        """What each rotor adds to the fit at ``p`` with ``N`` harmonics [M]: the rise of
-        the residual when its columns are dropped and the rest re-projected."""
-        A = self.build(p, N)
-        K = 2 * N
-        base = self.solve(A)[3]
+    def drop_power(self) -> np.ndarray:
+        """What each rotor adds to the last :meth:`fit` [M]: the rise of its residual
+        when the rotor's columns are dropped and the rest re-projected."""
+        A, K = self.A, len(self._ns)
+        base = float(np.vdot(self.r, self.r).real)
         out = np.empty(self.M)
         for q in range(self.M):
             keep = np.ones(A.shape[1], bool)
@@ -348,7 +347,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     # own looks weak in power, yet dropping it costs the fit its lines
     spare = _spare(F.power, cfg)
     if spare.any():
-        dp = F.drop_power(p, N)
+        dp = F.drop_power()  # the last fit is at p (above)
         spare &= dp < cfg.min_power * float(dp.max())
     balance = float(F.power.min() / F.power.max()) if F.power.max() > 0 else 0.0
     weight = np.ones(M)
