@@ -33,11 +33,13 @@ def cpi_truth(rev_t_s, rev_s, cpi_t_s):
 
 
 def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_db=8.0, snr_db=45.0,
-                     radial_velocity_mps=-5.0, alpha_s=0.002, seed=0, blades_until_s=None) -> Flight:
+                     radial_velocity_mps=-5.0, alpha_s=0.002, seed=0, blades_until_s=None,
+                     blades_drop=None) -> Flight:
     """A drone flight made with the paper's eq. (1)/(2) directly (no emulator): body on
     a constant-velocity track, blades ``first_sideband_db`` below it (before the alpha
     envelope), white noise for a body-line SNR of ``snr_db`` in the 4096-point
-    Blackman-Harris periodogram; ``blades_until_s``: the blades fall silent then."""
+    Blackman-Harris periodogram; ``blades_until_s``: the blades fall silent then;
+    ``blades_drop`` = (time [s], dB): the blades are that much weaker from then on."""
     n = rev_s.shape[0]
     dur = n / PRF
     track = synthesis.Track.constant_velocity(1500.0, radial_velocity_mps, dur)
@@ -45,12 +47,15 @@ def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_d
     c_b = np.abs(np.fft.fft(table))[n_blades] / synthesis.TABLE_SIZE
 
     def silence(i0, i1, t_s, x):
-        x[t_s >= blades_until_s] = 0
+        if blades_until_s is not None:
+            x[t_s >= blades_until_s] = 0
+        if blades_drop is not None:
+            x[t_s >= blades_drop[0]] *= 10 ** (-blades_drop[1] / 20)
 
     iq = synthesis.synthesize(rev_s, track, prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades,
                               blade_length_m=blade_length_m,
                               scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s), seed=seed,
-                              blade_hook=silence if blades_until_s is not None else None)
+                              blade_hook=silence if blades_until_s is not None or blades_drop is not None else None)
     w = blackmanharris(N_FFT, sym=False)
     noise = w.sum() ** 2 / (w ** 2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
     synthesis.add_noise(iq, noise, seed + 1)
@@ -253,6 +258,37 @@ def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
     assert est.ok, est.reason
     assert np.nanmedian(est.common_std_rev_s / est.common_rev_s) < 1e-3
     np.testing.assert_allclose(est.common_rev_s[est.valid], 60.275, rtol=1e-3)
+
+
+def test_one_visible_pair_reports_the_uncertainty_of_its_errors():
+    """Crowded, wobbling rotors (as above) whose blades drop 8-16 dB half-way, with a
+    steeper alpha, so that many CPIs show one sideband pair only: their lines come from
+    one harmonic and the composition is often wrong by a bin or more (60 % of 47
+    one-pair CPIs within 1 % here, 59-81 % on emulated flights). The one-pair term
+    (rotorfit's docstring; calibrated on emulated flights, not on these) must make the
+    reported sigma cover them: without it 87 % of the means and of the ranked rotors lay
+    within 2 sigma (this test's draws), with it all; the test asks >= 90 %."""
+    rng = np.random.default_rng(20261126)
+    t = np.arange(int(6 * PRF)) / PRF
+    z_mean, z_rotor = [], []
+    for _ in range(4):
+        base = rng.uniform(60.0, 95.0)
+        off = np.sort(rng.normal(0.0, 0.008, 4))
+        wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
+                                                   + rng.uniform(0, 2 * np.pi, 4))
+        rev = base * (1 + off + wobble)
+        fl = synthetic_flight(rev, seed=int(rng.integers(1000)), snr_db=float(rng.uniform(34, 42)),
+                              first_sideband_db=float(rng.uniform(4, 10)), alpha_s=float(rng.uniform(0.004, 0.008)),
+                              blades_drop=(3.0, float(rng.uniform(8, 16))))
+        est = estimate_rotor_speeds(fl)
+        assert est.ok, est.reason
+        truth = cpi_truth(t, rev, est.time_s)
+        one = est.valid & (est.n_pairs == 1)
+        z_mean += list(np.abs(est.common_rev_s - truth.mean(axis=1))[one] / est.common_std_rev_s[one])
+        z_rotor += list((np.abs(est.speeds_rev_s - np.sort(truth, axis=1)) / est.speeds_std_rev_s)[one].ravel())
+    assert len(z_mean) >= 20
+    assert np.mean(np.array(z_mean) <= 2) >= 0.9
+    assert np.mean(np.array(z_rotor) <= 2) >= 0.9
 
 
 def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():

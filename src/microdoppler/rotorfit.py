@@ -55,6 +55,16 @@ seed so that 95 % of the errors lie within 2 sigma at every balance
 (``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``, "The I/Q fit's
 uncertainty"). Sigma is then a scale, not a Gaussian one-sigma: the
 errors are a sharp core plus a tail, and 87-89 % of them lie within 1 sigma.
+
+Where the periodogram showed one sideband pair only (``n_pairs=1``), the composition is
+far less certain at every balance: the rotors' lines are read from one harmonic, and a
+rotor on another rotor's line or on a line that is none of theirs is off by one to
+several bins (one bin at n = 1 is ~1.2 % of the speed). Such a fit adds
+``one_pair_bins`` x exp(-balance / ``one_pair_scale``) bins to the mean's sigma and
+``one_pair_rotor_*`` to each ranked rotor's, calibrated on the 1,190 one-pair CPIs of
+six emulated seeds so that 95 % of their errors lie within 2 sigma (``benchmarks/README.md``,
+"One visible pair: its own uncertainty"). Such a sigma is wide (median ~3 % of the
+speed for the mean) because the errors are: 62-81 % of one-pair CPIs are within 1 %.
 """
 
 from __future__ import annotations
@@ -87,6 +97,10 @@ class FitConfig:
     ambiguity_max_bins: float = 2.0
     ambiguity_rotor_bins: float = 4.0
     ambiguity_rotor_scale: float = 0.21
+    one_pair_bins: float = 4.25
+    one_pair_scale: float = 0.8
+    one_pair_rotor_bins: float = 13.0
+    one_pair_rotor_scale: float = 0.6
 
 
 @dataclass(frozen=True)
@@ -246,7 +260,8 @@ def _compositions(M: int, k: int):
 
 
 def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_hz: float, body_rate_hz_s: float,
-               lines_rev_s, rate_rev_s2: float, config: FitConfig | None = None) -> CpiFit | None:
+               lines_rev_s, rate_rev_s2: float, n_pairs: int | None = None,
+               config: FitConfig | None = None) -> CpiFit | None:
     """Fit the harmonic-chirp model to one CPI's samples ``x``.
 
     Parameters
@@ -262,6 +277,8 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
         The periodogram's distinct rotor lines [rev/s] (1 to ``n_motors`` of them).
     rate_rev_s2 : float
         The rotor group's rate of change [rev/s^2] (prior mean of each g_r).
+    n_pairs : int, optional
+        Sideband pairs the periodogram showed; 1 widens sigma (module docstring).
 
     Returns
     -------
@@ -370,6 +387,9 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     # the composition's ambiguity, by the fit's balance (see the module docstring)
     amb = min(cfg.ambiguity_bins * np.exp(-balance / cfg.ambiguity_scale), cfg.ambiguity_max_bins) * bin_rev
     amb_rotor = cfg.ambiguity_rotor_bins * bin_rev * np.exp(-balance / cfg.ambiguity_rotor_scale)
+    if n_pairs == 1:
+        amb = np.hypot(amb, cfg.one_pair_bins * bin_rev * np.exp(-balance / cfg.one_pair_scale))
+        amb_rotor = np.hypot(amb_rotor, cfg.one_pair_rotor_bins * bin_rev * np.exp(-balance / cfg.one_pair_rotor_scale))
     sd = np.sqrt(sd ** 2 + (cfg.rel_floor * f) ** 2 + amb_rotor ** 2)
     mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (cfg.rel_floor * f.mean()) ** 2 + amb ** 2))
     order = np.argsort(f)
