@@ -64,7 +64,7 @@ several bins (one bin at n = 1 is ~1.2 % of the speed). Such a fit adds
 ``one_pair_rotor_*`` to each ranked rotor's, calibrated on the 1,190 one-pair CPIs of
 six emulated seeds so that 95 % of their errors lie within 2 sigma (``benchmarks/README.md``,
 "One visible pair: its own uncertainty"). Such a sigma is wide (median ~3 % of the
-speed for the mean) because the errors are: 62-81 % of one-pair CPIs are within 1 %.
+speed for the mean) because the errors are: 59-81 % of one-pair CPIs are within 1 %.
 """
 
 from __future__ import annotations
