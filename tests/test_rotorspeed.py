@@ -76,6 +76,36 @@ def rel_errors(est, truth):
 # ---------------------------------------------------------------- signals made without the emulator
 
 
+def crowded_rotors(rng, t):
+    """Four rotors within a bin or two of each other (speeds 0.8 % apart, rms) whose
+    speeds wobble by 0.5-3 % over 0.5-2 s: [len(t), 4] rev/s."""
+    base = rng.uniform(60.0, 95.0)
+    off = np.sort(rng.normal(0.0, 0.008, 4))
+    wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
+                                               + rng.uniform(0, 2 * np.pi, 4))
+    return base * (1 + off + wobble)
+
+
+def crowded_z_scores(seed, n_flights, draw_kwargs, select):
+    """6 s flights of :func:`crowded_rotors` (each flight's :func:`synthetic_flight`
+    arguments from ``draw_kwargs(rng)``): |error| / sigma of the mean and of each ranked
+    rotor in the CPIs ``select(est)``, and each flight's share of selected CPIs."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(6 * PRF)) / PRF
+    z_mean, z_rotor, shares = [], [], []
+    for _ in range(n_flights):
+        rev = crowded_rotors(rng, t)
+        fl = synthetic_flight(rev, seed=int(rng.integers(1000)), **draw_kwargs(rng))
+        est = estimate_rotor_speeds(fl)
+        assert est.ok, est.reason
+        truth = cpi_truth(t, rev, est.time_s)
+        sel = select(est)
+        shares.append(float(sel.mean()))
+        z_mean += list(np.abs(est.common_rev_s - truth.mean(axis=1))[sel] / est.common_std_rev_s[sel])
+        z_rotor += list((np.abs(est.speeds_rev_s - np.sort(truth, axis=1)) / est.speeds_std_rev_s)[sel].ravel())
+    return z_mean, z_rotor, shares
+
+
 def test_constant_speeds_of_fig2b_give_each_rotor_and_the_herm_spacing():
     """Four rotors at 85, 90, 95, 100 rev/s (Fig. 2b): four separate lines, each rotor to
     better than 0.05 %, and a line spacing of B times the rotation rate."""
@@ -233,24 +263,10 @@ def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
     of both lie within 2 sigma. Where the rotors are steady and a bin apart, the fit is
     balanced and the mean's sigma stays at its floor (under 0.1 %). The draws come from
     this test's own seed; the ambiguity's constants were calibrated on emulated flights."""
-    rng = np.random.default_rng(20261125)
-    t = np.arange(int(6 * PRF)) / PRF
-    z_mean, z_rotor = [], []
-    for _ in range(3):
-        base = rng.uniform(60.0, 95.0)
-        off = np.sort(rng.normal(0.0, 0.008, 4))
-        wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
-                                                   + rng.uniform(0, 2 * np.pi, 4))
-        rev = base * (1 + off + wobble)
-        fl = synthetic_flight(rev, seed=int(rng.integers(1000)), snr_db=float(rng.uniform(38, 50)),
-                              first_sideband_db=float(rng.uniform(4, 10)))
-        est = estimate_rotor_speeds(fl)
-        assert est.ok, est.reason
-        truth = cpi_truth(t, rev, est.time_s)
-        sel = est.valid & (est.n_pairs >= 2)
-        assert sel.mean() > 0.8
-        z_mean += list(np.abs(est.common_rev_s - truth.mean(axis=1))[sel] / est.common_std_rev_s[sel])
-        z_rotor += list((np.abs(est.speeds_rev_s - np.sort(truth, axis=1)) / est.speeds_std_rev_s)[sel].ravel())
+    z_mean, z_rotor, shares = crowded_z_scores(
+        20261125, 3, lambda rng: {"snr_db": float(rng.uniform(38, 50)), "first_sideband_db": float(rng.uniform(4, 10))},
+        lambda est: est.valid & (est.n_pairs >= 2))
+    assert min(shares) > 0.8
     assert np.mean(np.array(z_mean) <= 2) >= 0.9
     assert np.mean(np.array(z_rotor) <= 2) >= 0.9
     steady = synthetic_flight(np.tile([58.0, 59.0, 61.5, 62.6], (int(6 * PRF), 1)), seed=22)
@@ -268,24 +284,11 @@ def test_one_visible_pair_reports_the_uncertainty_of_its_errors():
     (rotorfit's docstring; calibrated on emulated flights, not on these) must make the
     reported sigma cover them: without it 87 % of the means and of the ranked rotors lay
     within 2 sigma (this test's draws), with it all; the test asks >= 90 %."""
-    rng = np.random.default_rng(20261126)
-    t = np.arange(int(6 * PRF)) / PRF
-    z_mean, z_rotor = [], []
-    for _ in range(4):
-        base = rng.uniform(60.0, 95.0)
-        off = np.sort(rng.normal(0.0, 0.008, 4))
-        wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
-                                                   + rng.uniform(0, 2 * np.pi, 4))
-        rev = base * (1 + off + wobble)
-        fl = synthetic_flight(rev, seed=int(rng.integers(1000)), snr_db=float(rng.uniform(34, 42)),
-                              first_sideband_db=float(rng.uniform(4, 10)), alpha_s=float(rng.uniform(0.004, 0.008)),
-                              blades_drop=(3.0, float(rng.uniform(8, 16))))
-        est = estimate_rotor_speeds(fl)
-        assert est.ok, est.reason
-        truth = cpi_truth(t, rev, est.time_s)
-        one = est.valid & (est.n_pairs == 1)
-        z_mean += list(np.abs(est.common_rev_s - truth.mean(axis=1))[one] / est.common_std_rev_s[one])
-        z_rotor += list((np.abs(est.speeds_rev_s - np.sort(truth, axis=1)) / est.speeds_std_rev_s)[one].ravel())
+    z_mean, z_rotor, _ = crowded_z_scores(
+        20261126, 4, lambda rng: {"snr_db": float(rng.uniform(34, 42)), "first_sideband_db": float(rng.uniform(4, 10)),
+                                  "alpha_s": float(rng.uniform(0.004, 0.008)),
+                                  "blades_drop": (3.0, float(rng.uniform(8, 16)))},
+        lambda est: est.valid & (est.n_pairs == 1))
     assert len(z_mean) >= 20
     assert np.mean(np.array(z_mean) <= 2) >= 0.9
     assert np.mean(np.array(z_rotor) <= 2) >= 0.9
