@@ -46,7 +46,7 @@ def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_d
     table = synthesis.BladeModel(n_blades, blade_length_m, LAM).table().astype(complex)
     c_b = np.abs(np.fft.fft(table))[n_blades] / synthesis.TABLE_SIZE
 
-    def silence(i0, i1, t_s, x):
+    def blade_gain(i0, i1, t_s, x):
         if blades_until_s is not None:
             x[t_s >= blades_until_s] = 0
         if blades_drop is not None:
@@ -55,7 +55,7 @@ def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_d
     iq = synthesis.synthesize(rev_s, track, prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades,
                               blade_length_m=blade_length_m,
                               scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s), seed=seed,
-                              blade_hook=silence if blades_until_s is not None or blades_drop is not None else None)
+                              blade_hook=blade_gain if blades_until_s is not None or blades_drop is not None else None)
     w = blackmanharris(N_FFT, sym=False)
     noise = w.sum() ** 2 / (w ** 2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
     synthesis.add_noise(iq, noise, seed + 1)
