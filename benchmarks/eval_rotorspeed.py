@@ -89,6 +89,20 @@ def draw_effects(rng: np.random.Generator, k: int) -> dict:
     return {}
 
 
+def flight_specs(rng: np.random.Generator, per_model: int, duration_s: float) -> list[FlightSpec]:
+    """The benchmark's Inspire and Matrice flights, drawn from ``rng`` (seeded
+    ``[seed, 4242]``; the negatives are drawn from it afterwards)."""
+    specs = []
+    for model in ("inspire2", "matrice300"):
+        for k in range(per_model):
+            specs.append(FlightSpec(
+                f"{model}_{k:02d}", "drone", drone_model=model, radar_id=("radar1", "radar2")[k % 2],
+                duration_s=duration_s, mean_range_m=float(rng.uniform(500, 3000)),
+                height_m=float(rng.choice([60.0, 80.0, 100.0])), speed_mps=float(rng.uniform(3, 12)),
+                effects=draw_effects(rng, k // 2), seed=int(rng.integers(2 ** 31)), direction=int(rng.choice([1, -1]))))
+    return specs
+
+
 def evaluate(spec: FlightSpec, baseline: bool = False) -> dict:
     flight, truth = emulate_flight(spec)
     t0 = time.perf_counter()
@@ -290,14 +304,7 @@ def main(argv=None) -> int:
                          "report the paired difference")
     args = ap.parse_args(argv)
     rng = np.random.default_rng([args.seed, 4242])
-    specs = []
-    for model in ("inspire2", "matrice300"):
-        for k in range(args.per_model):
-            specs.append(FlightSpec(
-                f"{model}_{k:02d}", "drone", drone_model=model, radar_id=("radar1", "radar2")[k % 2],
-                duration_s=args.duration, mean_range_m=float(rng.uniform(500, 3000)),
-                height_m=float(rng.choice([60.0, 80.0, 100.0])), speed_mps=float(rng.uniform(3, 12)),
-                effects=draw_effects(rng, k // 2), seed=int(rng.integers(2 ** 31)), direction=int(rng.choice([1, -1]))))
+    specs = flight_specs(rng, args.per_model, args.duration)
     t0 = time.perf_counter()
     rows = []
     for s in specs:

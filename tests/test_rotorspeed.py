@@ -17,6 +17,7 @@ from microdoppler.diagnosis.features import cpi_average
 from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.flightzarr import Flight, read_flight, write_flight
 from microdoppler.motorlog import read_motor_store
+from microdoppler.rotorfit import refine_cpi
 from microdoppler.rotorspeed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
                                      instants_from_cpi_means)
 
@@ -252,6 +253,35 @@ def test_a_rotor_on_lines_of_its_own_is_never_taken_for_a_spare():
         for r in true:
             if np.min(np.abs(true[true != r] - r)) > b:
                 assert np.all(np.min(np.abs(est.speeds_rev_s[sel] - r), axis=1) < 0.5 * b), (offs / b, r)
+
+
+def test_a_rotor_the_lines_missed_is_found_by_the_fit():
+    """One CPI's fit given the lines a periodogram shows when one rotor's line is split
+    in two and another rotor, 7-14 % of the speed from the rest, shows no line (a
+    manoeuvring quadcopter's rotors differ by that much: the PX4 log in ../shared has a
+    9.9 % per-motor spread). Every start puts a rotor on each line; without a spare
+    the fit used to stop there, and a re-seeded spare searched only 12 % around the
+    lines: the mean was 3.2-4.0 % off in 4 of these 12 CPIs (the missed rotor 12-14 %
+    away). The residual's strongest harmonic comb, tried in place of the weakest
+    rotors, finds the missed rotor in every one (eq. (1) signals, no emulator; draws
+    from this test's own seed)."""
+    rng = np.random.default_rng(20261126)
+    b = PRF / N_FFT / 2
+    t = np.arange(int(1.2 * PRF)) / PRF
+    i0 = 1000
+    for _ in range(12):
+        base = rng.uniform(60, 90)
+        far = rng.choice([-1, 1]) * rng.uniform(0.07, 0.14) * base
+        true = base + np.array([0.0, rng.uniform(1.5, 3.0) * b, -rng.uniform(1.5, 3.0) * b, far])
+        fl = synthetic_flight(np.tile(true, (len(t), 1)), seed=int(rng.integers(1000)),
+                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
+        split = rng.uniform(0.3, 0.6) * b
+        lines = [true[0], true[1] - split, true[1] + split, true[2]]
+        fit = refine_cpi(np.asarray(fl.iq[i0:i0 + N_FFT]), PRF, 2, 4, body_hz=-2 * fl.track_radial_velocity_mps[0] / LAM,
+                         body_rate_hz_s=0.0, lines_rev_s=lines, rate_rev_s2=0.0, n_pairs=3)
+        assert fit is not None
+        assert abs(fit.speeds_rev_s.mean() / true.mean() - 1) <= 0.01, (far / b, fit.start)
+        assert np.min(np.abs(fit.speeds_rev_s - true[3])) < 0.5 * b, (far / b, fit.start)
 
 
 def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():

@@ -1,0 +1,199 @@
+"""What the I/Q fit's likelihood allows: each CPI's fit started at the true rotor speeds
+(not run in CI).
+
+The tail of :mod:`microdoppler.rotorfit` (CPIs with >= 2 visible pairs whose mean rotor
+speed is off by over 1 %) is either a *search* failure (a better optimum of the fit's
+cost exists, near the truth, and the starts from the periodogram's lines never reach
+it) or a *likelihood* failure (the wrong composition fits the samples at least as well
+as the truth: no search of this model can mend it). This benchmark tells them apart.
+
+It emulates the flights of ``eval_rotorspeed.py`` (same specs, same seeds), runs
+:func:`microdoppler.rotorspeed.estimate_rotor_speeds` with every CPI's fit recorded,
+and refits each CPI with >= 2 pairs from the truth: the true per-rotor speeds (window^2
+mean over the CPI, from the emulator's log) and rates (window^2-weighted slope), with
+the chosen fit's body Doppler, through the same harmonics (``harmonics[0]`` then
+``harmonics[-1]``). The truth-started fit's cost (residual plus the rate prior, the
+fit's own criterion) is compared with the chosen fit's:
+
+* ``search``: the truth start reaches a lower cost (by more than ``--margin`` noise
+  variances) and is within 1 %: a better search of this model would mend the CPI;
+* ``likelihood``: the truth start is within 1 % but its cost is not lower: the model
+  prefers the wrong composition;
+* ``drift``: even started at the truth the fit leaves 1 %.
+
+``min-cost`` is the estimator that takes, per CPI, whichever of the chosen and the
+truth-started fits has the lower cost: an upper bound for any search of this
+likelihood (it knows the truth as a start, but must still win on cost). Shares within
+1 % carry 95 % flight-bootstrap intervals; differences are paired.
+
+    .venv/bin/python benchmarks/bound_rotorspeed.py --seed 1 --per-model 12 --workers 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import json
+import time
+from dataclasses import replace
+from multiprocessing import Pool
+
+import numpy as np
+from scipy.signal.windows import blackmanharris
+
+import microdoppler.rotorfit as rf
+import microdoppler.rotorspeed as rs
+from microdoppler.bootstrap import draw_flights, interval, ratio_replicates
+from microdoppler.emulator.world import emulate_flight
+
+import eval_rotorspeed as ev
+
+_LAST: dict = {}
+
+
+class _Recorded(rf._Model):
+    """The fit's model, remembering its last fit (the chosen one: ``refine_cpi`` ends
+    with ``fit(p, N, iterations=0)`` at the chosen parameters)."""
+
+    def fit(self, p, N, iterations=None):
+        p2, cost = super().fit(p, N, iterations)
+        _LAST["fit"] = (self, p2.copy(), float(cost), N)
+        return p2, cost
+
+
+def _install_recorder(records: list) -> None:
+    rf._Model = _Recorded
+    orig = rf.refine_cpi
+
+    def hooked(x, prf, n_blades, n_motors, **kw):
+        res = orig(x, prf, n_blades, n_motors, **kw)
+        if res is not None:
+            F, p, cost, N = _LAST["fit"]
+            records.append({"x": x, "F": F, "p": p, "cost": cost, "N": N, "res": res, "kw": kw})
+        return res
+
+    rs.refine_cpi = hooked
+
+
+def _truth(flight, start: int, n_fft: int, M: int):
+    """True speeds [rev/s] and rates [rev/s^2] per rotor over the CPI starting at pulse
+    ``start`` (window^2 weights, from the log)."""
+    prf = float(flight.prf_hz)
+    w = blackmanharris(n_fft, sym=False) ** 2
+    k = np.linspace(0, n_fft - 1, 256).astype(int)
+    wk = w[k] / w[k].sum()
+    tc = (start + n_fft / 2) / prf
+    tt = (k - n_fft / 2) / prf
+    rev = flight.motors_rpm.astype(np.float64) / 60.0
+    f = np.empty(M)
+    g = np.empty(M)
+    for m in range(M):
+        v = np.interp(tc + tt, flight.motors_time_s, rev[:, m])
+        f[m] = np.sum(wk * v)
+        tm = np.sum(wk * tt)
+        g[m] = np.sum(wk * (tt - tm) * (v - f[m])) / np.sum(wk * (tt - tm) ** 2)
+    return f, g
+
+
+def evaluate(spec, margin: float, fit: dict) -> dict:
+    records: list = []
+    _install_recorder(records)
+    flight, _ = emulate_flight(spec)
+    est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=replace(rf.FitConfig(), **fit)))
+    out = {"flight": spec.flight_id, "cpis": []}
+    if not est.ok:
+        return out
+    iq = np.asarray(flight.iq)
+    M, n_fft = est.n_motors, est.n_fft
+    harm = rf.FitConfig().harmonics
+    for rec in records:
+        if rec["kw"].get("n_pairs", 0) < 2:
+            continue
+        x, F, p, cost = rec["x"], rec["F"], rec["p"], rec["cost"]
+        start = int((x.ctypes.data - iq.ctypes.data) // iq.itemsize) if np.shares_memory(x, iq) else -1
+        if start < 0:
+            continue
+        f_true, g_true = _truth(flight, start, n_fft, M)
+        F.fit(p, rec["N"], iterations=0)
+        pow_chosen = F.power.copy()
+        tm = float(f_true.mean())
+        pt = np.r_[p[0], p[1], f_true, g_true]
+        _, cost_at_truth = F.fit(pt, harm[-1], iterations=0)
+        q = pt
+        for N in harm:
+            q, cost_t = F.fit(q, N)
+        noise = cost / (2 * len(x))  # residual variance per real sample at the chosen fit
+        out["cpis"].append({
+            "err": float(rec["res"].speeds_rev_s.mean() / tm - 1),
+            "z": float((rec["res"].speeds_rev_s.mean() - tm) / rec["res"].mean_std_rev_s),
+            "err_truth_fit": float(q[2:2 + M].mean() / tm - 1),
+            "dcost": float((cost - cost_t) / noise),  # > 0: the truth start fits better
+            "dcost_at_truth": float((cost - cost_at_truth) / noise),
+            "balance": float(rec["res"].balance),
+            "start": rec["res"].start,
+            "n_pairs": int(rec["kw"]["n_pairs"]),
+            # in bins at n = 1 from the true mean: the truth, the chosen fit (before a
+            # spare joins a line), the truth-started fit, the periodogram's lines
+            "bins": {k: ((np.asarray(v, float) - tm) * est.n_blades * n_fft / flight.prf_hz).round(2).tolist()
+                     for k, v in (("true", f_true), ("fit", p[2:2 + M]), ("truth_fit", q[2:2 + M]),
+                                  ("lines", rec["kw"]["lines_rev_s"]))},
+            "power_db": (10 * np.log10(np.maximum(pow_chosen, 1e-30) / pow_chosen.max())).round(1).tolist(),
+        })
+    return out
+
+
+def _share(rows, pick, draws):
+    num = np.array([float(sum(pick(c) for c in r["cpis"])) for r in rows])
+    den = np.array([float(len(r["cpis"])) for r in rows])
+    reps = ratio_replicates(num, den, draws)
+    return num.sum() / den.sum(), reps
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--per-model", type=int, default=12)
+    ap.add_argument("--duration", type=float, default=20.0)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--margin", type=float, default=1.0, help="noise variances a cost must win by (default 1)")
+    ap.add_argument("--json", default=None)
+    ap.add_argument("--fit", action="append", default=[], metavar="KEY=VALUE",
+                    help="a FitConfig setting for the estimator's fit (repeatable), e.g. --fit keep=3")
+    args = ap.parse_args(argv)
+    specs = ev.flight_specs(np.random.default_rng([args.seed, 4242]), args.per_model, args.duration)
+    t0 = time.perf_counter()
+    with Pool(args.workers) as pool:
+        fit = {k: ast.literal_eval(v) for k, v in (a.split("=", 1) for a in args.fit)}
+        rows = pool.starmap(evaluate, [(s, args.margin, fit) for s in specs])
+    rows = [r for r in rows if r["cpis"]]
+    draws = draw_flights([r["flight"] for r in rows], seed=0)
+    m = args.margin
+    within = lambda e: abs(e) <= 0.01  # noqa: E731
+    mincost = lambda c: within(c["err_truth_fit"] if c["dcost"] > m else c["err"])  # noqa: E731
+    a, ra = _share(rows, lambda c: within(c["err"]), draws)
+    b, rb = _share(rows, mincost, draws)
+    cps = [c for r in rows for c in r["cpis"]]
+    tail = [c for c in cps if not within(c["err"])]
+    search = [c for c in tail if within(c["err_truth_fit"]) and c["dcost"] > m]
+    like = [c for c in tail if within(c["err_truth_fit"]) and c["dcost"] <= m]
+    drift = [c for c in tail if not within(c["err_truth_fit"])]
+    print(f"seed {args.seed}: {len(rows)} flights, {len(cps)} CPIs with >= 2 pairs, {time.perf_counter() - t0:.0f} s")
+    print(f"within 1 %: the fit {100 * a:.1f} % [{100 * interval(ra)[0]:.1f}, {100 * interval(ra)[1]:.1f}]; "
+          f"min-cost with the truth start {100 * b:.1f} % [{100 * interval(rb)[0]:.1f}, {100 * interval(rb)[1]:.1f}]; "
+          f"difference {100 * (b - a):+.1f} [{100 * interval(rb - ra)[0]:+.1f}, {100 * interval(rb - ra)[1]:+.1f}] points")
+    print(f"tail {len(tail)} CPIs: search {len(search)}, likelihood {len(like)}, drift {len(drift)}")
+    if like:
+        d = np.array([c["dcost"] for c in like])
+        print(f"  likelihood: the chosen fit's cost below the truth start's by median {np.median(-d):.1f} "
+              f"noise variances (p10 {np.percentile(-d, 10):.1f}, p90 {np.percentile(-d, 90):.1f})")
+    fine = [c for c in cps if within(c["err"])]
+    print(f"  CPIs within 1 %: the truth start fits better by > {m:g} in {sum(c['dcost'] > m for c in fine)} "
+          f"of {len(fine)}; stays within 1 % in {sum(within(c['err_truth_fit']) for c in fine)}")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"args": vars(args), "flights": rows}, fh)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
