@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import ast
-import json
 import time
 from dataclasses import replace
 from multiprocessing import Pool
@@ -189,9 +188,7 @@ def main(argv=None) -> int:
     fine = [c for c in cps if within(c["err"])]
     print(f"  CPIs within 1 %: the truth start fits better by > {m:g} in {sum(c['dcost'] > m for c in fine)} "
           f"of {len(fine)}; stays within 1 % in {sum(within(c['err_truth_fit']) for c in fine)}")
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"args": vars(args), "flights": rows}, fh)
+    ev.write_json(args, rows)
     return 0
 
 

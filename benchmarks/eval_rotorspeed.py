@@ -362,10 +362,15 @@ def main(argv=None) -> int:
           + "".join(f"; {k} {e.flight_id}: {e.summary()}" for k, e in bad))
     print(f"estimation time per flight: median {np.median([r['seconds'] for r in rows]):.2f} s "
           f"({args.duration:g} s flights); total wall {wall:.0f} s")
+    write_json(args, rows)
+    return 0
+
+
+def write_json(args: argparse.Namespace, rows: list[dict]) -> None:
+    """Every flight's per-CPI numbers to ``args.json`` (where given), with the arguments."""
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"args": vars(args), "flights": rows}, fh)
-    return 0
 
 
 if __name__ == "__main__":
