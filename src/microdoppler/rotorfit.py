@@ -44,7 +44,7 @@ fit used to stop there. Last, the residual's strongest harmonic comb within
 ``move_rel`` of the lines' centre (a quadcopter's rotors differ by up to ~15 % in a
 manoeuvre) is tried in place of each of the ``move_tries`` weakest rotors, the best fit
 kept where it lowers the cost, ``move_passes`` times. Started at the true speeds, the
-fit reaches a lower cost than its chosen fit in ~70 % of the emulated tail; these
+fit reached a lower cost than its chosen fit in 60-75 % of the emulated tail; these
 moves recover about half of those (``benchmarks/bound_rotorspeed.py``;
 ``benchmarks/README.md``, "What the likelihood allows: the fit started at the truth").
 

@@ -464,7 +464,7 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     config : RotorSpeedConfig, optional
         Method settings (see the module docstring).
     progress : callable(done, total), optional
-        Called during the I/Q fit (step 9, ~0.2 s per CPI) every 64 CPIs and at its end.
+        Called during the I/Q fit (step 9, ~0.35 s per CPI) every 64 CPIs and at its end.
 
     Returns
     -------
