@@ -43,7 +43,9 @@ its own; where no spare results, or the rotor turns beyond the re-seeding window
 fit used to stop there. Last, the residual's strongest harmonic comb within
 ``move_rel`` of the lines' centre (a quadcopter's rotors differ by up to ~15 % in a
 manoeuvre) is tried in place of each of the ``move_tries`` weakest rotors, the best fit
-kept where it lowers the cost, ``move_passes`` times. Started at the true speeds, the
+kept where it lowers the cost, ``move_passes`` times (keep ``move_rel`` under 0.2: at
+25 % a rotor settled at 4/5 of a true rotor's speed, its fifth harmonic on the true
+rotor's fourth, and fitted better than the truth). Started at the true speeds, the
 fit reached a lower cost than its chosen fit in 60-75 % of the emulated tail; these
 moves recover about half of those (``benchmarks/bound_rotorspeed.py``;
 ``benchmarks/README.md``, "What the likelihood allows: the fit started at the truth").
