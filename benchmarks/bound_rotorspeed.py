@@ -75,22 +75,19 @@ def _install_recorder(records: list) -> None:
 
 
 def _truth(flight, start: int, n_fft: int, M: int):
-    """True speeds [rev/s] and rates [rev/s^2] per rotor over the CPI starting at pulse
-    ``start`` (window^2 weights, from the log)."""
+    """True speeds [rev/s] (``eval_rotorspeed``'s truth) and rates [rev/s^2] (the
+    window^2-weighted slope) per rotor over the CPI starting at pulse ``start``."""
     prf = float(flight.prf_hz)
+    tc = (start + n_fft / 2) / prf
+    f = ev.true_cpi_speeds(flight, np.array([tc]), n_fft)[0]
     w = blackmanharris(n_fft, sym=False) ** 2
     k = np.linspace(0, n_fft - 1, 256).astype(int)
     wk = w[k] / w[k].sum()
-    tc = (start + n_fft / 2) / prf
     tt = (k - n_fft / 2) / prf
+    tt = tt - np.sum(wk * tt)
     rev = flight.motors_rpm.astype(np.float64) / 60.0
-    f = np.empty(M)
-    g = np.empty(M)
-    for m in range(M):
-        v = np.interp(tc + tt, flight.motors_time_s, rev[:, m])
-        f[m] = np.sum(wk * v)
-        tm = np.sum(wk * tt)
-        g[m] = np.sum(wk * (tt - tm) * (v - f[m])) / np.sum(wk * (tt - tm) ** 2)
+    g = np.array([np.sum(wk * tt * np.interp(tc + tt, flight.motors_time_s, rev[:, m])) / np.sum(wk * tt ** 2)
+                  for m in range(M)])
     return f, g
 
 
@@ -98,13 +95,13 @@ def evaluate(spec, margin: float, fit: dict) -> dict:
     records: list = []
     _install_recorder(records)
     flight, _ = emulate_flight(spec)
-    est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=replace(rf.FitConfig(), **fit)))
+    cfg = replace(rf.FitConfig(), **fit)
+    est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=cfg))
     out = {"flight": spec.flight_id, "cpis": []}
     if not est.ok:
         return out
     iq = np.asarray(flight.iq)
     M, n_fft = est.n_motors, est.n_fft
-    harm = rf.FitConfig().harmonics
     for rec in records:
         if rec["kw"].get("n_pairs", 0) < 2:
             continue
@@ -117,9 +114,8 @@ def evaluate(spec, margin: float, fit: dict) -> dict:
         pow_chosen = F.power.copy()
         tm = float(f_true.mean())
         pt = np.r_[p[0], p[1], f_true, g_true]
-        _, cost_at_truth = F.fit(pt, harm[-1], iterations=0)
         q = pt
-        for N in harm:
+        for N in cfg.harmonics:
             q, cost_t = F.fit(q, N)
         noise = cost / (2 * len(x))  # residual variance per real sample at the chosen fit
         out["cpis"].append({
@@ -127,7 +123,6 @@ def evaluate(spec, margin: float, fit: dict) -> dict:
             "z": float((rec["res"].speeds_rev_s.mean() - tm) / rec["res"].mean_std_rev_s),
             "err_truth_fit": float(q[2:2 + M].mean() / tm - 1),
             "dcost": float((cost - cost_t) / noise),  # > 0: the truth start fits better
-            "dcost_at_truth": float((cost - cost_at_truth) / noise),
             "balance": float(rec["res"].balance),
             "start": rec["res"].start,
             "n_pairs": int(rec["kw"]["n_pairs"]),

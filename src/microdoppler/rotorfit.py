@@ -41,7 +41,7 @@ A rotor the periodogram's lines missed (its line smeared below the pair threshol
 shown as part of a split line) leaves every start with a rotor on a line that is not
 its own; where no spare results, or the rotor turns beyond the re-seeding window, the
 fit used to stop there. Last, the residual's strongest harmonic comb within
-``move_rel`` of the lines' centre (a quadcopter's rotors differ by up to ~15 % in a
+``move_rel`` of the re-seeding window's centre (a quadcopter's rotors differ by up to ~15 % in a
 manoeuvre) is tried in place of each of the ``move_tries`` weakest rotors, the best fit
 kept where it lowers the cost, ``move_passes`` times (keep ``move_rel`` under 0.2: at
 25 % a rotor settled at 4/5 of a true rotor's speed, its fifth harmonic on the true
