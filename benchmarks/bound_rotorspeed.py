@@ -29,8 +29,8 @@ thermal noise or artifacts), which splits the likelihood class by what decides i
   ``--margin`` noise variances of the recorded CPI): the background chose the wrong fit;
 * ``model``: on the echo alone the chosen fit still wins: the harmonic-chirp model
   misses something of the emulated echo that the wrong composition absorbs;
-* ``tie``: the two optima cost the same on the echo alone (the fit itself is within 1 %
-  before a spare rotor joins a line: the spare's line is what is wrong).
+* ``tie``: the two optima cost the same on the echo alone (mostly the fit itself is
+  within 1 % before a spare rotor joins a line: the spare's line is what is wrong).
 
 ``min-cost`` is the estimator that takes, per CPI, whichever of the chosen and the
 truth-started fits has the lower cost: an upper bound for any search of this
