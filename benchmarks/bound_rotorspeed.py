@@ -240,13 +240,14 @@ def main(argv=None) -> int:
         ap.error("--white needs --clean (the draws are built from the echo alone)")
     t0 = time.perf_counter()
     if args.from_json:
-        rows = []
+        rows, seeds, whites = [], [], []
         for fn in args.from_json:
             with open(fn) as fh:
                 saved = json.load(fh)
-            rows += [{**r, "flight": f"{saved['args']['seed']}:{r['flight']}"} for r in saved["flights"]]
-        args.seed = ",".join(str(json.load(open(fn))["args"]["seed"]) for fn in args.from_json)
-        args.white = max(json.load(open(fn))["args"].get("white", 0) for fn in args.from_json)
+            seeds.append(str(saved["args"]["seed"]))
+            whites.append(int(saved["args"].get("white", 0)))
+            rows += [{**r, "flight": f"{seeds[-1]}:{r['flight']}"} for r in saved["flights"]]
+        args.seed, args.white = ",".join(seeds), max(whites)
     else:
         specs = ev.flight_specs(np.random.default_rng([args.seed, 4242]), args.per_model, args.duration)
         with Pool(args.workers) as pool:
