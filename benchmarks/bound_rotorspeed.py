@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import functools
 import json
 import time
 from dataclasses import replace
@@ -129,6 +130,17 @@ def _echo_only(spec) -> np.ndarray:
         world.bg.record = orig
 
 
+def _recorded_without(spec, part: str) -> np.ndarray:
+    """The flight's recording without one part of the background (same realisation of
+    every other part: :func:`microdoppler.emulator.background.record`'s ``parts``)."""
+    orig = world.bg.record
+    world.bg.record = functools.partial(orig, parts=world.bg.PARTS - {part})
+    try:
+        return np.asarray(emulate_flight(spec)[0].iq)
+    finally:
+        world.bg.record = orig
+
+
 def _white_flips(G, p_chosen, p_echo_chosen, q_echo, cost, n_draws: int, seed, tm: float, N: int):
     """The CPI again, with the model exact and the background white: the truth-started
     optimum's model of the echo alone (``G`` left at ``q_echo``) plus complex white noise
@@ -152,11 +164,12 @@ def _white_flips(G, p_chosen, p_echo_chosen, q_echo, cost, n_draws: int, seed, t
     return flips / n_draws
 
 
-def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0) -> dict:
+def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0, parts: bool = False) -> dict:
     records: list = []
     _install_recorder(records)
     flight, _ = emulate_flight(spec)
     echo = _echo_only(spec) if clean else None
+    without: dict = {}  # part -> the recording without it, emulated when first needed
     cfg = replace(rf.FitConfig(), **fit)
     est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=cfg))
     out = {"flight": spec.flight_id, "cpis": []}
@@ -188,6 +201,17 @@ def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0
             pq, cq = G.fit(q.copy(), rec["N"])
             extra = {"clean_dcost": float((cc - cq) / noise), "clean_err": float(pc[2:2 + M].mean() / tm - 1),
                      "clean_err_truth_fit": float(pq[2:2 + M].mean() / tm - 1)}
+            noise_class = (abs(rec["res"].speeds_rev_s.mean() / tm - 1) > 0.01 and abs(q[2:2 + M].mean() / tm - 1) <= 0.01
+                           and (cost - cost_t) / noise <= margin and extra["clean_dcost"] > margin)
+            if parts and noise_class:
+                extra["without"] = {}
+                for part in sorted(world.bg.PARTS):
+                    if part not in without:
+                        without[part] = _recorded_without(spec, part)
+                    H = rf._Model(without[part][start:start + n_fft], float(flight.prf_hz), est.n_blades, M, cfg)
+                    H.g0, H.s2 = F.g0, F.s2
+                    ch, qh = H.fit(p.copy(), rec["N"])[1], H.fit(q.copy(), rec["N"])[1]
+                    extra["without"][part] = float((ch - qh) / noise)  # > margin: the truth wins without it
             if white and abs(rec["res"].speeds_rev_s.mean() / tm - 1) > 0.01 and abs(pq[2:2 + M].mean() / tm - 1) <= 0.01:
                 extra["white_flip"] = _white_flips(G, p, pc, pq, cost, white, [spec.seed, start, 2027], tm,
                                                    rec["N"])
@@ -231,13 +255,16 @@ def main(argv=None) -> int:
     ap.add_argument("--white", type=int, default=0, metavar="K",
                     help="with --clean: each tail CPI redrawn K times with the model exact and the background "
                          "white at the recorded level (how often the likelihood itself flips)")
+    ap.add_argument("--parts", action="store_true",
+                    help="with --clean: refit each noise-class CPI on the recording without each part of the "
+                         "background in turn (which part tips it)")
     ap.add_argument("--fit", action="append", default=[], metavar="KEY=VALUE",
                     help="a FitConfig setting for the estimator's fit (repeatable), e.g. --fit keep=3")
     ap.add_argument("--from-json", nargs="+", default=None, metavar="JSON",
                     help="summarise saved --json records (several: pooled) instead of running")
     args = ap.parse_args(argv)
-    if args.white and not args.clean:
-        ap.error("--white needs --clean (the draws are built from the echo alone)")
+    if (args.white or args.parts) and not args.clean:
+        ap.error("--white and --parts need --clean (they build on the echo-alone refits)")
     t0 = time.perf_counter()
     if args.from_json:
         rows, seeds, whites = [], [], []
@@ -252,7 +279,8 @@ def main(argv=None) -> int:
         specs = ev.flight_specs(np.random.default_rng([args.seed, 4242]), args.per_model, args.duration)
         with Pool(args.workers) as pool:
             fit = {k: ast.literal_eval(v) for k, v in (a.split("=", 1) for a in args.fit)}
-            rows = pool.starmap(evaluate, [(s, args.margin, fit, args.clean, args.white) for s in specs])
+            rows = pool.starmap(evaluate, [(s, args.margin, fit, args.clean, args.white, args.parts)
+                                           for s in specs])
     rows = [r for r in rows if r["cpis"]]
     draws = draw_flights([r["flight"] for r in rows], seed=0)
     m = args.margin
@@ -285,6 +313,15 @@ def main(argv=None) -> int:
             d = np.array([-c["clean_dcost"] for c in model])
             print(f"  model: the chosen fit's cost on the echo alone below the truth start's by median "
                   f"{np.median(d):.1f} noise variances (max {d.max():.0f})")
+    split = [c for c in cps if "without" in c]
+    if split:
+        by: dict = {}
+        for c in split:
+            lifted = [k for k, v in sorted(c["without"].items()) if v > m]
+            key = "+".join(lifted) if lifted else "no single part"
+            by[key] = by.get(key, 0) + 1
+        print(f"  noise class, the part whose removal turns the cost to the truth: "
+              + ", ".join(f"{k} {v}" for k, v in sorted(by.items(), key=lambda kv: -kv[1])))
     tested = [c for c in cps if "white_flip" in c]
     if tested:
         e, re_ = _share(rows, lambda c: c.get("white_flip", 0.0), draws)

@@ -122,27 +122,42 @@ def artifacts(n: int, prf_hz: float, rate_per_min: float, rng: np.random.Generat
     return out, events
 
 
+PARTS = frozenset({"static", "windblown", "phase", "thermal", "artifacts"})
+
+
 def record(target: np.ndarray | None, n: int, *, t_track_s, cells, site: RadarSite, site_seed: int,
            wind_mps: float, rng: np.random.Generator, knob_phase_rms_rad: float = 0.0,
-           clutter_scale_db: float = 0.0) -> tuple[np.ndarray, dict]:
+           clutter_scale_db: float = 0.0, parts=PARTS) -> tuple[np.ndarray, dict]:
     """What the radar records in the cell sequence: target + clutter, times the radar's
-    phase noise (and the knob's), plus thermal noise and artifacts. complex64 [n]."""
+    phase noise (and the knob's), plus thermal noise and artifacts. complex64 [n].
+
+    ``parts`` (a subset of :data:`PARTS`) keeps only some of the background, for
+    diagnostics; every random draw is made whatever is kept, so each part is the same
+    realisation as in the full recording."""
+    unknown = set(parts) - PARTS
+    if unknown:
+        raise ValueError(f"parts: unknown {sorted(unknown)} (expected a subset of {sorted(PARTS)})")
     prf = site.radar.prf_hz
     t = np.arange(n) / prf
     st, amp = clutter_envelope(t_track_s, cells, t, site, site_seed)
     g = np.float32(10 ** (clutter_scale_db / 20))
     frac = np.float32(10 ** (windblown_fraction_db(wind_mps) / 20))
-    x = st * g
-    x += windblown(n, prf, wind_mps, rng) * amp * (g * frac)
+    x = st * g if "static" in parts else np.zeros(n, np.complex64)
+    wb = windblown(n, prf, wind_mps, rng)
+    if "windblown" in parts:
+        x += wb * amp * (g * frac)
     if target is not None:
         x += target
     theta = band_limited_phase(n, prf, site.phase_noise_rms_rad, rng, corner_hz=site.phase_noise_corner_hz)
     if knob_phase_rms_rad > 0:
         theta = theta + band_limited_phase(n, prf, knob_phase_rms_rad, rng)
-    x *= np.exp(1j * theta).astype(np.complex64)
+    if "phase" in parts:
+        x *= np.exp(1j * theta).astype(np.complex64)
     nz = rng.standard_normal((n, 2), dtype=np.float32) * np.float32(np.sqrt(0.5))
-    x += nz[:, 0] + 1j * nz[:, 1]
+    if "thermal" in parts:
+        x += nz[:, 0] + 1j * nz[:, 1]
     art, events = artifacts(n, prf, site.artifact_rate_per_min, rng)
-    x += art
+    if "artifacts" in parts:
+        x += art
     info = {"mean_clutter_cnr_db": float(20 * np.log10(np.mean(amp) * g + 1e-12)), "artifacts": len(events)}
     return x.astype(np.complex64, copy=False), info
