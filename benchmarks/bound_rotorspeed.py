@@ -124,27 +124,21 @@ def _truth(flight, start: int, n_fft: int, M: int):
     return f, g
 
 
-def _echo_only(spec) -> np.ndarray:
-    """The flight's target echo alone: emulated again (same seeds, so the same target)
-    with the recorder returning the target, without clutter, phase noise, noise or
-    artifacts."""
+def _recorded(spec, parts) -> np.ndarray:
+    """The flight emulated again (same seeds, so the same target and the same
+    realisation of every part) with only ``parts`` of the background recorded
+    (:func:`microdoppler.emulator.background.record`'s ``parts``)."""
     orig = world.bg.record
-    world.bg.record = lambda target, n, **kw: (np.asarray(target, np.complex64).copy(), {})
-    try:
-        return np.asarray(emulate_flight(replace(spec, with_background=False))[0].iq)
-    finally:
-        world.bg.record = orig
-
-
-def _recorded_without(spec, part: str) -> np.ndarray:
-    """The flight's recording without one part of the background (same realisation of
-    every other part: :func:`microdoppler.emulator.background.record`'s ``parts``)."""
-    orig = world.bg.record
-    world.bg.record = functools.partial(orig, parts=world.bg.PARTS - {part})
+    world.bg.record = functools.partial(orig, parts=frozenset(parts))
     try:
         return np.asarray(emulate_flight(spec)[0].iq)
     finally:
         world.bg.record = orig
+
+
+def _echo_only(spec) -> np.ndarray:
+    """The flight's target echo alone: no clutter, phase noise, noise or artifacts."""
+    return _recorded(replace(spec, with_background=False), ())
 
 
 def _white_flips(G, p_chosen, p_echo_chosen, q_echo, cost, n_draws: int, seed, tm: float, N: int):
@@ -207,18 +201,19 @@ def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0
             pq, cq = G.fit(q.copy(), rec["N"])
             extra = {"clean_dcost": float((cc - cq) / noise), "clean_err": float(pc[2:2 + M].mean() / tm - 1),
                      "clean_err_truth_fit": float(pq[2:2 + M].mean() / tm - 1)}
-            noise_class = (abs(rec["res"].speeds_rev_s.mean() / tm - 1) > 0.01 and abs(q[2:2 + M].mean() / tm - 1) <= 0.01
+            err = float(rec["res"].speeds_rev_s.mean() / tm - 1)
+            noise_class = (abs(err) > 0.01 and abs(q[2:2 + M].mean() / tm - 1) <= 0.01
                            and (cost - cost_t) / noise <= margin and extra["clean_dcost"] > margin)
             if parts and noise_class:
                 extra["without"] = {}
                 for part in sorted(world.bg.PARTS):
                     if part not in without:
-                        without[part] = _recorded_without(spec, part)
+                        without[part] = _recorded(spec, world.bg.PARTS - {part})
                     H = rf._Model(without[part][start:start + n_fft], float(flight.prf_hz), est.n_blades, M, cfg)
                     H.g0, H.s2 = F.g0, F.s2
                     ch, qh = H.fit(p.copy(), rec["N"])[1], H.fit(q.copy(), rec["N"])[1]
                     extra["without"][part] = float((ch - qh) / noise)  # > margin: the truth wins without it
-            if white and abs(rec["res"].speeds_rev_s.mean() / tm - 1) > 0.01 and abs(pq[2:2 + M].mean() / tm - 1) <= 0.01:
+            if white and abs(err) > 0.01 and abs(pq[2:2 + M].mean() / tm - 1) <= 0.01:
                 extra["white_flip"] = _white_flips(G, p, pc, pq, cost, white, [spec.seed, start, 2027], tm,
                                                    rec["N"])
         out["cpis"].append({
