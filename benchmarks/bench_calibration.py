@@ -10,11 +10,11 @@ with the current one at each ``max_fit_cpis`` in ``--caps`` (0 = every fold-A CP
 interleaved per flight (the order alternates between flights) so that machine load
 hits both alike. Per flight and fit: wall time, alpha, S_body, S_blade, the achieved
 body and first-sideband errors on every fold-A CPI (``fit_twin``'s check), visible
-pairs, and the held-out (fold B) fidelity distances of ``microdoppler.fidelity``.
+pairs, and the held-out (fold B) fidelity distances of ``microdoppler.datasets.fidelity``.
 
 Prints per-flight rows and, per cap, the time ratio new/old (ratio of flight sums)
 and the mean paired difference new - old of each term, each with a 95 % flight
-bootstrap interval (``microdoppler.bootstrap``: the flight is the unit).
+bootstrap interval (``microdoppler.stats.bootstrap``: the flight is the unit).
 """
 
 from __future__ import annotations
@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from microdoppler import fidelity
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates, resolved
+from microdoppler.datasets import fidelity
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved
 from microdoppler.datasets import calibration as new
 from microdoppler.emulator import FlightSpec, emulate_flight
-from microdoppler.motorlog import MotorLog
-from microdoppler.sampling import resample
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.io.motorlog import MotorLog
+from microdoppler.rotors.sampling import resample
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 REPO = Path(__file__).resolve().parents[1]
 MODULE = "src/microdoppler/datasets/calibration.py"

@@ -2,11 +2,11 @@
 
 Run:  python benchmarks/bench_synthesis.py [--pulses N] [--json PATH] [--skip-memory]
 
-* Throughput [pulses/s] of :func:`microdoppler.synthesis.synthesize` for 4 motors x
+* Throughput [pulses/s] of :func:`microdoppler.synthesis.model.synthesize` for 4 motors x
   2 blades (Inspire geometry, L-band, PRF 7300 Hz), with alpha > 0 (default: the
   harmonic envelope; and the FFT filter, ``envelope_method="fft"``) and alpha = 0,
   best and median of ``--repeats``; the per-pulse Python reference
-  :func:`~microdoppler.synthesis.reference_synthesize` (alpha = 0, 10 000 pulses)
+  :func:`~microdoppler.synthesis.model.reference_synthesize` (alpha = 0, 10 000 pulses)
   runs in every repeat, interleaved with the kernels, and the speed-up over it is
   taken per repeat (similar machine load), then the median over repeats.
 * Agreement of the harmonic envelope with the FFT filter on these speeds (record
@@ -50,14 +50,14 @@ def speeds(n: int, i0: int = 0) -> np.ndarray:
 
 
 def track(duration_s: float):
-    from microdoppler.synthesis import Track
+    from microdoppler.synthesis.model import Track
 
     t = np.linspace(0, duration_s, max(16, int(duration_s)))
     return Track(t, 5000.0 - 2.0 * t + 0.5 * np.sin(t / 5))
 
 
 def throughput(n: int, repeats: int) -> dict:
-    from microdoppler.synthesis import Scaling, reference_synthesize, synthesize
+    from microdoppler.synthesis.model import Scaling, reference_synthesize, synthesize
 
     rev = speeds(n)
     tr = track(n / PRF)
@@ -107,7 +107,7 @@ for v in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 sys.path.insert(0, os.path.dirname(sys.argv[1]))
 import numpy as np, zarr
 import bench_synthesis as B
-from microdoppler.synthesis import Scaling, synthesize
+from microdoppler.synthesis.model import Scaling, synthesize
 n = int(sys.argv[2]); alpha = float(sys.argv[3]); store = sys.argv[4]
 z = zarr.open_array(store, mode="r")
 out = np.empty(n, np.complex64); out[:] = 0          # the output, allocated and touched

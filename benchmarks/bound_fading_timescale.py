@@ -29,7 +29,7 @@ import numpy as np
 from scipy.signal.windows import blackmanharris
 
 from microdoppler.diagnosis.timescales import fit_gain_process_ml
-from microdoppler.processes import ou_process
+from microdoppler.synthesis.processes import ou_process
 
 PRF_HZ = 7000.0
 STEP = 16  # pulses per sample of the simulated path

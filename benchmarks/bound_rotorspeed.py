@@ -1,14 +1,14 @@
 """What the I/Q fit's likelihood allows: each CPI's fit started at the true rotor speeds
 (not run in CI).
 
-The tail of :mod:`microdoppler.rotorfit` (CPIs with >= 2 visible pairs whose mean rotor
+The tail of :mod:`microdoppler.rotors.fit` (CPIs with >= 2 visible pairs whose mean rotor
 speed is off by over 1 %) is either a *search* failure (a better optimum of the fit's
 cost exists, near the truth, and the starts from the periodogram's lines never reach
 it) or a *likelihood* failure (the wrong composition fits the samples at least as well
 as the truth: no search of this model can mend it). This benchmark tells them apart.
 
 It emulates the flights of ``eval_rotorspeed.py`` (same specs, same seeds), runs
-:func:`microdoppler.rotorspeed.estimate_rotor_speeds` with every CPI's fit recorded,
+:func:`microdoppler.rotors.speed.estimate_rotor_speeds` with every CPI's fit recorded,
 and refits each CPI with >= 2 pairs from the truth: the true per-rotor speeds (window^2
 mean over the CPI, from the emulator's log) and rates (window^2-weighted slope), with
 the chosen fit's body Doppler, through the same harmonics (``harmonics[0]`` then
@@ -73,9 +73,9 @@ import numpy as np
 from scipy.signal.windows import blackmanharris
 
 import microdoppler.emulator.world as world
-import microdoppler.rotorfit as rf
-import microdoppler.rotorspeed as rs
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates
+import microdoppler.rotors.fit as rf
+import microdoppler.rotors.speed as rs
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates
 from microdoppler.emulator.world import emulate_flight
 
 import eval_rotorspeed as ev

@@ -24,11 +24,11 @@ generator's Gaussian or 1/f-like shape at random).
 Body SNR: a target measured SNR is drawn per flight, U(36, 48) dB for a share
 ``--high-snr-share`` of the flights, else U(20, 36) dB; the flight is made at a
 nominal SNR and remade (at most twice) with the nominal SNR moved by the shortfall
-until the measured SNR (``microdoppler.snr.flight_body_snr_db``, mean over the
+until the measured SNR (``microdoppler.spectra.snr.flight_body_snr_db``, mean over the
 spectrogram timesteps, the project's one SNR measure) is within 2 dB of the target
 and on the same side of 36 dB. Every summary splits flights by this measured SNR.
 
-Reported (95 % flight-bootstrap CIs, :mod:`microdoppler.bootstrap`, the flight as the
+Reported (95 % flight-bootstrap CIs, :mod:`microdoppler.stats.bootstrap`, the flight as the
 unit, resampled within its design group: clean / one cause per cause / two causes):
 
 - true causes named (recall over all true causes), spurious causes on two-cause
@@ -64,12 +64,12 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates  # noqa: E402
-from microdoppler.catalog import CATALOG  # noqa: E402
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates  # noqa: E402
+from microdoppler.synthesis.catalog import CATALOG  # noqa: E402
 from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
 from microdoppler.emulator.world import FlightSpec, emulate_flight  # noqa: E402
-from microdoppler.outputs import atomic_file  # noqa: E402
-from microdoppler.snr import flight_body_snr_db  # noqa: E402
+from microdoppler.io.outputs import atomic_file  # noqa: E402
+from microdoppler.spectra.snr import flight_body_snr_db  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from independent_generator import GenCase, make_flight  # noqa: E402

@@ -17,11 +17,11 @@ diagnosis never sees, neutral shuffled ids), at body SNR >= 36 dB. For each flig
    (``ExtensionSet``: lag and scale correct the log that drives the blades, the
    others act in the synthesis), same seed, same calibration;
 4. both twins, injected into the flight's background, are compared with the measured
-   flight on fold B only (``microdoppler.fidelity.distances``, Table VI's features).
+   flight on fold B only (``microdoppler.datasets.fidelity.distances``, Table VI's features).
 
 Reported per feature: mean distance of each variant and the paired difference
 ``extended - sub_cpi`` with a 95 % flight-bootstrap interval
-(``microdoppler.bootstrap``), over the flights whose *true* causes include the cause
+(``microdoppler.stats.bootstrap``), over the flights whose *true* causes include the cause
 the feature measures, and over the flights without it. From the repository root::
 
     .venv/bin/python benchmarks/eval_extended_gain.py --seed 20261124 --flights-per-cause 8 \\
@@ -41,17 +41,17 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_diagnosis import HIGH_SNR_DB, _make, _snr_db, make_plan  # noqa: E402
 
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates, resolved  # noqa: E402
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved  # noqa: E402
 from microdoppler.datasets.calibration import CalibrationConfig, fit_twin  # noqa: E402
 from microdoppler.datasets.extended import catalog_params  # noqa: E402
 from microdoppler.datasets.injection import inject  # noqa: E402
 from microdoppler.datasets.speeds import resample_flight  # noqa: E402
 from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
 from microdoppler.diagnosis.core import flight_log  # noqa: E402
-from microdoppler.extensions import ExtensionSet  # noqa: E402
-from microdoppler.fidelity import DISTANCES, distances, flight_features, scoring_mask  # noqa: E402
-from microdoppler.outputs import atomic_file  # noqa: E402
-from microdoppler.spectrogram import SpectrogramConfig  # noqa: E402
+from microdoppler.synthesis.extensions import ExtensionSet  # noqa: E402
+from microdoppler.datasets.fidelity import DISTANCES, distances, flight_features, scoring_mask  # noqa: E402
+from microdoppler.io.outputs import atomic_file  # noqa: E402
+from microdoppler.spectra.spectrogram import SpectrogramConfig  # noqa: E402
 
 #: the Table VI features each cause should move (the "features of the diagnosed cause")
 CAUSE_FEATURES = {

@@ -4,7 +4,7 @@
 
 For emulated Inspire 2 and Matrice 300 flights on both radars, builds the calibrated
 ``sub_cpi`` twin (microdoppler.datasets.calibration.fit_twin) three times: driven by the
-flight's motor log (``log``), and by ``microdoppler.rotorspeed`` from the flight's own
+flight's motor log (``log``), and by ``microdoppler.rotors.speed`` from the flight's own
 HERM lines (as for a flight without a log), its rows either the instants whose spline
 has the estimates as CPI means (``radar``, what the tool stores) or the CPI means
 themselves (``radar_cpi_means``, before 2026-11-24). Fidelity terms per flight and twin:
@@ -15,13 +15,13 @@ themselves (``radar_cpi_means``, before 2026-11-24). Fidelity terms per flight a
 - ``body_error_db``, ``sideband1_error_db``: the calibration's achieved minus measured
   SNR of the body and of the first sideband pair [dB];
 - ``pairs_error``: visible sideband pairs, twin minus measured;
-- Table VI's distances (``microdoppler.fidelity.distances``, prefixed ``vi_``: HERM
+- Table VI's distances (``microdoppler.datasets.fidelity.distances``, prefixed ``vi_``: HERM
   line frequency [Hz], visible pairs, first-pair level, asymmetry, blade-power std and
   timescale, body-power std, floor), on the CPIs the calibration did not see, with
   the flight's own log placing the lines for every twin (the same ruler).
 
 Prints per-flight rows, the mean over flights with a 95 % bootstrap interval (the
-flight is the unit: microdoppler.bootstrap) and the paired differences radar - log,
+flight is the unit: microdoppler.stats.bootstrap) and the paired differences radar - log,
 radar_cpi_means - log and radar - radar_cpi_means.
 """
 
@@ -32,14 +32,14 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates, resolved
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved
 from microdoppler.datasets.calibration import fit_twin
 from microdoppler.emulator import FlightSpec, emulate_flight
-from microdoppler.fidelity import DISTANCES, distances, flight_features, scoring_mask
-from microdoppler.motorlog import MotorLog
-from microdoppler.rotorspeed import estimate_rotor_speeds
-from microdoppler.sampling import resample
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.datasets.fidelity import DISTANCES, distances, flight_features, scoring_mask
+from microdoppler.io.motorlog import MotorLog
+from microdoppler.rotors.speed import estimate_rotor_speeds
+from microdoppler.rotors.sampling import resample
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 TERMS = ("line_error_pct", "body_error_db", "sideband1_error_db", "pairs_error", *(f"vi_{k}" for k in DISTANCES))
 

@@ -1,4 +1,4 @@
-"""Evaluate rotor speeds from the radar (``microdoppler.rotorspeed``) on emulated flights
+"""Evaluate rotor speeds from the radar (``microdoppler.rotors.speed``) on emulated flights
 (not run in CI).
 
 Emulates ``--per-model`` Inspire and Matrice flights (half on each radar, loop centres
@@ -11,7 +11,7 @@ measures. Also runs ``--negatives`` Mini flights and bird flights relabelled as 
 (both must give no estimate).
 
 Prints tables of the relative error per CPI by visible sideband pairs and by body SNR
-(the project's per-timestep SNR, :func:`microdoppler.snr.flight_body_snr_db`):
+(the project's per-timestep SNR, :func:`microdoppler.spectra.snr.flight_body_snr_db`):
 
 * ``mean``: the mean rotor speed against the mean of the four true speeds;
 * ``rotor``: each rank (rotors sorted by speed) against the sorted true speeds;
@@ -26,7 +26,7 @@ line (assigning each true rotor to its nearest estimated line would be within 1 
 line positions (every rotor on its own line, or shared lines). Last, whether the
 reported uncertainty holds: the share of CPIs whose mean speed (and of ranked rotors
 whose speed) lies within 1 and 2 reported sigma, by the I/Q fit's power balance
-(:attr:`microdoppler.rotorspeed.RotorEstimate.balance`), with flight-bootstrap
+(:attr:`microdoppler.rotors.speed.RotorEstimate.balance`), with flight-bootstrap
 intervals.
 
     .venv/bin/python benchmarks/eval_rotorspeed.py --per-model 12 --seed 1 --json out.json
@@ -43,11 +43,11 @@ from dataclasses import asdict
 import numpy as np
 from scipy.signal.windows import blackmanharris
 
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates
 from microdoppler.diagnosis.features import cpi_average
 from microdoppler.emulator.world import FlightSpec, emulate_flight
-from microdoppler.rotorspeed import RotorSpeedConfig, estimate_rotor_speeds
-from microdoppler.snr import flight_body_snr_db
+from microdoppler.rotors.speed import RotorSpeedConfig, estimate_rotor_speeds
+from microdoppler.spectra.snr import flight_body_snr_db
 
 PAIR_BINS = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 99)]
 SNR_BINS = [(-99, 20), (20, 30), (30, 40), (40, 50), (50, 60), (60, 99)]

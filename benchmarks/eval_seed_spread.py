@@ -10,7 +10,7 @@ on RESULTS_DIR/tiles) once per seed with the classifier section of the merged
 measured test tiles (RESULTS_DIR/tiles/real.zarr), as rules train_classifier and
 evaluate_classifier do. Prints per seed accuracy, drone/bird recall, large-drone and
 Mini accuracy, then mean +- std over seeds and the flight-bootstrap 95 % interval of
-the seed-mean accuracy (``microdoppler.bootstrap``). ``--json`` writes every number.
+the seed-mean accuracy (``microdoppler.stats.bootstrap``). ``--json`` writes every number.
 """
 
 from __future__ import annotations
@@ -100,8 +100,8 @@ def main() -> None:
 
 def flight_ci(tables: list[pd.DataFrame], n_boot: int) -> tuple[float, float]:
     """95 % interval of the seed-mean accuracy: test flights drawn within their true
-    class and seeds drawn, as in Table V (``microdoppler.bootstrap``)."""
-    from microdoppler.bootstrap import draw_flights, interval, ratio_replicates
+    class and seeds drawn, as in Table V (``microdoppler.stats.bootstrap``)."""
+    from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates
 
     flights = tables[0].groupby("flight_id", sort=True)["target"].first()
     draws = draw_flights(flights.index, strata=flights.to_numpy(), n_seeds=len(tables), n_boot=n_boot, seed=0)

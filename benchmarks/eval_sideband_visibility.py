@@ -5,7 +5,7 @@
 For every measured Inspire / Matrice flight of the given split sets in RESULTS_DIR
 (``measured/``, ``motors/logs.zarr``, ``splits/flights.csv``), the paper's
 spectrogram is measured CPI by CPI with the fidelity table's one measurement module
-(``microdoppler.fidelity.flight_features``: visible pairs = consecutive sideband pairs
+(``microdoppler.datasets.fidelity.flight_features``: visible pairs = consecutive sideband pairs
 from k = 1 at >= ``visible_db`` over the floor). The flight is cut into consecutive
 images of ``spectrogram.tile_timesteps`` CPIs, and each image's share of CPIs with at
 least one visible pair is counted. Printed: the share of images in which fewer than
@@ -33,10 +33,10 @@ def main() -> None:
     ap.add_argument("--config", default="config/config.yaml")
     a = ap.parse_args()
 
-    from microdoppler.fidelity import flight_features
-    from microdoppler.flightzarr import read_flight
-    from microdoppler.inventory import read_ingested_log
-    from microdoppler.spectrogram import SpectrogramConfig
+    from microdoppler.datasets.fidelity import flight_features
+    from microdoppler.io.flightzarr import read_flight
+    from microdoppler.io.inventory import read_ingested_log
+    from microdoppler.spectra.spectrogram import SpectrogramConfig
 
     with open(a.config) as fh:
         sc = (yaml.safe_load(fh) or {}).get("spectrogram", {})

@@ -6,9 +6,9 @@ Draws ``--per-class`` flights of each class (bird, Inspire, Matrice, Mini) at ra
 (seed ``--seed``) from the world plan of ``--profile``, emulates them (no background
 recording; full duration, or at most ``--max-duration-s``) and measures each flight's
 body SNR per timestep with the pipeline's one SNR measure
-(``microdoppler.snr.flight_body_snr_db``). Per class: the mean SNR over flights and the
+(``microdoppler.spectra.snr.flight_body_snr_db``). Per class: the mean SNR over flights and the
 mean over flights of the per-flight std ("mean STD of each flight" in Table III), each
-with a 95 % bootstrap interval over flights (``microdoppler.bootstrap``), beside Table
+with a 95 % bootstrap interval over flights (``microdoppler.stats.bootstrap``), beside Table
 III's training-set values.
 """
 
@@ -21,10 +21,10 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from microdoppler.bootstrap import draw_flights, interval
+from microdoppler.stats.bootstrap import draw_flights, interval
 from microdoppler.emulator.profiles import plan_world
 from microdoppler.emulator.world import emulate_flight
-from microdoppler.snr import flight_body_snr_db
+from microdoppler.spectra.snr import flight_body_snr_db
 
 #: Table III, training set: mean SNR and mean per-flight std [dB]
 TABLE_III = {"bird": (29.0, 5.5), "inspire2": (39.0, 7.0), "matrice300": (41.0, 7.5), "mini2": (34.0, 5.7)}

@@ -29,7 +29,7 @@ def ulog_path():
 
 def make_flight(fid="f1", n=4096, rng=None, with_log=True):
     """A small valid drone flight (flight-zarr/1) in memory."""
-    from microdoppler.flightzarr import Flight
+    from microdoppler.io.flightzarr import Flight
 
     rng = rng if rng is not None else np.random.default_rng(0)
     attrs = dict(schema="flight-zarr/1", flight_id=fid, target="drone", radar_id="radar1", prf_hz=7300.0,
@@ -46,7 +46,7 @@ def make_flight(fid="f1", n=4096, rng=None, with_log=True):
 
 @pytest.fixture
 def good_store(tmp_path, rng):
-    from microdoppler.flightzarr import write_flight
+    from microdoppler.io.flightzarr import write_flight
 
     return write_flight(tmp_path / "good.zarr", make_flight(rng=rng))
 

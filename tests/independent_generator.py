@@ -1,9 +1,9 @@
 """An independent generator of measured drone flights with known discrepancies.
 
 It tests the diagnosis on effects that the project's emulator did not make: it
-imports only numpy, scipy and :mod:`microdoppler.flightzarr` (the container), and
-shares no code with ``microdoppler.emulator``, ``microdoppler.extensions`` or
-``microdoppler.processes``. Its constants and process shapes differ on purpose:
+imports only numpy, scipy and :mod:`microdoppler.io.flightzarr` (the container), and
+shares no code with ``microdoppler.emulator``, ``microdoppler.synthesis.extensions`` or
+``microdoppler.synthesis.processes``. Its constants and process shapes differ on purpose:
 
 - radars: ``gen_l`` (1.25 GHz, PRF 6500 Hz) and ``gen_s`` (2.9 GHz, PRF 9000 Hz);
 - blades: its own thin-wire sum of eq. (1) of the paper, per motor and blade,
@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import lfilter
 
-from microdoppler.flightzarr import Flight
+from microdoppler.io.flightzarr import Flight
 
 C_MPS = 299792458.0
 RADARS = {"gen_l": (1.25e9, 6500.0), "gen_s": (2.9e9, 9000.0)}

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO, make_flight, one_line, run_cli
-from microdoppler.flightzarr import write_flight
-from microdoppler.outputs import check_output, commit_dir, is_tool_store
+from microdoppler.io.flightzarr import write_flight
+from microdoppler.io.outputs import check_output, commit_dir, is_tool_store
 
 SIM = ["--motor-hz", "80,85", "--duration-s", "0.3", "--quiet"]
 
@@ -248,7 +248,7 @@ def test_diagnose_and_read_refuse_a_damaged_store(capsys, tmp_path, damage, fiel
 
 def test_validate_streams_chunk_by_chunk(tmp_path, monkeypatch):
     """Content validation reads one chunk at a time (a 30-minute flight stays in memory)."""
-    import microdoppler.flightzarr as fz
+    import microdoppler.io.flightzarr as fz
 
     store = _store(tmp_path)
     sizes = []

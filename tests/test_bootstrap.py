@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from microdoppler.bootstrap import draw_flights, interval, ratio_replicates, resolved
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved
 from microdoppler.classifier.reports import table_v, metrics_table
 
 

@@ -13,9 +13,9 @@ from microdoppler.datasets import calibration
 from microdoppler.datasets.lines import body_doppler_hz, measure_lines, rotor_rate_at
 from microdoppler.diagnosis.causes import folds
 from microdoppler.emulator import FlightSpec, emulate_flight
-from microdoppler.motorlog import MotorLog
-from microdoppler.sampling import resample
-from microdoppler.spectrogram import SpectrogramConfig, highpass, spectrogram
+from microdoppler.io.motorlog import MotorLog
+from microdoppler.rotors.sampling import resample
+from microdoppler.spectra.spectrogram import SpectrogramConfig, highpass, spectrogram
 
 SPEC = SpectrogramConfig()
 FAST = dict(n_alpha=4, max_iter=4)

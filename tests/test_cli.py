@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from microdoppler.cli import main
-from microdoppler.flightzarr import read_flight
-from microdoppler.spectrogram import SpectrogramConfig, spectrogram
+from microdoppler.io.flightzarr import read_flight
+from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
 
 LAM = 299792458 / 1.35e9
 
@@ -98,7 +98,7 @@ def test_figures_write_pngs(tmp_path, rng, ulog_path):
     import matplotlib.pyplot as plt
 
     from microdoppler import figures
-    from microdoppler.motorlog import MotorLog
+    from microdoppler.io.motorlog import MotorLog
 
     t = np.arange(0, 6, 1 / 30)
     log = MotorLog(t, (4800 + np.cumsum(rng.normal(0, 20, (len(t), 4)), axis=0)).astype(np.float32), "synthetic")

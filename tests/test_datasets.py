@@ -16,10 +16,10 @@ from microdoppler.datasets.split import CLASSES, PAPER_FRACTIONS, SETS, TWIN_MOD
 from microdoppler.datasets.stores import flight_ids, open_store
 from microdoppler.datasets.tables import flight_body_snr_db, write_csv
 from microdoppler.datasets.workflow import split_and_table_iii
-from microdoppler.flightzarr import read_flight
-from microdoppler.inventory import ingest_flight_logs, read_ingested_log
-from microdoppler.spectrogram import SpectrogramConfig, spectrogram
-from microdoppler.synthesis import Scaling, Track, synthesize
+from microdoppler.io.flightzarr import read_flight
+from microdoppler.io.inventory import ingest_flight_logs, read_ingested_log
+from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
+from microdoppler.synthesis.model import Scaling, Track, synthesize
 
 from test_datasets_world import WORLD, make_world
 
@@ -259,7 +259,7 @@ def test_load_trainset(built):
 
 
 class StubExtensions:
-    """Stands in for ``microdoppler.extensions`` (the diagnosis' model extensions)."""
+    """Stands in for ``microdoppler.synthesis.extensions`` (the diagnosis' model extensions)."""
 
     def __init__(self):
         self.calls = {"transform_log": 0, "synth_kwargs": 0, "post": 0}

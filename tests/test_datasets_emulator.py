@@ -6,8 +6,8 @@ from __future__ import annotations
 from microdoppler import emulator
 from microdoppler.datasets import calibration, speeds
 from microdoppler.datasets.split import TWIN_MODELS
-from microdoppler.inventory import ingest_flight_logs
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.io.inventory import ingest_flight_logs
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 
 def test_emulated_twins_match_their_flights(tmp_path):

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from microdoppler.inventory import ingest_flight_logs
+from microdoppler.io.inventory import ingest_flight_logs
 
 from test_datasets_world import make_world
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from microdoppler.flightzarr import Flight, write_flight
-from microdoppler.radar import DRONE_MODELS
-from microdoppler.synthesis import Scaling, Track, add_noise, synthesize
+from microdoppler.io.flightzarr import Flight, write_flight
+from microdoppler.synthesis.radar import DRONE_MODELS
+from microdoppler.synthesis.model import Scaling, Track, add_noise, synthesize
 
 PRF_HZ = 7300.0
 CARRIER_HZ = 1.35e9

@@ -17,14 +17,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from microdoppler.catalog import CATALOG, CAUSES
+from microdoppler.synthesis.catalog import CATALOG, CAUSES
 from microdoppler.diagnosis import DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, run_tests
 from microdoppler.diagnosis import causes as C
 from microdoppler.diagnosis.core import REPORT_SCHEMA, check_diagnosable
 from microdoppler.diagnosis.pipeline import split_settings
 from microdoppler.emulator.world import FlightSpec, emulate_flight, measured_snr_db
 from microdoppler.errors import ConfigError, InputError
-from microdoppler.flightzarr import Flight, write_flight
+from microdoppler.io.flightzarr import Flight, write_flight
 
 REPO = Path(__file__).resolve().parents[1]
 MIN_SNR_DB = 36.0      # the condition on the hidden-effect flights

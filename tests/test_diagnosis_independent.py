@@ -1,7 +1,7 @@
 """The diagnosis on flights made by an independent generator (issue 12, sections 2-3).
 
 :mod:`independent_generator` shares no code with the emulator, the model extensions
-or ``microdoppler.processes``, and uses other radars, process shapes and constants
+or ``microdoppler.synthesis.processes``, and uses other radars, process shapes and constants
 (telegraph fading, a smooth body process with correlation times 0.05-3 s, Gaussian
 and 1/f-like phase noise, its own thin-wire blade sum and motor log). A fixed list of
 seeded cases: one cause, two causes at once, and clean flights, on both of its
@@ -29,7 +29,7 @@ import pytest
 
 from independent_generator import GenCase, make_flight
 from microdoppler.diagnosis import diagnose_flight
-from microdoppler.snr import flight_body_snr_db
+from microdoppler.spectra.snr import flight_body_snr_db
 
 MIN_SNR_DB = 36.0
 SIZE_REL = 0.2
@@ -175,7 +175,7 @@ def test_known_misses(case):
 
 
 def test_cases_cover_the_catalog_both_radars_and_signs():
-    from microdoppler.catalog import CATALOG
+    from microdoppler.synthesis.catalog import CATALOG
 
     causes = {c for case in ONE for c in case.effects}
     assert causes == set(CATALOG) - {"none"}
@@ -202,7 +202,7 @@ def test_generator_shares_no_code_with_the_emulator():
             mods |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom):
             mods.add(node.module)
-    assert {m for m in mods if m.startswith("microdoppler")} == {"microdoppler.flightzarr"}, mods
+    assert {m for m in mods if m.startswith("microdoppler")} == {"microdoppler.io.flightzarr"}, mods
     assert {m.split(".")[0] for m in mods} <= {"numpy", "scipy", "microdoppler", "__future__", "dataclasses"}, mods
 
 

@@ -12,10 +12,10 @@ import pytest
 
 from microdoppler.emulator import FlightSpec, emulate_flight, emulate_world, plan_world
 from microdoppler.emulator.knobs import validate_effects
-from microdoppler.flightzarr import validate_store
-from microdoppler.motorlog import read_csv
-from microdoppler.snr import line_snr_db, noise_floor_db
-from microdoppler.spectrogram import SpectrogramConfig, spectrogram
+from microdoppler.io.flightzarr import validate_store
+from microdoppler.io.motorlog import read_csv
+from microdoppler.spectra.snr import line_snr_db, noise_floor_db
+from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
 
 FULL = SpectrogramConfig(n_bins=0)
 
@@ -451,7 +451,7 @@ def test_world_effects_have_a_population_structure(profile):
     world's per-model value, on most flights), per-flight effects on top, >= 30 % of
     flights with two effects, some clean flights; Minis clean; no fixed cycle; all
     from the seed, and a different seed gives a different world."""
-    from microdoppler.catalog import CAUSES
+    from microdoppler.synthesis.catalog import CAUSES
     from microdoppler.emulator.profiles import PER_FLIGHT, world_population
 
     for seed in (11, 20221, 5):

@@ -19,11 +19,12 @@ from microdoppler.datasets.extended import (SCHEMA, TwinExtensions, load_twin_ex
                                             twin_extensions)
 from microdoppler.datasets.injection import SYNTHETIC_SCHEMA
 from microdoppler.datasets.stores import open_store
-from microdoppler.diagnosis.aggregate import aggregate_twins, write_twin_extensions
+from microdoppler.diagnosis.aggregate import aggregate_twins
+from microdoppler.diagnosis.pipeline import write_twin_extensions
 from microdoppler.errors import InputError
-from microdoppler.extensions import ExtensionSet, save_extensions
-from microdoppler.inventory import ingest_flight_logs
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.synthesis.extensions import ExtensionSet, save_extensions
+from microdoppler.io.inventory import ingest_flight_logs
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 from test_datasets_world import make_world
 

@@ -1,12 +1,12 @@
-"""Model extensions as options of the synthesis stage (microdoppler.extensions)."""
+"""Model extensions as options of the synthesis stage (microdoppler.synthesis.extensions)."""
 
 import numpy as np
 import pytest
 
 from microdoppler.errors import InputError
-from microdoppler.extensions import ExtensionSet, load_extensions, save_extensions
-from microdoppler.motorlog import MotorLog
-from microdoppler.synthesis import Scaling, Track, synthesize
+from microdoppler.synthesis.extensions import ExtensionSet, load_extensions, save_extensions
+from microdoppler.io.motorlog import MotorLog
+from microdoppler.synthesis.model import Scaling, Track, synthesize
 
 PRF = 7300.0
 LAM = 299792458.0 / 1.35e9
@@ -76,7 +76,7 @@ def test_gain_hooks_have_the_catalog_std(cause, param, hook):
 def _skirt_around(iq, f0_hz):
     """Mean power spectrum (the pipeline's STFT, no high-pass, all bins) summed over the
     line at f0 (+-8 bins), the skirt 35-95 Hz from it on each side, and 110-300 Hz."""
-    from microdoppler.spectrogram import SpectrogramConfig, spectrogram
+    from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
 
     sp = spectrogram(iq, PRF, SpectrogramConfig(n_bins=0, highpass_hz=0.0))
     P = np.mean(10 ** (sp.power_db.astype(np.float64) / 10), axis=0)
@@ -149,7 +149,7 @@ def test_save_load_roundtrip_and_bad_input(tmp_path):
 def test_old_yaml_without_the_new_parameters_is_read(tmp_path):
     """A file written before body timescale_s and skirt_dbc_hz existed: the body's
     timescale defaults to 0.3 s and the skirt follows from rms_rad (flat process)."""
-    from microdoppler.catalog import flat_skirt_dbc_hz
+    from microdoppler.synthesis.catalog import flat_skirt_dbc_hz
 
     (tmp_path / "old.yaml").write_text("schema: extensions/1\nextensions:\n  body_fluctuation: {body_std_db: 3.0}\n"
                                        "  phase_noise: {rms_rad: 0.01}\nmeta: {}\n")
@@ -188,7 +188,7 @@ def test_body_timescale_is_used_and_skirt_defines_rms(tmp_path):
 def test_flat_skirt_matches_the_emulated_phase_noise_spectrum():
     """skirt_dbc_hz of the emulator's knob, computed analytically, against the
     measured spectrum of exp(j theta) of its own process."""
-    from microdoppler.catalog import flat_skirt_dbc_hz
+    from microdoppler.synthesis.catalog import flat_skirt_dbc_hz
     from microdoppler.emulator.knobs import band_limited_phase, validate_effects
 
     rms = 0.02

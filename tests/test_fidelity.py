@@ -12,12 +12,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from microdoppler import fidelity
+from microdoppler.datasets import fidelity
 from microdoppler.datasets import calibration
 from microdoppler.datasets.lines import log_rate_at
 from microdoppler.diagnosis.causes import folds
-from microdoppler.motorlog import MotorLog
-from microdoppler.spectrogram import SpectrogramConfig, spectrogram
+from microdoppler.io.motorlog import MotorLog
+from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
 
 from test_datasets_world import make_flight
 from test_workflow_runs import new_workdir

@@ -11,7 +11,7 @@ import zarr
 from conftest import make_flight
 from microdoppler.cli import main
 from microdoppler.errors import InputError
-from microdoppler.flightzarr import read_flight, validate_store, write_flight
+from microdoppler.io.flightzarr import read_flight, validate_store, write_flight
 
 
 def test_good_store_passes_and_roundtrips(good_store):

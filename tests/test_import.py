@@ -20,9 +20,9 @@ from sigmf import SigMFFile
 
 from conftest import one_line, run_cli
 from microdoppler.emulator.world import FlightSpec, emulate_flight
-from microdoppler.flightzarr import read_flight
-from microdoppler.inventory import list_flights
-from microdoppler.recordings import iq_sanity, read_recording
+from microdoppler.io.flightzarr import read_flight
+from microdoppler.io.inventory import list_flights
+from microdoppler.io.recordings import iq_sanity, read_recording
 
 GEOMETRY = ("drone_model", "n_motors", "n_blades", "blade_length_m")
 REQUIRED_ATTRS = ("schema", "flight_id", "target", "radar_id", "prf_hz", "carrier_hz", *GEOMETRY)
@@ -624,7 +624,7 @@ def test_round_trip_import_validate_diagnose_gives_the_original_report(tmp_path,
     """A flight exported to SigMF (+ its track and motor-log CSVs), imported, validated
     and diagnosed gives the same report as diagnosing the original store."""
     from microdoppler.diagnosis import diagnose
-    from microdoppler.flightzarr import write_flight
+    from microdoppler.io.flightzarr import write_flight
 
     f, _ = emulate_flight(FlightSpec("rt1", "drone", drone_model="inspire2", duration_s=24.0, snr_db=42.0,
                                      mean_range_m=1200.0, seed=17,

@@ -5,8 +5,8 @@ import pandas as pd
 import pytest
 
 from microdoppler.errors import InputError
-from microdoppler.flightzarr import Flight, write_flight
-from microdoppler.inventory import ingest_flight_logs, list_flights, read_ingested_log
+from microdoppler.io.flightzarr import Flight, write_flight
+from microdoppler.io.inventory import ingest_flight_logs, list_flights, read_ingested_log
 
 
 def _flight(fid, target="drone", with_log=True, rng=None):
@@ -71,7 +71,7 @@ def test_ingest_estimates_missing_logs_from_the_radar(tmp_path):
     estimated, motors_source radar, a log the diagnosis recognises); a Mini (no
     visible sideband) stays skipped with the reason."""
     from microdoppler.emulator import FlightSpec, emulate_flight
-    from microdoppler.inventory import RADAR_SOURCE
+    from microdoppler.io.inventory import RADAR_SOURCE
 
     d = tmp_path / "measured"
     drone, _ = emulate_flight(FlightSpec("d1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0,

@@ -7,7 +7,7 @@ import pytest
 
 from microdoppler.cli import main
 from microdoppler.errors import InputError
-from microdoppler.motorlog import read_csv, read_motor_log, read_motor_store, read_ulog, write_motor_store
+from microdoppler.io.motorlog import read_csv, read_motor_log, read_motor_store, read_ulog, write_motor_store
 
 
 def test_real_ulog_ingests(ulog_path):

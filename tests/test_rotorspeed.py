@@ -1,4 +1,4 @@
-"""Rotor speeds from the radar (microdoppler.rotorspeed): HERM line spacing per CPI.
+"""Rotor speeds from the radar (microdoppler.rotors.speed): HERM line spacing per CPI.
 
 Truth per CPI is the true speed averaged over the CPI with the window's power profile
 (what a periodogram line measures: the first moment of a spectrogram line is the
@@ -12,13 +12,13 @@ import pandas as pd
 import pytest
 from scipy.signal.windows import blackmanharris
 
-from microdoppler import synthesis
+from microdoppler.synthesis import model as synthesis
 from microdoppler.diagnosis.features import cpi_average
 from microdoppler.emulator import FlightSpec, emulate_flight
-from microdoppler.flightzarr import Flight, read_flight, write_flight
-from microdoppler.motorlog import read_motor_store
-from microdoppler.rotorfit import refine_cpi
-from microdoppler.rotorspeed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
+from microdoppler.io.flightzarr import Flight, read_flight, write_flight
+from microdoppler.io.motorlog import read_motor_store
+from microdoppler.rotors.fit import refine_cpi
+from microdoppler.rotors.speed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
                                      instants_from_cpi_means)
 
 PRF = 7300.0
@@ -202,7 +202,7 @@ def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
 
 def test_the_iq_fit_counts_every_rotor_where_lines_merge():
     """The same flight with step 9, the least-squares fit of every rotor's harmonic
-    chirp on the I/Q (microdoppler.rotorfit): each rotor is fitted, so the count per
+    chirp on the I/Q (microdoppler.rotors.fit): each rotor is fitted, so the count per
     line is not a choice. The mean speed is within 1 % in >= 90 % of the CPIs (the
     periodogram alone: ~59 %), the median error under 0.05 %, the ranked rotors'
     median under 0.5 % (the two 0.1 rev/s apart are one line to any method), and the
@@ -480,7 +480,7 @@ def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(t
     from conftest import run_cli
     from microdoppler.diagnosis import diagnose
     from microdoppler.emulator.world import FlightSpec, emulate_flight
-    from microdoppler.flightzarr import read_flight
+    from microdoppler.io.flightzarr import read_flight
 
     f, _ = emulate_flight(FlightSpec("est1", "drone", drone_model="inspire2", duration_s=20.0, snr_db=44.0,
                                      mean_range_m=1000.0, seed=101))

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from microdoppler.motorlog import MotorLog
-from microdoppler.sampling import SamplingConfig, fixed_speeds, per_cpi, resample, sub_cpi
+from microdoppler.io.motorlog import MotorLog
+from microdoppler.rotors.sampling import SamplingConfig, fixed_speeds, per_cpi, resample, sub_cpi
 
 PRF = 7300.0
 CFG = SamplingConfig()
@@ -47,7 +47,7 @@ def test_per_cpi_jumps_sub_cpi_continuous_synthetic(rng):
 
 
 def test_per_cpi_jumps_sub_cpi_continuous_real_log(ulog_path):
-    from microdoppler.motorlog import read_ulog
+    from microdoppler.io.motorlog import read_ulog
 
     _check(read_ulog(ulog_path))
 

@@ -22,9 +22,9 @@ from microdoppler.datasets import speeds
 from microdoppler.datasets.stores import open_store, put_array, writing_store
 from microdoppler.emulator.drone import DYNAMICS, loop_path, motor_speeds, write_log
 from microdoppler.errors import InputError
-from microdoppler.motorlog import MotorLog, read_ulog
-from microdoppler.radar import DRONE_MODELS
-from microdoppler.synthesis import Track, synthesize
+from microdoppler.io.motorlog import MotorLog, read_ulog
+from microdoppler.synthesis.radar import DRONE_MODELS
+from microdoppler.synthesis.model import Track, synthesize
 
 PRF_HZ = 7300.0
 N_FFT = 4096
@@ -33,7 +33,7 @@ PHASE_TOL_REV = 1e-3
 IQ_TOL_DB = -60.0
 
 
-# --- frozen speeds/1 per-pulse reference (microdoppler.sampling before speeds/2) ----
+# --- frozen speeds/1 per-pulse reference (microdoppler.rotors.sampling before speeds/2) ----
 
 def _spline_at(log, m, t):
     spl = CubicSpline(log.time_s, log.rev_s[:, m], bc_type="natural", extrapolate=False)

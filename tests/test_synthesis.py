@@ -23,9 +23,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from microdoppler.radar import Radar
-from microdoppler.spectrogram import SpectrogramConfig, spectrogram
-from microdoppler.synthesis import (BladeModel, Scaling, Track, add_noise, reference_synthesize, synthesize)
+from microdoppler.synthesis.radar import Radar
+from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
+from microdoppler.synthesis.model import (BladeModel, Scaling, Track, add_noise, reference_synthesize, synthesize)
 
 RADAR = Radar(prf_hz=7300.0, carrier_hz=1.35e9)
 PRF = RADAR.prf_hz

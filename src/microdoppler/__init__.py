@@ -1,14 +1,19 @@
 """microdoppler: synthetic drone micro-Doppler for bird/drone classification.
 
-Modules follow the paper (White, Jahangir, Baker, Antoniou):
+The folders follow the pipeline (White, Jahangir, Baker, Antoniou):
 
-- ``radar``        radar and drone parameters (Table I, Table II)
-- ``flightzarr``   the flight-zarr/1 exchange format: read, write, validate
-- ``motorlog``     motor-log ingest (PX4 ULog, CSV)
-- ``sampling``     motor-speed sampling variants (§V.A.1)
-- ``synthesis``    thin-wire blades (eq. 1) and body/blade/alpha model (eq. 2)
-- ``spectrogram``  15 Hz high-pass, 4096-point Blackman-Harris STFT, tiles
-- ``snr``          the one SNR measure used everywhere
+- ``io``          the flight-zarr/1 format, motor logs (PX4 ULog, CSV), recordings
+                  from other tools, atomic outputs
+- ``rotors``      motor-speed sampling variants (§V.A.1) and rotor speeds from the radar
+- ``synthesis``   thin-wire blades (eq. 1), body/blade/alpha (eq. 2), the radar, the
+                  catalog of model extensions
+- ``spectra``     15 Hz high-pass, 4096-point Blackman-Harris STFT; the one SNR measure
+- ``stats``       the flight-unit bootstrap
+- ``emulator``    the measured world (the embedded default)
+- ``datasets``    split, twins, injection, tiles, fidelity (Table III, IV, VI)
+- ``classifier``  the CNN over 9 seeds, Fig. 6, Table V, Fig. 12
+- ``diagnosis``   what the simulation gets wrong on a measured flight
+- ``commands``    the ``microdoppler`` command line
 """
 
 __version__ = "0.1.0"

@@ -15,11 +15,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .motorlog import MotorLog, read_motor_log  # noqa: E402
-from .radar import Radar  # noqa: E402
-from .sampling import SamplingConfig, per_cpi, sub_cpi  # noqa: E402
-from .spectrogram import Spectrogram, SpectrogramConfig, spectrogram  # noqa: E402
-from .synthesis import Scaling, Track, add_noise, synthesize  # noqa: E402
+from .io.motorlog import MotorLog, read_motor_log  # noqa: E402
+from .synthesis.radar import Radar  # noqa: E402
+from .rotors.sampling import SamplingConfig, per_cpi, sub_cpi  # noqa: E402
+from .spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram  # noqa: E402
+from .synthesis.model import Scaling, Track, add_noise, synthesize  # noqa: E402
 
 #: paper-like false colour (blue floor, red lines)
 CMAP = "jet"

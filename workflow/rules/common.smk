@@ -42,7 +42,7 @@ def code_version(*parts):
 # --- interrupted runs ---
 # A killed run leaves its running jobs' outputs marked incomplete (rerun by the
 # default workflow profile, profiles/default/config.yaml) and, beside them, the
-# hidden temporaries of the library's atomic writes (microdoppler.outputs:
+# hidden temporaries of the library's atomic writes (microdoppler.io.outputs:
 # .<name>.tmp-<hex>[.<ext>] and .<name>.old-<hex>), which are no declared output.
 # A real run removes those under results/ before its first job (onstart runs while
 # Snakemake holds the working directory's lock, so no job of ours is writing them).
@@ -85,7 +85,11 @@ TWIN_MODELS = ["inspire2", "matrice300"]
 MOTOR_LOGS = "results/motors/logs.zarr"
 SPLIT = "results/splits/flights.csv"
 DATASET_CODE = code_version(
-    "datasets", "sampling.py", "synthesis.py", "spectrogram.py", "snr.py"
+    "datasets",
+    "rotors/sampling.py",
+    "synthesis/model.py",
+    "spectra/spectrogram.py",
+    "spectra/snr.py",
 )
 
 # Flight batches (datasets.flight_batches): with N > 1, synthesize_flights and
@@ -185,7 +189,11 @@ def classifier_targets():
 
 # --- diagnosis (rules/diagnosis.smk) ---
 DIAGNOSIS_CODE = code_version(
-    "diagnosis", "extensions.py", "synthesis.py", "sampling.py", "catalog.py"
+    "diagnosis",
+    "synthesis/extensions.py",
+    "synthesis/model.py",
+    "rotors/sampling.py",
+    "synthesis/catalog.py",
 )
 
 

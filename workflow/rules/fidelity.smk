@@ -1,13 +1,13 @@
 # Direct twin fidelity (issue 12 §1): every variant's injected twins against their
 # measured flights, feature by feature, on the CPIs the calibration did not see
-# (Table VI, src/microdoppler/fidelity.py).
+# (Table VI, src/microdoppler/datasets/fidelity.py).
 FIDELITY_CODE = code_version(
-    "fidelity.py",
-    "bootstrap.py",
+    "datasets/fidelity.py",
+    "stats/bootstrap.py",
     "datasets",
     "diagnosis/features.py",
-    "spectrogram.py",
-    "snr.py",
+    "spectra/spectrogram.py",
+    "spectra/snr.py",
 )
 
 

@@ -2,8 +2,8 @@
 (extensions/2: each flight's own causes and parameters, and their per-model
 population; `mode` says which the `extended` twins use)."""
 
-from microdoppler.diagnosis.aggregate import write_twin_extensions
-from microdoppler.runlog import log_to
+from microdoppler.diagnosis.pipeline import write_twin_extensions
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     ext = write_twin_extensions(

@@ -2,7 +2,7 @@
 motor log; write the report JSON and one figure per flight."""
 
 from microdoppler.diagnosis.pipeline import diagnose_split
-from microdoppler.runlog import log_to
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     diagnose_split(

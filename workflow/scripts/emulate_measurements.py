@@ -1,7 +1,7 @@
 """Rule emulate_measurements: the measurement emulator's world (embedded default)."""
 
 from microdoppler.emulator import emulate_world
-from microdoppler.runlog import log_to
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     emulate_world(

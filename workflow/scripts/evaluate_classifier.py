@@ -3,8 +3,8 @@
 import torch
 
 from microdoppler.classifier import load_model, predict, predictions_table, read_tiles
-from microdoppler.outputs import atomic_file
-from microdoppler.runlog import log_to
+from microdoppler.io.outputs import atomic_file
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     torch.set_num_threads(snakemake.threads)

@@ -1,7 +1,7 @@
 """Rule ingest_motor_logs: every drone flight's motor log into results/motors/logs.zarr."""
 
-from microdoppler.inventory import ingest_flight_logs
-from microdoppler.runlog import log_to
+from microdoppler.io.inventory import ingest_flight_logs
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     status = ingest_flight_logs(

@@ -3,7 +3,7 @@ from its flight batches (datasets.flight_batches > 1) into the per-variant produ
 
 from microdoppler.datasets.batches import merge_stores, merge_tables
 from microdoppler.datasets.injection import INJECTED_SCHEMA
-from microdoppler.runlog import log_to
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     merge_stores(snakemake.input.injected, snakemake.output.injected, INJECTED_SCHEMA)

@@ -3,8 +3,8 @@
 import pandas as pd
 
 from microdoppler import figures
-from microdoppler.inventory import read_ingested_log
-from microdoppler.runlog import log_to
+from microdoppler.io.inventory import read_ingested_log
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     figures.fig2(snakemake.output.fig2, ulog_path=snakemake.input.ulog)
@@ -13,7 +13,7 @@ with log_to(snakemake.log[0]):
     if len(ingested):
         log = read_ingested_log(snakemake.input.logs, ingested.flight_id.iloc[0])
     else:
-        from microdoppler.motorlog import read_ulog
+        from microdoppler.io.motorlog import read_ulog
 
         log = read_ulog(snakemake.input.ulog)
     figures.fig8(snakemake.output.fig8, motor_log=log)

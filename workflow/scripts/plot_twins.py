@@ -1,8 +1,8 @@
 """Rule plot_twins: measured vs twin spectrograms per drone model (paper Fig. 9/10)."""
 
 from microdoppler.datasets.figures import plot_twins
-from microdoppler.runlog import log_to
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.io.runlog import log_to
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     injected = dict(zip(snakemake.params.variants, snakemake.input.injected))

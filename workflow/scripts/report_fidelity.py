@@ -1,8 +1,8 @@
 """Rule report_fidelity: Table VI (twin vs measured flight, held-out CPIs) and its figure."""
 
-from microdoppler.fidelity import FidelityConfig, write_fidelity_report
-from microdoppler.runlog import log_to
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.datasets.fidelity import FidelityConfig, write_fidelity_report
+from microdoppler.io.runlog import log_to
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     settings = dict(snakemake.params.fidelity)

@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from microdoppler.classifier.reports import write_reports
-from microdoppler.runlog import log_to
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     predictions = {}

@@ -2,7 +2,7 @@
 
 from microdoppler.datasets.speeds import build_speeds
 from microdoppler.datasets.workflow import load_extensions
-from microdoppler.runlog import log_to
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     status = build_speeds(

@@ -2,8 +2,8 @@
 
 from microdoppler.datasets.tables import write_csv
 from microdoppler.datasets.workflow import split_and_table_iii
-from microdoppler.runlog import log_to
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.io.runlog import log_to
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     split, table = split_and_table_iii(

@@ -3,8 +3,8 @@ of it when datasets.flight_batches > 1) and their Table IV rows."""
 
 from microdoppler.datasets.calibration import CalibrationConfig, build_twins
 from microdoppler.datasets.workflow import load_extensions
-from microdoppler.runlog import log_to
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.io.runlog import log_to
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     batch = snakemake.wildcards.get("batch")

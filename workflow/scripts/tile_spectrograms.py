@@ -2,8 +2,8 @@
 
 from microdoppler.datasets.split import read_split
 from microdoppler.datasets.tiles import build_tiles, measured_records, twin_records
-from microdoppler.runlog import log_to
-from microdoppler.spectrogram import SpectrogramConfig
+from microdoppler.io.runlog import log_to
+from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     split = read_split(snakemake.input.split)

@@ -3,8 +3,8 @@
 import logging
 
 from microdoppler.classifier import TrainConfig, load_trainset, save_model, train
-from microdoppler.outputs import atomic_file
-from microdoppler.runlog import log_to
+from microdoppler.io.outputs import atomic_file
+from microdoppler.io.runlog import log_to
 
 with log_to(snakemake.log[0]):
     trainset, seed = snakemake.wildcards.trainset, int(snakemake.wildcards.seed)

@@ -160,7 +160,7 @@ def write_tiles(path, tiles: TileSet) -> Path:
 
     import zarr
 
-    from ..outputs import atomic_dir, commit_dir
+    from ..io.outputs import atomic_dir, commit_dir
 
     path = Path(path)
     tmp = atomic_dir(path)

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
-from ..outputs import atomic_file
+from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
+from ..io.outputs import atomic_file
 from .data import CLASSES, LARGE_DRONES, SMALL_DRONES
 from .metrics import confusion_matrix, seed_metrics
 
@@ -135,7 +135,7 @@ def table_v(metrics: pd.DataFrame, predictions: dict | None = None, *, n_boot: i
 
     Columns per metric m: ``m_mean``, ``m_std`` (sample std over seeds, ddof=1), ``m``
     (formatted "mean ± std"), ``paper_m`` (the paper's "mean ± std" or empty) and, with
-    ``predictions``, ``m_ci95_low``/``m_ci95_high`` (:mod:`microdoppler.bootstrap`:
+    ``predictions``, ``m_ci95_low``/``m_ci95_high`` (:mod:`microdoppler.stats.bootstrap`:
     flights drawn within class, seeds drawn, 95 % percentile interval); plus bird/drone
     precision (not in the paper) and n_seeds.
 

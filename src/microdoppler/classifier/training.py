@@ -284,7 +284,7 @@ def average_states(states: list[dict]) -> dict:
 
 def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trainset: str) -> None:
     """Save the kept model, its config and provenance to ``path`` (atomically)."""
-    from ..outputs import atomic_file
+    from ..io.outputs import atomic_file
 
     # through a file object: torch.save given a path names the archive's entries after
     # it (the random temporary name), and the same model would not give the same bytes

@@ -53,7 +53,7 @@ def read_settings(path) -> dict:
 def run(args) -> int:
     from ..diagnosis import diagnose
     from ..diagnosis.pipeline import split_settings
-    from ..outputs import check_output
+    from ..io.outputs import check_output
 
     check_output(args.out, kind="report", overwrite=args.overwrite)
     if args.figures:

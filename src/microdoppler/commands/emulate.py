@@ -21,7 +21,7 @@ def run(args) -> int:
     from ..errors import InputError
     from ..emulator import PROFILES, emulate_world
     from ..emulator.profiles import is_world_entry
-    from ..outputs import check_output
+    from ..io.outputs import check_output
 
     if args.profile not in PROFILES:
         raise InputError("--profile", "profile", f"is {args.profile!r}", " or ".join(PROFILES))

@@ -34,10 +34,10 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import InputError
-from ..flightzarr import write_flight
-from ..motorlog import UNIT_TO_RPM, read_motor_log
-from ..outputs import atomic_dir, check_output, commit_folder, is_tool_store
-from ..recordings import (EXTRA_KEYS, LAYOUTS, OPTION, PARAM_TYPES, SIDECAR_KEYS, convert,
+from ..io.flightzarr import write_flight
+from ..io.motorlog import UNIT_TO_RPM, read_motor_log
+from ..io.outputs import atomic_dir, check_output, commit_folder, is_tool_store
+from ..io.recordings import (EXTRA_KEYS, LAYOUTS, OPTION, PARAM_TYPES, SIDECAR_KEYS, convert,
                           default_flight_id_for, import_recording, read_recording, read_sidecar)
 from . import add_overwrite, positive, positive_int
 
@@ -184,7 +184,7 @@ def attach_motor_log(flight, log, source) -> None:
 def estimate_motors(flight, warns: list):
     """The flight with rotor speeds estimated from its HERM lines as its motor log, or
     unchanged with the reason in ``warns`` when there is no estimate."""
-    from ..rotorspeed import estimate_rotor_speeds
+    from ..rotors.speed import estimate_rotor_speeds
 
     if flight.attrs.get("target") != "drone":
         raise InputError("--estimate-motors", "target", f"is {flight.attrs.get('target')!r}", "a drone recording")

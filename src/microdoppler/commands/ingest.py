@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import sys
 
-from ..motorlog import TIME_UNIT_TO_S, UNIT_TO_RPM, read_motor_log, write_motor_store
-from ..outputs import check_output
+from ..io.motorlog import TIME_UNIT_TO_S, UNIT_TO_RPM, read_motor_log, write_motor_store
+from ..io.outputs import check_output
 from . import add_overwrite, positive_int
 
 

@@ -2,7 +2,7 @@
 
 The echo is eq. (2) of the paper (thin-wire blades of eq. 1 summed over motors and
 blades, body return, alpha envelope; ``--blade-scattering dielectric`` scales the
-blade echo for plastic blades) from :func:`microdoppler.synthesis.synthesize`,
+blade echo for plastic blades) from :func:`microdoppler.synthesis.model.synthesize`,
 driven by constant per-motor speeds (``--motor-hz``) or a motor log (``--motor-log``,
 resampled to the PRF with ``--variant``), along a constant-velocity track or a track
 CSV (``time_s``, ``range_m``).
@@ -25,12 +25,12 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..flightzarr import Flight, write_flight
-from ..outputs import check_output
-from ..motorlog import read_motor_log, read_motor_store
-from ..radar import Radar
-from ..sampling import VARIANTS, SamplingConfig, resample
-from ..synthesis import BLADE_SCATTERING, Scaling, Track, add_noise, synthesize
+from ..io.flightzarr import Flight, write_flight
+from ..io.outputs import check_output
+from ..io.motorlog import read_motor_log, read_motor_store
+from ..synthesis.radar import Radar
+from ..rotors.sampling import VARIANTS, SamplingConfig, resample
+from ..synthesis.model import BLADE_SCATTERING, Scaling, Track, add_noise, synthesize
 from . import add_overwrite, finite, non_negative, positive, positive_int, seed
 
 SRC = "simulate"

@@ -11,7 +11,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from ..flightzarr import validate_store
+from ..io.flightzarr import validate_store
 
 
 def register(subparsers) -> None:

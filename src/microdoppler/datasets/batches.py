@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import InputError
-from ..outputs import MARK_ATTR
+from ..io.outputs import MARK_ATTR
 from .speeds import SPEEDS_SCHEMA
 from .stores import flight_ids, open_store, stable_seed, writing_store
 from .tables import write_csv

@@ -52,10 +52,10 @@ from scipy.signal import ShortTimeFFT, butter, sosfilt, sosfilt_zi
 from scipy.signal.windows import blackmanharris
 
 from ..diagnosis.causes import folds
-from ..flightzarr import Flight, read_flight
-from ..inventory import list_flights, read_ingested_log
-from ..spectrogram import Spectrogram, SpectrogramConfig
-from ..synthesis import ENVELOPE_SPEED_STRIDE, BladeModel, Scaling, Track, synthesize
+from ..io.flightzarr import Flight, read_flight
+from ..io.inventory import list_flights, read_ingested_log
+from ..spectra.spectrogram import Spectrogram, SpectrogramConfig
+from ..synthesis.model import ENVELOPE_SPEED_STRIDE, BladeModel, Scaling, Track, synthesize
 from .injection import SYNTHETIC_SCHEMA, inject
 from .lines import LineSNR, body_doppler_hz, log_rate_at, rotor_rate_at
 from .batches import batch_filter
@@ -112,7 +112,7 @@ class CalibrationConfig:
         measured on fold A only: alternating blocks of this many CPIs, CPI i in fold
         A when ``(i // holdout_block_cpis) % 2 == 0`` (as the diagnosis' folds,
         ``diagnosis.causes.folds``); fold B is left for held-out fidelity scoring
-        (``microdoppler.fidelity``). 0 fits on every CPI.
+        (``microdoppler.datasets.fidelity``). 0 fits on every CPI.
     max_fit_cpis : int
         Most fit CPIs (spectrogram timesteps of fold A) the alpha search (with its
         scale fits) reads: runs of ``FIT_RUN_CPIS`` consecutive fold-A CPIs spread
@@ -196,7 +196,7 @@ class LineTargets:
 
 
 class StftColumns:
-    """The spectrogram chain of :func:`microdoppler.spectrogram.spectrogram` cut in two:
+    """The spectrogram chain of :func:`microdoppler.spectra.spectrogram.spectrogram` cut in two:
     :meth:`highpass` (linear, whole record or a segment) and :meth:`columns` (the
     complex STFT, central bins, of chosen CPIs). ``power_db(columns)`` of the whole
     high-passed record equals the spectrogram's ``power_db`` (float32 rounding), and
@@ -241,7 +241,7 @@ class StftColumns:
 
     def highpass(self, x: np.ndarray) -> np.ndarray:
         """The spectrogram's zero-phase high-pass of ``x`` (complex64 [n]):
-        :func:`microdoppler.spectrogram.highpass` (``scipy.signal.sosfiltfilt`` with its
+        :func:`microdoppler.spectra.spectrogram.highpass` (``scipy.signal.sosfiltfilt`` with its
         defaults, the same operations) with the filter and its initial state designed once."""
         x = np.asarray(x)
         if self.sos is None:

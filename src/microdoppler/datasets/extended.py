@@ -23,7 +23,7 @@ parameters. :class:`TwinExtensions` holds
       of the model's flights that named it, chosen uniformly; seeded by
       (seed, flight_id), so the same seed gives the same draw in every stage.
 
-The per-twin object is :class:`microdoppler.extensions.ExtensionSet`; its ``meta``
+The per-twin object is :class:`microdoppler.synthesis.extensions.ExtensionSet`; its ``meta``
 says where it came from (``source``). ``extensions/1`` files (one ExtensionSet for
 every twin) are read too.
 
@@ -52,10 +52,10 @@ from typing import Mapping
 import numpy as np
 import yaml
 
-from ..catalog import CAUSES
+from ..synthesis.catalog import CAUSES
 from ..errors import InputError
-from ..extensions import ExtensionSet, check_params, yaml_plain
-from ..outputs import atomic_file
+from ..synthesis.extensions import ExtensionSet, check_params, yaml_plain
+from ..io.outputs import atomic_file
 from .stores import stable_seed
 
 SCHEMA = "extensions/2"
@@ -178,8 +178,8 @@ def load_twin_extensions(path_yaml, *, mode: str | None = None):
         Missing file, not YAML, unknown schema, or a field that breaks the layout
         (one line naming the file, the field and what was expected).
     """
-    from ..extensions import SCHEMA as SCHEMA_1
-    from ..extensions import extensions_from_dict, read_yaml
+    from ..synthesis.extensions import SCHEMA as SCHEMA_1
+    from ..synthesis.extensions import extensions_from_dict, read_yaml
 
     path = Path(path_yaml)
     d = read_yaml(path, f"an {SCHEMA} or {SCHEMA_1} YAML file")

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..flightzarr import read_flight
-from ..spectrogram import SpectrogramConfig, spectrogram
+from ..io.flightzarr import read_flight
+from ..spectra.spectrogram import SpectrogramConfig, spectrogram
 from .injection import INJECTED_SCHEMA
 from .stores import flight_ids, open_store
 

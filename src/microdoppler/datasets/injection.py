@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..flightzarr import read_flight
+from ..io.flightzarr import read_flight
 from .stores import flight_ids, open_store, put_array, writing_store
 
 SYNTHETIC_SCHEMA = "twins/1"
@@ -35,7 +35,7 @@ def inject(target_iq: np.ndarray, background_iq: np.ndarray, source: str = "twin
         raise InputError(source, "background/iq", f"has {len(background_iq)} pulses", f"{len(target_iq)} (the twin's)")
     bg = np.asarray(background_iq, np.complex64)
     if effects and "phase_noise" in effects:
-        from ..extensions import ExtensionSet
+        from ..synthesis.extensions import ExtensionSet
 
         if prf_hz is None:
             raise ValueError("inject: prf_hz is needed to apply phase noise to the background")

@@ -1,6 +1,6 @@
 """Where the body and HERM lines of a flight are, and their SNR, per timestep.
 
-Every SNR here is :func:`microdoppler.snr.line_snr_db` (the project's one measure:
+Every SNR here is :func:`microdoppler.spectra.snr.line_snr_db` (the project's one measure:
 the line's peak over the spectrogram's median floor) evaluated at an expected
 Doppler:
 
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..snr import body_doppler_hz, line_snr_db  # noqa: F401 (body_doppler_hz re-exported)
-from ..spectrogram import Spectrogram
+from ..spectra.snr import body_doppler_hz, line_snr_db  # noqa: F401 (body_doppler_hz re-exported)
+from ..spectra.spectrogram import Spectrogram
 
 
 

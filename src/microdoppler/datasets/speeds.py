@@ -1,5 +1,5 @@
 """Stage ``resample_motor_speeds``: each twin-able flight's logged motor speeds at
-pulse rate, per sampling variant (``microdoppler.sampling``).
+pulse rate, per sampling variant (``microdoppler.rotors.sampling``).
 
 Twin-able flights are measured Inspire and Matrice flights; one without an ingested
 motor log is reported and skipped (never guessed). The ``sub_cpi`` and
@@ -23,7 +23,7 @@ bit for bit the same float32 array ``speeds/1`` stored:
 ``sub_cpi`` (``sub_cpi``, ``single_motor``, ``extended``)
     The decimated log, 8 knots per CPI (one per ``up`` = 512 pulses) plus ``pad``
     at each end, upsampled by the interpolating FIR and smoothed by the rolling
-    average of ``window_pulses`` (:func:`microdoppler.sampling.sub_cpi_from_knots`).
+    average of ``window_pulses`` (:func:`microdoppler.rotors.sampling.sub_cpi_from_knots`).
 
 ``speeds/1`` stores are refused (:class:`~microdoppler.errors.InputError`):
 re-run ``resample_motor_speeds``.
@@ -37,10 +37,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import sampling
+from ..rotors import sampling as sampling
 from ..errors import ConfigError, InputError
-from ..inventory import list_flights, read_ingested_log
-from ..radar import DRONE_MODELS
+from ..io.inventory import list_flights, read_ingested_log
+from ..synthesis.radar import DRONE_MODELS
 from .extended import twin_extensions
 from .split import TWIN_MODELS
 from .stores import open_store, put_array, stable_seed, writing_store

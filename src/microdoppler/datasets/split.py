@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..spectrogram import SpectrogramConfig
+from ..spectra.spectrogram import SpectrogramConfig
 
 SETS = ("train", "test", "validation")
 #: paper §III.C: 60:30:10 train:test:validation

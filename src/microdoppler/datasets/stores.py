@@ -17,7 +17,7 @@ import numpy as np
 import zarr
 
 from ..errors import InputError
-from ..outputs import atomic_dir, commit_dir
+from ..io.outputs import atomic_dir, commit_dir
 
 
 def stable_seed(*parts) -> int:

@@ -1,6 +1,6 @@
 """Table III (composition of the sets) and Table IV (fitted simulation parameters).
 
-SNR is :func:`microdoppler.snr.line_snr_db` of the body line (expected Doppler from
+SNR is :func:`microdoppler.spectra.snr.line_snr_db` of the body line (expected Doppler from
 the track), per spectrogram timestep, as everywhere in the project.
 """
 
@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..flightzarr import Flight
-from ..outputs import atomic_file
-from ..spectrogram import SpectrogramConfig
-from ..snr import flight_body_snr_db  # noqa: F401 (the one SNR measure, re-exported)
+from ..io.flightzarr import Flight
+from ..io.outputs import atomic_file
+from ..spectra.spectrogram import SpectrogramConfig
+from ..spectra.snr import flight_body_snr_db  # noqa: F401 (the one SNR measure, re-exported)
 from .split import CLASSES, SETS, n_images
 
 

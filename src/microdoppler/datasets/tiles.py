@@ -16,8 +16,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..flightzarr import Flight, read_flight
-from ..spectrogram import SpectrogramConfig, spectrogram, tiles
+from ..io.flightzarr import Flight, read_flight
+from ..spectra.spectrogram import SpectrogramConfig, spectrogram, tiles
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, finite_mean, measure_lines
 from .stores import flight_ids, open_store, writing_store

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pandas as pd
 
-from ..flightzarr import read_flight
-from ..inventory import list_flights
-from ..spectrogram import SpectrogramConfig
+from ..io.flightzarr import read_flight
+from ..io.inventory import list_flights
+from ..spectra.spectrogram import SpectrogramConfig
 from .split import PAPER_FRACTIONS, flight_class, split_flights
 from .tables import flight_snr_row, table_iii
 
@@ -37,7 +37,7 @@ def split_and_table_iii(measured_dir, *, spec_cfg: SpectrogramConfig, search_hz:
 def load_extensions(path):
     """The diagnosis' model extensions, or None without a path: ``extensions/2`` ->
     per-twin :class:`~.extended.TwinExtensions`, ``extensions/1`` -> one
-    :class:`~microdoppler.extensions.ExtensionSet` for every twin.
+    :class:`~microdoppler.synthesis.extensions.ExtensionSet` for every twin.
 
     Imported lazily: only the ``extended`` variant needs those modules.
     """

@@ -12,8 +12,8 @@ from typing import Mapping
 
 import numpy as np
 
-from ..catalog import CAUSES
-from ..extensions import ExtensionSet
+from ..synthesis.catalog import CAUSES
+from ..synthesis.extensions import ExtensionSet
 
 
 def flight_causes(entry: dict) -> list[dict]:
@@ -138,32 +138,3 @@ def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids
     pop_flights = {f: e for f, e in out.items() if pop_keep is None or f in pop_keep}
     meta["n_population_flights"] = sum(1 for e in pop_flights.values() if e["status"] == "diagnosed")
     return TwinExtensions(out, fit_population(pop_flights), mode, meta)
-
-
-def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mode: str = "per_flight"):
-    """``extended.yaml`` (``extensions/2``) from the report's flights in the split sets
-    of ``settings['sets']`` (the ``diagnosis:`` config section), the population from
-    those of ``settings['population_sets']``; drone models from the split table.
-    Returns the :class:`~microdoppler.datasets.extended.TwinExtensions`."""
-    import json
-    from pathlib import Path
-
-    from ..datasets.extended import TwinExtensions, save_twin_extensions
-    from ..errors import InputError
-    from .pipeline import _training_drones, split_settings
-
-    pipe, _ = split_settings(settings)
-    try:
-        report = json.loads(Path(report_json).read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(report_json, "file", f"cannot be read as JSON ({type(exc).__name__})",
-                         "a diagnosis-report/2 JSON file") from None
-    drones = _training_drones(split_csv, pipe["sets"])
-    models = dict(zip(drones["flight_id"].astype(str), drones.get("drone_model", [""] * len(drones))))
-    pop_ids = set(_training_drones(split_csv, pipe["population_sets"])["flight_id"].astype(str))
-    ext = aggregate_twins(report, models, flight_ids=set(models), population_ids=pop_ids, mode=mode,
-                          source=report_json)
-    ext = TwinExtensions(ext.flights, ext.population, ext.mode,
-                         {**ext.meta, "sets": list(pipe["sets"]), "population_sets": list(pipe["population_sets"])})
-    save_twin_extensions(ext, out_yaml)
-    return ext

@@ -64,7 +64,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
+from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .features import DB, cpi_average
 from .timescales import _lag_grid, fit_gain_process, fit_gain_process_ml, fit_variogram, harmonic_speed_slope
 

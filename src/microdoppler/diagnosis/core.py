@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..catalog import CATALOG
+from ..synthesis.catalog import CATALOG
 from ..errors import ConfigError, InputError
-from ..flightzarr import read_flight
-from ..outputs import atomic_file
-from ..motorlog import MotorLog, check_motor_log
+from ..io.flightzarr import read_flight
+from ..io.outputs import atomic_file
+from ..io.motorlog import MotorLog, check_motor_log
 from . import causes as C
 from .measure import measure
 
@@ -309,7 +309,7 @@ def _n_cpis(n_pulses: int, n_fft: int) -> int:
 def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) -> MotorLog:
     """The flight's motor log, checked; :class:`Undiagnosable` when the flight cannot
     be diagnosed: not a drone, blades too short for visible rotor lines (Minis), no
-    motor log, a log that :func:`~microdoppler.motorlog.check_motor_log` rejects
+    motor log, a log that :func:`~microdoppler.io.motorlog.check_motor_log` rejects
     (all zeros, a median speed implausible for a rotor, e.g. rev/s declared as rpm),
     a log covering less than ``min_log_coverage`` of the flight's span, or fewer CPIs
     than two held-out folds need."""
@@ -527,7 +527,7 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
 
     Parameters
     ----------
-    flight : microdoppler.flightzarr.Flight
+    flight : microdoppler.io.flightzarr.Flight
         A measured drone flight (``target == "drone"``).
     motor_log : MotorLog, optional
         Its motor log; default the store's ``motors/*`` arrays.
@@ -556,7 +556,7 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     fid = flight.flight_id
     log = check_diagnosable(flight, motor_log, cfg)
     M, calib, tests = run_tests(flight, log, cfg)
-    from ..inventory import RADAR_SOURCE
+    from ..io.inventory import RADAR_SOURCE
 
     radar_log = (flight.attrs.get("motors_source") == "radar" if motor_log is None
                  else str(motor_log.source).startswith(RADAR_SOURCE))
@@ -620,7 +620,7 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
 
 
 def write_json(obj, path) -> Path:
-    """Write ``obj`` as JSON, atomically (:func:`microdoppler.outputs.atomic_file`)."""
+    """Write ``obj`` as JSON, atomically (:func:`microdoppler.io.outputs.atomic_file`)."""
     with atomic_file(path) as tmp:
         tmp.write_text(json.dumps(obj, indent=1))
     return Path(path)

@@ -19,9 +19,9 @@ import numpy as np
 import scipy.fft as sfft
 from scipy.signal.windows import blackmanharris
 
-from .. import sampling
-from ..motorlog import MotorLog
-from ..synthesis import Scaling, Track, synthesize
+from ..rotors import sampling as sampling
+from ..io.motorlog import MotorLog
+from ..synthesis.model import Scaling, Track, synthesize
 
 DB = 10.0 / np.log(10.0)
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..extensions import ExtensionSet
-from ..synthesis import Track, add_noise
+from ..synthesis.extensions import ExtensionSet
+from ..synthesis.model import Track, add_noise
 from .features import DB, simulate_blades, stft_power
 
 

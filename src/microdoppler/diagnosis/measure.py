@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..motorlog import MotorLog
+from ..io.motorlog import MotorLog
 from .features import (DB, Stft, band_power, body_doppler, cpi_average, local_floor, noise_power_factor,
                        refine_peak, simulate_blades, stft_power)
 

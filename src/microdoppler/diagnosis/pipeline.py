@@ -10,8 +10,8 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import ConfigError, InputError
-from ..extensions import save_extensions
-from .aggregate import aggregate
+from ..synthesis.extensions import save_extensions
+from .aggregate import aggregate, aggregate_twins
 from .core import DiagnosisConfig, diagnose
 
 #: keys of the ``diagnosis:`` config section that are pipeline settings, not
@@ -77,7 +77,7 @@ def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *,
     :func:`.core.diagnose`, using their ingested motor logs (or the stores' own);
     flights that cannot be diagnosed (no usable log, Minis, ...) are listed as
     ``skipped`` with the reason."""
-    from ..inventory import read_ingested_log
+    from ..io.inventory import read_ingested_log
 
     pipe, cfg = split_settings(settings)
     Path(figures_dir).mkdir(parents=True, exist_ok=True)
@@ -97,4 +97,28 @@ def aggregate_report(report_json, split_csv, out_yaml, *, settings=None):
     ids = set(_training_drones(split_csv, pipe["population_sets"])["flight_id"])
     ext = aggregate(report, min_fraction=pipe["min_fraction"], flight_ids=ids)
     save_extensions(ext, out_yaml)
+    return ext
+
+
+def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mode: str = "per_flight"):
+    """``extended.yaml`` (``extensions/2``) from the report's flights in the split sets
+    of ``settings['sets']`` (the ``diagnosis:`` config section), the population from
+    those of ``settings['population_sets']``; drone models from the split table.
+    Returns the :class:`~microdoppler.datasets.extended.TwinExtensions`."""
+    from ..datasets.extended import TwinExtensions, save_twin_extensions
+
+    pipe, _ = split_settings(settings)
+    try:
+        report = json.loads(Path(report_json).read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(report_json, "file", f"cannot be read as JSON ({type(exc).__name__})",
+                         "a diagnosis-report/2 JSON file") from None
+    drones = _training_drones(split_csv, pipe["sets"])
+    models = dict(zip(drones["flight_id"].astype(str), drones.get("drone_model", [""] * len(drones))))
+    pop_ids = set(_training_drones(split_csv, pipe["population_sets"])["flight_id"].astype(str))
+    ext = aggregate_twins(report, models, flight_ids=set(models), population_ids=pop_ids, mode=mode,
+                          source=report_json)
+    ext = TwinExtensions(ext.flights, ext.population, ext.mode,
+                         {**ext.meta, "sets": list(pipe["sets"]), "population_sets": list(pipe["population_sets"])})
+    save_twin_extensions(ext, out_yaml)
     return ext

@@ -91,7 +91,7 @@ def emulated_logs(n_flights: int = 6, seed: int = 0, duration_s: float = 40.0, r
 
 def compare_with_real(ulog_path=None, *, n_flights: int = 6, seed: int = 0, printout: bool = True) -> pd.DataFrame:
     """Table of the motor statistics: real log vs emulated flights at the real log's rate."""
-    from ..motorlog import read_ulog
+    from ..io.motorlog import read_ulog
 
     log = read_ulog(ulog_path or DEFAULT_ULOG)
     real = motor_stats(log.time_s, log.rev_s)

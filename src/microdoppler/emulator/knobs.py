@@ -1,6 +1,6 @@
 """Reality knobs: the catalog's causes as physics of the emulated world.
 
-Every cause of :data:`microdoppler.catalog.CAUSES` (except ``none``) can be switched
+Every cause of :data:`microdoppler.synthesis.catalog.CAUSES` (except ``none``) can be switched
 on per flight with the catalog's parameter names, units and signs:
 
 ``sideband_asymmetry``  {asymmetry_db}
@@ -21,7 +21,7 @@ on per flight with the catalog's parameter names, units and signs:
     The whole flight echo (target, clutter, noise) is multiplied by exp(j theta(t)),
     theta Gaussian with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``. Either
     parameter may be given; the other follows analytically from this process
-    (:func:`microdoppler.catalog.flat_skirt_dbc_hz`: skirt_dbc_hz is the
+    (:func:`microdoppler.synthesis.catalog.flat_skirt_dbc_hz`: skirt_dbc_hz is the
     single-sideband density at 50 Hz relative to the carrier), and the key records
     both (given both, they must agree within 0.1 dB). It is an
     episode of the flight recording: the target-free ``background/iq`` (recorded at
@@ -34,8 +34,8 @@ from typing import Mapping
 
 import numpy as np
 
-from ..catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ, flat_rms_rad, flat_skirt_dbc_hz
-from ..processes import ou_process  # noqa: F401 (used here and re-exported)
+from ..synthesis.catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ, flat_rms_rad, flat_skirt_dbc_hz
+from ..synthesis.processes import ou_process  # noqa: F401 (used here and re-exported)
 
 #: correlation time of the body_fluctuation knob [s] (catalog: ~0.3 s)
 BODY_FLUCTUATION_TAU_S = 0.3

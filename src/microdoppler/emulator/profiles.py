@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..catalog import CAUSES
-from ..flightzarr import write_flight
-from ..outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
-from ..spectrogram import SpectrogramConfig
+from ..synthesis.catalog import CAUSES
+from ..io.flightzarr import write_flight
+from ..io.outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
+from ..spectra.spectrogram import SpectrogramConfig
 from .world import WEAK_BLADE_SHARE, FlightSpec, emulate_flight, measured_snr_db
 
 PROFILES = ("test", "default", "paper")

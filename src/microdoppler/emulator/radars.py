@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..radar import Radar
+from ..synthesis.radar import Radar
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Flights, profiles and worlds: the measured world the pipeline is tested against.
 
 :func:`emulate_flight` turns a :class:`FlightSpec` into a flight-zarr/1
-:class:`~microdoppler.flightzarr.Flight` and a truth dict; :func:`plan_world` lists
+:class:`~microdoppler.io.flightzarr.Flight` and a truth dict; :func:`plan_world` lists
 the flights of a profile; :func:`emulate_world` writes them with the manifest, the
 motor-log exports and the key file.
 """
@@ -13,10 +13,10 @@ from typing import Mapping
 
 import numpy as np
 
-from .. import synthesis
-from ..flightzarr import SCHEMA, Flight
-from ..radar import DRONE_MODELS
-from ..snr import flight_body_snr_db
+from ..synthesis import model as synthesis
+from ..io.flightzarr import SCHEMA, Flight
+from ..synthesis.radar import DRONE_MODELS
+from ..spectra.snr import flight_body_snr_db
 from . import background as bg
 from .bird import KINDS, plan_group, render
 from .drone import DYNAMICS, loop_path, motor_speeds, write_log
@@ -358,7 +358,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
 
 def measured_snr_db(flight: Flight) -> tuple[float, float]:
     """Mean and std over timesteps of the body line SNR with the pipeline's chain
-    (:func:`microdoppler.snr.flight_body_snr_db`, the project's one SNR measure)."""
+    (:func:`microdoppler.spectra.snr.flight_body_snr_db`, the project's one SNR measure)."""
     s = flight_body_snr_db(flight)
     s = s[np.isfinite(s)]
     return float(np.mean(s)), float(np.std(s))

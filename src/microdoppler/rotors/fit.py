@@ -1,6 +1,6 @@
 """Rotor speeds by least squares on the slow-time I/Q: the harmonic-chirp model of one CPI.
 
-:mod:`microdoppler.rotorspeed` reads each rotor's speed from the HERM lines of a
+:mod:`microdoppler.rotors.speed` reads each rotor's speed from the HERM lines of a
 periodogram. Where rotors turn within a bin of each other and their speeds drift within
 the CPI, their lines merge into one smeared band whose power does not tell how many
 rotors it holds (the estimator's tail). This module fits the CPI's samples themselves.
@@ -22,7 +22,7 @@ Gaussian prior ties each g_r to the group's rate from the neighbouring CPIs
 Every harmonic of every rotor shares its rotor's two parameters, so the rotor count per
 line, the periodogram's ambiguity, is not a choice here: each of the M rotors is fitted.
 
-Starts: the periodogram's lines (:mod:`microdoppler.rotorspeed`). With k < M distinct
+Starts: the periodogram's lines (:mod:`microdoppler.rotors.speed`). With k < M distinct
 lines every composition of M rotors on them is tried (at two spreads around each shared
 line), first with ``harmonics[0]`` harmonics (a wide basin), the ``keep`` best carried on
 to ``harmonics[-1]``. A fit whose weakest rotor has under ``min_power`` of the strongest

@@ -3,7 +3,7 @@
 This module is the single definition of each cause's *parameters* (names, units,
 signs, detectable ranges). The measurement emulator implements the causes with its
 own physics (``microdoppler.emulator``); the diagnosis fits model extensions with the
-same parameter names (``microdoppler.extensions``), so a fitted value can be compared
+same parameter names (``microdoppler.synthesis.extensions``), so a fitted value can be compared
 with the emulator's truth. See ``shared/formats/flight-zarr.md``.
 """
 

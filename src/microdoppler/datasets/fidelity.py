@@ -5,7 +5,7 @@ is compared with the measured flight feature by feature, on the CPIs its calibra
 did not see (fold B of ``datasets.calibration.holdout_block_cpis``, recorded in the
 twin's ``calibration`` attrs).
 
-Per CPI (one timestep of the paper's spectrogram, :mod:`microdoppler.spectrogram`:
+Per CPI (one timestep of the paper's spectrogram, :mod:`microdoppler.spectra.spectrogram`:
 4096-point Blackman-Harris STFT, 50 % overlap), with the body line at the track's
 Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor log
 (the same ruler for flight and twin, as the calibration's targets use):
@@ -43,18 +43,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
-from .datasets.injection import INJECTED_SCHEMA
-from .datasets.lines import body_doppler_hz, log_rate_at, measure_lines
-from .datasets.stores import flight_ids, open_store
-from .diagnosis.causes import folds
-from .diagnosis.features import Stft, refine_peak
-from .errors import InputError
-from .flightzarr import read_flight
-from .inventory import read_ingested_log
-from .outputs import atomic_file
-from .snr import noise_floor_db
-from .spectrogram import Spectrogram, SpectrogramConfig, spectrogram
+from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
+from .injection import INJECTED_SCHEMA
+from .lines import body_doppler_hz, log_rate_at, measure_lines
+from .stores import flight_ids, open_store
+from ..diagnosis.causes import folds
+from ..diagnosis.features import Stft, refine_peak
+from ..errors import InputError
+from ..io.flightzarr import read_flight
+from ..io.inventory import read_ingested_log
+from ..io.outputs import atomic_file
+from ..spectra.snr import noise_floor_db
+from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 
 #: distances of Table VI (name: unit), in column order
 DISTANCES = {"line_hz": "Hz", "n_pairs": "pairs", "first_pair_db": "dB", "asymmetry_db": "dB",
@@ -330,7 +330,7 @@ def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int 
 
     One row per variant: ``n_flights`` and per distance m ``m_mean`` (mean over the
     flights where it is finite) and ``m_ci95_low``/``m_ci95_high`` (95 % percentile
-    interval, flights drawn with replacement, :mod:`microdoppler.bootstrap`). Then
+    interval, flights drawn with replacement, :mod:`microdoppler.stats.bootstrap`). Then
     paired rows ``a - b`` (adjacent orderings of :data:`PAIRS` present): per flight
     the difference of the two twins' distances (negative = a closer to the
     measurement) of :func:`pairs`, its mean, interval from the same draws, and

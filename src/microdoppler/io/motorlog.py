@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import zarr
 
-from .errors import InputError
+from ..errors import InputError
 from .outputs import atomic_dir, commit_dir
 
 #: conversion factors to rev/min

@@ -4,7 +4,7 @@ A drone flight without a motor log still carries its rotor speeds in its spectru
 a rotor of B equal blades turning at f_m [rev/s] puts lines at the body Doppler plus
 and minus n B f_m, n = 1, 2, ... (the paper's HERM lines, §II; Fig. 2b: four rotors
 give four lines in each harmonic group). :func:`estimate_rotor_speeds` measures them
-on the paper's STFT (:func:`microdoppler.spectrogram.spectrogram`: ``n_fft``-point
+on the paper's STFT (:func:`microdoppler.spectra.spectrogram.spectrogram`: ``n_fft``-point
 Blackman-Harris, 50 % overlap; without the high-pass, the clutter band is masked
 instead) and returns a :class:`RotorEstimate`: per CPI the rotor speeds, their mean,
 one-sigma uncertainties, the number of visible sideband pairs, or a ``reason`` when
@@ -54,7 +54,7 @@ Method (arrays per CPI):
    ``rel_floor`` per measurement, inflated by the scatter over harmonics (Birge
    ratio), plus the placement of lines that share a cluster.
 9. I/Q fit (``refine``, on by default): every CPI with an estimate is refitted by
-   least squares on its samples (:mod:`microdoppler.rotorfit`): each of the M rotors
+   least squares on its samples (:mod:`microdoppler.rotors.fit`): each of the M rotors
    is a harmonic series in its own phase with a speed and a rate of change, all
    harmonics sharing them, started from the lines of steps 5-7 (every composition of
    the M rotors on them). Fitting every rotor removes the rotor-count choice of step
@@ -83,7 +83,7 @@ Motor identity: the radar cannot tell which rotor is which, so the columns of
 Storage (flight-zarr/1): :meth:`RotorEstimate.to_motor_log` gives ``motors/time_s``
 (CPI centres) and ``motors/rpm`` [n_log, n_motors] (the CPIs with an estimate). A motor
 log holds speeds at instants, the radar measures each CPI's window^2-weighted mean, and
-the curve a twin drives its rotors with (:mod:`microdoppler.sampling`: a natural cubic
+the curve a twin drives its rotors with (:mod:`microdoppler.rotors.sampling`: a natural cubic
 spline through the rows) smooths the curvature of a speed history: through the CPI
 means themselves its CPI means are off by ~0.08 of the second difference (up to ~1 %
 on manoeuvres). The rows are therefore the spline's nodes whose CPI means equal the
@@ -105,12 +105,12 @@ from scipy.ndimage import maximum_filter1d
 from scipy.signal import find_peaks
 from scipy.signal.windows import blackmanharris
 
-from .flightzarr import Flight
-from .motorlog import MotorLog
-from .rotorfit import FitConfig, refine_cpi
+from ..io.flightzarr import Flight
+from ..io.motorlog import MotorLog
+from .fit import FitConfig, refine_cpi
 from .sampling import log_curve
-from .snr import body_doppler_hz
-from .spectrogram import SpectrogramConfig, spectrogram
+from ..spectra.snr import body_doppler_hz
+from ..spectra.spectrogram import SpectrogramConfig, spectrogram
 
 #: identifies the method (and its version) in stored attributes: the periodogram's
 #: lines alone, or refined by least squares on the I/Q (step 9)
@@ -175,7 +175,7 @@ class RotorSpeedConfig:
         CPIs per STFT block (memory).
     refine : bool
         Step 9: refit every CPI with an estimate by least squares on its I/Q
-        (:mod:`microdoppler.rotorfit`, settings ``fit``); False keeps the periodogram's
+        (:mod:`microdoppler.rotors.fit`, settings ``fit``); False keeps the periodogram's
         estimate (``herm-pairs/1``).
     fit : FitConfig
         Settings of the least-squares refinement.
@@ -257,7 +257,7 @@ class RotorEstimate:
         a line shared by several rotors repeats); NaN where no pair is visible.
     speeds_std_rev_s : ndarray, float64 [n_cpi, n_motors]
         Uncertainty of each speed [rev/s]: with the I/Q fit, 95 % of the errors lie
-        within 2 of it (:mod:`microdoppler.rotorfit`, its docstring).
+        within 2 of it (:mod:`microdoppler.rotors.fit`, its docstring).
     common_rev_s, common_std_rev_s : ndarray, float64 [n_cpi]
         Mean rotor speed and its uncertainty [rev/s] (what can be said where the
         rotors are not separated).
@@ -275,7 +275,7 @@ class RotorEstimate:
         Settings and counts (JSON-serialisable).
     balance : ndarray, float64 [n_cpi] or None
         The I/Q fit's power balance per CPI (its weakest rotor's power over its
-        strongest's, :class:`microdoppler.rotorfit.CpiFit`); NaN where the CPI was not
+        strongest's, :class:`microdoppler.rotors.fit.CpiFit`); NaN where the CPI was not
         refitted; None without step 9. Low balance: the rotors' composition on the lines
         is in doubt, and the uncertainty says so.
     """
@@ -375,7 +375,7 @@ class RotorEstimate:
 
     def with_flight(self, flight: Flight, *, per_motor: bool = True, cpi_means: bool = False) -> Flight:
         """A copy of ``flight`` carrying this estimate as its motor log (for
-        :func:`microdoppler.flightzarr.write_flight`)."""
+        :func:`microdoppler.io.flightzarr.write_flight`)."""
         log = self.to_motor_log(per_motor=per_motor, cpi_means=cpi_means)
         attrs = {**flight.attrs, **self.store_attrs(per_motor=per_motor, cpi_means=cpi_means)}
         return replace(flight, attrs=attrs, motors_time_s=log.time_s, motors_rpm=log.rpm)
@@ -588,7 +588,7 @@ def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n
                         n_points: int = 64) -> np.ndarray:
     """Window^2-weighted mean (Blackman-Harris, ``n_fft`` pulses at ``prf_hz``) over each
     CPI centred on ``cpi_t`` of the curve through (``t_s``, ``nodes``) [n, k] that every
-    sampling variant reads from a log (:func:`microdoppler.sampling.log_curve`):
+    sampling variant reads from a log (:func:`microdoppler.rotors.sampling.log_curve`):
     float [len(cpi_t), k]."""
     w = blackmanharris(n_fft, sym=False) ** 2
     k = np.linspace(0, n_fft - 1, n_points).astype(int)

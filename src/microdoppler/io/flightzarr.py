@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import zarr
 
-from .errors import InputError
+from ..errors import InputError
 from .outputs import atomic_dir, commit_dir
 
 SCHEMA = "flight-zarr/1"

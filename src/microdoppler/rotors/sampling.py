@@ -27,7 +27,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.signal import decimate, resample_poly
 
-from .motorlog import MotorLog
+from ..io.motorlog import MotorLog
 
 VARIANTS = ("sub_cpi", "per_cpi", "single_motor", "fixed_speeds")
 

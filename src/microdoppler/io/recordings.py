@@ -7,7 +7,7 @@ as complex64 plus a metadata dict of the radar parameters the file itself states
 :func:`resolve_parameters` merges them with a YAML sidecar and command-line options
 (option > sidecar > file; an option or sidecar value that contradicts the file's
 own metadata wins with a warning), :func:`iq_sanity` measures the I/Q balance, and
-:func:`build_flight` returns a validated :class:`~microdoppler.flightzarr.Flight`.
+:func:`build_flight` returns a validated :class:`~microdoppler.io.flightzarr.Flight`.
 
 What each format contributes
 ----------------------------
@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 from .flightzarr import FLIGHT_ID_RE, SCHEMA, TARGETS, Flight
 
 FORMATS = ("sigmf", "mat", "npy", "npz")
@@ -662,7 +662,7 @@ def read_track(path) -> dict:
     radar clock (not shifted to 0)."""
     import pandas as pd
 
-    from .commands.simulate import read_track_csv
+    from ..commands.simulate import read_track_csv
 
     path = Path(path)
     trk = read_track_csv(path)

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import zarr
 
-from .errors import InputError
+from ..errors import InputError
 from .flightzarr import validate_store
 from .outputs import atomic_dir, commit_dir
 from .motorlog import MotorLog, check_motor_log, read_motor_log
@@ -81,7 +81,7 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, esti
     Returns the status table (flight_id, status, source, rows, duration_s, n_motors,
     reason) and writes it to ``out_csv``. Status: ``ingested``, ``estimated`` (no log;
     with ``estimate_missing`` the rotor speeds were estimated from the flight's HERM
-    lines, :mod:`microdoppler.rotorspeed`; group attribute ``motors_source: radar``)
+    lines, :mod:`microdoppler.rotors.speed`; group attribute ``motors_source: radar``)
     or ``skipped`` (no log, and no estimate: ``reason`` says why).
     """
     flights = list_flights(measured_dir)
@@ -109,7 +109,7 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, esti
             extra, state = {}, "ingested"
             if ml is None and estimate_missing:
                 from .flightzarr import read_flight
-                from .rotorspeed import estimate_rotor_speeds
+                from ..rotors.speed import estimate_rotor_speeds
 
                 est = estimate_rotor_speeds(read_flight(fl.path), progress=lambda done, total, fid=fl.flight_id:
                                             log(f"{fid}: rotor speeds from the radar: I/Q fit, {done} of {total} CPIs"))

@@ -1,7 +1,7 @@
 """Model extensions: the catalog's causes as options of the synthesis stage.
 
-Each cause of :data:`microdoppler.catalog.CAUSES` (except ``none``) extends the
-paper's model (eq. 2, :func:`microdoppler.synthesis.synthesize`) with the catalog's
+Each cause of :data:`microdoppler.synthesis.catalog.CAUSES` (except ``none``) extends the
+paper's model (eq. 2, :func:`microdoppler.synthesis.model.synthesize`) with the catalog's
 parameter names, units and signs:
 
 ``sideband_asymmetry``  {asymmetry_db}
@@ -24,7 +24,7 @@ parameter names, units and signs:
     :meth:`ExtensionSet.post` multiplies the echo by exp(j theta(t)), theta Gaussian
     with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``. ``skirt_dbc_hz`` (the
     single-sideband density at 50 Hz [dBc/Hz]) is derived from ``rms_rad`` when not
-    given (:func:`microdoppler.catalog.flat_skirt_dbc_hz`) and vice versa; when both
+    given (:func:`microdoppler.synthesis.catalog.flat_skirt_dbc_hz`) and vice versa; when both
     are given (a diagnosis of a non-flat skirt) both are kept and ``rms_rad`` drives
     the synthesis.
 
@@ -44,9 +44,9 @@ import scipy.fft as sfft
 import yaml
 
 from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ, flat_rms_rad, flat_skirt_dbc_hz
-from .errors import InputError
-from .outputs import atomic_file
-from .motorlog import MotorLog
+from ..errors import InputError
+from ..io.outputs import atomic_file
+from ..io.motorlog import MotorLog
 from .processes import ou_process
 
 SCHEMA = "extensions/1"
@@ -196,7 +196,7 @@ class ExtensionSet:
         return MotorLog(np.asarray(t, np.float64), rpm, log.source)
 
     def synth_kwargs(self, *, prf_hz: float, n_pulses: int, seed: int) -> dict:
-        """Keyword arguments for :func:`microdoppler.synthesis.synthesize`
+        """Keyword arguments for :func:`microdoppler.synthesis.model.synthesize`
         (``envelope``, ``blade_hook``, ``body_hook``; only those in use)."""
         if not prf_hz > 0:
             raise ValueError(f"prf_hz={prf_hz} must be > 0")

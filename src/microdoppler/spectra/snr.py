@@ -64,7 +64,7 @@ def flight_body_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: Spectr
                        search_hz: float = 10.0) -> np.ndarray:
     """Body-line SNR of every spectrogram timestep of a flight (Table III's measure) [dB].
 
-    ``flight`` is a :class:`~microdoppler.flightzarr.Flight`; ``iq`` (default the
+    ``flight`` is a :class:`~microdoppler.io.flightzarr.Flight`; ``iq`` (default the
     flight's own) is the signal to measure, e.g. a synthetic twin on the flight's track.
     Returns an empty array for records shorter than one CPI.
     """

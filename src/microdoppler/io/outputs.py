@@ -25,7 +25,7 @@ from pathlib import Path
 
 import zarr
 
-from .errors import InputError
+from ..errors import InputError
 
 #: the marker attribute every store written by this tool carries
 MARK_ATTR = "written_by"

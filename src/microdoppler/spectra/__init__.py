@@ -1,0 +1,1 @@
+"""Spectrograms (the paper's STFT) and the one SNR measure used everywhere."""
