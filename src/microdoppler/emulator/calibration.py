@@ -3,12 +3,12 @@
 :func:`motor_stats` summarises how the motors of a flight differ and fluctuate, in
 relative terms (so a 40 rev/s PX4 quad and an 80 rev/s Inspire compare):
 
-``spread_rel``      mean over rows of std across motors / mean across motors
-``fluct_1s_rel``,   median over windows of 1 s (5 s) of the std over time of each
-``fluct_5s_rel``    motor's speed / its mean, averaged over motors
-``step_rel``        std of row-to-row changes / mean speed (at the compared rate)
-``psd_low_frac``    share of the speed-change power (relative speed detrended over
-                    10 s) below 0.3 Hz, from a periodogram at the compared rate
+- ``spread_rel``: mean over rows of std across motors / mean across motors
+- ``fluct_1s_rel``, ``fluct_5s_rel``: median over windows of 1 s (5 s) of the std
+  over time of each motor's speed / its mean, averaged over motors
+- ``step_rel``: std of row-to-row changes / mean speed (at the compared rate)
+- ``psd_low_frac``: share of the speed-change power (relative speed detrended over
+  10 s) below 0.3 Hz, from a periodogram at the compared rate
 
 Emulated flights are sampled at the real log's row times pattern (its median rate),
 so both are compared at the same resolution. :func:`compare_with_real` prints the

@@ -1,12 +1,12 @@
 """Profiles (``test``, ``default``, ``paper``) and writing a whole world.
 
-``test``     6 flights of 30-40 s (CI; seconds to emulate).
-``default``  48 flights: 24 birds (10 single, 6 pairs, 5 small and 3 large flocks) of
-             30-45 s, 9 Inspire, 8 Matrice, 7 Mini flights of 40-60 s (about 35 min of
-             flight), both radars.
-``paper``    Table III: 491 bird, 69 Inspire, 52 Matrice, 62 Mini flights with
-             durations that give Table III's image counts per class (5814, 2183, 1899,
-             1709 tiles of 20 timesteps), ~50:50 radars. Large: planned on demand.
+- ``test``: 6 flights of 30-40 s (CI; seconds to emulate).
+- ``default``: 48 flights: 24 birds (10 single, 6 pairs, 5 small and 3 large flocks) of
+  30-45 s, 9 Inspire, 8 Matrice, 7 Mini flights of 40-60 s (about 35 min of
+  flight), both radars.
+- ``paper``: Table III: 491 bird, 69 Inspire, 52 Matrice, 62 Mini flights with
+  durations that give Table III's image counts per class (5814, 2183, 1899,
+  1709 tiles of 20 timesteps), ~50:50 radars. Large: planned on demand.
 
 Effects of the ``default`` and ``paper`` worlds (:func:`plan_effects`) have a
 population structure: each Inspire/Matrice model has a systematic sideband asymmetry
@@ -70,7 +70,7 @@ def _bird_spec(fid, kind, rng, seed, duration_s, radar_id) -> FlightSpec:
 #: sit below the noise: nothing a diagnosis could see)
 EFFECT_MODELS = ("inspire2", "matrice300")
 #: the systematic effect of every large model (blade geometry): its per-model size
-#: |asymmetry_db| [dB], drawn once per world, and the per-flight jitter (uniform +-) [dB]
+#: abs(asymmetry_db) [dB], drawn once per world, and the per-flight jitter (uniform +-) [dB]
 SYSTEMATIC_RANGE_DB = (3.5, 5.5)
 SYSTEMATIC_JITTER_DB = 0.5
 #: per-flight effects and the ranges their parameters are drawn from (catalog units;

@@ -96,7 +96,7 @@ def flat_skirt_dbc_hz(rms_rad: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDT
 
     theta(t) Gaussian with a flat two-sided PSD S = rms^2 / (2 B) on |f| < B. The
     spectrum of exp(j theta) relative to its carrier (weight exp(-rms^2)) is
-    L(f) = sum_n S^{*n}(f) / n!; the first two terms are kept (the third is below
+    L(f) = sum_n S_n(f) / n! (S_n: S convolved with itself n times); the first two terms are kept (the third is below
     1e-4 of the first for rms < 0.1 rad): L(f) = S + S^2 (2B - |f|) / 2 [1/Hz].
     Returns 10 log10 L(offset_hz) [dBc/Hz]; -inf for rms 0.
     """

@@ -1,0 +1,59 @@
+"""Sphinx configuration: MyST pages, an API reference from the numpydoc docstrings,
+and a results page generated from a pipeline run (``docs/generate_results.py``).
+
+Build: ``sphinx-build -W -b html docs docs/_build/html`` (CI does, warnings as errors).
+The results page reads the run in ``$MICRODOPPLER_RESULTS`` (default ``../results``).
+"""
+
+import os
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "src"))
+sys.path.insert(0, str(HERE))
+
+import generate_results  # noqa: E402
+
+import microdoppler  # noqa: E402
+
+project = "microdoppler"
+author = "the microdoppler developers"
+release = microdoppler.__version__
+extensions = [
+    "myst_parser",
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "numpydoc",
+    "sphinx.ext.mathjax",
+]
+source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
+templates_path = ["_templates"]
+html_static_path = ["_static"]
+html_theme = "alabaster"
+myst_heading_anchors = 3
+autosummary_generate = True
+autodoc_default_options = {"members": True, "ignore-module-all": True}
+autodoc_mock_imports = []
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+suppress_warnings = ["myst.xref_missing"]
+
+# the results page: built from a pipeline run's own tables and figures
+generate_results.write_page(
+    Path(os.environ.get("MICRODOPPLER_RESULTS", HERE.parent / "results")), HERE / "results.md", HERE / "_static" / "results"
+)
+
+
+def _escape_bars(app, what, name, obj, options, lines):
+    """Docstrings write absolute values and norms as ``|x|``; reST would read those as
+    substitutions. Escape every bar outside a reST table line."""
+    for i, line in enumerate(lines):
+        s = line.lstrip()
+        if "|" in line and not s.startswith(("|", "+-", "+=")):
+            lines[i] = line.replace("\\|", "|").replace("|", "\\|")
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _escape_bars, priority=100)
