@@ -22,7 +22,21 @@ shares no code with ``microdoppler.emulator``, ``microdoppler.synthesis.extensio
   single-sideband density at 50 Hz (first order: L(50 Hz) = two-sided S_theta(50 Hz));
   the background recording does not carry it;
 - ``motor_log_lag`` / ``motor_speed_scale``: its own motor log at 25 Hz with
-  timestamp jitter, rounded to 1 rpm; a row stamped t holds true(t - lag) / scale.
+  timestamp jitter, rounded to 1 rpm; a row stamped t holds true(t - lag) / scale;
+- ``blade_imbalance``: blade 0 of every rotor (or of the rotors listed in ``motors``)
+  scatters with amplitude 10^(-imbalance_db/20) of the others (a tagged or chipped
+  blade), so lines appear at odd multiples of the rotation rate.
+
+Out-of-catalog effects (``GenCase.oddities``; no catalog cause describes them, so a
+diagnosis must not call such a flight ``none``):
+
+- ``second_scatterer``: a point on the airframe with its own Doppler, ``offset_hz``
+  from the body, ``level_db`` relative to the body line, wandering by ``wander_hz``
+  (a swinging payload);
+- ``true_n_blades``: the propellers carry this many blades while the store declares
+  ``N_BLADES`` (a wrong declared blade count);
+- ``range_straddle``: the whole target's power drifts slowly as it crosses range
+  cells: a raised cosine of ``depth_db`` over ``period_s``.
 
 Everything random comes from the case's seed.
 """
@@ -61,6 +75,7 @@ class GenCase:
     snr_db: float = 40.0          # body line over the noise per bin of a 4096-pulse CPI (Hann gain)
     first_sideband_db: float = 8.0
     speed_mps: float | None = None  # radial speed; default drawn (7-11 m/s at gen_l, scaled for gen_s)
+    oddities: dict = field(default_factory=dict)  # out-of-catalog effects (module docstring)
 
 
 def _telegraph(n: int, dt: float, std: float, tau: float, rng) -> np.ndarray:
@@ -99,15 +114,15 @@ def _phase_noise(n: int, prf: float, skirt_dbc_hz: float, shape: str, rng) -> np
     return np.fft.irfft(spec, m)
 
 
-def _blade_sum(phi_rev: np.ndarray, lam: float) -> np.ndarray:
-    """Eq. (1) for one motor: sum over the blades of the thin-wire return; ``phi_rev``
-    the rotor angle [rev] per pulse."""
+def _blade_sum(phi_rev: np.ndarray, lam: float, amps=None, n_blades: int = N_BLADES) -> np.ndarray:
+    """Eq. (1) for one motor: sum over the blades of the thin-wire return, blade b with
+    amplitude ``amps[b]`` (default all 1); ``phi_rev`` the rotor angle [rev] per pulse."""
     k = 4 * np.pi / lam
     out = np.zeros(len(phi_rev), np.complex128)
-    for b in range(N_BLADES):
-        c = np.cos(2 * np.pi * (phi_rev + b / N_BLADES))
+    for b in range(n_blades):
+        c = np.cos(2 * np.pi * (phi_rev + b / n_blades))
         u = k * BLADE_M / 2 * c
-        out += BLADE_M * np.exp(-1j * u) * np.sinc(u / np.pi)
+        out += (1.0 if amps is None else amps[b]) * BLADE_M * np.exp(-1j * u) * np.sinc(u / np.pi)
     return out
 
 
@@ -141,7 +156,13 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
     rev_c = common[None, :] * (offs[:, None] + wob)                       # [motors, n_c]
     rev = np.array([np.interp(t, tc, rm) for rm in rev_c])               # [motors, n]
     phi = np.cumsum(rev, axis=1) / prf + rng.uniform(0, 1, (N_MOTORS, 1))
-    blades = sum(_blade_sum(phi[m], lam) for m in range(N_MOTORS))
+    odd = case.oddities
+    nb_true = int(odd.get("true_n_blades", N_BLADES))
+    imb = eff.get("blade_imbalance", {})
+    weak = 10 ** (-imb.get("imbalance_db", 0.0) / 20)
+    imb_motors = set(imb.get("motors", range(N_MOTORS)))
+    amps = [[weak if (b == 0 and m in imb_motors) else 1.0 for b in range(nb_true)] for m in range(N_MOTORS)]
+    blades = sum(_blade_sum(phi[m], lam, amps[m], nb_true) for m in range(N_MOTORS))
     blades = blades - blades.mean()
     # envelope relative to the body: exp(-alpha |f|), asymmetry, one FFT over the record
     fgrid = np.fft.fftfreq(n, 1.0 / prf)
@@ -177,6 +198,15 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
         realized["body_std_db"] = float(y.std())
     carrier_ph = np.exp(-1j * 4 * np.pi * r / lam)
     target = (body_amp + blades) * carrier_ph
+    if "second_scatterer" in odd:
+        p = odd["second_scatterer"]
+        wander = p.get("wander_hz", 0.0) * np.sin(2 * np.pi * t / rng.uniform(4.0, 8.0) + rng.uniform(0, 6.3))
+        ph2 = 2 * np.pi * np.cumsum(p["offset_hz"] + wander) / prf
+        target = target + a_body * 10 ** (p["level_db"] / 20) * np.exp(1j * ph2) * carrier_ph
+    if "range_straddle" in odd:
+        p = odd["range_straddle"]
+        drift_db = -p["depth_db"] * 0.5 * (1 - np.cos(2 * np.pi * t / p["period_s"] + rng.uniform(0, 6.3)))
+        target = target * 10 ** (drift_db / 20)
     # clutter: a stationary line (CNR 45 dB per pulse) with a little wind-blown spread
     # (Gaussian spectrum, 1.5 Hz rms: no far tails)
     def clutter(rr):
@@ -209,7 +239,8 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
     flight = Flight(attrs=attrs, iq=iq, track_time_s=tt, track_range_m=track_r,
                     track_radial_velocity_mps=track_v, motors_time_s=tl.astype(np.float64), motors_rpm=rpm,
                     background_iq=bg)
-    truth = {"effects": {c: {k: v for k, v in p.items() if k != "shape"} for c, p in eff.items()},
+    truth = {"effects": {c: {k: v for k, v in p.items() if k not in ("shape", "motors")} for c, p in eff.items()},
+             "oddities": dict(odd),
              "body_doppler_hz": float(np.median(np.abs(-2 * vr / lam))),
              "realized_std_db": realized}  # the std of this flight's own gain path
     return flight, truth
