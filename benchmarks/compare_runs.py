@@ -1,8 +1,8 @@
 """Are two pipeline runs the same? Compares the products of two ``results/`` folders.
 
 A refactoring must leave the pipeline's behaviour unchanged: this script compares, file
-by file, the tables (CSV, byte for byte), the diagnosis report and extensions (JSON /
-YAML, byte for byte) and every array of the Zarr stores (``np.array_equal``, NaNs equal;
+by file, the tables (CSV, byte for byte), the diagnosis report (JSON, timings
+excepted) and extensions (YAML, byte for byte) and every array of the Zarr stores (``np.array_equal``, NaNs equal;
 attributes compared too, except those that record timings or code versions). Files
 that record run times (``results/benchmarks/``, logs) are skipped.
 
@@ -17,6 +17,7 @@ when anything differs.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -34,6 +35,23 @@ def _volatile(key: str) -> bool:
 
 def _attrs(node) -> dict:
     return {k: v for k, v in dict(node.attrs).items() if not _volatile(k)}
+
+
+def _strip(obj):
+    """A JSON value without the keys that record timings."""
+    if isinstance(obj, dict):
+        return {k: _strip(v) for k, v in obj.items() if k not in ("seconds", "elapsed_s", "wall_s")}
+    if isinstance(obj, list):
+        return [_strip(v) for v in obj]
+    return obj
+
+
+def compare_json(a: Path, b: Path) -> str | None:
+    """None when the two JSON files are equal apart from their timings."""
+    if a.read_bytes() == b.read_bytes():
+        return None
+    ja, jb = _strip(json.loads(a.read_text())), _strip(json.loads(b.read_text()))
+    return None if ja == jb else "values differ (timings excepted)"
 
 
 def compare_store(a: Path, b: Path) -> str | None:
@@ -93,6 +111,8 @@ def main(argv=None) -> int:
         pa, pb = args.a / rel, args.b / rel
         if pa.suffix == ".zarr":
             why = compare_store(pa, pb)
+        elif pa.suffix == ".json":
+            why = compare_json(pa, pb)
         else:
             why = None if pa.read_bytes() == pb.read_bytes() else "bytes differ"
         print(f"{'same' if why is None else 'DIFFERENT: ' + why:<12} {rel}")
