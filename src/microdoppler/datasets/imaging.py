@@ -9,7 +9,8 @@ of a dataset share their shape.
 The radar is the flights' median PRF and carrier (one radar: its own). Flights whose
 PRF would give another CPI length are refused (a mixture of radars needs an explicit
 ``n_fft``). With ``blade_tip_rev_s`` the span covers the longest blade
-(``blade_length_m``) and the fastest body radial speed of the drone flights.
+(``blade_length_m``) and the fastest track radial speed of the drone flights
+(:func:`~microdoppler.spectra.spectrogram.blade_tip_reach_hz`).
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ import numpy as np
 
 from ..errors import ConfigError, InputError
 from ..io.flightzarr import read_flight
-from ..spectra.spectrogram import (PAPER_WINDOW_S, SpectrogramConfig, SpectrogramSettings, describe,
-                                   nearest_power_of_two)
+from ..spectra.spectrogram import (PAPER_WINDOW_S, SpectrogramConfig, SpectrogramSettings, blade_tip_reach_hz,
+                                   describe, nearest_power_of_two)
 
 
 def flight_radars(measured_dir) -> list[dict]:
@@ -82,7 +83,8 @@ def resolve_for_flights(settings: SpectrogramSettings | dict | None, radars: lis
         + (f" (PRFs {prf.min():g}-{prf.max():g} Hz)" if np.ptp(prf) else "")
         + f": CPI {cfg.n_fft} pulses = {d['cpi_s']:.3f} s, {cfg.n_bins or cfg.n_fft} bins of {d['doppler_bin_hz']:.3f} Hz"
         + f" = {d['doppler_span_hz']:.1f} Hz = {d['doppler_span_mps']:.2f} m/s"
-        + (f" (blade tips {kw['blade_length_m']} m at {s.blade_tip_rev_s} rev/s, body {kw['body_mps']:.1f} m/s)"
+        + (f" (blade tips {kw['blade_length_m']:g} m at {s.blade_tip_rev_s:g} rev/s, body {kw['body_mps']:.1f} m/s:"
+           f" ±{blade_tip_reach_hz(s.blade_tip_rev_s, kw['blade_length_m'], carrier_hz, kw['body_mps']):.1f} Hz)"
            if kw else ""))
     return cfg
 

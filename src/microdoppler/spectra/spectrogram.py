@@ -100,6 +100,17 @@ def blade_tip_doppler_hz(rev_s: float, blade_length_m: float, carrier_hz: float)
     return 4 * math.pi * rev_s * blade_length_m * carrier_hz / C_MPS
 
 
+def blade_tip_reach_hz(rev_s: float, blade_length_m: float, carrier_hz: float, body_mps: float = 0.0) -> float:
+    """Largest |Doppler| of a rotor's echo about 0 Hz that an image must hold [Hz].
+
+    The tip's excursion :func:`blade_tip_doppler_hz` is a sinusoidal phase modulation
+    at the rotation rate, so its lines spill past it; Carson's rule adds one
+    modulation frequency (``rev_s``) to hold ~98 % of the power. The body's Doppler
+    2 |body_mps| / lambda shifts it all (images are centred on 0 Hz, not on the body).
+    """
+    return blade_tip_doppler_hz(rev_s, blade_length_m, carrier_hz) + rev_s + 2 * abs(body_mps) * carrier_hz / C_MPS
+
+
 def nearest_power_of_two(x: float) -> int:
     """The power of two nearest ``x`` on a log scale: 2 ** round(log2 x)."""
     return int(2 ** round(math.log2(x)))
@@ -137,9 +148,10 @@ class SpectrogramSettings:
     doppler_span_mps : float, optional
         The same in radial velocity [m/s] (Hz = 2 v / lambda); at most PRF x lambda / 2.
     blade_tip_rev_s : float, optional
-        Cover the blade tips: the image spans ±(4 pi rev_s L / lambda + 2 |v_body| /
-        lambda) for the blade length L and body speed given to :meth:`resolve`,
-        clipped to ±PRF / 2 [rev/s].
+        Cover the blade tips at this rotation rate [rev/s]: the image spans
+        ±(4 pi rev_s L / lambda + rev_s + 2 |v_body| / lambda)
+        (:func:`blade_tip_reach_hz`) for the blade length L and body speed given to
+        :meth:`resolve`, clipped to ±PRF / 2.
     n_bins : int, optional
         Central Doppler bins kept (0 keeps all), overriding the spans.
     overlap, highpass_hz, highpass_order, tile_timesteps
@@ -214,8 +226,8 @@ class SpectrogramSettings:
             ``n_bins`` = ``n_bins``, or the even number of bins nearest the span
             (``doppler_span_hz``, ``doppler_span_mps``, default
             :data:`PAPER_DOPPLER_SPAN_MPS` clipped to the PRF), or with
-            ``blade_tip_rev_s`` the fewest even bins whose Doppler reaches ±(tip + body)
-            (all bins when that passes ±PRF / 2).
+            ``blade_tip_rev_s`` the fewest even bins whose Doppler reaches
+            ±:func:`blade_tip_reach_hz` (all bins when that passes ±PRF / 2).
 
         Raises
         ------
@@ -246,8 +258,7 @@ class SpectrogramSettings:
             if blade_length_m is None or not blade_length_m > 0:
                 raise ConfigError("config", "spectrogram.blade_tip_rev_s", f"is {self.blade_tip_rev_s} with blade "
                                   f"length {blade_length_m}", "a blade length > 0 m (the data's drones)")
-            reach_hz = blade_tip_doppler_hz(self.blade_tip_rev_s, blade_length_m, carrier_hz) \
-                + 2 * abs(body_mps) / wavelength_m
+            reach_hz = blade_tip_reach_hz(self.blade_tip_rev_s, blade_length_m, carrier_hz, body_mps)
             # centred bins k - n_fft/2 .. : n_bins reach from -n_bins/2 to n_bins/2 - 1 bins
             n_bins = min(2 * (math.ceil(reach_hz / bin_hz) + 1), n_fft)
         else:
