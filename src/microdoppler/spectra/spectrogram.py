@@ -277,13 +277,13 @@ class SpectrogramSettings:
             if n_bins < 2:
                 raise ConfigError("config", f"spectrogram.{key or 'doppler_span_mps'}", f"gives {span_hz:.3g} Hz",
                                   f">= two Doppler bins, {2 * bin_hz:.3g} Hz")
-        return SpectrogramConfig(n_fft=n_fft, overlap=self.overlap, highpass_hz=self.highpass_hz,
+        return SpectrogramConfig(n_fft=n_fft, overlap=float(self.overlap), highpass_hz=float(self.highpass_hz),
                                  highpass_order=int(self.highpass_order), n_bins=n_bins,
                                  tile_timesteps=int(self.tile_timesteps))
 
 
 def describe(cfg: SpectrogramConfig, prf_hz: float, carrier_hz: float) -> dict:
-    """The resolved settings in physical units (for logs and store attributes)."""
+    """The resolved settings in physical units (CPI, bin width, image span in Hz and m/s)."""
     span_hz = cfg.doppler_span_hz(prf_hz)
     return dict(prf_hz=float(prf_hz), carrier_hz=float(carrier_hz), n_fft=cfg.n_fft, cpi_s=cfg.n_fft / prf_hz,
                 n_bins=cfg.n_bins, doppler_bin_hz=cfg.doppler_bin_hz(prf_hz), doppler_span_hz=span_hz,
