@@ -7,7 +7,8 @@ The folders follow the pipeline (White, Jahangir, Baker, Antoniou):
 - ``rotors``      motor-speed sampling variants (§V.A.1) and rotor speeds from the radar
 - ``synthesis``   thin-wire blades (eq. 1), body/blade/alpha (eq. 2), the radar, the
                   catalog of model extensions
-- ``spectra``     15 Hz high-pass, 4096-point Blackman-Harris STFT; the one SNR measure
+- ``spectra``     15 Hz high-pass, Blackman-Harris STFT (settings in seconds and Hz or m/s,
+                  4096 points and 480 bins on the paper's radar); the one SNR measure
 - ``stats``       the flight-unit bootstrap
 - ``emulator``    the measured world (the embedded default)
 - ``datasets``    split, twins, injection, tiles, fidelity (Table III, IV, VI)

@@ -1,8 +1,8 @@
 """Rule report_fidelity: Table VI (twin vs measured flight, held-out CPIs) and its figure."""
 
 from microdoppler.datasets.fidelity import FidelityConfig, write_fidelity_report
+from microdoppler.datasets.imaging import spectrogram_for_flights
 from microdoppler.io.runlog import log_to
-from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     settings = dict(snakemake.params.fidelity)
@@ -21,7 +21,7 @@ with log_to(snakemake.log[0]):
         snakemake.output.table,
         snakemake.output.figure,
         snakemake.output.flights,
-        spec_cfg=SpectrogramConfig(**snakemake.params.spectrogram),
+        spec_cfg=spectrogram_for_flights(snakemake.params.spectrogram, snakemake.input.measured),
         cfg=cfg,
         n_boot=settings["n_boot"],
         seed=settings["seed"],

@@ -1,14 +1,14 @@
 """Rule split_flights: flight-disjoint 60:30:10 split by class and Table III."""
 
+from microdoppler.datasets.imaging import spectrogram_for_flights
 from microdoppler.datasets.tables import write_csv
 from microdoppler.datasets.workflow import split_and_table_iii
 from microdoppler.io.runlog import log_to
-from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     split, table = split_and_table_iii(
         snakemake.input.measured,
-        spec_cfg=SpectrogramConfig(**snakemake.params.spectrogram),
+        spec_cfg=spectrogram_for_flights(snakemake.params.spectrogram, snakemake.input.measured),
         search_hz=snakemake.params.search_hz,
         **snakemake.params.split,
     )

@@ -2,9 +2,9 @@
 of it when datasets.flight_batches > 1) and their Table IV rows."""
 
 from microdoppler.datasets.calibration import CalibrationConfig, build_twins
+from microdoppler.datasets.imaging import spectrogram_for_flights
 from microdoppler.datasets.workflow import load_extensions
 from microdoppler.io.runlog import log_to
-from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 with log_to(snakemake.log[0]):
     batch = snakemake.wildcards.get("batch")
@@ -15,7 +15,7 @@ with log_to(snakemake.log[0]):
         snakemake.output.twins,
         snakemake.output.table,
         variant=snakemake.wildcards.variant,
-        spec_cfg=SpectrogramConfig(**snakemake.params.spectrogram),
+        spec_cfg=spectrogram_for_flights(snakemake.params.spectrogram, snakemake.input.measured),
         cfg=CalibrationConfig(search_hz=snakemake.params.search_hz, **snakemake.params.calibration),
         seed=snakemake.params.seed,
         extensions=load_extensions(snakemake.input.get("extensions")),

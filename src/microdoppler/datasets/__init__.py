@@ -8,6 +8,7 @@ spectrogram tiles and the training sets.
 - ``speeds``       motor speeds per sampling variant (stage resample_motor_speeds)
 - ``calibration``  synthetic twins and their per-flight fit (stage synthesize_flights)
 - ``injection``    twin + recorded background (stage inject_background)
+- ``imaging``      the spectrogram settings resolved for the flights' PRF and carrier
 - ``tiles``        20-timestep spectrogram images (stage tile_spectrograms)
 - ``loader``       ``load_trainset(name, tiles_dir) -> (train, val, test)``
 - ``figures``      measured vs twin spectrograms (Fig. 9/10)
