@@ -34,15 +34,20 @@ Steps (:func:`process_fmcw`)
 3. The target's bin per CPI (:func:`track_range_bins`): the path through the CPIs
    that maximises the summed moving-target power over the CPI's median bin [dB],
    moving at most ``max_step_bins`` bins from one CPI to the next; or one fixed bin.
-4. Slow time (:func:`bin_slow_time`): each CPI's chirps in its bin (a single-bin DFT
-   of the same window), channels phase-aligned to the first one per CPI and
-   averaged, conjugated to flight-zarr's sign. Stationary clutter is left in.
-5. Track (:func:`range_track`): one row per CPI at its centre time; range from the
-   bin (refined within +-0.5 bin by a parabola through the log moving power of the
-   bin and its neighbours); radial velocity from a local straight-line fit of the
+4. Range per CPI (:func:`sub_bin_position`): the bin, refined within +-0.5 bin by a
+   parabola through the log moving power of the bin and its neighbours.
+5. Slow time (:func:`bin_slow_time`): each chirp's value at the target's range
+   (single-bin DFTs of the same window, interpolated linearly between the two bins
+   around the smoothed range, so the cell glides with the target), channels
+   phase-aligned to the first one per CPI and averaged, conjugated to flight-zarr's
+   sign (the channel weights smoothed over ~5 CPIs). Stationary clutter is left
+   in. With ``range_bin`` fixed: that bin.
+6. Track: one row per CPI at its centre time, the range of step 4; radial velocity
+   (:func:`radial_velocity`) from a local straight-line fit of the
    range over ~0.5 s, replaced by the body Doppler (the strongest non-static line of
-   the CPI's slow time, ``v = -f lambda / 2``, unfolded to the alias nearest the
-   range rate) where the two agree within the range rate's uncertainty.
+   the CPI's slow time, found on a zero-padded Hann spectrum and refined by a
+   parabola through its log power, ``v = -f lambda / 2``, unfolded to the alias
+   nearest the range rate) where the two agree within the range rate's uncertainty.
 """
 
 from __future__ import annotations
@@ -314,84 +319,21 @@ def track_range_bins(power: np.ndarray, *, max_step_bins: int = 2, min_bin: int 
     return bins
 
 
-def bin_slow_time(cube: np.ndarray, params: FmcwParameters, bins: np.ndarray, cpi_chirps: int, *,
-                  beat_sign: str = "positive", weights: np.ndarray | None = None
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """The slow-time I/Q of the chosen bin of each CPI, concatenated.
-
-    Parameters
-    ----------
-    cube : ndarray [n_chirps, n_samples, n_channels]
-    bins : ndarray, int [n_cpi]
-        The range bin of each CPI.
-    weights : ndarray, complex [n_cpi, n_channels], optional
-        Channel weights; default: per CPI, ``exp(-j arg sum_t x_c x_0*) / n_channels``
-        from the bin's moving part (the channels phase-aligned to the first).
-
-    Returns
-    -------
-    iq : ndarray, complex64 [n_chirps]
-        Flight-zarr's sign (phase ``-4 pi R / lambda``), stationary clutter left in.
-    weights : ndarray, complex128 [n_cpi, n_channels]
-        The weights used (to apply the same to a background recording).
-    """
-    win = _window(params)
-    n = np.arange(params.n_samples)
-    blocks = cpi_blocks(cube.shape[0], cpi_chirps)
-    n_ch = cube.shape[2]
-    out = np.empty(cube.shape[0], np.complex128)
-    w_used = np.empty((len(blocks), n_ch), np.complex128)
-    sgn = -1.0 if beat_sign == "negative" else 1.0
-    for i, sl in enumerate(blocks):
-        k = int(bins[i])
-        kern = win * np.exp(-2j * np.pi * sgn * k * n / params.nfft)  # the single-bin DFT
-        x = cube[sl] - cube[sl].mean(axis=1, keepdims=True)
-        y = np.einsum("msc,s->mc", x, kern) * _centre_ref(params, sgn * k)
-        if beat_sign == "negative":
-            y = np.conj(y)
-        if weights is None:
-            mv = y - y.mean(axis=0, keepdims=True)
-            cross = np.sum(mv * np.conj(mv[:, :1]), axis=0)
-            w = np.where(np.abs(cross) > 0, np.exp(-1j * np.angle(cross)), 1.0) / n_ch
-        else:
-            w = weights[i]
-        w_used[i] = w
-        out[sl] = y @ w
-    return np.conj(out).astype(np.complex64), w_used
-
-
-def _local_slope(t: np.ndarray, r: np.ndarray, half: int) -> np.ndarray:
-    """Least-squares slope of ``r(t)`` over ``+-half`` points around each point (fewer at the ends)."""
-    out = np.empty(len(t))
-    for i in range(len(t)):
-        a, b = max(0, i - half), min(len(t), i + half + 1)
-        tt = t[a:b] - t[a:b].mean()
-        den = float(np.dot(tt, tt))
-        out[i] = float(np.dot(tt, r[a:b] - r[a:b].mean())) / den if den > 0 else 0.0
-    return out
-
-
-def range_track(bins: np.ndarray, power: np.ndarray, iq: np.ndarray, params: FmcwParameters,
-                cpi_chirps: int) -> dict:
-    """The target's track from its range bins and slow time.
+def sub_bin_position(bins: np.ndarray, power: np.ndarray) -> np.ndarray:
+    """The target's range per CPI in (fractional) bins.
 
     Parameters
     ----------
     bins : ndarray, int [n_cpi]
     power : ndarray, float [n_cpi, n_bins]
-        Moving-target power (for the sub-bin refinement).
-    iq : ndarray, complex [n_chirps]
-        The slow time (:func:`bin_slow_time`), flight-zarr's sign.
+        Moving-target power.
 
     Returns
     -------
-    dict
-        ``time_s`` (CPI centres [s]), ``range_m`` [m], ``radial_velocity_mps`` [m/s],
-        ``range_bin`` (int [n_cpi]), ``velocity_from_doppler`` (bool [n_cpi]).
+    ndarray, float [n_cpi]
+        ``bin + d`` with ``d`` in [-0.5, 0.5] the vertex of the parabola through the
+        log power of the bin and its two neighbours (0 at the edges or without a peak).
     """
-    blocks = cpi_blocks(len(iq), cpi_chirps)
-    prf = params.chirp_rate_hz
-    t = np.array([(sl.start + sl.stop) / 2 for sl in blocks]) / prf
     n_bins = power.shape[1]
     frac = np.zeros(len(bins))
     tiny = np.finfo(np.float64).tiny
@@ -401,30 +343,151 @@ def range_track(bins: np.ndarray, power: np.ndarray, iq: np.ndarray, params: Fmc
             den = lm - 2 * l0 + lp
             if den < 0:
                 frac[i] = float(np.clip(0.5 * (lm - lp) / den, -0.5, 0.5))
-    rng = (bins + frac) * params.range_bin_m
-    rng = np.maximum(rng, 0.5 * params.range_bin_m)
-    cpi_s = cpi_chirps / prf
-    half = max(2, int(round(VELOCITY_FIT_S / cpi_s / 2)))
-    v_rng = _local_slope(t, rng, half)
-    # the range rate's uncertainty: a bin over the fit's span
-    tol = max(2 * params.range_bin_m / (2 * half * cpi_s), 3 * prf / cpi_chirps * params.wavelength_m / 2)
-    lam = params.wavelength_m
-    v = v_rng.copy()
-    from_dop = np.zeros(len(bins), bool)
-    nfft = max(1024, 4 * cpi_chirps)
+    return bins + frac
+
+
+def _local_fit(t: np.ndarray, r: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares straight line of ``r(t)`` over ``+-half`` points around each point
+    (fewer at the ends): its value and slope there."""
+    val, slope = np.empty(len(t)), np.empty(len(t))
+    for i in range(len(t)):
+        a, b = max(0, i - half), min(len(t), i + half + 1)
+        tt = t[a:b] - t[a:b].mean()
+        den = float(np.dot(tt, tt))
+        slope[i] = float(np.dot(tt, r[a:b] - r[a:b].mean())) / den if den > 0 else 0.0
+        val[i] = r[a:b].mean() + slope[i] * (t[i] - t[a:b].mean())
+    return val, slope
+
+
+def _fit_half(params: FmcwParameters, cpi_chirps: int) -> int:
+    return max(2, int(round(VELOCITY_FIT_S / (cpi_chirps / params.chirp_rate_hz) / 2)))
+
+
+def bin_slow_time(cube: np.ndarray, params: FmcwParameters, bins: np.ndarray, cpi_chirps: int, *,
+                  beat_sign: str = "positive", position: np.ndarray | None = None,
+                  weights: np.ndarray | None = None, smooth_cpis: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """The slow-time I/Q of the target's range cell, CPI by CPI.
+
+    Parameters
+    ----------
+    cube : ndarray [n_chirps, n_samples, n_channels]
+    bins : ndarray, int [n_cpi]
+        The range bin of each CPI.
+    position : ndarray, float [n_chirps], optional
+        The target's range in fractional bins at each chirp (smooth). Given, each
+        chirp is the linear interpolation between the two bins around it (within
+        ``bins[i] +- 1``), so the cell glides with the target instead of jumping a
+        bin at a CPI boundary (a jump would put a step into the clutter and the
+        body's amplitude, smearing their lines over the spectrum). None: the bin.
+    weights : ndarray, complex [n_chirps, n_channels], optional
+        Channel weights per chirp; default: ``exp(-j arg C_c) / n_channels`` with
+        ``C_c`` the cross-product ``sum_t x_c x_0*`` of the bin's moving part (its
+        mean over the CPI removed), summed over ``+-smooth_cpis`` CPIs and
+        interpolated between CPI centres: the channels phase-aligned to the first,
+        smoothly, so the weights put no steps into the clutter either.
+
+    Returns
+    -------
+    iq : ndarray, complex64 [n_chirps]
+        Flight-zarr's sign (phase ``-4 pi R / lambda``), stationary clutter left in.
+    weights : ndarray, complex128 [n_chirps, n_channels]
+        The weights used (to apply the same to a background recording).
+
+    Notes
+    -----
+    A bin is a single-bin DFT of the window of :func:`range_profiles`, its phase
+    referred to the middle of the ramp, so neighbouring bins carry a target with the
+    same phase and may be interpolated.
+    """
+    win = _window(params)
+    n = np.arange(params.n_samples)
+    blocks = cpi_blocks(cube.shape[0], cpi_chirps)
+    n_ch = cube.shape[2]
+    sgn = -1.0 if beat_sign == "negative" else 1.0
+    top = params.n_bins - 1
+    cells, cross = [], np.zeros((len(blocks), n_ch), np.complex128)
     for i, sl in enumerate(blocks):
+        k = int(bins[i])
+        ks = np.arange(max(k - 1, 0), min(k + 1, top) + 1)
+        kern = win[:, None] * np.exp(-2j * np.pi * sgn * np.outer(n, ks) / params.nfft)  # single-bin DFTs
+        x = cube[sl] - cube[sl].mean(axis=1, keepdims=True)
+        y = np.einsum("msc,sb->mbc", x, kern) * _centre_ref(params, sgn * ks)[None, :, None]
+        if beat_sign == "negative":
+            y = np.conj(y)
+        at = int(np.flatnonzero(ks == k)[0])
+        mv = y[:, at] - y[:, at].mean(axis=0, keepdims=True)
+        cross[i] = np.sum(mv * np.conj(mv[:, :1]), axis=0)
+        cells.append((sl, ks, at, y))
+    if weights is None:
+        cs = np.array([cross[max(0, i - smooth_cpis):i + smooth_cpis + 1].sum(axis=0) for i in range(len(blocks))])
+        tc = np.array([(sl.start + sl.stop - 1) / 2 for sl in blocks])
+        tm = np.arange(cube.shape[0])
+        weights = np.empty((cube.shape[0], n_ch), np.complex128)
+        for c in range(n_ch):
+            z = np.interp(tm, tc, cs[:, c].real) + 1j * np.interp(tm, tc, cs[:, c].imag)
+            weights[:, c] = np.where(np.abs(z) > 0, np.exp(-1j * np.angle(z)), 1.0) / n_ch
+    out = np.empty(cube.shape[0], np.complex128)
+    for sl, ks, at, y in cells:
+        yc = np.einsum("mbc,mc->mb", y, weights[sl])
+        if position is None:
+            out[sl] = yc[:, at]
+            continue
+        pos = np.clip(position[sl], ks[0], ks[-1])
+        lo = np.minimum(np.floor(pos).astype(int), ks[-1] - 1) if len(ks) > 1 else np.full(len(pos), ks[0])
+        a = pos - lo
+        j = lo - ks[0]
+        rows = np.arange(len(pos))
+        out[sl] = (1 - a) * yc[rows, j] + a * yc[rows, np.minimum(j + 1, len(ks) - 1)]
+    return np.conj(out).astype(np.complex64), weights
+
+
+def radial_velocity(t_s: np.ndarray, range_m: np.ndarray, iq: np.ndarray, params: FmcwParameters,
+                    cpi_chirps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Radial velocity per CPI [m/s] and whether it came from the body Doppler.
+
+    Parameters
+    ----------
+    t_s, range_m : ndarray, float [n_cpi]
+        CPI centre times [s] and ranges [m].
+    iq : ndarray, complex [n_chirps]
+        The slow time, flight-zarr's sign.
+
+    Returns
+    -------
+    v : ndarray, float [n_cpi]
+        The range rate (a local straight-line fit over ~:data:`VELOCITY_FIT_S`),
+        replaced by ``-f lambda / 2`` of the CPI's strongest non-static line (a
+        zero-padded Hann spectrum, the peak refined by a parabola through its log
+        power, unfolded to the alias nearest the range rate) where the two agree
+        within the range rate's uncertainty (two range bins over the fit's span, at
+        least 3 Doppler bins of a CPI).
+    from_doppler : ndarray, bool [n_cpi]
+    """
+    prf, lam = params.chirp_rate_hz, params.wavelength_m
+    half = _fit_half(params, cpi_chirps)
+    _, v_rng = _local_fit(t_s, range_m, half)
+    cpi_s = cpi_chirps / prf
+    tol = max(2 * params.range_bin_m / (2 * half * cpi_s), 3 * prf / cpi_chirps * lam / 2)
+    v = v_rng.copy()
+    from_dop = np.zeros(len(t_s), bool)
+    nfft = max(1024, 4 * cpi_chirps)
+    tiny = np.finfo(np.float64).tiny
+    for i, sl in enumerate(cpi_blocks(len(iq), cpi_chirps)):
         x = iq[sl].astype(np.complex128)
         x = (x - x.mean()) * np.hanning(len(x))
         spec = np.abs(np.fft.fft(x, nfft)) ** 2
         spec[0] = 0.0
-        f = np.fft.fftfreq(nfft, 1 / prf)[int(np.argmax(spec))]
+        j = int(np.argmax(spec))
+        lm, l0, lp = np.log(np.maximum(spec[[j - 1, j, (j + 1) % nfft]], tiny))
+        den = lm - 2 * l0 + lp
+        f = (j + (float(np.clip(0.5 * (lm - lp) / den, -0.5, 0.5)) if den < 0 else 0.0)) * prf / nfft
+        f = (f + prf / 2) % prf - prf / 2
         f_rng = -2 * v_rng[i] / lam
         f = f + prf * np.round((f_rng - f) / prf)  # the alias nearest the range rate
         vd = -f * lam / 2
         if abs(vd - v_rng[i]) <= tol:
             v[i], from_dop[i] = vd, True
-    return {"time_s": t, "range_m": rng, "radial_velocity_mps": v, "range_bin": bins.astype(int),
-            "velocity_from_doppler": from_dop}
+    return v, from_dop
 
 
 @dataclass
@@ -434,11 +497,14 @@ class FmcwResult:
     Attributes
     ----------
     iq : ndarray, complex64 [n_chirps]
-        The target bin's slow time (flight-zarr's sign).
+        The target's slow time (flight-zarr's sign).
     track : dict
-        :func:`range_track`'s arrays.
+        ``time_s`` (CPI centres [s]), ``range_m`` [m], ``radial_velocity_mps`` [m/s],
+        ``range_bin`` (int [n_cpi]), ``velocity_from_doppler`` (bool [n_cpi]).
     bins : ndarray, int [n_cpi]
-    weights : ndarray, complex [n_cpi, n_channels]
+    position : ndarray, float [n_chirps] or None
+        The cell's position in fractional bins per chirp (None for a fixed bin).
+    weights : ndarray, complex [n_chirps, n_channels]
     power : ndarray, float [n_cpi, n_bins]
     info : dict
         JSON-able summary for the store's ``import`` attribute.
@@ -447,6 +513,7 @@ class FmcwResult:
     iq: np.ndarray
     track: dict
     bins: np.ndarray
+    position: np.ndarray | None
     weights: np.ndarray
     power: np.ndarray
     info: dict = field(default_factory=dict)
@@ -455,7 +522,7 @@ class FmcwResult:
 def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | None = None,
                  range_bin: int | None = None, max_step_bins: int = 2, beat_sign: str = "positive",
                  source="cube") -> FmcwResult:
-    """An FMCW cube -> the target's slow-time I/Q and track (the module's steps 1-5).
+    """An FMCW cube -> the target's slow-time I/Q and track (the module's steps 1-6).
 
     Parameters
     ----------
@@ -464,7 +531,8 @@ def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | 
     cpi_chirps : int, optional
         Chirps per CPI (default :func:`default_cpi_chirps`).
     range_bin : int, optional
-        A fixed range bin instead of following the moving target.
+        A fixed range bin instead of following the moving target (the track's
+        range is then the bin's, refined within it per CPI).
     max_step_bins : int
         Largest move of the target between CPIs [bins].
     beat_sign : {"positive", "negative"}
@@ -478,10 +546,11 @@ def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | 
     cpi = int(cpi_chirps or default_cpi_chirps(params.chirp_rate_hz))
     if cpi < 8:
         raise InputError(source, "cpi_chirps", f"is {cpi}", "at least 8 chirps per CPI")
-    n_cpi = len(cpi_blocks(cube.shape[0], cpi))
     if cube.shape[0] < 2 * cpi:
         raise InputError(source, "cube", f"holds {cube.shape[0]} chirps", f"at least 2 CPIs of cpi_chirps={cpi} "
                          f"({2 * cpi} chirps; a smaller --cpi-chirps)")
+    blocks = cpi_blocks(cube.shape[0], cpi)
+    n_cpi = len(blocks)
     power = moving_power(cube, params, cpi, beat_sign=beat_sign)
     if range_bin is not None:
         if not 1 <= range_bin < params.n_bins:
@@ -491,12 +560,21 @@ def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | 
         bins = np.full(n_cpi, int(range_bin))
     else:
         bins = track_range_bins(power, max_step_bins=max_step_bins)
-    iq, w = bin_slow_time(cube, params, bins, cpi, beat_sign=beat_sign)
-    trk = range_track(bins, power, iq, params, cpi)
+    t = np.array([(sl.start + sl.stop) / 2 for sl in blocks]) / params.chirp_rate_hz
+    pos = sub_bin_position(bins, power)
+    position = None
+    if range_bin is None:
+        smooth, _ = _local_fit(t, pos, _fit_half(params, cpi))
+        t_chirp = np.arange(cube.shape[0]) / params.chirp_rate_hz
+        position = np.interp(t_chirp, t, smooth)
+    iq, w = bin_slow_time(cube, params, bins, cpi, beat_sign=beat_sign, position=position)
+    rng = np.maximum(pos, 0.5) * params.range_bin_m
+    v, from_dop = radial_velocity(t, rng, iq, params, cpi)
+    trk = {"time_s": t, "range_m": rng, "radial_velocity_mps": v, "range_bin": bins.astype(int),
+           "velocity_from_doppler": from_dop}
     tiny = np.finfo(np.float64).tiny
-    rows = np.arange(n_cpi)
     med = np.median(power[:, 1:], axis=1)
-    contrast = 10 * np.log10(np.maximum(power[rows, bins], tiny) / np.maximum(med, tiny))
+    contrast = 10 * np.log10(np.maximum(power[np.arange(n_cpi), bins], tiny) / np.maximum(med, tiny))
     info = {"n_chirps": int(cube.shape[0]), "n_samples": int(cube.shape[1]), "n_channels": int(cube.shape[2]),
             "input": "complex" if np.iscomplexobj(cube) else "real", "beat_sign": beat_sign,
             "chirp_rate_hz": params.chirp_rate_hz, "bandwidth_hz": params.bandwidth_hz,
@@ -504,13 +582,13 @@ def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | 
             "cpi_chirps": cpi, "n_cpi": n_cpi, "range_bin": "fixed" if range_bin is not None else "followed",
             "max_step_bins": max_step_bins, "bins_min": int(bins.min()), "bins_max": int(bins.max()),
             "moving_contrast_db_median": round(float(np.median(contrast)), 2),
-            "velocity_from_doppler_fraction": round(float(np.mean(trk["velocity_from_doppler"])), 3)}
-    return FmcwResult(iq=iq, track=trk, bins=bins, weights=w, power=power, info=info)
+            "velocity_from_doppler_fraction": round(float(np.mean(from_dop)), 3)}
+    return FmcwResult(iq=iq, track=trk, bins=bins, position=position, weights=w, power=power, info=info)
 
 
 def background_slow_time(cube: np.ndarray, params: FmcwParameters, result: FmcwResult, *,
                          beat_sign: str = "positive", source="background") -> np.ndarray:
-    """A target-free cube through the same bins and channel weights as ``result``.
+    """A target-free cube through the same cells and channel weights as ``result``.
 
     Returns
     -------
@@ -521,11 +599,11 @@ def background_slow_time(cube: np.ndarray, params: FmcwParameters, result: FmcwR
     if cube.shape[0] != n:
         raise InputError(source, "chirps", f"has {cube.shape[0]}", f"{n} chirps, as the recording "
                          "(background/iq pairs pulse by pulse)")
-    cpi = int(result.info["cpi_chirps"])
     if cube.shape[1:] != (result.info["n_samples"], result.info["n_channels"]):
         raise InputError(source, "shape", f"is {cube.shape}", f"[{n}, {result.info['n_samples']}, "
                          f"{result.info['n_channels']}] as the recording")
-    iq, _ = bin_slow_time(cube, params, result.bins, cpi, beat_sign=beat_sign, weights=result.weights)
+    iq, _ = bin_slow_time(cube, params, result.bins, int(result.info["cpi_chirps"]), beat_sign=beat_sign,
+                          position=result.position, weights=result.weights)
     return iq
 
 

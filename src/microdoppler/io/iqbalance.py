@@ -70,16 +70,23 @@ KEYS = ("image_rejection_db", "amplitude_imbalance_db", "phase_imbalance_deg", "
         "image_rejection_floor_db", "image_rejection_note", "doppler_sign_db")
 
 
-def _segments(iq: np.ndarray, nfft: int, max_segments: int = 512) -> tuple[np.ndarray, np.ndarray]:
-    """Blackman-Harris windowed FFTs of up to ``max_segments`` segments spread over
-    ``iq`` (complex [n]), shape [n_seg, nfft], and their centre sample indices."""
+def _segments(iq: np.ndarray, nfft: int, max_segments: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+    """Blackman-Harris windowed FFTs of up to ``max_segments`` half-overlapping
+    segments spread over ``iq`` (complex [n]), each less its mean, shape [n_seg, nfft],
+    and their centre sample indices. (Removing the mean and the window's low
+    sidelobes keep a strong clutter line, whose leakage at +-f is mirror-symmetric,
+    out of the bins beside the notch; the overlap recovers what the window's tails
+    discard.)"""
     from scipy.signal import get_window
 
-    n_seg = len(iq) // nfft
-    idx = np.unique(np.linspace(0, n_seg - 1, min(n_seg, max_segments)).round().astype(int))
-    seg = np.stack([iq[i * nfft:(i + 1) * nfft] for i in idx]).astype(np.complex128)
+    hop = nfft // 2
+    starts = np.arange(0, len(iq) - nfft + 1, hop)
+    idx = np.unique(np.linspace(0, len(starts) - 1, min(len(starts), max_segments)).round().astype(int))
+    starts = starts[idx]
+    seg = np.stack([iq[a:a + nfft] for a in starts]).astype(np.complex128)
+    seg -= seg.mean(axis=1, keepdims=True)  # the static clutter line, before its sidelobes reach every bin
     seg *= get_window("blackmanharris", nfft)
-    return np.fft.fft(seg, axis=1), idx * nfft + nfft / 2
+    return np.fft.fft(seg, axis=1), starts + nfft / 2
 
 
 def _nfft_for(n: int, nfft: int) -> int:
@@ -136,7 +143,11 @@ def _mirror_stat(Z: np.ndarray, keep: np.ndarray) -> dict | None:
     p = ((pa + pb) / 2) @ w
     P = float(p.sum())
     rho = complex(c.sum()) / P
-    se_rho = float(np.sqrt(np.sum(np.abs(c - rho * p) ** 2))) / P
+    e = c - rho * p
+    ee = float(np.sum(np.abs(e) ** 2))
+    # neighbouring (half-overlapping) segments are correlated: inflate by 1 + 2 x lag-1 correlation
+    lag1 = float(np.real(np.sum(e[1:] * np.conj(e[:-1])))) / ee if ee > 0 and len(e) > 2 else 0.0
+    se_rho = math.sqrt(ee * max(1.0, 1 + 2 * lag1)) / P
     kappa = min(abs(rho), 1.0)
     r = 0.0 if kappa == 0 else (1 - math.sqrt(max(0.0, 1 - kappa ** 2))) / kappa
     ei, eq, eiq = (1 + rho.real) / 2, (1 - rho.real) / 2, rho.imag / 2
