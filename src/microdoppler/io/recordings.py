@@ -177,10 +177,6 @@ def _index(value, source, where: str) -> int:
     return int(value)
 
 
-def _finite_or_none(v, digits=3):
-    return None if v is None or not math.isfinite(v) else round(float(v), digits)
-
-
 # ---- I/Q arrays ----------------------------------------------------------------------
 
 def _check_finite(iq: np.ndarray, source, where: str) -> None:
