@@ -207,6 +207,25 @@ def test_hovering_target_and_background_cube(capsys, tmp_path):
         assert np.sum(on >= 15) >= 3, (rate, on, off)
 
 
+def test_batch_table_mixes_fmcw_and_slow_time_rows(capsys, tmp_path, approaching):
+    """A campaign table: an FMCW row (chirp parameters as columns, a fixed CPI) beside a
+    slow-time row; both become stores, the FMCW one at the chirp rate."""
+    import pandas as pd
+
+    sc, cube, _ = approaching
+    np.save(tmp_path / "f.npy", cube[:4096])
+    rng = np.random.default_rng(3)
+    np.save(tmp_path / "s.npy", (rng.standard_normal(8192) + 1j * rng.standard_normal(8192)).astype(np.complex64))
+    rows = [{"file": "f.npy", "flight_id": "fm", **chirp_keys(sc), "cpi_chirps": 128, "range_m": "", "prf_hz": ""},
+            {"file": "s.npy", "flight_id": "st", "prf_hz": 7300, "carrier_hz": 1.35e9, "range_m": 900}]
+    pd.DataFrame([{**DRONE, **r} for r in rows]).to_csv(tmp_path / "t.csv", index=False)
+    rc, err = run_cli(capsys, ["import", "--batch", tmp_path / "t.csv", "--out", tmp_path / "out"])
+    assert rc == 0, err
+    fm, st = read_flight(tmp_path / "out/fm.zarr"), read_flight(tmp_path / "out/st.zarr")
+    assert fm.prf_hz == sc.chirp_rate_hz and len(fm.iq) == 4096 and fm.attrs["import"]["fmcw"]["cpi_chirps"] == 128
+    assert st.prf_hz == 7300 and st.attrs["import"]["layout"] == "complex"
+
+
 # ---- bad input ---------------------------------------------------------------------------
 
 SMALL = {"chirp_rate_hz": 8000.0, "bandwidth_hz": 150e6, "sample_rate_hz": 2e6, "carrier_hz": 5.8e9}
@@ -270,6 +289,12 @@ def bad_background_chirps(d):
     np.savez(d / "r.npz", cube=_cube(), **SMALL, **DRONE)
     np.save(d / "bg.npy", _cube(n=500))
     return [d / "r.npz", "--background", d / "bg.npy"], ("bg.npy", "chirps", "500", "600 chirps")
+
+
+def bad_background_chirp_rate(d):
+    np.savez(d / "r.npz", cube=_cube(), **SMALL, **DRONE)
+    np.savez(d / "bg.npz", cube=_cube(seed=1), **{**SMALL, "chirp_rate_hz": 4000.0})
+    return [d / "r.npz", "--background", d / "bg.npz"], ("bg.npz", "chirp_rate_hz", "4000", "8000")
 
 
 def bad_beat_sign_in_sidecar(d):

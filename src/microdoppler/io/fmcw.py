@@ -39,9 +39,9 @@ Steps (:func:`process_fmcw`)
 5. Slow time (:func:`bin_slow_time`): each chirp's value at the target's range
    (single-bin DFTs of the same window, interpolated linearly between the two bins
    around the smoothed range, so the cell glides with the target), channels
-   phase-aligned to the first one per CPI and averaged, conjugated to flight-zarr's
-   sign (the channel weights smoothed over ~5 CPIs). Stationary clutter is left
-   in. With ``range_bin`` fixed: that bin.
+   phase-aligned to the first and averaged (weights from the target's moving part,
+   smoothed over 5 CPIs and interpolated per chirp), conjugated to flight-zarr's
+   sign. Stationary clutter is left in. With ``range_bin`` fixed: that bin.
 6. Track: one row per CPI at its centre time, the range of step 4; radial velocity
    (:func:`radial_velocity`) from a local straight-line fit of the
    range over ~0.5 s, replaced by the body Doppler (the strongest non-static line of
@@ -648,7 +648,8 @@ def fmcw_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None
 
     names_of = {a: k for k, al in FMCW_ALIASES.items() for a in al}
     for k in PARAM_TYPES:
-        names_of.setdefault(k, k)
+        if k != "n_samples":  # in an FMCW file it could mean samples per chirp: not read
+            names_of.setdefault(k, k)
     md, fields, track = {}, {}, {}
     for name, v in arrays.items():
         key = names_of.get(name.lower())
@@ -756,6 +757,10 @@ def import_fmcw(path, fmt: str, arrays: dict, *, options: dict, sidecar: dict, v
         bpath = Path(background)
         bfmt, barrays = read_arrays(bpath)
         bff = fmcw_from_arrays(bpath, bfmt, barrays, variable=variable)
+        for key in FMCW_REQUIRED:
+            v, want = bff.metadata.get(key), getattr(p, key)
+            if v is not None and not math.isclose(v, want, rel_tol=1e-9):
+                raise InputError(bpath, bff.fields[key], f"is {v:g}", f"{want:g} as the recording's {key}")
         bg = background_slow_time(bff.cube, p, res, beat_sign=beat, source=bpath)
     info = {"variable": ff.variable, "fmcw": {**res.info, "carrier_hz": p.carrier_hz}}
     rec = Recording(path=path, format=ff.format, layout=f"fmcw-{res.info['input']}", iq=res.iq,
