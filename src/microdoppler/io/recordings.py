@@ -6,8 +6,11 @@ as complex64 plus a metadata dict of the radar parameters the file itself states
 (``prf_hz``, ``carrier_hz``, ...), each with the field it came from.
 :func:`resolve_parameters` merges them with a YAML sidecar and command-line options
 (option > sidecar > file; an option or sidecar value that contradicts the file's
-own metadata wins with a warning), :func:`iq_sanity` measures the I/Q balance, and
-:func:`build_flight` returns a validated :class:`~microdoppler.io.flightzarr.Flight`.
+own metadata wins with a warning), :func:`~microdoppler.io.iqbalance.iq_sanity`
+measures the receiver's I/Q balance, and :func:`build_flight` returns a validated
+:class:`~microdoppler.io.flightzarr.Flight`. Raw FMCW cubes (``.npy``/``.npz``/``.mat``
+with chirp parameters) go through :mod:`microdoppler.io.fmcw` first
+(:func:`import_recording` decides which).
 
 What each format contributes
 ----------------------------
