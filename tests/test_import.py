@@ -317,17 +317,21 @@ def test_swapped_i_and_q_warn_against_the_track(capsys, tmp_path, flight):
 
 
 def test_image_rejection_measures_a_known_imbalance():
-    """A receiver with 1.1 gain and 3 deg phase error on Q: IRR 25.3 dB (white noise in)."""
+    """A receiver with 1.1 gain and 3 deg phase error on Q: IRR 25.3 dB (white noise in,
+    the whole recording declared target-free; or given as the background)."""
     rng = np.random.default_rng(5)
     z = rng.standard_normal(1 << 18) + 1j * rng.standard_normal(1 << 18)
     g, ph = 1.1, np.radians(3.0)
     bad = z.real + 1j * g * (z.imag * np.cos(ph) + z.real * np.sin(ph))
     want = 10 * np.log10((1 + 2 * g * np.cos(ph) + g * g) / (1 - 2 * g * np.cos(ph) + g * g))
-    s = iq_sanity(bad, 7300.0)
-    assert abs(s["image_rejection_db"] - want) < 1.0, (s, want)
-    assert abs(s["amplitude_imbalance_db"] + 20 * np.log10(g)) < 0.1 and abs(s["phase_imbalance_deg"] - 3) < 0.3, s
-    assert iq_sanity(z, 7300.0)["image_rejection_db"] > 40
-    assert iq_sanity(z.real, 7300.0)["image_rejection_db"] == 0.0
+    whole = (0.0, len(z) / 7300.0)
+    for s in (iq_sanity(bad, 7300.0, noise_s=whole), iq_sanity(bad[:50000], 7300.0, background=bad)):
+        assert abs(s["image_rejection_db"] - want) < 1.0, (s, want)
+        assert abs(s["amplitude_imbalance_db"] + 20 * np.log10(g)) < 0.1 and abs(s["phase_imbalance_deg"] - 3) < 0.3, s
+    assert iq_sanity(z, 7300.0, noise_s=whole)["image_rejection_db"] > 40
+    assert iq_sanity(z.real, 7300.0)["image_rejection_db"] == 0.0  # real-valued samples: whatever the target
+    s = iq_sanity(bad, 7300.0)  # noise with no target, background or noise segment: nothing to measure on
+    assert s["image_rejection_db"] is None and s["image_rejection_note"].startswith("not measurable"), s
 
 
 # ---- batch ----------------------------------------------------------------------------

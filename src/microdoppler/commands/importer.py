@@ -8,9 +8,22 @@ else from a YAML sidecar (``--sidecar``) or options; an option beats the sidecar
 which beats the file, and an option that contradicts the file's metadata wins with a
 warning. The track is a CSV (``--track``: time_s, range_m[, radial_velocity_mps];
 radial velocity from the gradient otherwise) or a constant range (``--range-m``,
-a staring recording: radial velocity 0). The I/Q balance is measured (image-rejection
-ratio, Doppler sign against the track) and a doubtful one is warned about on stderr;
-both go into the store's ``import`` attribute.
+a staring recording: radial velocity 0). The receiver's I/Q balance is measured
+(image-rejection ratio: from ``--background``, else from a target-free
+``--noise-segment-s`` of the recording, else from the body line when it lies well
+away from 0 Hz, else "not measurable" -- a hovering rotor's spectrum is
+mirror-symmetric by nature; and the Doppler sign against the track); a doubtful one
+is warned about on stderr; both go into the store's ``import`` attribute.
+
+Raw FMCW data (``.npy``/``.npz``/``.mat``: a cube [chirps, samples] or [chirps,
+samples, channels], real or complex) is read when its chirp parameters are given
+(``--chirp-rate-hz``, ``--bandwidth-hz`` (swept over the sampled part of a chirp),
+``--sample-rate-hz`` (fast time) and ``--carrier-hz`` (the sweep's centre), from the
+file's variables, a sidecar or these options): range profiles per chirp, the
+static part of each range bin removed per CPI (``--cpi-chirps``), the target's bin
+followed from CPI to CPI (the most moving-target power, at most 2 bins per CPI; or
+``--range-bin``), and that bin's slow time written at the chirp rate, with the track
+from the bin's range (see :mod:`microdoppler.io.fmcw`).
 
 ``--batch TABLE.csv --out FOLDER`` converts a campaign: one row per recording,
 column ``file`` (relative to the table) plus optional columns named like the sidecar
@@ -37,13 +50,15 @@ from ..errors import InputError
 from ..io.flightzarr import write_flight
 from ..io.motorlog import UNIT_TO_RPM, read_motor_log
 from ..io.outputs import atomic_dir, check_output, commit_folder, is_tool_store
+from ..io.fmcw import BEAT_SIGNS
 from ..io.recordings import (EXTRA_KEYS, LAYOUTS, OPTION, PARAM_TYPES, SIDECAR_KEYS, convert,
-                          default_flight_id_for, import_recording, read_recording, read_sidecar)
+                             default_flight_id_for, import_recording, parse_noise_segment, read_sidecar)
 from . import add_overwrite, positive, positive_int
 
 #: parameters that have a command-line option (n_samples is a sidecar/table key only)
 OPTION_KEYS = ("prf_hz", "carrier_hz", "radar_id", "target", "drone_model", "n_motors", "n_blades",
-               "blade_length_m", "range_m", "flight_id")
+               "blade_length_m", "range_m", "flight_id", "chirp_rate_hz", "bandwidth_hz", "sample_rate_hz",
+               "range_bin", "cpi_chirps", "beat_sign", "noise_segment_s")
 #: batch-table columns that name a file (relative to the table) besides ``track``
 ROW_FILES = ("file", "sidecar", "background", "motor_log")
 TABLE_COLUMNS = (*ROW_FILES, "motor_log_unit", *SIDECAR_KEYS)
@@ -53,7 +68,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "import", help="convert a recording (SigMF, .mat, .npy/.npz) into a flight-zarr/1 store",
         description=__doc__.split("\n\n")[1])
-    p.add_argument("recording", nargs="?", help="the recording: X.sigmf-meta (or .sigmf-data), X.mat, X.npy, X.npz")
+    p.add_argument("recording", nargs="?", help="the recording: X.sigmf-meta (or .sigmf-data), X.mat, X.npy, X.npz (slow-time I/Q, or an FMCW cube)")
     p.add_argument("--batch", default=None, metavar="TABLE.csv",
                    help="convert every recording of a table (column file + optional parameter columns) into "
                         "--out FOLDER/<flight_id>.zarr")
@@ -79,6 +94,23 @@ def register(subparsers) -> None:
     trk.add_argument("--track", default=None, help="track CSV: time_s, range_m[, radial_velocity_mps]")
     p.add_argument("--flight-id", default=None,
                    help="flight_id attribute (default: the store's name; with --batch, the file's name)")
+    p.add_argument("--noise-segment-s", default=None, metavar="START:END",
+                   help="a stretch of the recording [s] that holds no target: the I/Q balance is measured there "
+                        "(when there is no --background)")
+    fm = p.add_argument_group("FMCW cubes (.npy/.npz/.mat [chirps, samples(, channels)])")
+    fm.add_argument("--chirp-rate-hz", type=positive, default=None,
+                    help="chirps per second: the slow-time rate, stored as prf_hz [Hz]")
+    fm.add_argument("--bandwidth-hz", type=positive, default=None,
+                    help="frequency swept over a chirp's sampled part [Hz] (range bin = c / 2B)")
+    fm.add_argument("--sample-rate-hz", type=positive, default=None, help="fast-time (ADC) sample rate [Hz]")
+    fm.add_argument("--range-bin", type=positive_int, default=None,
+                    help="take this range bin (0 = DC) instead of following the moving target")
+    fm.add_argument("--cpi-chirps", type=positive_int, default=None,
+                    help="chirps per CPI for the static removal and the bin tracking (default: a power of two "
+                         "within 50 ms)")
+    fm.add_argument("--beat-sign", choices=BEAT_SIGNS, default=None,
+                    help="targets at positive beat frequencies (transmitted x conj(received), a real mixer; the "
+                         "default) or negative ones (received x conj(transmitted))")
     p.add_argument("--background", default=None,
                    help="a target-free recording of the same cells (same format and layout), stored as "
                         "background/iq for injecting twins and for the diagnosis' floor tests")
@@ -101,6 +133,8 @@ def _options(args) -> dict:
     for k in OPTION_KEYS + ("track",):
         v = getattr(args, k)
         if v is not None:
+            if k == "noise_segment_s":
+                v = parse_noise_segment(v, OPTION[k], "value")
             out[k] = (v, OPTION[k])
     return out
 
@@ -108,16 +142,24 @@ def _options(args) -> dict:
 def _summary(path, out, flight, warns) -> dict:
     imp = flight.attrs["import"]
     return {"path": path, "out": out, "n": len(flight.iq), "duration_s": flight.duration_s, "format": imp["format"],
-            "layout": imp["layout"], "irr": imp.get("image_rejection_db"), "warnings": list(warns)}
+            "layout": imp["layout"], "irr": imp.get("image_rejection_db"), "irr_from": imp.get("image_rejection_from"),
+            "fmcw": imp.get("fmcw"), "range_m": (float(flight.track_range_m.min()), float(flight.track_range_m.max())),
+            "warnings": list(warns)}
 
 
 def _report(s: dict, quiet: bool) -> None:
     for w in s["warnings"]:
         print(f"warning: {s['path']}: {w}", file=sys.stderr)
     if not quiet:
-        irr = "n/a" if s["irr"] is None else f"{s['irr']:.1f} dB"
+        irr = "not measurable" if s["irr"] is None else f"{s['irr']:.1f} dB ({s['irr_from']})"
         print(f"{s['out']}: {s['n']} pulses ({s['duration_s']:.2f} s, {s['format']}, {s['layout']}), "
               f"image rejection {irr}", file=sys.stderr)
+        f = s.get("fmcw")
+        if f:
+            print(f"{s['out']}: FMCW {f['n_chirps']} chirps x {f['n_samples']} samples x {f['n_channels']} "
+                  f"channel(s), {f['n_cpi']} CPIs of {f['cpi_chirps']} chirps; range bins of {f['range_bin_m']:.3g} m, "
+                  f"target in bins {f['bins_min']}-{f['bins_max']} ({f['range_bin']}), track "
+                  f"{s['range_m'][0]:.2f}-{s['range_m'][1]:.2f} m", file=sys.stderr)
 
 
 def run(args) -> int:
@@ -133,9 +175,8 @@ def run(args) -> int:
     log = load_motor_log(args.motor_log, args.motor_log_unit)
     flight, warns = import_recording(
         args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
-        default_flight_id=default_flight_id_for(args.out))
-    flight = complete_flight(flight, warns, log=log, log_path=args.motor_log, estimate=args.estimate_motors,
-                             background=args.background, variable=args.variable, layout=args.layout)
+        default_flight_id=default_flight_id_for(args.out), background=args.background)
+    flight = complete_flight(flight, warns, log=log, log_path=args.motor_log, estimate=args.estimate_motors)
     write_flight(args.out, flight)
     _report(_summary(args.recording, args.out, flight, warns), args.quiet)
     return 0
@@ -149,11 +190,10 @@ def load_motor_log(path, unit: str = "rpm"):
     return read_motor_log(path, **opts)
 
 
-def complete_flight(flight, warns: list, *, log=None, log_path=None, estimate: bool = False, background=None,
-                    variable=None, layout=None):
+def complete_flight(flight, warns: list, *, log=None, log_path=None, estimate: bool = False):
     """Attach what the recording itself does not hold: the motor log (or rotor speeds
-    estimated from the radar when ``estimate`` and there is no log) and the
-    background recording (``background/iq``, same format and length)."""
+    estimated from the radar when ``estimate`` and there is no log). (The background
+    recording is read with the recording: :func:`~microdoppler.io.recordings.import_recording`.)"""
     if log is not None:
         if estimate:
             raise InputError("--estimate-motors", "option", f"given with a motor log ({log_path})",
@@ -161,12 +201,6 @@ def complete_flight(flight, warns: list, *, log=None, log_path=None, estimate: b
         attach_motor_log(flight, log, log_path)
     elif estimate:
         flight = estimate_motors(flight, warns)
-    if background:
-        bg = read_recording(background, variable=variable, layout=layout).iq
-        if len(bg) != len(flight.iq):
-            raise InputError(background, "samples", f"has {len(bg)}",
-                             f"{len(flight.iq)} samples, as the recording (background/iq pairs pulse by pulse)")
-        flight.background_iq = bg
     return flight
 
 
@@ -245,6 +279,8 @@ def read_batch_table(path) -> list[dict]:
                 v = convert(c, v, where, c)
             elif c == "layout" and v not in LAYOUTS:
                 raise InputError(where, c, f"is {v!r}", " or ".join(LAYOUTS))
+            elif c == "noise_segment_s":
+                v = parse_noise_segment(v, where, c)
             row["values"][c] = (v, label)
         if "file" not in row:
             raise InputError(where, "file", "is empty", "the recording's path")
@@ -273,18 +309,16 @@ def run_batch(args) -> int:
             if "track" in vals or "range_m" in vals:  # a row's track replaces the command line's
                 opts.pop("track", None)
                 opts.pop("range_m", None)
-            opts.update({k: v for k, v in vals.items() if k not in EXTRA_KEYS or k == "track"})
+            opts.update({k: v for k, v in vals.items() if k not in EXTRA_KEYS or k in ("track", "noise_segment_s")})
             sidecar = read_sidecar(row["sidecar"]) if "sidecar" in row else cli_sidecar
             flight, warns = import_recording(
                 row["file"], options=opts, sidecar=sidecar,
                 layout=vals.get("layout", (args.layout,))[0], variable=vals.get("variable", (args.variable,))[0],
-                default_flight_id=default_flight_id_for(row["file"]))
+                default_flight_id=default_flight_id_for(row["file"]), background=row.get("background"))
             log = load_motor_log(row.get("motor_log"), row.get("motor_log_unit", args.motor_log_unit))
-            layout, variable = vals.get("layout", (args.layout,))[0], vals.get("variable", (args.variable,))[0]
             flight = complete_flight(
-                flight, warns, log=log, log_path=row.get("motor_log"), background=row.get("background"),
-                estimate=args.estimate_motors and log is None and flight.attrs.get("target") == "drone",
-                variable=variable, layout=layout)
+                flight, warns, log=log, log_path=row.get("motor_log"),
+                estimate=args.estimate_motors and log is None and flight.attrs.get("target") == "drone")
             fid = flight.flight_id
             if fid in seen:
                 raise InputError(row["line"], "flight_id", f"{fid!r} is also the flight id of {seen[fid]}",

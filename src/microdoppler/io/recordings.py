@@ -6,8 +6,11 @@ as complex64 plus a metadata dict of the radar parameters the file itself states
 (``prf_hz``, ``carrier_hz``, ...), each with the field it came from.
 :func:`resolve_parameters` merges them with a YAML sidecar and command-line options
 (option > sidecar > file; an option or sidecar value that contradicts the file's
-own metadata wins with a warning), :func:`iq_sanity` measures the I/Q balance, and
-:func:`build_flight` returns a validated :class:`~microdoppler.io.flightzarr.Flight`.
+own metadata wins with a warning), :func:`~microdoppler.io.iqbalance.iq_sanity`
+measures the receiver's I/Q balance, and :func:`build_flight` returns a validated
+:class:`~microdoppler.io.flightzarr.Flight`. Raw FMCW cubes (``.npy``/``.npz``/``.mat``
+with chirp parameters) go through :mod:`microdoppler.io.fmcw` first
+(:func:`import_recording` decides which).
 
 What each format contributes
 ----------------------------
@@ -47,7 +50,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .fmcw import BEAT_SIGNS, FMCW_PARAM_TYPES
 from .flightzarr import FLIGHT_ID_RE, SCHEMA, TARGETS, Flight
+from .iqbalance import DOPPLER_SIGN_WARN_DB, IMAGE_REJECTION_WARN_DB, iq_sanity, sanity_warnings  # noqa: F401
 
 FORMATS = ("sigmf", "mat", "npy", "npz")
 LAYOUTS = ("complex", "iq-columns")
@@ -57,10 +62,11 @@ SPEED_OF_LIGHT_MPS = 299_792_458.0
 PARAM_TYPES = {
     "prf_hz": float, "carrier_hz": float, "radar_id": str, "target": str, "drone_model": str,
     "n_motors": int, "n_blades": int, "blade_length_m": float, "range_m": float, "flight_id": str,
-    "n_samples": int,
+    "n_samples": int, **FMCW_PARAM_TYPES,
 }
-#: further keys of a sidecar / batch row (paths and reading options)
-EXTRA_KEYS = ("track", "layout", "variable")
+#: further keys of a sidecar / batch row (paths and reading options; ``noise_segment_s``:
+#: ``START:END`` [s] of the recording that holds no target, for the I/Q balance)
+EXTRA_KEYS = ("track", "layout", "variable", "noise_segment_s")
 SIDECAR_KEYS = tuple(PARAM_TYPES) + EXTRA_KEYS
 #: the command-line option of each parameter
 OPTION = {k: "--" + k.replace("_", "-") for k in (*PARAM_TYPES, *EXTRA_KEYS)}
@@ -70,16 +76,13 @@ DRONE_REQUIRED = ("drone_model", "n_motors", "n_blades", "blade_length_m")
 ALIASES = {
     "prf_hz": ("prf_hz", "prf", "fs", "sample_rate", "sample_rate_hz"),
     "carrier_hz": ("carrier_hz", "fc", "carrier_frequency", "carrier_frequency_hz", "center_frequency"),
-    **{k: (k,) for k in PARAM_TYPES if k not in ("prf_hz", "carrier_hz")},
+    **{k: (k,) for k in PARAM_TYPES if k not in ("prf_hz", "carrier_hz") and k not in FMCW_PARAM_TYPES},
 }
 TRACK_VARS = ("track_time_s", "track_range_m", "track_radial_velocity_mps")
 SIGMF_DATATYPE_RE = re.compile(r"^(c|r)(f32|f64|i32|i16|u32|u16|i8|u8)(_le|_be)?$")
 SIGMF_NS = "microdoppler:"
-#: warn when the image-rejection ratio is below this [dB] (a real-valued signal: 0 dB)
-IMAGE_REJECTION_WARN_DB = 15.0
-#: warn when the target's Doppler is this much stronger on the mirrored side [dB]
-DOPPLER_SIGN_WARN_DB = -3.0
-SHAPE_EXPECTED = "a complex vector [n] or two real columns I, Q [n, 2]"
+SHAPE_EXPECTED = ("a complex vector [n] or two real columns I, Q [n, 2]; an FMCW cube [chirps, samples(, channels)] "
+                  "needs --chirp-rate-hz, --bandwidth-hz and --sample-rate-hz")
 
 
 @dataclass
@@ -136,6 +139,8 @@ def convert(key: str, value, source, where: str):
             raise InputError(source, where, "is empty", "a non-empty string")
         if key == "target" and value not in TARGETS:
             raise InputError(source, where, f"is {value!r}", " or ".join(TARGETS))
+        if key == "beat_sign" and value not in BEAT_SIGNS:
+            raise InputError(source, where, f"is {value!r}", " or ".join(BEAT_SIGNS))
         if key == "flight_id" and not FLIGHT_ID_RE.match(value):
             raise InputError(source, where, f"is {value!r}", "a flight id of [A-Za-z0-9_.-]+")
         return value
@@ -175,10 +180,6 @@ def _index(value, source, where: str) -> int:
     return int(value)
 
 
-def _finite_or_none(v, digits=3):
-    return None if v is None or not math.isfinite(v) else round(float(v), digits)
-
-
 # ---- I/Q arrays ----------------------------------------------------------------------
 
 def _check_finite(iq: np.ndarray, source, where: str) -> None:
@@ -212,7 +213,9 @@ def iq_from_array(a: np.ndarray, source, where: str, layout: str | None = None) 
         if a.ndim == 2 and 1 in a.shape:
             a = a.reshape(-1)
         if a.ndim != 1:
-            raise InputError(source, where, f"is complex with shape {a.shape}", "a complex vector [n] (one channel)")
+            raise InputError(source, where, f"is complex with shape {a.shape}",
+                             "a complex vector [n] (one channel); an FMCW cube [chirps, samples(, channels)] needs "
+                             "--chirp-rate-hz, --bandwidth-hz and --sample-rate-hz")
         iq = a
     else:
         found = "iq-columns"
@@ -515,6 +518,19 @@ def _from_named(path: Path, fmt: str, arrays: dict, *, variable=None, layout=Non
                      info={"variable": chosen})
 
 
+def recording_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None = None,
+                          layout: str | None = None) -> Recording:
+    """A slow-time :class:`Recording` from :func:`read_arrays`' output."""
+    if layout is not None and layout not in LAYOUTS:
+        raise InputError("--layout", "value", f"is {layout!r}", " or ".join(LAYOUTS))
+    if fmt == "npy":
+        if variable:
+            raise InputError(path, "--variable", "given for an .npy file", "no --variable (an .npy holds one array)")
+        iq, found = iq_from_array(arrays["array"], path, "array", layout)
+        return Recording(path=path, format="npy", layout=found, iq=iq)
+    return _from_named(path, fmt, arrays, variable=variable, layout=layout)
+
+
 def read_mat(path, *, variable: str | None = None, layout: str | None = None) -> Recording:
     """Read a MATLAB ``.mat`` recording (v5 via scipy, v7.3/HDF5 via h5py)."""
     import h5py
@@ -611,8 +627,22 @@ def read_sidecar(path) -> dict:
             v = Path(v) if Path(str(v)).is_absolute() else path.parent / str(v)
         elif k == "layout" and v not in LAYOUTS:
             raise InputError(path, k, f"is {v!r}", " or ".join(LAYOUTS))
+        elif k == "noise_segment_s":
+            v = parse_noise_segment(v, path, k)
         out[k] = (v, label)
     return out
+
+
+def parse_noise_segment(value, source, where: str) -> tuple[float, float]:
+    """``START:END`` (or ``[START, END]``) [s] -> ``(start, end)`` with ``0 <= start < end``."""
+    parts = value if isinstance(value, (list, tuple)) else re.split(r"[:,]", str(value))
+    try:
+        a, b = (float(x) for x in parts)
+    except (TypeError, ValueError):
+        raise InputError(source, where, f"is {value!r}", "START:END in seconds, e.g. 0:2.5") from None
+    if not (math.isfinite(a) and math.isfinite(b) and 0 <= a < b):
+        raise InputError(source, where, f"is {value!r}", "START:END in seconds with 0 <= START < END")
+    return a, b
 
 
 def resolve_parameters(rec: Recording, options: dict, sidecar: dict) -> tuple[dict, dict, list[str]]:
@@ -703,106 +733,19 @@ def finish_track(trk: dict, source) -> dict:
     return {"time_s": t, "range_m": r, "radial_velocity_mps": v, "source": trk.get("source", str(source))}
 
 
-# ---- I/Q sanity ---------------------------------------------------------------------------
-
-def _segments(iq: np.ndarray, nfft: int, max_segments: int = 512) -> tuple[np.ndarray, np.ndarray]:
-    """Blackman-Harris windowed FFTs of up to ``max_segments`` segments spread over the
-    recording, and their centre sample indices."""
-    from scipy.signal import get_window
-
-    n_seg = len(iq) // nfft
-    idx = np.unique(np.linspace(0, n_seg - 1, min(n_seg, max_segments)).round().astype(int))
-    seg = np.stack([iq[i * nfft:(i + 1) * nfft] for i in idx]).astype(np.complex128)
-    seg *= get_window("blackmanharris", nfft)
-    return np.fft.fft(seg, axis=1), idx * nfft + nfft / 2
-
-
-def iq_sanity(iq: np.ndarray, prf_hz: float, wavelength_m: float | None = None, track: dict | None = None,
-              nfft: int = 1024, guard_bins: int = 4) -> dict:
-    """I/Q balance of a recording.
-
-    ``image_rejection_db``: the image-rejection ratio of the I/Q pair, from the
-    coherence between each Doppler bin and its mirror image. With I/Q imbalance a
-    signal s becomes ``mu s + nu conj(s)``; the mirror-image correlation
-    ``kappa = |sum Z(f) Z(-f)| / sum |Z(f)|^2`` (bins within ``guard_bins`` of 0 Hz
-    and the Nyquist bin left out, so stationary clutter does not count) equals
-    ``2 r / (1 + r^2)`` with ``r = |nu / mu|``, and IRR = ``|mu / nu|^2``. A real
-    signal (Q = 0, or I = Q) has a mirror-symmetric spectrum: kappa = 1, 0 dB; a
-    balanced receiver gives tens of dB (limited by the recording's length).
-    ``amplitude_imbalance_db`` (10 log10 E[I^2]/E[Q^2]) and ``phase_imbalance_deg``
-    (asin of the I-Q correlation) come from the same high-passed statistics.
-
-    ``doppler_sign_db`` (only with a track whose Doppler ``-2 v / lambda`` lies off
-    the guard band): median over CPIs of the peak power near the track's Doppler
-    over that near its mirror image [dB]; negative when the target sits at the
-    mirrored Doppler, i.e. I and Q swapped (or Q negated).
-    """
-    out = {"image_rejection_db": None, "amplitude_imbalance_db": None, "phase_imbalance_deg": None,
-           "doppler_sign_db": None}
-    n = len(iq)
-    nfft = int(min(nfft, 2 ** int(np.floor(np.log2(max(n, 1))))))
-    if nfft < 64:
-        return out
-    Z, centres = _segments(iq, nfft)
-    k = np.fft.fftfreq(nfft) * nfft
-    keep = (np.abs(k) >= guard_bins) & (np.abs(k) < nfft // 2)
-    mirror = (-np.arange(nfft)) % nfft
-    P = float(np.sum(np.abs(Z[:, keep]) ** 2))
-    if P > 0:
-        C = complex(np.sum(Z[:, keep] * Z[:, mirror][:, keep]))
-        kappa = min(abs(C) / P, 1.0)
-        if kappa > 0:
-            r = (1 - math.sqrt(max(0.0, 1 - kappa ** 2))) / kappa
-            # r <= 1, so the ratio is >= 0 dB (max() also turns -0.0 into 0.0)
-            out["image_rejection_db"] = max(0.0, min(-20 * math.log10(r), 100.0)) if r > 0 else 100.0
-        else:
-            out["image_rejection_db"] = 100.0
-        ei, eq, eiq = (P + C.real) / 2, (P - C.real) / 2, C.imag / 2
-        if ei > 1e-12 * P and eq > 1e-12 * P:
-            out["amplitude_imbalance_db"] = 10 * math.log10(ei / eq)
-            out["phase_imbalance_deg"] = math.degrees(math.asin(max(-1.0, min(1.0, eiq / math.sqrt(ei * eq)))))
-    if track is not None and wavelength_m:
-        tc = centres / prf_hz
-        fd = -2 * np.interp(tc, track["time_s"], track["radial_velocity_mps"]) / wavelength_m
-        kb = np.round(fd / prf_hz * nfft).astype(int)
-        ok = (np.abs(kb) >= guard_bins + 3) & (np.abs(kb) < nfft // 2 - 3)
-        if ok.sum() >= 3:
-            pw = np.abs(Z[ok]) ** 2
-            off = np.arange(-3, 4)
-            rows = np.arange(len(pw))[:, None]
-            at = pw[rows, (kb[ok][:, None] + off) % nfft].max(axis=1)
-            mir = pw[rows, (-kb[ok][:, None] + off) % nfft].max(axis=1)
-            good = (at > 0) & (mir > 0)
-            if good.sum() >= 3:
-                out["doppler_sign_db"] = float(np.median(10 * np.log10(at[good] / mir[good])))
-    return {k: _finite_or_none(v) for k, v in out.items()}
-
-
-def sanity_warnings(s: dict) -> list[str]:
-    w = []
-    irr = s.get("image_rejection_db")
-    if irr is not None and irr < IMAGE_REJECTION_WARN_DB:
-        amp, ph = s.get("amplitude_imbalance_db"), s.get("phase_imbalance_deg")
-        detail = (f"amplitude imbalance {amp:.1f} dB, phase imbalance {ph:.1f} deg" if amp is not None
-                  else "one of I, Q is zero")
-        w.append(f"I/Q image rejection is {irr:.1f} dB ({detail}; expected > {IMAGE_REJECTION_WARN_DB:g} dB): "
-                 "the spectrum is nearly mirror-symmetric, as for a real-valued signal (Q = 0 or I = Q)")
-    d = s.get("doppler_sign_db")
-    if d is not None and d < DOPPLER_SIGN_WARN_DB:
-        w.append(f"the target's Doppler is {-d:.1f} dB stronger at the mirror of the track's -2 v / lambda: "
-                 "I and Q look swapped (or Q negated); expected an approaching target at positive Doppler")
-    return w
-
-
 # ---- the flight ---------------------------------------------------------------------------
 
 def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | None = None,
-                 warnings_: list[str] | None = None) -> tuple[Flight, list[str]]:
+                 warnings_: list[str] | None = None, background: np.ndarray | None = None,
+                 noise_s: tuple[float, float] | None = None) -> tuple[Flight, list[str]]:
     """A validated :class:`Flight` from a recording, its parameters and its track.
 
-    Checks the required parameters, ``n_samples`` against the data, and the I/Q
-    balance; returns the flight and the list of warnings (also in
-    ``attrs["import"]["warnings"]``).
+    Checks the required parameters, ``n_samples`` against the data, and the
+    receiver's I/Q balance (:func:`~microdoppler.io.iqbalance.iq_sanity`: from
+    ``background`` (stored as ``background/iq``), else from the recording's
+    ``noise_s`` = ``(start, end)`` [s] stretch, else from the body line when it lies
+    well away from 0 Hz, else not measurable); returns the flight and the list of
+    warnings (also in ``attrs["import"]["warnings"]``).
     """
     from .flightzarr import _check_attrs, _check_consistency
 
@@ -815,6 +758,9 @@ def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | N
                          f"{params['n_samples']}", f"{params['n_samples']} samples")
     prf, carrier = float(params["prf_hz"]), float(params["carrier_hz"])
     duration = n / prf
+    if noise_s is not None and noise_s[1] > duration + 1e-9:
+        raise InputError(rec.path, "noise_segment_s", f"is {noise_s[0]:g}:{noise_s[1]:g} s, beyond the recording's "
+                         f"{duration:.3f} s", "a stretch within the recording")
     track = finish_track(track, track.get("source", rec.path))
     t = track["time_s"]
     if t[0] > 1.0 or t[-1] < duration - 1.0:
@@ -826,7 +772,8 @@ def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | N
             if k in params and not str((sources or {}).get(k, "file")).startswith("file"):
                 warns.append(f"{sources[k]} = {params[k]!r} is ignored: the target is {target}, not a drone")
     sanity = iq_sanity(rec.iq, prf, SPEED_OF_LIGHT_MPS / carrier,
-                       track if target != "none" and np.any(track["radial_velocity_mps"] != 0) else None)
+                       track if target != "none" and np.any(track["radial_velocity_mps"] != 0) else None,
+                       background=background, noise_s=noise_s)
     warns += sanity_warnings(sanity)
     attrs = {"schema": SCHEMA, "flight_id": params["flight_id"], "target": target, "radar_id": params["radar_id"],
              "prf_hz": prf, "carrier_hz": carrier}
@@ -837,17 +784,76 @@ def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | N
         "n_samples": n, **sanity, "track": track["source"],
         "parameter_sources": dict(sorted((sources or {}).items())), "warnings": warns,
     }
+    if noise_s is not None:
+        attrs["import"]["noise_segment_s"] = [float(noise_s[0]), float(noise_s[1])]
     json.dumps(attrs)  # zarr attributes are JSON
     _check_attrs(rec.path, attrs)
     flight = Flight(attrs=attrs, iq=rec.iq, track_time_s=track["time_s"], track_range_m=track["range_m"],
-                    track_radial_velocity_mps=track["radial_velocity_mps"])
+                    track_radial_velocity_mps=track["radial_velocity_mps"], background_iq=background)
     _check_consistency(rec.path, attrs, flight.arrays())
     return flight, warns
 
 
+def _level_value(options: dict, sidecar: dict, key: str):
+    """The option's value of ``key``, else the sidecar's, else None."""
+    for lv in (options, sidecar):
+        if lv.get(key, (None,))[0] is not None:
+            return lv[key][0]
+    return None
+
+
+def explicit_track(options: dict, sidecar: dict, duration_s: float) -> dict | None:
+    """The track that the options or the sidecar give (``track`` CSV or constant
+    ``range_m``), options first; None if neither does."""
+    for lv in (options, sidecar):
+        if lv.get("track", (None,))[0] is not None:
+            return read_track(lv["track"][0])
+        if lv.get("range_m", (None,))[0] is not None:
+            return constant_track(lv["range_m"][0], duration_s, f"constant range {lv['range_m'][1]}")
+    return None
+
+
+def read_arrays(path: Path) -> tuple[str, dict]:
+    """The named arrays of an ``.npy`` (one, named ``array``), ``.npz`` or ``.mat`` file,
+    and its format (``npy``, ``npz``, ``mat-v5``, ``mat-v7.3``)."""
+    import h5py
+
+    fmt = detect_format(path)
+    if not path.exists():
+        raise InputError(path, "file", "does not exist", f"a .{fmt} recording")
+    if path.is_dir():
+        raise InputError(path, "file", "is a directory", f"a .{fmt} recording")
+    if fmt == "mat":
+        return ("mat-v7.3", _mat_v73(path)) if h5py.is_hdf5(path) else ("mat-v5", _mat_v5(path))
+    if fmt == "npz":
+        return "npz", _npz(path)
+    try:
+        return "npy", {"array": np.load(path, allow_pickle=False)}
+    except Exception as exc:
+        raise InputError(path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})",
+                         "an .npy written by numpy.save") from None
+
+
+def wants_fmcw(path, options: dict, sidecar: dict, variable: str | None = None) -> tuple[bool, tuple | None]:
+    """Whether ``path`` is to be read as an FMCW cube: an FMCW parameter among the
+    options or the sidecar, or a file that looks like one (:func:`~microdoppler.io.fmcw.looks_fmcw`).
+    Returns ``(fmcw, (format, arrays) or None)`` (the arrays read, for a .npy/.npz/.mat)."""
+    from .fmcw import looks_fmcw
+
+    path = Path(path)
+    given = any(_level_value(options, sidecar, k) is not None for k in FMCW_PARAM_TYPES)
+    if detect_format(path) == "sigmf":
+        if given:
+            raise InputError(path, "file", "is SigMF, but FMCW parameters were given",
+                             "an FMCW cube as .npy, .npz or .mat (SigMF holds slow-time I/Q)")
+        return False, None
+    fmt, arrays = read_arrays(path)
+    return given or looks_fmcw(arrays), (fmt, arrays)
+
+
 def import_recording(path, *, options: dict | None = None, sidecar: dict | None = None,
                      layout: str | None = None, variable: str | None = None,
-                     default_flight_id: str | None = None) -> tuple[Flight, list[str]]:
+                     default_flight_id: str | None = None, background=None) -> tuple[Flight, list[str]]:
     """Read ``path`` and return ``(flight, warnings)``.
 
     ``options`` and ``sidecar`` map keys of :data:`SIDECAR_KEYS` to ``(value, label)``
@@ -855,31 +861,41 @@ def import_recording(path, *, options: dict | None = None, sidecar: dict | None 
     over the sidecar, both over the file's metadata. The track is the first of:
     ``track`` (CSV path) or ``range_m`` (constant, a staring recording) among the
     options, then the sidecar's, then the file's own track arrays or ``range_m``.
+    ``background`` names a target-free recording of the same cells (same format and
+    layout), stored as ``background/iq`` and used for the I/Q balance; the options'
+    or sidecar's ``noise_segment_s`` names a target-free stretch of the recording.
+
+    A raw FMCW cube (:mod:`microdoppler.io.fmcw`; FMCW parameters given, or a 2-D / 3-D
+    data array) is turned into the target's slow time and track first
+    (:func:`~microdoppler.io.fmcw.import_fmcw`).
     """
     options, sidecar = dict(options or {}), dict(sidecar or {})
-    for lv in (options, sidecar):
-        if layout is None and lv.get("layout", (None,))[0]:
-            layout = lv["layout"][0]
-        if variable is None and lv.get("variable", (None,))[0]:
-            variable = lv["variable"][0]
-    rec = read_recording(path, variable=variable, layout=layout)
+    if layout is None:
+        layout = _level_value(options, sidecar, "layout")
+    if variable is None:
+        variable = _level_value(options, sidecar, "variable")
+    noise_s = _level_value(options, sidecar, "noise_segment_s")
+    path = Path(path)
+    fmcw, read = wants_fmcw(path, options, sidecar, variable)
+    if fmcw:
+        from .fmcw import import_fmcw
+
+        if layout is not None:
+            raise InputError(path, "--layout", f"is {layout!r} for an FMCW cube",
+                             "no --layout (a real cube is a real beat signal, a complex one I/Q)")
+        return import_fmcw(path, *read, options=options, sidecar=sidecar, variable=variable,
+                           default_flight_id=default_flight_id, background=background, noise_s=noise_s)
+    if read is None:
+        rec = read_recording(path, variable=variable, layout=layout)
+    else:
+        rec = recording_from_arrays(path, *read, variable=variable, layout=layout)
     params, sources, warns = resolve_parameters(rec, options, sidecar)
-    if "flight_id" not in params:
-        fid = default_flight_id or default_flight_id_for(rec.path)
-        params["flight_id"] = convert("flight_id", fid, rec.path, "flight_id (from the file name)")
-        sources["flight_id"] = "default (file or output name)"
+    set_flight_id(rec, params, sources, default_flight_id)
     check_required(rec, params)
     duration = len(rec.iq) / float(params["prf_hz"])
-    track = None
-    for lv in (options, sidecar):
-        if lv.get("track", (None,))[0] is not None:
-            track = read_track(lv["track"][0])
-        elif lv.get("range_m", (None,))[0] is not None:
-            track = constant_track(lv["range_m"][0], duration, f"constant range {lv['range_m'][1]}")
-        if track is not None:
-            if rec.track is not None:
-                warns.append(f"{track['source']} replaces the file's own track arrays")
-            break
+    track = explicit_track(options, sidecar, duration)
+    if track is not None and rec.track is not None:
+        warns.append(f"{track['source']} replaces the file's own track arrays")
     if track is None:
         if rec.track is not None:
             track = dict(rec.track)
@@ -889,7 +905,22 @@ def import_recording(path, *, options: dict | None = None, sidecar: dict | None 
             raise InputError(rec.path, "track", "missing: no track in the file, a sidecar or the options",
                              "--track CSV (time_s, range_m) or --range-m for a staring recording")
     sources.pop("range_m", None)
-    return build_flight(rec, params, track, sources=sources, warnings_=warns)
+    bg = None
+    if background:
+        bg = read_recording(background, variable=variable, layout=layout).iq
+        if len(bg) != len(rec.iq):
+            raise InputError(background, "samples", f"has {len(bg)}",
+                             f"{len(rec.iq)} samples, as the recording (background/iq pairs pulse by pulse)")
+    return build_flight(rec, params, track, sources=sources, warnings_=warns, background=bg, noise_s=noise_s)
+
+
+def set_flight_id(rec, params: dict, sources: dict, default_flight_id: str | None) -> None:
+    """``params["flight_id"]`` from the default (the output's or the file's name) when
+    nothing gave one."""
+    if "flight_id" not in params:
+        fid = default_flight_id or default_flight_id_for(rec.path)
+        params["flight_id"] = convert("flight_id", fid, rec.path, "flight_id (from the file name)")
+        sources["flight_id"] = "default (file or output name)"
 
 
 def default_flight_id_for(path) -> str:
