@@ -52,7 +52,8 @@ from ..io.motorlog import UNIT_TO_RPM, read_motor_log
 from ..io.outputs import atomic_dir, check_output, commit_folder, is_tool_store
 from ..io.fmcw import BEAT_SIGNS
 from ..io.recordings import (EXTRA_KEYS, LAYOUTS, OPTION, PARAM_TYPES, SIDECAR_KEYS, convert,
-                             default_flight_id_for, import_recording, parse_noise_segment, read_sidecar)
+                             default_flight_id_for, parse_noise_segment, read_sidecar)
+from ..io.importing import import_recording
 from . import add_overwrite, positive, positive_int
 
 #: parameters that have a command-line option (n_samples is a sidecar/table key only)
@@ -193,7 +194,7 @@ def load_motor_log(path, unit: str = "rpm"):
 def complete_flight(flight, warns: list, *, log=None, log_path=None, estimate: bool = False):
     """Attach what the recording itself does not hold: the motor log (or rotor speeds
     estimated from the radar when ``estimate`` and there is no log). (The background
-    recording is read with the recording: :func:`~microdoppler.io.recordings.import_recording`.)"""
+    recording is read with the recording: :func:`~microdoppler.io.importing.import_recording`.)"""
     if log is not None:
         if estimate:
             raise InputError("--estimate-motors", "option", f"given with a motor log ({log_path})",

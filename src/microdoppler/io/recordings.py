@@ -10,7 +10,7 @@ own metadata wins with a warning), :func:`~microdoppler.io.iqbalance.iq_sanity`
 measures the receiver's I/Q balance, and :func:`build_flight` returns a validated
 :class:`~microdoppler.io.flightzarr.Flight`. Raw FMCW cubes (``.npy``/``.npz``/``.mat``
 with chirp parameters) go through :mod:`microdoppler.io.fmcw` first
-(:func:`import_recording` decides which).
+(:func:`microdoppler.io.importing.import_recording` decides which).
 
 What each format contributes
 ----------------------------
@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .fmcw import BEAT_SIGNS, FMCW_PARAM_TYPES
+from .fmcw import BEAT_SIGNS, FMCW_PARAM_TYPES, looks_fmcw
 from .flightzarr import FLIGHT_ID_RE, SCHEMA, TARGETS, Flight
 from .iqbalance import DOPPLER_SIGN_WARN_DB, IMAGE_REJECTION_WARN_DB, iq_sanity, sanity_warnings  # noqa: F401
 
@@ -838,8 +838,6 @@ def wants_fmcw(path, options: dict, sidecar: dict, variable: str | None = None) 
     """Whether ``path`` is to be read as an FMCW cube: an FMCW parameter among the
     options or the sidecar, or a file that looks like one (:func:`~microdoppler.io.fmcw.looks_fmcw`).
     Returns ``(fmcw, (format, arrays) or None)`` (the arrays read, for a .npy/.npz/.mat)."""
-    from .fmcw import looks_fmcw
-
     path = Path(path)
     given = any(_level_value(options, sidecar, k) is not None for k in FMCW_PARAM_TYPES)
     if detect_format(path) == "sigmf":
@@ -851,40 +849,12 @@ def wants_fmcw(path, options: dict, sidecar: dict, variable: str | None = None) 
     return given or looks_fmcw(arrays), (fmt, arrays)
 
 
-def import_recording(path, *, options: dict | None = None, sidecar: dict | None = None,
-                     layout: str | None = None, variable: str | None = None,
-                     default_flight_id: str | None = None, background=None) -> tuple[Flight, list[str]]:
-    """Read ``path`` and return ``(flight, warnings)``.
-
-    ``options`` and ``sidecar`` map keys of :data:`SIDECAR_KEYS` to ``(value, label)``
-    (the label names the option, table cell or sidecar key in messages); options win
-    over the sidecar, both over the file's metadata. The track is the first of:
-    ``track`` (CSV path) or ``range_m`` (constant, a staring recording) among the
-    options, then the sidecar's, then the file's own track arrays or ``range_m``.
-    ``background`` names a target-free recording of the same cells (same format and
-    layout), stored as ``background/iq`` and used for the I/Q balance; the options'
-    or sidecar's ``noise_segment_s`` names a target-free stretch of the recording.
-
-    A raw FMCW cube (:mod:`microdoppler.io.fmcw`; FMCW parameters given, or a 2-D / 3-D
-    data array) is turned into the target's slow time and track first
-    (:func:`~microdoppler.io.fmcw.import_fmcw`).
-    """
-    options, sidecar = dict(options or {}), dict(sidecar or {})
-    if layout is None:
-        layout = _level_value(options, sidecar, "layout")
-    if variable is None:
-        variable = _level_value(options, sidecar, "variable")
-    noise_s = _level_value(options, sidecar, "noise_segment_s")
+def import_slow_time(path, read, *, options: dict, sidecar: dict, layout: str | None, variable: str | None,
+                     default_flight_id: str | None, background, noise_s) -> tuple[Flight, list[str]]:
+    """A slow-time recording -> ``(flight, warnings)``; ``read`` is ``(format, arrays)``
+    when :func:`wants_fmcw` already read the file, else None. Called by
+    :func:`microdoppler.io.importing.import_recording`, which documents the arguments."""
     path = Path(path)
-    fmcw, read = wants_fmcw(path, options, sidecar, variable)
-    if fmcw:
-        from .fmcw import import_fmcw
-
-        if layout is not None:
-            raise InputError(path, "--layout", f"is {layout!r} for an FMCW cube",
-                             "no --layout (a real cube is a real beat signal, a complex one I/Q)")
-        return import_fmcw(path, *read, options=options, sidecar=sidecar, variable=variable,
-                           default_flight_id=default_flight_id, background=background, noise_s=noise_s)
     if read is None:
         rec = read_recording(path, variable=variable, layout=layout)
     else:
