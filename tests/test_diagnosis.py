@@ -18,10 +18,11 @@ import numpy as np
 import pytest
 
 from microdoppler.synthesis.catalog import CATALOG, CAUSES
-from microdoppler.diagnosis import DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, run_tests
-from microdoppler.diagnosis import causes as C
-from microdoppler.diagnosis.core import REPORT_SCHEMA, check_diagnosable
-from microdoppler.diagnosis.pipeline import split_settings
+from microdoppler.diagnosis import (DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, measure,
+                                   run_tests)
+from microdoppler.diagnosis import hypotheses as C
+from microdoppler.diagnosis.measure import usable_pairs
+from microdoppler.diagnosis.pipeline import REPORT_SCHEMA, split_settings
 from microdoppler.emulator.world import FlightSpec, emulate_flight, measured_snr_db
 from microdoppler.errors import ConfigError, InputError
 from microdoppler.io.flightzarr import Flight, write_flight
@@ -71,7 +72,7 @@ CASES = [
 #: The body power's noise was that of independent bins at the far floor; it now is
 #: that of the floor around the body (raised by the phase noise's skirt of the
 #: clutter line) through the window's bin correlation (measure.body_floor_ratio,
-#: features.noise_power_factor), and the case is in CASES.
+#: measure.noise_power_factor), and the case is in CASES.
 KNOWN_MISSES: list = []
 
 
@@ -99,7 +100,7 @@ def draw_effect(cause: str, sign: int, rng: np.random.Generator) -> dict:
 
 def _near_clutter_rise_db(flight) -> float:
     """Floor within 35-95 Hz of the clutter line: flight over background [dB]."""
-    from microdoppler.diagnosis.features import stft_power
+    from microdoppler.diagnosis.measure import stft_power
 
     a = stft_power(flight.iq, flight.prf_hz, 4096)
     b = stft_power(flight.background_iq, flight.prf_hz, 4096)
@@ -244,7 +245,7 @@ def test_steep_sideband_falloff_clean_flight_names_no_cause(radar_id, drone_mode
     """World v2: a large drone whose sidebands fall off by 14 dB per harmonic (one or
     two pairs visible) and that has no effect gets no cause. Before the fading
     test took the paper's envelope tilt by the rotor speed out of the harmonics
-    (``causes.envelope_tilt``), such flights showed a held-out fading log e-value
+    (``hypotheses.envelope_tilt``), such flights showed a held-out fading log e-value
     of 10-40 (threshold ~7; 42 and 23 on these two) and, where the size estimate
     reached the 2 dB margin, a spurious sideband_fading of 2.0-2.7 dB."""
     snr_db, snrs = 44.0, []
@@ -274,8 +275,8 @@ def test_gain_is_scored_on_held_out_folds():
     cfg = DiagnosisConfig(figures=False)
     entry = diagnose_flight(flight, config=cfg)
     (c,) = entry["causes"]
-    M, _, tests = run_tests(flight, check_diagnosable(flight, None, cfg), cfg)
-    t = tests[case.cause]
+    M = measure(flight, None, cfg)
+    t = run_tests(M, cfg).tests[case.cause]
     d = t.series["stat"]
     fold = C.folds(len(M.t_s), cfg.block_cpis)[np.isin(M.t_s, t.series["t_s"])]
     nb = ne = 0.0
@@ -324,7 +325,9 @@ def test_fading_fit_borrowing_outside_its_fold_is_not_held_out():
     def meas(ok):
         up = 100 * 10 ** (rng.normal(0, 0.3, (n, 3)) / 10)
         lo = 100 * 10 ** (rng.normal(0, 0.3, (n, 3)) / 10)
-        return SimpleNamespace(up=up, lo=lo, up_sd=np.ones((n, 3)), lo_sd=np.ones((n, 3)), pair_ok=ok,
+        sd = np.ones((n, 3))
+        return SimpleNamespace(up=up, lo=lo, up_sd=sd, lo_sd=sd, pair_ok=ok,
+                               usable_pair_sums=usable_pairs(up, lo, sd, sd, ok, summed=True),
                                valid=np.ones(n, bool), t_s=0.28 * np.arange(n), range_m=np.full(n, 1500.0),
                                harm=np.arange(1, 4), f_log_hz=np.full(n, 80.0), model_h=np.ones((n, 3)),
                                dil=np.ones(n), dil_ok=np.ones(n, bool),
@@ -333,8 +336,8 @@ def test_fading_fit_borrowing_outside_its_fold_is_not_held_out():
     everywhere = np.ones((n, 3), bool)
     one_fold = everywhere.copy()
     one_fold[fold == 1, 1:] = False  # fold 1: one harmonic per CPI only
-    assert C.test_fading(meas(everywhere), cfg, fold, None).held_out
-    t = C.test_fading(meas(one_fold), cfg, fold, None)
+    assert C.test_fading(meas(everywhere), cfg, fold).held_out
+    t = C.test_fading(meas(one_fold), cfg, fold)
     assert t.testable and not t.held_out
 
 
@@ -360,8 +363,8 @@ def test_fading_estimate_takes_out_the_rotor_speed_tilt():
 
     from scipy.signal.windows import blackmanharris
 
-    from microdoppler.diagnosis.features import cpi_average
-    from microdoppler.diagnosis.timescales import harmonic_speed_slope
+    from microdoppler.diagnosis.hypotheses import harmonic_speed_slope
+    from microdoppler.diagnosis.measure import cpi_average
 
     rng = np.random.default_rng(20261123)
     prf, n_fft, dur, dt, beta = 14600.0, 4096, 600.0, 0.01, -0.25
