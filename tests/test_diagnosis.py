@@ -526,10 +526,13 @@ def test_report_file_follows_the_format_and_figure(tmp_path):
     ({"block_cpis": 2.5}, "diagnosis.block_cpis", "an integer"),
     ({"figures": "yes"}, "diagnosis.figures", "true or false"),
     ({"seed": True}, "diagnosis.seed", "an integer"),
-    ({"pn_nuisance_decay_hz": [5.0, -1]}, "diagnosis.pn_nuisance_decay_hz[1]", "> 0"),
-    ({"lag_step_s": 3.0}, "diagnosis.lag_step_s", "<= diagnosis.max_lag_s (2)"),
+    ({"max_lag_s": 0.001}, "diagnosis.max_lag_s", ">= 0.01"),
+    ({"margin_std_db": -1}, "diagnosis.margin_std_db", ">= 0"),
     ({"min_log_coverage": 0}, "diagnosis.min_log_coverage", "in (0, 1]"),
     ({"nfft": 4096}, "diagnosis.nfft", "unknown key"),
+    # fields fixed since issue 35 are unknown keys that name what replaced them
+    ({"lag_step_s": 0.02}, "diagnosis.lag_step_s", "microdoppler.diagnosis.config.LAG_STEP_S"),
+    ({"margin_body_std_db": 2.0}, "diagnosis.margin_body_std_db", "the field margin_std_db"),
 ])
 def test_config_rejects_bad_values_naming_the_field(d, field, words):
     with pytest.raises(ConfigError) as exc:
@@ -542,8 +545,9 @@ def test_config_rejects_bad_values_naming_the_field(d, field, words):
 def test_config_direct_construction_and_split_settings():
     with pytest.raises(ConfigError, match="diagnosis.alpha"):
         DiagnosisConfig(alpha=2.0)
-    cfg = DiagnosisConfig.from_dict({"n_fft": 2048, "alpha": 0.05, "pn_nuisance_decay_hz": [5, 20]})
-    assert cfg.n_fft == 2048 and cfg.pn_nuisance_decay_hz == (5.0, 20.0)
+    cfg = DiagnosisConfig.from_dict({"n_fft": 2048, "alpha": 0.05, "margin_std_db": 3})
+    assert cfg.n_fft == 2048 and cfg.alpha == 0.05
+    assert cfg.margin_std_db == 3.0 and isinstance(cfg.margin_std_db, float)
     import yaml
 
     section = yaml.safe_load((REPO / "config" / "config.yaml").read_text())["diagnosis"]
@@ -557,7 +561,8 @@ def test_config_direct_construction_and_split_settings():
                        ({"sets": ["test"]}, "diagnosis.population_sets[0]"),
                        ({"population_sets": ["val"]}, "diagnosis.population_sets[0]"),
                        ({"min_fraction": 2}, "diagnosis.min_fraction"), ({"alpha": 0}, "diagnosis.alpha"),
-                       ({"min_frac": 0.1}, "diagnosis.min_frac")]:
+                       ({"min_frac": 0.1}, "diagnosis.min_frac"),
+                       ({"body_smooth_cpis": 9}, "diagnosis.body_smooth_cpis")]:
         with pytest.raises(ConfigError) as exc:
             split_settings(bad, source="c.yaml")
         assert str(exc.value).startswith(f"c.yaml: {field}: "), str(exc.value)
