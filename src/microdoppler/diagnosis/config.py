@@ -4,11 +4,12 @@ section's knobs, each with a physical meaning) and the fixed settings beside it.
 A setting is a field of :class:`DiagnosisConfig` when a user has a physical reason to
 change it (a site's clutter, a target's body line, how late a motor log may be, what
 size of a cause matters). Everything else the diagnosis reads is a module constant
-below, with what chose its value; no run varied any of them since the diagnosis's
-first version unless the comment says so (``git log -S<NAME>`` for the old field
-name in lower case; benchmarks/README.md, "``eval_diagnosis.py``", for the runs that
-checked the whole at these values). Before issue 35 they were fields too; a config
-that still sets one gets an "unknown key" error that names the constant.
+below; its comment says what chose the value and names the field it replaced (find
+its history with ``git log -S<field>``). "First version" means set with the
+diagnosis's first version (2817b21) and not changed since, with no measurement of its
+own on record; benchmarks/README.md ("``eval_diagnosis.py``") has the runs that
+checked the diagnosis as a whole at these values. A config that still sets a
+replaced field gets an "unknown key" error naming its constant.
 """
 
 from __future__ import annotations

@@ -17,8 +17,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import DiagnosisConfig
-from .hypotheses import TestResults
+from .hypotheses import COUPLED, TestResults
 from .measure import Measurements
+
+
+def tests_given(T: TestResults, named) -> dict:
+    """The tests with the extensions of the causes ``named`` in both models of every
+    other cause: ``T.tests``, with each :data:`~.hypotheses.COUPLED` cause's test
+    replaced by its test given the named partners (``T.conditional``); the other
+    causes' statistics do not change."""
+    named = frozenset(named)
+    if not named & set(COUPLED):
+        return T.tests
+    out = dict(T.tests)
+    for cause, partners in COUPLED.items():
+        g = named & partners
+        if not g or not T.tests[cause].testable:
+            continue
+        out[cause] = T.conditional[(cause, frozenset(g))]
+    return out
 
 
 def _significant(t, thr: float) -> bool:
@@ -62,12 +79,12 @@ def decide_all(T: TestResults, cfg: DiagnosisConfig) -> tuple[list, list]:
     """Greedy selection of every significant and relevant cause.
 
     Step k tests each cause not yet named against the paper's model plus the named
-    causes' extensions (both models, :meth:`~.hypotheses.TestResults.given`), at the
+    causes' extensions (both models, :func:`tests_given`), at the
     threshold :func:`step_threshold` (k); the strongest passing cause is named, until
     none passes. Returns (named causes in the order named, the steps' records)."""
     named, steps = [], []
     while True:
-        cur = T.given(named)
+        cur = tests_given(T, named)
         rest = {c: t for c, t in cur.items() if c not in named}
         n = sum(t.testable for t in cur.values())
         cause, thr = decide(rest, cfg, step=len(named) + 1, n_testable=n)
@@ -163,7 +180,7 @@ def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, star
     # named cause holds with the others in both models; these tests give the gains
     dropped = []
     while True:
-        final = {c: T.given(set(named) - {c})[c] for c in named}
+        final = {c: tests_given(T, set(named) - {c})[c] for c in named}
         failing = [c for c in named if not (_significant(final[c], thr_of[c]) and final[c].relevant)]
         if not failing:
             break

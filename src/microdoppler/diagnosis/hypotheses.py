@@ -800,29 +800,14 @@ class TestResults:
 
     ``tests``: cause -> :class:`CauseTest` against the paper's model (no cause named);
     ``conditional``: (cause, partners) -> the cause's test with the extensions of
-    ``partners`` (a non-empty subset of its :data:`COUPLED` partners) in both models,
-    for every testable coupled cause. :meth:`given` assembles the tests with any set
-    of named causes in both models from the two."""
+    ``partners`` (a non-empty frozenset of its :data:`COUPLED` partners) in both
+    models, for every testable coupled cause (:func:`.decide.tests_given` assembles
+    the tests with any set of named causes in both models from the two)."""
 
     __test__ = False  # not a pytest class
 
     tests: dict
     conditional: dict
-
-    def given(self, named) -> dict:
-        """The tests with the extensions of the causes ``named`` in both models of
-        every other cause: :attr:`tests`, with the :data:`COUPLED` causes' tests
-        replaced by their conditional ones (the others' statistics do not change)."""
-        named = frozenset(named)
-        if not named & set(COUPLED):
-            return self.tests
-        out = dict(self.tests)
-        for cause, partners in COUPLED.items():
-            g = named & partners
-            if not g or not self.tests[cause].testable:
-                continue
-            out[cause] = self.conditional[(cause, frozenset(g))]
-        return out
 
 
 def check_testable(M: Measurements, tests: dict, cfg: DiagnosisConfig) -> None:
