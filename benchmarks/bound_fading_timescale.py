@@ -5,12 +5,12 @@
 
 Issue 12 asks for the fading timescale within 20 % on >= 90 % of flights. The diagnosis
 reads it from the sideband power in short windows (2048 pulses, Blackman-Harris, 50 %
-overlap; ``microdoppler.diagnosis.causes.fading_estimate_fine``). This script draws the
+overlap; ``microdoppler.diagnosis.hypotheses.fading_estimate_fine``). This script draws the
 fading the emulator's catalog draws (an Ornstein-Uhlenbeck process in dB, sigma 3-6 dB,
 T 1-2 s, 180 s: the paper's flight length), averages its power in the same windows,
 adds white noise of a given variance (the rotors' beats, per window, after the mean over
 the harmonics), and fits it with the *correctly specified* exact likelihood
-(``microdoppler.diagnosis.timescales.fit_gain_process_ml``, REML for a linear trend,
+(``microdoppler.diagnosis.hypotheses.fit_gain_process_ml``, REML for a linear trend,
 the noise variance known, started at the truth). That is the most any estimator of this
 statistic can get: the share of draws with T within 20 %. Alongside, the ideal
 observer: the AR(1) estimate from the dB path itself, sampled every 16 pulses without
@@ -28,7 +28,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from scipy.signal.windows import blackmanharris
 
-from microdoppler.diagnosis.timescales import fit_gain_process_ml
+from microdoppler.diagnosis.hypotheses import fit_gain_process_ml
 from microdoppler.synthesis.processes import ou_process
 
 PRF_HZ = 7000.0

@@ -47,7 +47,7 @@ from microdoppler.datasets.extended import catalog_params  # noqa: E402
 from microdoppler.datasets.injection import inject  # noqa: E402
 from microdoppler.datasets.speeds import resample_flight  # noqa: E402
 from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
-from microdoppler.diagnosis.core import flight_log  # noqa: E402
+from microdoppler.diagnosis.measure import flight_log  # noqa: E402
 from microdoppler.synthesis.extensions import ExtensionSet  # noqa: E402
 from microdoppler.datasets.fidelity import DISTANCES, distances, flight_features, scoring_mask  # noqa: E402
 from microdoppler.io.outputs import atomic_file  # noqa: E402

@@ -44,7 +44,7 @@ import numpy as np
 from scipy.signal.windows import blackmanharris
 
 from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates
-from microdoppler.diagnosis.features import cpi_average
+from microdoppler.diagnosis.measure import cpi_average
 from microdoppler.emulator.world import FlightSpec, emulate_flight
 from microdoppler.rotors.speed import RotorSpeedConfig, estimate_rotor_speeds
 from microdoppler.spectra.snr import flight_body_snr_db

@@ -11,7 +11,7 @@ import pytest
 
 from microdoppler.datasets import calibration
 from microdoppler.datasets.lines import body_doppler_hz, measure_lines, rotor_rate_at
-from microdoppler.diagnosis.causes import folds
+from microdoppler.diagnosis.hypotheses import folds
 from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.motorlog import MotorLog
 from microdoppler.rotors.sampling import resample

@@ -18,10 +18,11 @@ import numpy as np
 import pytest
 
 from microdoppler.synthesis.catalog import CATALOG, CAUSES
-from microdoppler.diagnosis import DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, run_tests
-from microdoppler.diagnosis import causes as C
-from microdoppler.diagnosis.core import REPORT_SCHEMA, check_diagnosable
-from microdoppler.diagnosis.pipeline import split_settings
+from microdoppler.diagnosis import (DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, measure,
+                                   run_tests)
+from microdoppler.diagnosis import hypotheses as C
+from microdoppler.diagnosis.measure import usable_pairs
+from microdoppler.diagnosis.pipeline import REPORT_SCHEMA, split_settings
 from microdoppler.emulator.world import FlightSpec, emulate_flight, measured_snr_db
 from microdoppler.errors import ConfigError, InputError
 from microdoppler.io.flightzarr import Flight, write_flight
@@ -71,7 +72,7 @@ CASES = [
 #: The body power's noise was that of independent bins at the far floor; it now is
 #: that of the floor around the body (raised by the phase noise's skirt of the
 #: clutter line) through the window's bin correlation (measure.body_floor_ratio,
-#: features.noise_power_factor), and the case is in CASES.
+#: measure.noise_power_factor), and the case is in CASES.
 KNOWN_MISSES: list = []
 
 
@@ -99,7 +100,7 @@ def draw_effect(cause: str, sign: int, rng: np.random.Generator) -> dict:
 
 def _near_clutter_rise_db(flight) -> float:
     """Floor within 35-95 Hz of the clutter line: flight over background [dB]."""
-    from microdoppler.diagnosis.features import stft_power
+    from microdoppler.diagnosis.measure import stft_power
 
     a = stft_power(flight.iq, flight.prf_hz, 4096)
     b = stft_power(flight.background_iq, flight.prf_hz, 4096)
@@ -244,7 +245,7 @@ def test_steep_sideband_falloff_clean_flight_names_no_cause(radar_id, drone_mode
     """World v2: a large drone whose sidebands fall off by 14 dB per harmonic (one or
     two pairs visible) and that has no effect gets no cause. Before the fading
     test took the paper's envelope tilt by the rotor speed out of the harmonics
-    (``causes.envelope_tilt``), such flights showed a held-out fading log e-value
+    (``hypotheses.envelope_tilt``), such flights showed a held-out fading log e-value
     of 10-40 (threshold ~7; 42 and 23 on these two) and, where the size estimate
     reached the 2 dB margin, a spurious sideband_fading of 2.0-2.7 dB."""
     snr_db, snrs = 44.0, []
@@ -274,8 +275,8 @@ def test_gain_is_scored_on_held_out_folds():
     cfg = DiagnosisConfig(figures=False)
     entry = diagnose_flight(flight, config=cfg)
     (c,) = entry["causes"]
-    M, _, tests = run_tests(flight, check_diagnosable(flight, None, cfg), cfg)
-    t = tests[case.cause]
+    M = measure(flight, None, cfg)
+    t = run_tests(M, cfg).tests[case.cause]
     d = t.series["stat"]
     fold = C.folds(len(M.t_s), cfg.block_cpis)[np.isin(M.t_s, t.series["t_s"])]
     nb = ne = 0.0
@@ -324,7 +325,9 @@ def test_fading_fit_borrowing_outside_its_fold_is_not_held_out():
     def meas(ok):
         up = 100 * 10 ** (rng.normal(0, 0.3, (n, 3)) / 10)
         lo = 100 * 10 ** (rng.normal(0, 0.3, (n, 3)) / 10)
-        return SimpleNamespace(up=up, lo=lo, up_sd=np.ones((n, 3)), lo_sd=np.ones((n, 3)), pair_ok=ok,
+        sd = np.ones((n, 3))
+        return SimpleNamespace(up=up, lo=lo, up_sd=sd, lo_sd=sd, pair_ok=ok,
+                               usable_pair_sums=usable_pairs(up, lo, sd, sd, ok, summed=True),
                                valid=np.ones(n, bool), t_s=0.28 * np.arange(n), range_m=np.full(n, 1500.0),
                                harm=np.arange(1, 4), f_log_hz=np.full(n, 80.0), model_h=np.ones((n, 3)),
                                dil=np.ones(n), dil_ok=np.ones(n, bool),
@@ -333,8 +336,8 @@ def test_fading_fit_borrowing_outside_its_fold_is_not_held_out():
     everywhere = np.ones((n, 3), bool)
     one_fold = everywhere.copy()
     one_fold[fold == 1, 1:] = False  # fold 1: one harmonic per CPI only
-    assert C.test_fading(meas(everywhere), cfg, fold, None).held_out
-    t = C.test_fading(meas(one_fold), cfg, fold, None)
+    assert C.test_fading(meas(everywhere), cfg, fold).held_out
+    t = C.test_fading(meas(one_fold), cfg, fold)
     assert t.testable and not t.held_out
 
 
@@ -360,8 +363,8 @@ def test_fading_estimate_takes_out_the_rotor_speed_tilt():
 
     from scipy.signal.windows import blackmanharris
 
-    from microdoppler.diagnosis.features import cpi_average
-    from microdoppler.diagnosis.timescales import harmonic_speed_slope
+    from microdoppler.diagnosis.hypotheses import harmonic_speed_slope
+    from microdoppler.diagnosis.measure import cpi_average
 
     rng = np.random.default_rng(20261123)
     prf, n_fft, dur, dt, beta = 14600.0, 4096, 600.0, 0.01, -0.25
@@ -523,10 +526,13 @@ def test_report_file_follows_the_format_and_figure(tmp_path):
     ({"block_cpis": 2.5}, "diagnosis.block_cpis", "an integer"),
     ({"figures": "yes"}, "diagnosis.figures", "true or false"),
     ({"seed": True}, "diagnosis.seed", "an integer"),
-    ({"pn_nuisance_decay_hz": [5.0, -1]}, "diagnosis.pn_nuisance_decay_hz[1]", "> 0"),
-    ({"lag_step_s": 3.0}, "diagnosis.lag_step_s", "<= diagnosis.max_lag_s (2)"),
+    ({"max_lag_s": 0.001}, "diagnosis.max_lag_s", ">= 0.01"),
+    ({"margin_std_db": -1}, "diagnosis.margin_std_db", ">= 0"),
     ({"min_log_coverage": 0}, "diagnosis.min_log_coverage", "in (0, 1]"),
     ({"nfft": 4096}, "diagnosis.nfft", "unknown key"),
+    # fields fixed since issue 35 are unknown keys that name what replaced them
+    ({"lag_step_s": 0.02}, "diagnosis.lag_step_s", "microdoppler.diagnosis.config.LAG_STEP_S"),
+    ({"margin_body_std_db": 2.0}, "diagnosis.margin_body_std_db", "the field margin_std_db"),
 ])
 def test_config_rejects_bad_values_naming_the_field(d, field, words):
     with pytest.raises(ConfigError) as exc:
@@ -539,8 +545,9 @@ def test_config_rejects_bad_values_naming_the_field(d, field, words):
 def test_config_direct_construction_and_split_settings():
     with pytest.raises(ConfigError, match="diagnosis.alpha"):
         DiagnosisConfig(alpha=2.0)
-    cfg = DiagnosisConfig.from_dict({"n_fft": 2048, "alpha": 0.05, "pn_nuisance_decay_hz": [5, 20]})
-    assert cfg.n_fft == 2048 and cfg.pn_nuisance_decay_hz == (5.0, 20.0)
+    cfg = DiagnosisConfig.from_dict({"n_fft": 2048, "alpha": 0.05, "margin_std_db": 3})
+    assert cfg.n_fft == 2048 and cfg.alpha == 0.05
+    assert cfg.margin_std_db == 3.0 and isinstance(cfg.margin_std_db, float)
     import yaml
 
     section = yaml.safe_load((REPO / "config" / "config.yaml").read_text())["diagnosis"]
@@ -554,7 +561,8 @@ def test_config_direct_construction_and_split_settings():
                        ({"sets": ["test"]}, "diagnosis.population_sets[0]"),
                        ({"population_sets": ["val"]}, "diagnosis.population_sets[0]"),
                        ({"min_fraction": 2}, "diagnosis.min_fraction"), ({"alpha": 0}, "diagnosis.alpha"),
-                       ({"min_frac": 0.1}, "diagnosis.min_frac")]:
+                       ({"min_frac": 0.1}, "diagnosis.min_frac"),
+                       ({"body_smooth_cpis": 9}, "diagnosis.body_smooth_cpis")]:
         with pytest.raises(ConfigError) as exc:
             split_settings(bad, source="c.yaml")
         assert str(exc.value).startswith(f"c.yaml: {field}: "), str(exc.value)

@@ -208,7 +208,7 @@ def test_generator_shares_no_code_with_the_emulator():
 
 @pytest.mark.parametrize("shape, timescale_s", [("exp", 0.05), ("exp", 0.3), ("crit", 1.0), ("exp", 3.0)])
 def test_timescale_estimator_on_windowed_processes(shape, timescale_s):
-    """:func:`~microdoppler.diagnosis.timescales.fit_gain_process` on a dB gain seen
+    """:func:`~microdoppler.diagnosis.hypotheses.fit_gain_process` on a dB gain seen
     through 512-pulse Blackman-Harris windows (the body's short windows) plus noise:
     an exponential (AR(1), made here) or a critically damped process of the
     generator, 120 s. Size within 15 % of the path's own std, time within 30 % up to
@@ -217,7 +217,7 @@ def test_timescale_estimator_on_windowed_processes(shape, timescale_s):
     from scipy.signal.windows import blackmanharris
 
     from independent_generator import _crit_damped
-    from microdoppler.diagnosis.timescales import fit_gain_process
+    from microdoppler.diagnosis.hypotheses import fit_gain_process
 
     prf, nw, dur, sd = 7300.0, 512, 120.0, 4.0
     rng = np.random.default_rng(int(timescale_s * 1000))

@@ -1,5 +1,5 @@
 """The fading's size and correlation time from the short-window sideband powers
-(``measure.sideband_power_fine`` + ``causes.fading_estimate_fine``), on a signal
+(``measure.sideband_power_fine`` + ``hypotheses.fading_estimate_fine``), on a signal
 built here from eq. (1)'s thin-wire blades: four rotors 1-3 % apart in speed (their
 lines beat inside a short window), a body line, white noise, and a dB gain on the
 blades that is an Ornstein-Uhlenbeck or telegraph process with a known 1/e time."""
@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from microdoppler.diagnosis import causes as C
+from microdoppler.diagnosis import hypotheses as C
 from microdoppler.diagnosis.measure import sideband_power_fine
 from test_fidelity import ou_db  # the tests' own OU process (not the emulator's)
 
@@ -63,7 +63,7 @@ def _estimate(iq):
     F = sideband_power_fine(iq, PRF, t_cpi, np.full(n_t, F_BODY), np.full(n_t, spacing), harm, spread, N_FFT)
     M = SimpleNamespace(t_s=t_cpi, harm=harm, side_fine=F, info={"prf_hz": PRF})
     # the harmonics the CPI-level measurement would use: summed pair power clearly
-    # above its noise (median ratio >= 5, as causes.usable_pair_sums); eq. (1)'s
+    # above its noise (median ratio >= 5, as measure.usable_pairs(summed=True)); eq. (1)'s
     # pattern leaves the first two near zero at this blade length
     snr = np.median((F["up"] + F["lo"]) / np.sqrt(F["up_sd"] ** 2 + F["lo_sd"] ** 2), axis=0)
     ok = np.ones((n_t, len(harm)), bool) & (snr >= 5.0)[None, :]
@@ -90,14 +90,14 @@ def test_fine_sideband_no_fading_is_small():
 
 
 def test_gain_process_ml_unbiased_on_window_averaged_ou():
-    """The exact likelihood (``timescales.fit_gain_process_ml``) on an OU dB gain
+    """The exact likelihood (``hypotheses.fit_gain_process_ml``) on an OU dB gain
     power-averaged through 0.3 s Blackman-Harris windows every 0.16 s, plus white
     noise of known variance: T and sigma come out without bias over draws (the
     window's averaging is in the model; left out, the smoothed short lags read as
     a ~10-15 % longer T)."""
     from scipy.signal.windows import blackmanharris
 
-    from microdoppler.diagnosis.timescales import _lag_grid, fit_gain_process_ml, fit_variogram, variogram
+    from microdoppler.diagnosis.hypotheses import _lag_grid, fit_gain_process_ml, fit_variogram, variogram
 
     nw = 2048
     hop = nw / 2 / PRF

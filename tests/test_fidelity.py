@@ -15,7 +15,7 @@ import pytest
 from microdoppler.datasets import fidelity
 from microdoppler.datasets import calibration
 from microdoppler.datasets.lines import log_rate_at
-from microdoppler.diagnosis.causes import folds
+from microdoppler.diagnosis.hypotheses import folds
 from microdoppler.io.motorlog import MotorLog
 from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
 

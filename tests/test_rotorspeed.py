@@ -13,7 +13,7 @@ import pytest
 from scipy.signal.windows import blackmanharris
 
 from microdoppler.synthesis import model as synthesis
-from microdoppler.diagnosis.features import cpi_average
+from microdoppler.diagnosis.measure import cpi_average
 from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.flightzarr import Flight, read_flight, write_flight
 from microdoppler.io.motorlog import read_motor_store

@@ -5,7 +5,9 @@ FIDELITY_CODE = code_version(
     "datasets/fidelity.py",
     "stats/bootstrap.py",
     "datasets",
-    "diagnosis/features.py",
+    "diagnosis/measure.py",
+    "diagnosis/hypotheses.py",
+    "diagnosis/config.py",
     "spectra/spectrogram.py",
     "spectra/snr.py",
 )

@@ -51,7 +51,7 @@ import scipy.fft as sfft
 from scipy.signal import ShortTimeFFT, butter, sosfilt, sosfilt_zi
 from scipy.signal.windows import blackmanharris
 
-from ..diagnosis.causes import folds
+from ..diagnosis.hypotheses import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig
@@ -111,7 +111,7 @@ class CalibrationConfig:
         The calibration targets (and the twin's lines it compares with them) are
         measured on fold A only: alternating blocks of this many CPIs, CPI i in fold
         A when ``(i // holdout_block_cpis) % 2 == 0`` (as the diagnosis' folds,
-        ``diagnosis.causes.folds``); fold B is left for held-out fidelity scoring
+        ``diagnosis.hypotheses.folds``); fold B is left for held-out fidelity scoring
         (``microdoppler.datasets.fidelity``). 0 fits on every CPI.
     max_fit_cpis : int
         Most fit CPIs (spectrogram timesteps of fold A) the alpha search (with its

@@ -15,7 +15,7 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
   spacings of the expected line, on the stronger side (the four rotors make a
   cluster of lines whose strongest member changes from CPI to CPI, so a single peak
   would jump within the cluster), minus the parabolic-refined body peak
-  (``diagnosis.features.refine_peak``); NaN where no bin is visible;
+  (``diagnosis.measure.refine_peak``); NaN where no bin is visible;
 - ``n_pairs``: consecutive sideband pairs from k = 1 whose SNR (the project's one
   measure, ``snr.line_snr_db`` via ``datasets.lines.measure_lines``) is >= ``visible_db``;
 - ``first_pair_db``: SNR of the first pair (stronger side) minus the body's [dB];
@@ -47,8 +47,8 @@ from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, 
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .stores import flight_ids, open_store
-from ..diagnosis.causes import folds
-from ..diagnosis.features import Stft, refine_peak
+from ..diagnosis.hypotheses import folds
+from ..diagnosis.measure import Stft, refine_peak
 from ..errors import InputError
 from ..io.flightzarr import read_flight
 from ..io.inventory import read_ingested_log

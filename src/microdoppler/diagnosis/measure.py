@@ -1,28 +1,321 @@
-"""Per-CPI statistics of one measured drone flight against the paper's model of it.
+"""Step 1 of the diagnosis: measure a drone flight against the paper's model of it.
 
-:func:`measure` returns a :class:`Measurements` with, per CPI: the body Doppler and
-power, the HERM line spacing measured by matching the measured spectrum to the
-model's (a frequency dilation ``s_t`` of the model's line pattern), the power of each
-upper and lower sideband (noise-subtracted, with a validity mask that drops
-sidebands on a raised floor, e.g. near clutter), the model's prediction of each, and
-the near-clutter floor (flight and background) for the phase-noise test.
+Everything the cause tests (:mod:`.hypotheses`) read of a flight is measured here,
+once, into one :class:`Measurements`; the tests never go back to the I/Q or the
+spectrograms. :func:`measure` first checks that the flight can be diagnosed
+(:func:`check_diagnosable`: a drone, blades long enough for visible rotor lines, a
+usable motor log, long enough; else :class:`Undiagnosable`), then:
+
+- the flight's STFT: Blackman-Harris *without* high-pass (clutter stays in, so the
+  floor around it can be read), on the paper's CPI (``n_fft`` pulses, 50 % overlap);
+  frequencies of the target are relative to its body Doppler;
+- the paper's model of the flight, simulated once (:func:`simulate_blades`): the blade
+  signal of eq. (1) driven by the flight's own motor log (sub-CPI sampling), without
+  envelope, on a zero-Doppler track, so its spectrum is body-relative;
+- per CPI: the body Doppler and power (with its noise std from the floor at the
+  body's distance from the clutter line, :func:`body_floor_ratio`), the HERM line
+  spacing measured by matching the measured spectrum to the model's (a frequency
+  dilation ``s_t`` of the model's line pattern, :func:`_dilation`), the power of each
+  upper and lower sideband (noise-subtracted, with a validity mask that drops
+  sidebands on a raised floor, e.g. near clutter) and the model's prediction of each;
+- the harmonic pairs visible above the noise (:func:`usable_pairs`) and the paper's
+  model calibrated on them (:func:`calibrate`: S_body, S_blade, alpha);
+- what the motor log predicts for the line spacing at every lag searched
+  (:func:`lag_curves`);
+- the body's and the sidebands' power on short windows (:func:`body_power_fine`,
+  :func:`sideband_power_fine`), for the fluctuations' correlation times;
+- the floor near the clutter line, off the target, with the background recording's
+  PSD there (:func:`floor_ordinates`), for the phase-noise test.
+
+The fixed settings read here are :mod:`.config`'s constants.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.fft as sfft
+from scipy.signal.windows import blackmanharris
 
-from ..io.motorlog import MotorLog
-from .features import (DB, Stft, band_power, body_doppler, cpi_average, local_floor, noise_power_factor,
-                       refine_peak, simulate_blades, stft_power)
+from ..errors import InputError
+from ..io.inventory import RADAR_SOURCE
+from ..io.motorlog import MotorLog, check_motor_log
+from ..rotors import sampling as sampling
+from ..synthesis.model import Scaling, Track, synthesize
+from .config import (BODY_SEARCH_HZ, LAG_STEP_S, LINE_GUARD_FRAC, LINE_HALF_BINS, MIN_MATCH, MIN_PAIR_SNR,
+                     N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_CLUTTER_LINE_HZ,
+                     PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
+                     SCALE_MAX, SCALE_MIN, SCALE_STEP, DiagnosisConfig)
 
+DB = 10.0 / np.log(10.0)
+
+
+# ---------------------------------------------------------------- can it be diagnosed?
+
+class Undiagnosable(InputError):
+    """A flight the diagnosis cannot judge (a bird, a Mini, no usable motor log, too
+    short, no visible rotor lines). :func:`measure` (and the tests, when nothing is
+    left to test) raise it (an :class:`InputError` naming the field);
+    :func:`.pipeline.diagnose` lists the flight as ``skipped`` with ``reason``."""
+
+    def __init__(self, source, field: str, problem: str, expected: str | None = None, *, reason: str | None = None):
+        super().__init__(source, field, problem, expected)
+        self.reason = reason or (f"{field}: {problem}" + (f" (expected {expected})" if expected else ""))
+
+
+def flight_log(flight, motor_log: MotorLog | None) -> MotorLog | None:
+    """``motor_log``, else the flight store's own ``motors/*`` log, else None."""
+    if motor_log is not None:
+        return motor_log
+    if flight.has_motor_log:
+        return MotorLog(flight.motors_time_s, flight.motors_rpm, str(flight.flight_id))
+    return None
+
+
+def _n_cpis(n_pulses: int, n_fft: int) -> int:
+    hop = int(round(n_fft * 0.5))  # stft_power's 50 % overlap
+    return 0 if n_pulses < n_fft else 1 + (n_pulses - n_fft) // hop
+
+
+def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) -> MotorLog:
+    """The flight's motor log, checked; :class:`Undiagnosable` when the flight cannot
+    be diagnosed: not a drone, blades too short for visible rotor lines (Minis), no
+    motor log, a log that :func:`~microdoppler.io.motorlog.check_motor_log` rejects
+    (all zeros, a median speed implausible for a rotor, e.g. rev/s declared as rpm),
+    a log covering less than ``min_log_coverage`` of the flight's span, or fewer CPIs
+    than two held-out folds need."""
+    fid = flight.flight_id
+    a = flight.attrs
+    target = a.get("target")
+    if target != "drone":
+        reason = {"bird": "bird flight: no rotors", "none": "target-free recording: no rotors"}.get(
+            target, f"target {target!r}: not a drone")
+        raise Undiagnosable(fid, "attrs.target", f"is {target!r}", "'drone' (only drones are diagnosed)", reason=reason)
+    lam = flight.wavelength_m
+    blade = float(a["blade_length_m"])
+    if blade < cfg.min_blade_wavelengths * lam:
+        size = f"{blade:g} m = {blade / lam:.2f} wavelengths at {flight.carrier_hz / 1e9:.3g} GHz"
+        raise Undiagnosable(
+            fid, "attrs.blade_length_m", f"is {size}: the rotor lines are below the noise",
+            f">= {cfg.min_blade_wavelengths:g} wavelengths (diagnosis.min_blade_wavelengths)",
+            reason=f"{a.get('drone_model', 'drone')}: rotor lines invisible (attrs.blade_length_m {size}, "
+                   f"< {cfg.min_blade_wavelengths:g})")
+    log = flight_log(flight, motor_log)
+    if log is None:
+        raise Undiagnosable(fid, "motors", "no motor log", "motors/time_s + motors/rpm or a motor log",
+                            reason="no motor log")
+    t_field, s_field = "motors/time_s", "motors/rpm"
+    src = fid if motor_log is None else (log.source or fid)
+    try:
+        log = check_motor_log(src, log.time_s, log.rpm, unit="rpm", time_field=t_field, speed_field=s_field)
+    except InputError as e:
+        raise Undiagnosable(e.source, e.field, e.problem, e.expected,
+                            reason=f"unusable motor log: {e.field}: {e.problem}"
+                                   + (f" (expected {e.expected})" if e.expected else "")) from None
+    span = flight.duration_s
+    t0, t1 = float(log.time_s[0]), float(log.time_s[-1])
+    cover = max(0.0, min(t1, span) - max(t0, 0.0)) / span
+    if cover < cfg.min_log_coverage:
+        problem = f"spans {t0:.4g} to {t1:.4g} s, {cover:.0%} of the flight's 0 to {span:.4g} s"
+        expected = f">= {cfg.min_log_coverage:.0%} of the flight covered (diagnosis.min_log_coverage)"
+        raise Undiagnosable(src, t_field, problem, expected,
+                            reason=f"motor log outside the flight: {t_field}: {problem} (expected {expected})")
+    n_t = _n_cpis(len(flight.iq), cfg.n_fft)
+    need = 2 * cfg.block_cpis + 4
+    if n_t < need:
+        n_need = cfg.n_fft + (need - 1) * int(round(cfg.n_fft * 0.5))
+        problem = f"has {len(flight.iq)} pulses = {n_t} CPIs of {cfg.n_fft}"
+        expected = f">= {need} CPIs = {n_need} pulses (two held-out folds of diagnosis.block_cpis={cfg.block_cpis})"
+        raise Undiagnosable(fid, "iq", problem, expected,
+                            reason=f"flight too short: iq: {problem} (expected {expected})")
+    return log
+
+
+# ---------------------------------------------------------------- spectrogram helpers
 
 @dataclass
-class Measurements:
-    """Per-CPI statistics (arrays [n_t] unless noted)."""
+class Stft:
+    """Power periodogram ``p`` float64 [n_t, n_fft] on centred Doppler ``f_hz``, CPI
+    centres ``t_s`` [n_t]; ``window`` the analysis window."""
 
+    p: np.ndarray
+    t_s: np.ndarray
+    f_hz: np.ndarray
+    window: np.ndarray
+
+    @property
+    def bin_hz(self) -> float:
+        return float(self.f_hz[1] - self.f_hz[0])
+
+    def at(self, f: np.ndarray) -> np.ndarray:
+        """Fractional bin index of Doppler ``f`` [Hz]."""
+        return (np.asarray(f) - self.f_hz[0]) / self.bin_hz
+
+
+def stft_power(iq: np.ndarray, prf_hz: float, n_fft: int, overlap: float = 0.5) -> Stft:
+    """Blackman-Harris periodogram of every CPI wholly inside ``iq``."""
+    hop = int(round(n_fft * (1 - overlap)))
+    n_t = 1 + (len(iq) - n_fft) // hop
+    if n_t < 1:
+        raise ValueError(f"iq has {len(iq)} pulses, fewer than n_fft={n_fft}")
+    w = blackmanharris(n_fft, sym=False)
+    idx = np.arange(n_t)[:, None] * hop + np.arange(n_fft)[None, :]
+    frames = np.asarray(iq, np.complex128)[idx] * w
+    X = sfft.fftshift(sfft.fft(frames, axis=1, workers=1), axes=1)
+    p = X.real ** 2 + X.imag ** 2
+    t = (np.arange(n_t) * hop + n_fft / 2) / prf_hz
+    f = sfft.fftshift(sfft.fftfreq(n_fft, 1.0 / prf_hz))
+    return Stft(p, t, f, w)
+
+
+def noise_power_factor(window: np.ndarray) -> float:
+    """kappa = n sum(w^4) / (sum w^2)^2 of the analysis window ``w`` [n] (2.76 for
+    Blackman-Harris): the factor by which the periodogram's noise in a band of bins
+    varies more than independent bins would.
+
+    The power of a line summed over the band of bins that holds it, minus the
+    band's noise, P = sum_k |S_k + N_k|^2 - n_b fl (fl the mean noise per bin), has
+    variance kappa (2 P fl + n_b fl^2): the cross term sum_k 2 Re(S_k N_k*) is
+    2 Re(n sum_t w_t^2 s_t nu_t*) (Parseval, the band holding the line), of variance
+    2 n^2 sigma^2 sum(w^4 |s|^2) = kappa 2 P fl for a line of constant amplitude; and
+    the window makes neighbouring bins' noise correlated, sum_d |rho_d|^2 = kappa
+    (Parseval again), so the noise term's variance is kappa n_b fl^2. Independent
+    bins (kappa = 1) understate the std of the band power by sqrt(2.76) = 1.66 for
+    Blackman-Harris (checked by simulation: 2.5-3.0 at 15-40 dB)."""
+    w2 = np.asarray(window, float) ** 2
+    return float(len(w2) * np.sum(w2 ** 2) / np.sum(w2) ** 2)
+
+
+def cpi_average(t_s: np.ndarray, x: np.ndarray, cpi_t: np.ndarray, window: np.ndarray, prf_hz: float,
+                n_points: int = 64) -> np.ndarray:
+    """Average of the series ``x(t)`` over each CPI, weighted by the window's power
+    profile (what a periodogram 'sees'): float [len(cpi_t)] (clamped at the ends)."""
+    n = len(window)
+    k = np.linspace(0, n - 1, n_points).astype(int)
+    wk = window[k] ** 2
+    wk = wk / wk.sum()
+    tt = cpi_t[:, None] + (k[None, :] - n / 2) / prf_hz
+    return (np.interp(tt, t_s, x) * wk).sum(axis=1)
+
+
+def body_doppler(flight, t_s: np.ndarray) -> np.ndarray:
+    """Body Doppler from the track [Hz] at times ``t_s`` (positive = approaching)."""
+    v = np.interp(t_s, flight.track_time_s, flight.track_radial_velocity_mps)
+    return -2.0 * v / flight.wavelength_m
+
+
+def refine_peak(st: Stft, f0: np.ndarray, search_hz: float) -> np.ndarray:
+    """Strongest bin within ``search_hz`` of ``f0`` per CPI, parabolic-refined [Hz]."""
+    out = np.empty(len(f0))
+    lp = np.log(st.p + 1e-300)
+    for i, fc in enumerate(f0):
+        lo = max(1, int(np.floor(st.at(fc - search_hz))))
+        hi = min(len(st.f_hz) - 2, int(np.ceil(st.at(fc + search_hz))))
+        if hi <= lo:
+            out[i] = fc
+            continue
+        j = lo + int(np.argmax(st.p[i, lo:hi + 1]))
+        a, b, c = lp[i, j - 1], lp[i, j], lp[i, j + 1]
+        d = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) < 0 else 0.0
+        out[i] = st.f_hz[0] + (j + np.clip(d, -0.5, 0.5)) * st.bin_hz
+    return out
+
+
+def band_power(p_row: np.ndarray, st: Stft, f_c: float, half_hz: float) -> tuple[float, int]:
+    """Sum of the periodogram within ``half_hz`` of ``f_c`` and the number of bins."""
+    lo = int(np.ceil(st.at(f_c - half_hz)))
+    hi = int(np.floor(st.at(f_c + half_hz)))
+    lo, hi = max(lo, 0), min(hi, len(st.f_hz) - 1)
+    if hi < lo:
+        return 0.0, 0
+    return float(p_row[lo:hi + 1].sum()), hi - lo + 1
+
+
+def local_floor(p_row: np.ndarray, st: Stft, f_c: float, excl_hz: float, span_hz: float) -> float:
+    """Mean noise level per bin near ``f_c`` (median / ln 2 of the bins within
+    ``span_hz`` but farther than ``excl_hz``)."""
+    lo = max(int(np.ceil(st.at(f_c - span_hz))), 0)
+    hi = min(int(np.floor(st.at(f_c + span_hz))), len(st.f_hz) - 1)
+    if hi <= lo:
+        return np.nan
+    seg = p_row[lo:hi + 1]
+    f = st.f_hz[lo:hi + 1]
+    seg = seg[np.abs(f - f_c) > excl_hz]
+    if len(seg) < 4:
+        return np.nan
+    return float(np.median(seg) / np.log(2.0))
+
+
+def simulate_blades(log: MotorLog, n_pulses: int, prf_hz: float, *, wavelength_m: float, n_blades: int,
+                    blade_length_m: float, n_fft: int, seed: int, envelope_kw: dict | None = None,
+                    alpha_s: float = 0.0, s_blade: float = 1.0, s_body: float = 0.0, track: Track | None = None,
+                    window_pulses: int = 2500) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's model of a flight: returns (iq complex64 [n_pulses], rev_s
+    float32 [n_pulses, n_motors]) with sub-CPI sampled speeds of ``log``.
+
+    Without ``track`` the body is at zero Doppler (spectrum relative to the body)."""
+    cfg = sampling.SamplingConfig(n_fft=n_fft, window_pulses=window_pulses)
+    rev = sampling.sub_cpi(log, n_pulses, prf_hz, cfg)
+    dur = n_pulses / prf_hz
+    trk = track if track is not None else Track.constant_velocity(1000.0, 0.0, dur)
+    kw = dict(envelope_kw or {})
+    if alpha_s > 0 and "envelope" not in kw:
+        kw["envelope"] = _unit_envelope  # the alpha envelope as the FFT filter of eq. (2)
+    iq = synthesize(rev, trk, prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
+                    blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), seed=seed,
+                    **kw)
+    return iq, rev
+
+
+def _unit_envelope(f_hz):
+    return np.ones(len(f_hz), np.float32)
+
+
+# ---------------------------------------------------------------- what the tests read
+
+@dataclass(frozen=True)
+class Calibration:
+    """The paper's model fitted to the measurement (:func:`calibrate`): S_body,
+    S_blade (relative to S_body) and alpha [s] of the envelope exp(-alpha |f|), the
+    per-harmonic blade gain (measured / model sideband-pair power, the model without
+    envelope), S_blade absolute (periodogram units of the model), each usable
+    harmonic's power error [dB] against the fitted envelope, and their number."""
+
+    s_body: float
+    s_blade: float
+    alpha_s: float
+    blade_gain: np.ndarray
+    blade_abs: float
+    per_harmonic_power_error_db: dict
+    n_usable_harmonics: int
+
+
+@dataclass(frozen=True)
+class FloorOrdinates:
+    """The periodogram near the clutter line, off the target, on every second valid
+    CPI that has at least 5 such bins (:func:`floor_ordinates`): per CPI ``cpi``
+    [n_rows] its body Doppler ``f_body_hz``, body power ``body_pow`` and clutter-line
+    power ``clutter_pow`` (noise-subtracted, >= 0), and its bins' Doppler ``f_hz``,
+    flight power ``power`` and background PSD ``background`` (one array per row);
+    ``bin_hz`` the bin width."""
+
+    bin_hz: float
+    cpi: np.ndarray
+    f_body_hz: np.ndarray
+    body_pow: np.ndarray
+    clutter_pow: np.ndarray
+    f_hz: tuple
+    power: tuple
+    background: tuple
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """Everything the cause tests read of one flight (module doc); arrays [n_t] (one
+    per CPI) unless noted."""
+
+    flight_id: str
     t_s: np.ndarray
     valid: np.ndarray            # bool: CPI usable (body clear of clutter, no artifact, within the log)
     f_body_hz: np.ndarray
@@ -40,13 +333,20 @@ class Measurements:
     lo_sd: np.ndarray
     pair_ok: np.ndarray          # [n_t, N] bool
     model_h: np.ndarray          # [n_t, N] model (alpha=0, S_blade=1) sideband power, mean of +-n
-    log: MotorLog = None
-    stft: Stft = None
-    bg_stft: Stft | None = None
-    sim_stft: Stft | None = None  # the model's blades (alpha = 0, S_blade = 1), body-relative
-    info: dict = field(default_factory=dict)
-    body_fine: dict | None = None  # short-window body power series (see body_power_fine)
-    side_fine: dict | None = None  # short-window sideband power per harmonic (see sideband_power_fine)
+    usable_pairs: np.ndarray     # [N] bool: weaker side clearly above the noise (usable_pairs)
+    usable_pair_sums: np.ndarray  # [N] bool: summed pair clearly above the noise
+    lag_s: np.ndarray            # [n_lags] motor-log lags searched [s]
+    lag_curves: np.ndarray       # [n_lags, n_t] ln f_log(t + lag) / f_log(t) (lag_curves)
+    log: MotorLog                # the checked motor log
+    log_from_radar: bool         # the log was estimated from this recording's own HERM lines
+    stft: Stft
+    bg_stft: Stft | None
+    sim_stft: Stft               # the model's blades (alpha = 0, S_blade = 1), body-relative
+    body_fine: dict              # short-window body power series (body_power_fine)
+    side_fine: dict              # short-window sideband power per harmonic (sideband_power_fine)
+    info: dict = field(default_factory=dict)  # spread, prf_hz, n_blades, n_artifact_cpis, match_q
+    calib: Calibration | None = None          # the paper's model calibrated (calibrate)
+    floor_ordinates: FloorOrdinates | None = None  # None without a background recording
 
 
 def _dilation(st: Stft, sim: Stft, f_body, h0, n_harm, s_grid, floor, clutter_hz):
@@ -94,11 +394,12 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
     """Floor at the body's distance from the clutter line relative to the far noise
     floor, per CPI (>= 1) [n_t]: the median / ln 2 of the bins whose |f| is within
     ``3 body_half_hz`` of |f_b| (both sides of the clutter line), off the target
-    (farther than ``body_half_hz + pn_body_guard_hz`` from the body and than
-    ``pn_line_guard_frac`` x the HERM spacing ``spacing_hz`` [n_t] from its lines,
-    as in the phase-noise test) and off the clutter line (``clutter_guard_hz``),
-    over the median / ln 2 of the whole spectrum; within ``6 body_half_hz`` when
-    fewer than 4 bins qualify, 1 when still fewer; averaged over +-``smooth_cpis``.
+    (farther than ``body_half_hz +`` :data:`.config.PN_BODY_GUARD_HZ` from the body and
+    than :data:`.config.LINE_GUARD_FRAC` x the HERM spacing ``spacing_hz`` [n_t] from
+    its lines, as in the phase-noise ordinates) and off the clutter line
+    (``clutter_guard_hz``), over the median / ln 2 of the whole spectrum; within
+    ``6 body_half_hz`` when fewer than 4 bins qualify, 1 when still fewer; averaged
+    over +-``smooth_cpis``.
 
     The body's band holds, besides the body, whatever random floor lies there: the
     thermal noise, and near the clutter line the wind-blown clutter's skirt (10-20 dB
@@ -119,11 +420,11 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
     r = np.ones(n_t)
     for i in range(n_t):
         fb, sp = f_body_hz[i], spacing_hz[i]
-        keep = clear & (np.abs(f - fb) > half + cfg.pn_body_guard_hz)
+        keep = clear & (np.abs(f - fb) > half + PN_BODY_GUARD_HZ)
         if np.isfinite(sp) and sp > 0:
             for n in range(1, 16):
                 for sg in (1, -1):
-                    keep &= np.abs(f - (fb + sg * n * sp)) > cfg.pn_line_guard_frac * sp
+                    keep &= np.abs(f - (fb + sg * n * sp)) > LINE_GUARD_FRAC * sp
         dist = np.abs(np.abs(f) - abs(fb))
         for width in (3 * half, 6 * half):
             sel = keep & (dist <= width)
@@ -161,7 +462,7 @@ def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray,
 
     The noise of a window's band power is that of the floor around the body: the
     far floor times ``floor_ratio`` [n_cpi] (:func:`body_floor_ratio`, of the
-    nearest CPI; default 1), through the window (:func:`.features.noise_power_factor`).
+    nearest CPI; default 1), through the window (:func:`noise_power_factor`).
     """
     from scipy.ndimage import uniform_filter1d
 
@@ -216,14 +517,14 @@ def sideband_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndar
     window's far floor (median / ln 2), upper and lower side apart. In so short a
     window the rotors' lines (1-3 % apart) are not resolved: their power beats at
     the lines' difference frequencies (n x a few Hz), a nuisance that is
-    independent between the harmonics (:func:`.causes.fading_estimate_fine`
+    independent between the harmonics (:func:`.hypotheses.fading_estimate_fine`
     measures it where the fading cancels). Which harmonics and windows are used is
     left to the caller (the nearest CPI's validity). The stationary clutter is
     first taken out as in :func:`body_power_fine`.
 
     Returns a dict: ``t_s`` [m] window centres, ``up``, ``lo`` [m, N] noise-subtracted
     powers, ``up_sd``, ``lo_sd`` [m, N] their noise std (linear,
-    :func:`.features.noise_power_factor`), ``inside`` [m, N] bool (both bands
+    :func:`noise_power_factor`), ``inside`` [m, N] bool (both bands
     within the Nyquist band), ``cpi`` [m] index of the nearest CPI, ``window``,
     ``hop_s``, ``range_m`` [m], ``n_window`` [pulses].
     """
@@ -270,8 +571,157 @@ def sideband_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndar
     return out
 
 
-def measure(flight, log: MotorLog, cfg) -> Measurements:
-    """Measure the per-CPI statistics of ``flight`` (see module doc)."""
+def usable_pairs(up, lo, up_sd, lo_sd, pair_ok, *, summed: bool = False) -> np.ndarray:
+    """Harmonic pairs [N] clearly above the noise in most CPIs: the median over the
+    CPIs (where ``pair_ok``) of the weaker side's power over the larger noise std
+    (``summed``: of the pair's summed power over its noise std, for a statistic
+    that reads the sum, so that a pair with one side weakened by an asymmetry still
+    counts) is at least :data:`.config.MIN_PAIR_SNR`, in at least 6 CPIs.
+    ``up``, ``lo``, ``up_sd``, ``lo_sd``, ``pair_ok`` [n_t, N] as in
+    :class:`Measurements`."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if summed:
+            snr = (up + lo) / np.maximum(np.sqrt(up_sd ** 2 + lo_sd ** 2), 1e-30)
+        else:
+            snr = np.minimum(up, lo) / np.maximum(np.maximum(up_sd, lo_sd), 1e-30)
+    snr = np.where(pair_ok, snr, np.nan)
+    med = np.array([np.nanmedian(c) if np.isfinite(c).any() else 0.0 for c in snr.T])
+    return (med >= MIN_PAIR_SNR) & (np.isfinite(snr).sum(axis=0) >= 6)
+
+
+def calibrate(M: Measurements) -> Calibration:
+    """S_body, S_blade, alpha of the paper's model fitted to the measurement ``M``, and
+    the per-harmonic blade gain used as the model's prediction: each harmonic's
+    median measured / model sideband-pair power (``M.model_h``, the model without
+    envelope), and over the usable pairs (``M.usable_pairs``) a line in dB over the
+    harmonics' frequency n B f (f the median logged speed): its intercept is
+    S_blade^2, its slope the envelope's alpha."""
+    w2 = float((M.stft.window ** 2).sum())
+    n = len(M.stft.window)
+    good = M.valid & (M.body_pow > 0)
+    s_body = float(np.sqrt(np.median(M.body_pow[good]) / (n * w2))) if good.any() else float("nan")
+    use = M.usable_pairs
+    gains = np.ones(len(M.harm))
+    for k in range(len(M.harm)):
+        mk = M.valid & M.pair_ok[:, k] & (M.model_h[:, k] > 0) & (M.up[:, k] + M.lo[:, k] > 0)
+        if mk.sum():
+            gains[k] = float(np.median((M.up[mk, k] + M.lo[mk, k]) / (2 * M.model_h[mk, k])))
+    hbar = float(np.median(M.f_log_hz)) * M.info["n_blades"]
+    ks = np.flatnonzero(use & (gains > 0))
+    if len(ks) >= 2:
+        slope, icpt = np.polyfit(M.harm[ks] * hbar, 10 * np.log10(gains[ks]), 1)
+        alpha = max(0.0, -slope / (20 * np.log10(np.e)))
+        s_blade = float(10 ** (icpt / 20))
+    elif len(ks) == 1:
+        alpha, s_blade = 0.0, float(np.sqrt(gains[ks[0]]))
+    else:
+        alpha, s_blade = float("nan"), float("nan")
+    if not np.isfinite(s_blade):
+        s_blade = float(np.sqrt(np.median(gains)))
+        alpha = 0.0 if not np.isfinite(alpha) else alpha
+    ref = max(s_body, 1e-30)
+    per_h_err = {}
+    for k in ks:
+        pred = s_blade ** 2 * np.exp(-2 * alpha * M.harm[k] * hbar)
+        per_h_err[f"h{int(M.harm[k])}"] = round(float(10 * np.log10(gains[k] / pred)), 2)
+    return Calibration(s_body=1.0, s_blade=s_blade / ref, alpha_s=float(alpha), blade_gain=gains, blade_abs=s_blade,
+                       per_harmonic_power_error_db=per_h_err, n_usable_harmonics=int(len(ks)))
+
+
+def lag_curves(log: MotorLog, t_s: np.ndarray, window: np.ndarray, prf_hz: float, lags: np.ndarray) -> np.ndarray:
+    """g[l, t] = ln f_log(t + lag_l) - ln f_log(t) [len(lags), len(t_s)]: how the line
+    spacing the motor ``log`` predicts at the CPIs ``t_s`` changes when the log is
+    shifted by each lag [s] (its mean speed CPI-averaged like the sub-CPI sampling,
+    :func:`cpi_average`, on shifted CPI centres)."""
+    tl = log.time_s
+    fl = log.rev_s.mean(axis=1)
+    base = cpi_average(tl, fl, t_s, window, prf_hz)
+    out = np.empty((len(lags), len(t_s)))
+    for i, L in enumerate(lags):
+        out[i] = np.log(cpi_average(tl, fl, t_s + L, window, prf_hz) / base)
+    return out
+
+
+def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | None:
+    """The phase-noise test's data (:class:`FloorOrdinates`; None without a background
+    recording): on every second valid CPI (non-overlapping), the periodogram bins
+    :data:`.config.PN_INNER_HZ` to :data:`.config.PN_OUTER_HZ` from the clutter line
+    (every :data:`.config.PN_BIN_STEP`-th), off the target: farther than
+    ``body_half_hz +`` :data:`.config.PN_BODY_GUARD_HZ` from the body, than
+    :data:`.config.LINE_GUARD_FRAC` x the HERM spacing from its first 15 lines, and
+    where the calibrated model's blade power (``M.calib``, smeared lines too) is below
+    the floor + :data:`.config.PN_MODEL_GUARD_DB`; a CPI with fewer than 5 such bins
+    is left out. With each bin the background recording's PSD there (same CPI, the
+    periodogram smoothed over +-:data:`.config.PN_SMOOTH_CPIS` CPIs and
+    +-:data:`.config.PN_SMOOTH_BINS` bins), and per CPI the clutter line's power
+    (within :data:`.config.PN_CLUTTER_LINE_HZ` of 0 Hz, noise-subtracted)."""
+    if M.bg_stft is None:
+        return None
+    from scipy.ndimage import uniform_filter
+
+    st, bg = M.stft, M.bg_stft
+    k = max(1, int(PN_SMOOTH_BINS))
+    # the background recording is the same cell sequence: smooth it over
+    # +-PN_SMOOTH_CPIS CPIs and +-k bins around each CPI (time-aligned)
+    s_bg_t = uniform_filter(bg.p, size=(2 * PN_SMOOTH_CPIS + 1, 2 * k + 1), mode="nearest")
+    f = st.f_hz
+    region = (np.abs(f) >= PN_INNER_HZ) & (np.abs(f) <= PN_OUTER_HZ)
+    cols = np.flatnonzero(region)[::PN_BIN_STEP]
+    rows = np.flatnonzero(M.valid)[::2]  # non-overlapping CPIs
+    clutter = (np.abs(f) <= PN_CLUTTER_LINE_HZ)
+    calib = M.calib
+    kept, fs, ps, ss, cs = [], [], [], [], []
+    for i in rows:
+        fb = M.f_body_hz[i]
+        ff = f[cols]
+        # off the target: its body skirt and its HERM lines (guard a fraction of the spacing)
+        keep = np.abs(ff - fb) > cfg.body_half_hz + PN_BODY_GUARD_HZ
+        spacing = M.f_log_hz[i] * (M.dil[i] if np.isfinite(M.dil[i]) else 1.0) * int(M.info.get("n_blades", 2))
+        for n in range(1, 16):
+            for sg in (1, -1):
+                keep &= np.abs(ff - (fb + sg * n * spacing)) > LINE_GUARD_FRAC * spacing
+        if M.sim_stft is not None and calib is not None:
+            # off the blade power the calibrated model predicts there (smeared lines too)
+            d = ff - fb
+            pred = (calib.blade_abs ** 2 * np.exp(-2 * calib.alpha_s * np.abs(d))
+                    * np.interp(d, M.sim_stft.f_hz, M.sim_stft.p[i]))
+            keep &= pred < M.floor[i] * 10 ** (PN_MODEL_GUARD_DB / 10)
+        cc = cols[keep]
+        if len(cc) < 5:
+            continue
+        kept.append(i)
+        cs.append(max(float(st.p[i, clutter].sum() - clutter.sum() * M.floor[i]), 0.0))
+        fs.append(f[cc])
+        ps.append(st.p[i, cc])
+        ss.append(s_bg_t[min(i, len(s_bg_t) - 1), cc])
+    kept = np.asarray(kept, int)
+    return FloorOrdinates(bin_hz=st.bin_hz, cpi=kept, f_body_hz=M.f_body_hz[kept], body_pow=M.body_pow[kept],
+                          clutter_pow=np.asarray(cs, float), f_hz=tuple(fs), power=tuple(ps), background=tuple(ss))
+
+
+# ---------------------------------------------------------------- the measurement
+
+def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | None = None) -> Measurements:
+    """Measure ``flight`` against the paper's model of it (module doc).
+
+    Parameters
+    ----------
+    flight : microdoppler.io.flightzarr.Flight
+        A measured drone flight (``target == "drone"``).
+    motor_log : MotorLog, optional
+        Its motor log; default the store's ``motors/*`` arrays.
+    cfg : DiagnosisConfig, optional
+
+    Raises
+    ------
+    Undiagnosable
+        When the flight cannot be diagnosed (:func:`check_diagnosable`).
+    """
+    cfg = cfg if cfg is not None else DiagnosisConfig()
+    log = check_diagnosable(flight, motor_log, cfg)
+    # a log estimated from this recording's own HERM lines (motors_source radar)
+    log_from_radar = (flight.attrs.get("motors_source") == "radar" if motor_log is None
+                      else str(motor_log.source).startswith(RADAR_SOURCE))
     prf = flight.prf_hz
     a = flight.attrs
     n_fft = cfg.n_fft
@@ -281,10 +731,10 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     df = st.bin_hz
     floor = np.median(st.p, axis=1) / np.log(2.0)
     # artifact CPIs: floor far above the flight's typical floor
-    art = DB * np.log(floor / np.median(floor)) > cfg.artifact_floor_db
+    art = DB * np.log(floor / np.median(floor)) > RAISED_FLOOR_DB
     # body
     f_trk = body_doppler(flight, st.t_s)
-    f_body = refine_peak(st, f_trk, cfg.body_search_hz)
+    f_body = refine_peak(st, f_trk, BODY_SEARCH_HZ)
     body_valid = np.abs(f_body) > cfg.clutter_guard_hz + cfg.body_half_hz
     body_pow = np.empty(n_t)
     body_nb = np.empty(n_t)
@@ -301,9 +751,9 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     spread = float(np.clip(np.median(rev.std(axis=1) / np.maximum(rev.mean(axis=1), 1e-6)), 0, 0.1))
     B = int(a["n_blades"])
     h0 = B * f_log
-    s_grid = np.arange(cfg.scale_min, cfg.scale_max + 1e-9, cfg.scale_step)
-    dil, q = _dilation(st, sim, f_body, h0, cfg.n_match_harmonics, s_grid, floor, cfg.clutter_guard_hz)
-    dil_ok = np.isfinite(dil) & (q > cfg.min_match) & ~art
+    s_grid = np.arange(SCALE_MIN, SCALE_MAX + 1e-9, SCALE_STEP)
+    dil, q = _dilation(st, sim, f_body, h0, N_MATCH_HARMONICS, s_grid, floor, cfg.clutter_guard_hz)
+    dil_ok = np.isfinite(dil) & (q > MIN_MATCH) & ~art
     dil_f = np.where(np.isfinite(dil), dil, np.nanmedian(dil) if np.isfinite(dil).any() else 1.0)
     # the random part of the body band's power: the floor at the body's distance from
     # the clutter line, off the target (body_floor_ratio), through the window
@@ -313,7 +763,7 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
     var = noise_power_factor(st.window) * (2 * np.maximum(body_pow, 0) * fl_body + body_nb * fl_body ** 2)
     body_sd = DB * np.sqrt(var) / np.maximum(body_pow, 1e-30)
     # sidebands
-    N = cfg.n_harmonics
+    N = N_HARMONICS
     harm = np.arange(1, N + 1)
     up = np.zeros((n_t, N)); lo = np.zeros((n_t, N))
     up_sd = np.zeros((n_t, N)); lo_sd = np.zeros((n_t, N))
@@ -324,7 +774,7 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
         h = h0[i] * dil_f[i]
         hs = h0[i]
         for k, n in enumerate(harm):
-            w = max(cfg.line_half_bins * df, n * h * 2.5 * spread + 2 * df)
+            w = max(LINE_HALF_BINS * df, n * h * 2.5 * spread + 2 * df)
             w = min(w, 0.4 * h)
             sides = []
             for sgn in (1, -1):
@@ -342,7 +792,7 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
                 continue
             good = True
             for j, (s, nb, fl, fc) in enumerate(sides):
-                if not np.isfinite(fl) or DB * np.log(fl / floor[i]) > cfg.raised_floor_db \
+                if not np.isfinite(fl) or DB * np.log(fl / floor[i]) > RAISED_FLOOR_DB \
                         or abs(fc) < cfg.clutter_guard_hz + w:
                     good = False
                 pw = s - nb * fl
@@ -361,7 +811,17 @@ def measure(flight, log: MotorLog, cfg) -> Measurements:
                            floor_ratio=fl_ratio)
     side_fine = sideband_power_fine(iq, prf, st.t_s, f_body, h0 * dil_f, harm, spread, n_fft,
                                     flight.track_time_s, flight.track_range_m)
-    return Measurements(st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
-                        up, lo, up_sd, lo_sd, ok, model_h, log=log, stft=st, bg_stft=bg, sim_stft=sim,
-                        info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()), "match_q": float(np.nanmedian(q))},
-                        body_fine=fine, side_fine=side_fine)
+    lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, LAG_STEP_S)
+    M = Measurements(
+        flight.flight_id, st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
+        up, lo, up_sd, lo_sd, ok, model_h,
+        usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
+        usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True),
+        lag_s=lags, lag_curves=lag_curves(log, st.t_s, st.window, prf, lags),
+        log=log, log_from_radar=log_from_radar, stft=st, bg_stft=bg, sim_stft=sim, body_fine=fine,
+        side_fine=side_fine,
+        info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()),
+              "match_q": float(np.nanmedian(q))})
+    # the model calibrated on the measurement, then the floor off the calibrated lines
+    M = replace(M, calib=calibrate(M))
+    return replace(M, floor_ordinates=floor_ordinates(M, cfg))

@@ -1,18 +1,120 @@
-"""Pipeline entry points: diagnose the split's drone flights, aggregate
-their diagnosis into the ``extended`` variant's extensions."""
+"""The diagnosis from files in to report out.
+
+:func:`diagnose_flight` runs the four steps on one flight, each once and in turn:
+:func:`.measure.measure` (the flight against the paper's model of it, one
+:class:`~.measure.Measurements`), :func:`.hypotheses.run_tests` (one held-out test
+per cause), :func:`.decide.decide_flight` (the causes named, the report entry) and
+:func:`.explain.plot_diagnosis` (the figure). :func:`diagnose` does it for many
+flight stores and writes the report (``diagnosis-report/2``, every flight in it:
+``skipped`` with the reason where it cannot be diagnosed); the pipeline's rules call
+:func:`diagnose_split`, :func:`aggregate_report` and :func:`write_twin_extensions`
+(the ``extended`` variant's extensions, :mod:`.aggregate`).
+"""
 
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import fields
 from pathlib import Path
 
 import pandas as pd
 
 from ..errors import ConfigError, InputError
+from ..io.flightzarr import read_flight
+from ..io.motorlog import MotorLog
+from ..io.outputs import atomic_file
+from ..synthesis.catalog import CATALOG
 from ..synthesis.extensions import save_extensions
 from .aggregate import aggregate, aggregate_twins
-from .core import DiagnosisConfig, diagnose
+from .config import DiagnosisConfig, unknown_key_error
+from .decide import decide_flight, skipped_entry
+from .explain import plot_diagnosis
+from .hypotheses import run_tests
+from .measure import Undiagnosable, measure
+
+#: the report format written by :func:`diagnose` (``shared/formats/flight-zarr.md``)
+REPORT_SCHEMA = "diagnosis-report/2"
+
+
+def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, figure_path=None) -> dict:
+    """Diagnose one measured drone flight: measure, test, decide, explain.
+
+    Parameters
+    ----------
+    flight : microdoppler.io.flightzarr.Flight
+        A measured drone flight (``target == "drone"``).
+    motor_log : MotorLog, optional
+        Its motor log; default the store's ``motors/*`` arrays.
+    config : DiagnosisConfig or dict, optional
+    figure_path : path, optional
+        Where to write the figure (measured vs baseline vs extended, residual).
+
+    Returns
+    -------
+    dict
+        The report entry (``diagnosis-report/2``, :func:`.decide.decide_flight`):
+        flight_id, cause (the first of ``causes`` or ``"none"``), causes (every
+        significant and relevant cause, strongest first, each with its extension,
+        held-out gain with the other named causes in both models, and evidence) and
+        the flight's evidence (every test against the paper's model, the greedy
+        steps, the calibration).
+
+    Raises
+    ------
+    Undiagnosable
+        (an :class:`InputError` naming the field) when the flight cannot be
+        diagnosed (:func:`.measure.check_diagnosable`), or no rotor line is visible
+        (:func:`.hypotheses.check_testable`).
+    """
+    cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
+    started = time.perf_counter()
+    M = measure(flight, motor_log, cfg)
+    T = run_tests(M, cfg)
+    D = decide_flight(M, T, cfg, started=started)
+    if figure_path is not None and cfg.figures:
+        plot_diagnosis(flight, M, D, figure_path, cfg)
+    return D.entry
+
+
+def write_json(obj, path) -> Path:
+    """Write ``obj`` as JSON, atomically (:func:`microdoppler.io.outputs.atomic_file`)."""
+    with atomic_file(path) as tmp:
+        tmp.write_text(json.dumps(obj, indent=1))
+    return Path(path)
+
+
+def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None,
+             log=print) -> dict:
+    """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``).
+
+    Every flight appears in the report: flights that cannot be diagnosed (birds,
+    target-free recordings, Minis, drones without a usable motor log, too short, no
+    visible rotor lines) with cause ``skipped`` and the ``reason``. A store that
+    breaks the format is an error (:class:`InputError`). ``motor_logs`` maps
+    flight_id -> MotorLog (overrides the stores' own logs).
+    """
+    cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
+    entries = []
+    for p in paths:
+        f = read_flight(p)
+        ml = (motor_logs or {}).get(f.flight_id)
+        fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
+        try:
+            e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
+        except Undiagnosable as exc:
+            e = skipped_entry(f.flight_id, exc.reason)
+            log(f"{f.flight_id}: skipped: {exc.reason}")
+        else:
+            named = "; ".join(f"{c['cause']} {c['extension']['params']}" for c in e["causes"]) or "none"
+            log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
+        entries.append(e)
+    report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}
+    write_json(report, out_json)
+    return report
+
+
+# ---------------------------------------------------------------- the pipeline's rules
 
 #: keys of the ``diagnosis:`` config section that are pipeline settings, not
 #: :class:`DiagnosisConfig` fields
@@ -41,7 +143,7 @@ def split_settings(settings: dict | None, *, source="config") -> tuple[dict, Dia
     names = [*PIPELINE_KEYS, *(f.name for f in fields(DiagnosisConfig))]
     for k in s:
         if k not in names:
-            raise ConfigError(source, f"diagnosis.{k}", "unknown key", f"one of {', '.join(names)}")
+            raise unknown_key_error(source, k, names)
     sets = _sets(s.pop("sets", list(SETS)), "sets", source)
     pop = _sets(s.pop("population_sets", ["train"]), "population_sets", source)
     for i, x in enumerate(pop):
@@ -74,7 +176,7 @@ def _training_drones(split_csv, sets) -> pd.DataFrame:
 
 def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print) -> dict:
     """Diagnose the drone flights of ``settings['sets']`` (default: every set) with
-    :func:`.core.diagnose`, using their ingested motor logs (or the stores' own);
+    :func:`diagnose`, using their ingested motor logs (or the stores' own);
     flights that cannot be diagnosed (no usable log, Minis, ...) are listed as
     ``skipped`` with the reason."""
     from ..io.inventory import read_ingested_log

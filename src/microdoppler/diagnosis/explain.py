@@ -1,5 +1,9 @@
-"""Figure per diagnosed flight: measured vs baseline vs extended spectrograms, the
-spectrogram residual (measured - baseline) and the statistic that named the cause."""
+"""Step 4 of the diagnosis: the figure that explains a flight's decision.
+
+:func:`plot_diagnosis` shows the measured spectrogram against the calibrated paper's
+model (baseline) and the model extended by the named cause, the residual (measured -
+baseline) and the statistic that named the cause (or the strongest test when none
+was named)."""
 
 from __future__ import annotations
 
@@ -9,10 +13,12 @@ import numpy as np
 
 from ..synthesis.extensions import ExtensionSet
 from ..synthesis.model import Track, add_noise
-from .features import DB, simulate_blades, stft_power
+from .config import DiagnosisConfig
+from .decide import Decision
+from .measure import DB, Measurements, simulate_blades, stft_power
 
 
-def simulate_flight(flight, log, calib, M, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
+def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
     """The paper's model of ``flight`` (calibrated), optionally extended, plus the
     flight's background recording (or white noise at its floor)."""
     prf = flight.prf_hz
@@ -20,8 +26,9 @@ def simulate_flight(flight, log, calib, M, ext: ExtensionSet | None, seed: int, 
     w2 = float((M.stft.window ** 2).sum())
     good = M.valid & (M.body_pow > 0)
     amp = float(np.sqrt(np.median(M.body_pow[good]) / (n_fft * w2))) if good.any() else 1.0
-    s_blade = calib["s_blade"] if np.isfinite(calib["s_blade"]) else 0.0
-    alpha = calib["alpha_s"] if np.isfinite(calib["alpha_s"]) else 0.0
+    calib, log = M.calib, M.log
+    s_blade = calib.s_blade if np.isfinite(calib.s_blade) else 0.0
+    alpha = calib.alpha_s if np.isfinite(calib.alpha_s) else 0.0
     a = flight.attrs
     lg = ext.transform_log(log) if ext is not None else log
     kw = ext.synth_kwargs(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else {}
@@ -39,17 +46,20 @@ def simulate_flight(flight, log, calib, M, ext: ExtensionSet | None, seed: int, 
     return iq.astype(np.complex64)
 
 
-def plot_diagnosis(flight, log, M, calib, tests, cause, path, cfg) -> Path:
+def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisConfig) -> Path:
+    """Write the figure of ``flight``'s diagnosis (its measurement ``M`` and decision
+    ``D``) to ``path`` (PNG, atomically); returns the path."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    tests, cause = D.shown, D.cause
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    base_iq = simulate_flight(flight, log, calib, M, None, cfg.seed, cfg.n_fft)
+    base_iq = simulate_flight(flight, M, None, cfg.seed, cfg.n_fft)
     ext = ExtensionSet({cause: tests[cause].params}) if cause != "none" else None
-    ext_iq = simulate_flight(flight, log, calib, M, ext, cfg.seed, cfg.n_fft) if ext else base_iq
+    ext_iq = simulate_flight(flight, M, ext, cfg.seed, cfg.n_fft) if ext else base_iq
     st = M.stft
     sb = stft_power(base_iq, flight.prf_hz, cfg.n_fft)
     se = stft_power(ext_iq, flight.prf_hz, cfg.n_fft) if ext else sb

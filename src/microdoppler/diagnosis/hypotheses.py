@@ -1,4 +1,9 @@
-"""One held-out likelihood test per catalog cause.
+"""Step 2 of the diagnosis: one held-out likelihood test per catalog cause.
+
+:func:`run_tests` reads the flight's :class:`~.measure.Measurements` only (never the
+I/Q or a spectrogram) and returns every cause's :class:`CauseTest` against the
+paper's model, and the tests of the causes whose statistics depend on each other
+(:data:`COUPLED`) with the other one in both models, for :mod:`.decide`.
 
 Every cause is tested the same way. The CPIs are cut into alternating blocks of
 ``block_cpis`` (folds A and B). On each fold the paper's model (baseline) and the
@@ -7,16 +12,17 @@ the log-likelihood of the cause's statistic. The two held-out likelihood ratios 
 averaged: under the baseline the average has expectation <= 1 whatever was fitted
 (each ratio is a likelihood ratio on data its fit did not see), so it is an e-value
 and P(ratio >= 1/a) <= a (Markov). A cause is *significant* when its log e-value
-exceeds the threshold of its greedy step (``core.step_threshold``: Bonferroni over the
+exceeds the threshold of its greedy step (``decide.step_threshold``: Bonferroni over the
 causes at level alpha / (k (k + 1)) at step k) and *relevant* when its fitted effect
-is at least a margin (a fraction of the catalog's detectable size). ``core.decide_all``
+is at least a margin (a fraction of the catalog's detectable size). ``decide.decide_all``
 names causes greedily, strongest first, each later step testing the remaining causes
 with the named causes' extensions in both models (``given`` of :func:`test_log`; the
-other statistics are unchanged by another cause's extension, see ``core.COUPLED``).
+other statistics are unchanged by another cause's extension, see :data:`COUPLED`).
 
 Sizes and correlation times of the fluctuating causes are estimated jointly and
-analytically (:mod:`.timescales`: variogram of the per-window dB series, window
-averaging and noise accounted for), without simulating any process: the body's on
+analytically (:func:`fit_gain_process`, :func:`fit_gain_process_ml`: variogram and
+exact likelihood of the per-window dB series, window averaging and noise accounted
+for), without simulating any process: the body's on
 short windows (:func:`.measure.body_power_fine`), the fading's on short windows too
 (:func:`fading_estimate_fine`: the harmonics' cluster powers on windows of n_fft / 2
 pulses, the rotors' beats taken out as a nuisance measured where the fading
@@ -54,19 +60,22 @@ Statistics (per CPI) and models:
   is a mix of the two over 35-95 Hz); ``skirt_dbc_hz`` = 10 log10((q_flat + q_slope) /
   200 Hz) is its density at 50 Hz, ``rms_rad`` = sqrt(ln(1 + q_flat + q_slope)) the
   rms of the flat process with that skirt.
+
+The fixed settings read here are :mod:`.config`'s constants.
 """
 
 from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from itertools import combinations
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
-from .features import DB, cpi_average
-from .timescales import _lag_grid, fit_gain_process, fit_gain_process_ml, fit_variogram, harmonic_speed_slope
+from .config import BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ, DiagnosisConfig
+from .measure import DB, Measurements, Undiagnosable
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -160,28 +169,8 @@ def _ml_extra_var(e, v0):
 
 # ---------------------------------------------------------------- the tests
 
-def usable_pairs(M, cfg):
-    """Harmonic pairs whose weaker side is clearly above the noise in most CPIs."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        snr = np.minimum(M.up, M.lo) / np.maximum(np.maximum(M.up_sd, M.lo_sd), 1e-30)
-    snr = np.where(M.pair_ok, snr, np.nan)
-    med = np.array([np.nanmedian(c) if np.isfinite(c).any() else 0.0 for c in snr.T])
-    return (med >= cfg.min_pair_snr) & (np.isfinite(snr).sum(axis=0) >= 6)
-
-
-def usable_pair_sums(M, cfg):
-    """Harmonic pairs whose summed power (upper + lower) is clearly above the noise in
-    most CPIs: the fading statistic reads the sum, so a pair with one side weakened
-    (an asymmetry) still counts."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        snr = (M.up + M.lo) / np.maximum(np.sqrt(M.up_sd ** 2 + M.lo_sd ** 2), 1e-30)
-    snr = np.where(M.pair_ok, snr, np.nan)
-    med = np.array([np.nanmedian(c) if np.isfinite(c).any() else 0.0 for c in snr.T])
-    return (med >= cfg.min_pair_snr) & (np.isfinite(snr).sum(axis=0) >= 6)
-
-
 def test_asymmetry(M, cfg, fold) -> CauseTest:
-    use = usable_pairs(M, cfg)
+    use = M.usable_pairs
     ok = M.pair_ok & use[None, :]
     U = np.where(ok, M.up, 0).sum(1)
     L = np.where(ok, M.lo, 0).sum(1)
@@ -189,7 +178,7 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     res = CauseTest("sideband_asymmetry", statistic="upper/lower sideband power [dB]")
     if m.sum() < 2 * cfg.block_cpis:
         res.testable = False
-        res.evidence = {"reason": f"usable sideband pairs (median >= {cfg.min_pair_snr:g} dB over the floor) "
+        res.evidence = {"reason": f"usable sideband pairs (median >= {MIN_PAIR_SNR:g} dB over the floor) "
                                   f"in {int(m.sum())} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"}
         return res
     d = DB * np.log(U[m] / L[m])
@@ -245,7 +234,7 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
     return res, s2
 
 
-def test_fading(M, cfg, fold, calib) -> CauseTest:
+def test_fading(M, cfg, fold) -> CauseTest:
     """Common-mode (random-effects) test: a fading gain moves every harmonic together,
     while the paper's model leaves each harmonic's power to vary on its own (beats of
     the rotors' lines). The baseline variance of the CPI's mean harmonic power [dB]
@@ -263,7 +252,7 @@ def test_fading(M, cfg, fold, calib) -> CauseTest:
     world v2 (fall-off 10-16 dB, sidebands ending after one or two pairs) showed a
     held-out log e-value of 10-40 without it (-1 to 5 with it; threshold 7.1)."""
     res = CauseTest("sideband_fading", statistic="mean sideband-pair power [dB], common to all harmonics")
-    use = usable_pair_sums(M, cfg)
+    use = M.usable_pair_sums
     ok = M.pair_ok & use[None, :] & (M.up + M.lo > 0)
     x = np.where(ok, DB * np.log(np.maximum(M.up + M.lo, 1e-30)), np.nan)
     with np.errstate(all="ignore"), warnings.catch_warnings():
@@ -343,7 +332,7 @@ def _speed_tilt_fit(M, x, ok, m):
     """(beta, u [n_t], Y [n_t, N], V [n_t, N]): each harmonic's series ``x`` [dB]
     detrended in time and log range (Y, valid where V), the motor log's mean speed
     likewise (u [rev/s], 0 off ``m``), and the slope beta of Y on n u
-    (:func:`.timescales.harmonic_speed_slope`)."""
+    (:func:`harmonic_speed_slope`)."""
     t, r = M.t_s, M.range_m
     n_t, N = x.shape
     Y = np.zeros((n_t, N))
@@ -379,7 +368,7 @@ def envelope_tilt(M, use) -> float:
     speed: harmonic n's sideband-pair power moves by n beta u dB for a change u
     [rev/s] of the rotor speed, beta = -20 log10(e) alpha B [dB per harmonic number
     per rev/s] (B blades). alpha is the paper's, calibrated on this flight like
-    ``core._calibrate`` but on the pairs' summed power (the harmonics ``use``): the
+    ``measure.calibrate`` but on the pairs' summed power (the harmonics ``use``): the
     slope of each harmonic's median measured / model power [dB] (the model without
     envelope, so the wire's own roll-off is out) over its frequency n B f (f the
     median logged speed), clipped to a decaying envelope (beta <= 0). A fading is
@@ -387,7 +376,7 @@ def envelope_tilt(M, use) -> float:
 
     Not fitted to the fluctuations: on flights whose sidebands end after one or two
     pairs, the slope of the harmonics' deviations from their CPI mean on the speed
-    (:func:`.timescales.harmonic_speed_slope`) rests on the few CPIs where two pairs
+    (:func:`harmonic_speed_slope`) rests on the few CPIs where two pairs
     are seen at once, and on the paper world's steep fall-offs came out up to twice
     the measured per-harmonic slope (-0.31 against -0.14 to -0.19 dB per rev/s and
     harmonic number, calibrated -0.15), which left the speed in the common mode."""
@@ -420,7 +409,7 @@ def speed_tilt(M, x, ok, m, use) -> tuple[float, np.ndarray]:
 
 def fading_estimate(M, x, ok, m, beta: float | None = None) -> dict:
     """Size [dB] and 1/e correlation time [s] of the fading, jointly
-    (:func:`.timescales.fit_gain_process` on the CPI grid: analytic CPI-window
+    (:func:`fit_gain_process` on the CPI grid: analytic CPI-window
     averaging), from the harmonics' sideband-pair powers ``x`` [dB, n_t x N] (valid
     where ``ok``, CPIs ``m``).
 
@@ -430,7 +419,7 @@ def fading_estimate(M, x, ok, m, beta: float | None = None) -> dict:
     n's power by n beta u dB; beta is the given one (``test_fading`` passes the
     calibrated envelope's, :func:`envelope_tilt`, on ``x`` with the tilt already
     out: ``beta=0``), else fitted on the harmonics' deviations from their CPI mean,
-    where a common gain cancels (:func:`.timescales.harmonic_speed_slope`).
+    where a common gain cancels (:func:`harmonic_speed_slope`).
     Without it, the speed changes of a flight (a few % of the rotor speed, over
     seconds) enter the common-mode series as a second fluctuation that is not the
     fading, and shorten its fitted time. The fit reads the variogram of the mean
@@ -488,7 +477,7 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
     n / K.
 
     The fading's (sigma, T) are then the exact Gaussian likelihood's
-    (:func:`.timescales.fit_gain_process_ml`: window-averaged exponential
+    (:func:`fit_gain_process_ml`: window-averaged exponential
     correlation plus the white nuisance n / K and a free white variance w, the part of
     the beats common to the harmonics, which their differences do not see: with w
     left out, an OU fading under four rotors 1-3 % apart came out ~16 % short;
@@ -496,7 +485,7 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
     trend in time and log range; T up to the longest lag / 2.5; where it still
     rises there, the variogram's estimate is kept), started from the variogram fit
     with the nuisance subtracted lag by lag (gamma(L) = mean[d^2 / 2] - n(L)
-    mean[1 / K], :func:`.timescales.fit_variogram`, no nugget, no drift). Tuned on
+    mean[1 / K], :func:`fit_variogram`, no nugget, no drift). Tuned on
     plans 777-780 (benchmarks/README.md, "Fading timescale on short windows")."""
     F = getattr(M, "side_fine", None)
     if F is None or m.sum() < 4:
@@ -564,7 +553,7 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
 def body_estimate(M) -> dict:
     """Size [dB] and 1/e correlation time [s] of the body power's fluctuation, from the
     short-window body power series (:func:`.measure.body_power_fine`), detrended
-    linearly in time and log range (:func:`.timescales.fit_gain_process`)."""
+    linearly in time and log range (:func:`fit_gain_process`)."""
     F = M.body_fine
     v = F["valid"]
     y = np.zeros(len(v))
@@ -578,7 +567,7 @@ def body_estimate(M) -> dict:
 def test_body(M, cfg, fold) -> CauseTest:
     m = M.valid & (M.body_pow > 0)
     y = np.where(m, DB * np.log(np.maximum(M.body_pow, 1e-30)), 0.0)
-    res, s2 = _power_fluct_test("body_fluctuation", y, M.body_sd_db, m, M, cfg, fold, smooth=cfg.body_smooth_cpis)
+    res, s2 = _power_fluct_test("body_fluctuation", y, M.body_sd_db, m, M, cfg, fold, smooth=BODY_SMOOTH_CPIS)
     res.statistic = "body power [dB], detrended"
     if s2 is not None:
         est = body_estimate(M) if s2 > 0 else {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": [],
@@ -587,26 +576,11 @@ def test_body(M, cfg, fold) -> CauseTest:
         tau = float(est["timescale_s"]) if sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
         res.params = {"body_std_db": sd, "timescale_s": tau}
         res.effect = sd
-        res.relevant = sd >= cfg.margin_body_std_db
+        res.relevant = sd >= cfg.margin_std_db
         res.evidence.update({"body_std_db": round(sd, 2), "timescale_s": round(tau, 3),
                              "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
                              "variogram_db2": [round(x, 3) for x in est["variogram_db2"]]})
     return res
-
-
-def _lag_curves(M, lags):
-    """g[l, t] = ln f_log(t + lag_l) - ln f_log(t) (CPI-averaged mean log speed)."""
-    st = M.stft
-    prf = M.info["prf_hz"]
-    lg = M.log
-    tl = lg.time_s
-    fl = lg.rev_s.mean(axis=1)
-    # smooth like the sub-CPI sampling would (CPI-average), on shifted CPI centres
-    base = cpi_average(tl, fl, M.t_s, st.window, prf)
-    out = np.empty((len(lags), len(M.t_s)))
-    for i, L in enumerate(lags):
-        out[i] = np.log(cpi_average(tl, fl, M.t_s + L, st.window, prf) / base)
-    return out
 
 
 #: outlier fraction of the lag/scale tests' contaminated-normal likelihood
@@ -629,8 +603,8 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
         return lag_res, sc_res
     y = np.log(M.dil[m])
     f = fold[m]
-    lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, cfg.lag_step_s)
-    G = _lag_curves(M, lags)[:, m]
+    lags = M.lag_s
+    G = M.lag_curves[:, m]
     with_scale = "motor_speed_scale" in given
     with_lag = "motor_log_lag" in given
 
@@ -682,7 +656,7 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
     if 0 < j < len(lags) - 1:  # parabolic refinement of the lag
         a, b, c = sse[j - 1], sse[j], sse[j + 1]
         if a - 2 * b + c > 0:
-            lag += float(np.clip(0.5 * (a - c) / (a - 2 * b + c), -0.5, 0.5)) * cfg.lag_step_s
+            lag += float(np.clip(0.5 * (a - c) / (a - 2 * b + c), -0.5, 0.5)) * LAG_STEP_S
     if with_lag:
         jl, _, _ = fit_joint(allm, True, True)
         scale = float(np.exp(np.median(y - G[jl])))
@@ -708,63 +682,40 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
     return lag_res, sc_res
 
 
-def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
+def test_phase_noise(M, cfg, fold) -> CauseTest:
+    """The floor near the clutter line (``M.floor_ordinates``: off the target, with
+    the background recording's PSD there) by its Whittle likelihood (module doc)."""
     res = CauseTest("phase_noise", statistic="Whittle likelihood of the floor near the clutter line")
-    if M.bg_stft is None:
+    O = M.floor_ordinates
+    if O is None:
         res.testable = False
         res.evidence = {"reason": "no background/iq: the radar's own phase noise cannot be separated"}
         return res
-    st, bg = M.stft, M.bg_stft
-    df = st.bin_hz
-    k = max(1, int(cfg.pn_smooth_bins))
-    # the background recording is the same cell sequence: smooth it over
-    # +-pn_smooth_cpis CPIs and +-k bins around each CPI (time-aligned)
-    from scipy.ndimage import uniform_filter
-
-    s_bg_t = uniform_filter(bg.p, size=(2 * cfg.pn_smooth_cpis + 1, 2 * k + 1), mode="nearest")
-    f = st.f_hz
-    region = (np.abs(f) >= cfg.pn_inner_hz) & (np.abs(f) <= cfg.pn_outer_hz)
-    cols = np.flatnonzero(region)[:: cfg.pn_bin_step]
-    rows = np.flatnonzero(M.valid)[::2]  # non-overlapping CPIs
+    df = O.bin_hz
     P, S, K, F = [], [], [], []
-    clutter = (np.abs(f) <= cfg.pn_clutter_line_hz)
     bw = PHASE_NOISE_BANDWIDTH_HZ
-    for i in rows:
-        fb = M.f_body_hz[i]
-        ff = f[cols]
-        # off the target: its body skirt (+-100 Hz) and its HERM lines (guard a fraction of the spacing)
-        keep = np.abs(ff - fb) > cfg.body_half_hz + cfg.pn_body_guard_hz
-        spacing = M.f_log_hz[i] * (M.dil[i] if np.isfinite(M.dil[i]) else 1.0) * int(M.info.get("n_blades", 2))
-        for n in range(1, 16):
-            for sg in (1, -1):
-                keep &= np.abs(ff - (fb + sg * n * spacing)) > cfg.pn_line_guard_frac * spacing
-        if M.sim_stft is not None and calib is not None:
-            # off the blade power the calibrated model predicts there (smeared lines too)
-            d = ff - fb
-            pred = (calib["blade_abs"] ** 2 * np.exp(-2 * calib["alpha_s"] * np.abs(d))
-                    * np.interp(d, M.sim_stft.f_hz, M.sim_stft.p[i]))
-            keep &= pred < M.floor[i] * 10 ** (cfg.pn_model_guard_db / 10)
-        cc = cols[keep]
-        if len(cc) < 5:
-            continue
-        C = max(float(st.p[i, clutter].sum() - clutter.sum() * M.floor[i]), 0.0)
-        af = np.abs(f[cc])
+    for j, i in enumerate(O.cpi):
+        fb = O.f_body_hz[j]
+        fc = O.f_hz[j]
+        C = float(O.clutter_pow[j])
+        af = np.abs(fc)
         unit = df / (2 * bw) * C
         # columns: the phase-noise skirt (flat, |f| < 100 Hz) and nuisance shapes in both
-        # models: wind-blown clutter (exponential decay from the clutter line)
-        # and a skirt around the body (a fluctuating body spreads its own line)
-        Bt = max(float(M.body_pow[i]), 0.0) * df / (2 * bw)
-        g2 = cfg.pn_body_skirt_hz ** 2
+        # models: wind-blown clutter (exponential decay from the clutter line, none by
+        # default: PN_CLUTTER_DECAYS_HZ) and a skirt around the body (a fluctuating
+        # body spreads its own line)
+        Bt = max(float(O.body_pow[j]), 0.0) * df / (2 * bw)
+        g2 = PN_BODY_SKIRT_HZ ** 2
         # the skirt: flat, and falling as (f0 / f)^2 (f0 = 50 Hz), around the clutter
         # line and the body both; a mix of the two follows a flat, a Gaussian or a
-        # 1/f-like phase-noise spectrum between pn_inner_hz and pn_outer_hz
-        db_ = np.abs(f[cc] - fb)
+        # 1/f-like phase-noise spectrum between PN_INNER_HZ and PN_OUTER_HZ
+        db_ = np.abs(fc - fb)
         slope_c = (SKIRT_OFFSET_HZ / np.maximum(af, 20.0)) ** 2
         slope_b = (SKIRT_OFFSET_HZ / np.maximum(db_, 20.0)) ** 2
         kern = np.column_stack([unit * (af < bw) + Bt * (db_ < bw), unit * slope_c + Bt * slope_b]
-                               + [unit * np.exp(-af / d) for d in cfg.pn_nuisance_decay_hz]
-                               + [Bt * g2 / ((f[cc] - fb) ** 2 + g2)])
-        P.append(st.p[i, cc]); S.append(s_bg_t[min(i, len(s_bg_t) - 1), cc]); K.append(kern); F.append(np.full(len(cc), fold[i]))
+                               + [unit * np.exp(-af / d) for d in PN_CLUTTER_DECAYS_HZ]
+                               + [Bt * g2 / ((fc - fb) ** 2 + g2)])
+        P.append(O.power[j]); S.append(O.background[j]); K.append(kern); F.append(np.full(len(fc), fold[i]))
     if len(P) < 4:
         res.testable = False
         res.evidence = {"reason": "no floor near the clutter line clear of the target"}
@@ -827,3 +778,418 @@ def test_phase_noise(M, cfg, fold, calib=None) -> CauseTest:
 
 CAUSE_ORDER = ("sideband_asymmetry", "sideband_fading", "body_fluctuation", "motor_log_lag",
                "motor_speed_scale", "phase_noise")
+#: causes whose tests need the rotors' HERM lines
+ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor_speed_scale")
+#: pairs of causes whose statistics depend on each other: the test of one is redone
+#: with the other's extension in both models once the other is named. Every other
+#: cause's statistic is unchanged by another cause's extension in both models (the
+#: held-out likelihood ratio is the same number): the asymmetry statistic is a
+#: ratio of upper to lower sidebands (a common blade gain, i.e. fading, cancels); the
+#: fading statistic is the common-mode sideband power relative to each harmonic's
+#: median (a constant per-side gain, i.e. asymmetry, cancels, and so do lag and
+#: scale, since the sidebands are read where the measured lines are and the
+#: envelope's speed tilt is taken out at the measured speed); the body
+#: statistic reads the body line only; the phase-noise likelihood keeps the body's
+#: own skirt (a fluctuating body) and the wind-blown clutter in both models.
+COUPLED = {"motor_log_lag": {"motor_speed_scale"}, "motor_speed_scale": {"motor_log_lag"}}
+
+
+@dataclass(frozen=True)
+class TestResults:
+    """Every cause's test of one flight (:func:`run_tests`).
+
+    ``tests``: cause -> :class:`CauseTest` against the paper's model (no cause named);
+    ``conditional``: (cause, partners) -> the cause's test with the extensions of
+    ``partners`` (a non-empty frozenset of its :data:`COUPLED` partners) in both
+    models, for every testable coupled cause (:func:`.decide.tests_given` assembles
+    the tests with any set of named causes in both models from the two)."""
+
+    __test__ = False  # not a pytest class
+
+    tests: dict
+    conditional: dict
+
+
+def check_testable(M: Measurements, tests: dict, cfg: DiagnosisConfig) -> None:
+    """:class:`~.measure.Undiagnosable` when the measurement leaves nothing to test:
+    too few usable CPIs, or no test of the rotors' lines possible (none visible)."""
+    fid = M.flight_id
+    nv = int(M.valid.sum())
+    if nv < 2 * cfg.block_cpis or not any(t.testable for t in tests.values()):
+        problem = (f"has {nv} of {len(M.t_s)} CPIs usable (body Doppler outside the clutter notch, "
+                   f"no floor artifact, within the motor log's span)")
+        expected = f">= {2 * cfg.block_cpis} usable CPIs"
+        raise Undiagnosable(fid, "iq", problem, expected,
+                            reason=f"too few usable CPIs: iq: {problem} (expected {expected})")
+    if not any(tests[c].testable for c in ROTOR_CAUSES):
+        problem = ("shows no rotor lines: no HERM sideband pair above the noise and too few CPIs whose line "
+                   "pattern matches the motor log's")
+        raise Undiagnosable(fid, "iq", problem, "visible HERM lines of the rotors",
+                            reason=f"no visible rotor sidebands: iq: {problem}")
+
+
+def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
+    """Every cause's :class:`CauseTest` of the measured flight ``M``: against the
+    paper's model, and for the :data:`COUPLED` causes also with their partners in
+    both models (:class:`TestResults`).
+
+    A motor log estimated from the recording's own HERM lines (``M.log_from_radar``)
+    cannot be late or scaled against them: lag and scale are then not testable.
+
+    Raises
+    ------
+    Undiagnosable
+        When nothing is left to test (:func:`check_testable`).
+    """
+    fold = folds(len(M.t_s), cfg.block_cpis)
+    lag, sc = test_log(M, cfg, fold)
+    tests = {
+        "sideband_asymmetry": test_asymmetry(M, cfg, fold),
+        "sideband_fading": test_fading(M, cfg, fold),
+        "body_fluctuation": test_body(M, cfg, fold),
+        "motor_log_lag": lag,
+        "motor_speed_scale": sc,
+        "phase_noise": test_phase_noise(M, cfg, fold),
+    }
+    if M.log_from_radar:
+        for name in ("motor_log_lag", "motor_speed_scale"):
+            tests[name].testable = False
+            tests[name].evidence = {"reason": "motors_source is radar: the motor log was estimated from this "
+                                              "recording's HERM lines, so lag and scale are not testable"}
+    check_testable(M, tests, cfg)
+    conditional = {}
+    for cause, partners in COUPLED.items():
+        if not tests[cause].testable:
+            continue
+        for r in range(1, len(partners) + 1):
+            for g in combinations(sorted(partners), r):
+                lag_g, sc_g = test_log(M, cfg, fold, frozenset(g))
+                conditional[(cause, frozenset(g))] = {"motor_log_lag": lag_g, "motor_speed_scale": sc_g}[cause]
+    return TestResults(tests, conditional)
+
+
+# ---------------------------------------------------------------- sizes and correlation times
+# Size and correlation time of a slow dB gain, jointly, from a windowed power series.
+#
+# A gain g(t) = 10^(x(t)/10) on a power, x Gaussian in dB with standard deviation
+# ``sigma`` [dB] and correlation exp(-|tau| / T) (T the 1/e correlation time [s]), is
+# seen through analysis windows: each sample of the series is 10 log10 of the
+# window-weighted average of g over the window (power weights w^2, normalised), plus
+# measurement noise. Nothing here simulates the process: the covariance of the
+# measured dB series is computed analytically.
+#
+# For two windows centred ``L`` apart the averaged powers P_i are sums of correlated
+# log-normals: E[P] = exp(b^2 s^2 / 2) with b = ln 10 / 10 and
+#
+#     Cov(P_i, P_j) / E[P]^2 = sum_{k,l} w_k w_l (exp(b^2 s^2 rho(L + u_k - u_l)) - 1),
+#
+# (u_k the offsets of the window's points). Approximating each P_i as log-normal
+# (Fenton-Wilkinson moment matching), the dB series has covariance
+#
+#     c(L) = ln(1 + Cov(P_i, P_j) / E[P]^2) / b^2   [dB^2],
+#
+# exact when T is long against the window (no averaging) and a moment match when it
+# is short. The estimator fits (sigma, T) to the *variogram* of the series,
+# gamma(L) = (1/2) mean (y_{i+L} - y_i)^2 over pairs of valid samples, at lags of 1, 2,
+# 3, 4, 6, 8, ... hops up to ``max_lag_s``: gamma(L) = c(0) - c(L) + noise (the noise's
+# variance, known per sample from the measurement; windows overlapping by 50 % leave
+# the noise of neighbours almost uncorrelated: 0.14 % for Blackman-Harris). The
+# variogram ignores a constant and is hardly moved by slow trends; slower variations
+# (aspect changes, range-cell straddle) enter as a nuisance drift kappa L. The fit minimises
+# the squared log-ratio of measured and model variogram over the lags (a grid over
+# sigma, T and kappa, then a finer one), so every lag counts by its relative error,
+# for two correlation shapes (exponential and Matern 3/2, :data:`SHAPES`; the better
+# fit is kept; T is always the 1/e time).
+#
+# For a gain common to several harmonics' sideband powers (the fading),
+# :func:`harmonic_speed_slope` first measures how the rotor speed tilts the harmonics
+# against each other (the paper's envelope exp(-alpha |f|) moves harmonic n by n beta u
+# dB for a speed change u), from the harmonics' deviations from their mean, where the
+# common gain cancels; the caller takes n beta u out before forming the common-mode
+# series.
+#
+# On a grid much finer than T, :func:`fit_gain_process_ml` maximises the exact Gaussian
+# likelihood of the same model (window-averaged exponential correlation plus white
+# noise of known variance per sample), which weighs the short lags by their
+# information; the variogram fit gives its start.
+#
+# Limits: when T is much shorter than a window only sigma^2 T is identifiable (the
+# series is white); T is searched up to the longest lag / 2.5 (4 s by default); when
+# T nears the record length / 10 the sill is poorly sampled (few independent
+# stretches), so sigma is uncertain by ~sqrt(2 T / duration). The shape is assumed
+# exponential: for another shape T is the exponential's that fits the variogram best.
+
+B = np.log(10.0) / 10.0
+#: grid of correlation times searched [s]
+TAU_GRID_S = np.exp(np.linspace(np.log(0.01), np.log(30.0), 70))
+
+
+def window_offsets(window: np.ndarray, prf_hz: float, n_points: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """Pairwise offset differences u_k - u_l [s] and their weights w_k w_l (power
+    window, normalised), binned: (d_s [m], W [m])."""
+    n = len(window)
+    k = np.linspace(0, n - 1, n_points).astype(int)
+    w = window[k] ** 2
+    w = w / w.sum()
+    u = (k - n / 2) / prf_hz
+    d = (u[:, None] - u[None, :]).ravel()
+    W = (w[:, None] * w[None, :]).ravel()
+    edges = np.linspace(d.min() - 1e-12, d.max() + 1e-12, 2 * n_points)
+    idx = np.digitize(d, edges)
+    bins = [i for i in np.unique(idx) if W[idx == i].sum() > 0]
+    ds = np.array([np.average(d[idx == i], weights=W[idx == i]) for i in bins])
+    Ws = np.array([W[idx == i].sum() for i in bins])
+    return ds, Ws
+
+
+#: correlation shapes: name -> (rho(x), x at which rho = 1/e); Matern 1/2 (exponential,
+#: an Ornstein-Uhlenbeck or telegraph process) and Matern 3/2 (a smooth process, e.g.
+#: two cascaded first-order filters)
+SHAPES = {"exponential": (lambda x: np.exp(-x), 1.0),
+          "matern32": (lambda x: (1 + x) * np.exp(-x), 2.1462)}
+
+
+def model_cov_db2(lags_s: np.ndarray, sigma_db, tau_s, ds: np.ndarray, W: np.ndarray,
+                  shape: str = "exponential") -> np.ndarray:
+    """c(L) [dB^2] of the window-averaged gain (module doc) with 1/e correlation time
+    ``tau_s`` and correlation ``shape`` (:data:`SHAPES`); broadcasting over
+    ``sigma_db`` and ``tau_s`` (leading axes) and ``lags_s`` (last axis)."""
+    s = np.asarray(sigma_db, float)[..., None, None]
+    T = np.asarray(tau_s, float)[..., None, None]
+    L = np.asarray(lags_s, float)[:, None]
+    rho_f, x1e = SHAPES[shape]
+    rho = rho_f(np.abs(L + ds[None, :]) * x1e / T)
+    k = np.expm1(B * B * s * s * rho)
+    return np.log1p((k * W).sum(-1)) / (B * B)
+
+
+def variogram(y: np.ndarray, valid: np.ndarray, lags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sample variogram of ``y`` [n] at integer ``lags`` over pairs of valid samples:
+    (gamma [len(lags)], number of pairs)."""
+    g, npair = [], []
+    for L in lags:
+        m = valid[:-L] & valid[L:]
+        d = (y[L:] - y[:-L])[m]
+        g.append(0.5 * float(np.mean(d * d)) if len(d) else np.nan)
+        npair.append(int(len(d)))
+    return np.array(g), np.array(npair)
+
+
+def _lag_grid(n: int, hop_s: float, max_lag_s: float) -> np.ndarray:
+    """Lags [hops] of the variogram: 1, 2, 3, 4, then ~geometric up to ``max_lag_s``
+    (and at most a third of the record)."""
+    lag_max = int(max(1, min(max_lag_s / hop_s, n // 3)))
+    cand = np.unique(np.round(np.concatenate([np.arange(1, 5), np.geomspace(4, max(lag_max, 4), 16)])).astype(int))
+    return cand[cand <= lag_max]
+
+
+def harmonic_speed_slope(Y: np.ndarray, V: np.ndarray, harm: np.ndarray, u: np.ndarray) -> float:
+    """Slope beta [dB per harmonic number per unit of ``u``] of the per-harmonic dB
+    series ``Y`` [n, K] on the rotor-speed deviation ``u`` [n], under the paper's
+    envelope exp(-alpha |f|): harmonic n's sideband power moves by n beta u (beta =
+    -20 log10(e) alpha B for u in rev/s), so a speed change tilts the harmonics
+    against each other.
+
+    Fitted by least squares on the deviations from each sample's mean over its
+    valid harmonics (``V`` [n, K]; samples with >= 2): a gain common to all the
+    harmonics (a fading) cancels there exactly, so beta is not biased by a chance
+    correlation of the fading with the speed. Returns 0 when nothing identifies it
+    (fewer than two harmonics at every sample, or a speed that does not change).
+    """
+    Y = np.asarray(Y, float)
+    V = np.asarray(V, bool)
+    Kt = V.sum(axis=1)
+    rows = Kt >= 2
+    if not rows.any():
+        return 0.0
+    Yv = np.where(V, Y, 0.0)
+    mY = Yv.sum(axis=1) / np.maximum(Kt, 1)
+    mn = (V * np.asarray(harm, float)[None, :]).sum(axis=1) / np.maximum(Kt, 1)
+    D = Y - mY[:, None]
+    G = (np.asarray(harm, float)[None, :] - mn[:, None]) * np.asarray(u, float)[:, None]
+    W = V & rows[:, None]
+    den = float(np.sum(G[W] ** 2))
+    # a speed that does not change (rms below 1e-6 of a unit) identifies nothing
+    return float(np.sum(D[W] * G[W]) / den) if den > 1e-12 * max(int(W.sum()), 1) else 0.0
+
+
+def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
+                     window: np.ndarray, prf_hz: float, *, max_lag_s: float = 10.0,
+                     tau_bounds_s: tuple = (0.01, 30.0), min_pairs: int = 20, drift: bool = True,
+                     noise_free: bool = False) -> dict:
+    """Joint (sigma [dB], T [s]) of the gain seen in the series ``y`` [dB] on a grid
+    of hops ``hop_s`` (module doc).
+
+    Parameters
+    ----------
+    y : ndarray [n]
+        dB power per window (any offset; detrended or not).
+    valid : bool ndarray [n]
+    noise_var_db2 : ndarray [n]
+        Measurement-noise variance of each sample [dB^2].
+    hop_s : float
+        Spacing of the windows [s].
+    window : ndarray
+        The analysis window (its power profile is the averaging kernel).
+    prf_hz : float
+        Sample rate of the window's points [Hz].
+    noise_free : bool
+        Fit the noise level in [0, the given one] (grid of 5) instead of fixing it:
+        for a noise estimated from a scatter that may be partly slow (then not white).
+    drift : bool
+        Add a nuisance term kappa * L to the variogram (kappa >= 0 [dB^2/s], fitted):
+        slow variations (aspect, range-cell straddle) far slower than the lags, whose
+        variogram grows about linearly there.
+
+    Returns
+    -------
+    dict
+        ``sigma_db``, ``timescale_s``, the lags [s] and the measured and fitted
+        variograms [dB^2], ``noise_db2`` (mean noise variance).
+    """
+    lags = _lag_grid(len(y), hop_s, max_lag_s)
+    g, npair = variogram(y, valid, lags)
+    nv = float(np.mean(noise_var_db2[valid])) if valid.any() else 0.0
+    return fit_variogram(lags, g, npair, nv, hop_s, window, prf_hz, tau_bounds_s=tau_bounds_s,
+                         min_pairs=min_pairs, drift=drift, noise_free=noise_free)
+
+
+def fit_variogram(lags: np.ndarray, g: np.ndarray, npair: np.ndarray, nv: float, hop_s: float,
+                  window: np.ndarray, prf_hz: float, *, tau_bounds_s: tuple = (0.01, 30.0),
+                  min_pairs: int = 20, drift: bool = True, noise_free: bool = False) -> dict:
+    """Fit (sigma [dB], T [s]) (and the nuisance drift) to a measured variogram ``g``
+    [dB^2] at integer ``lags`` [hops] with ``npair`` pairs each, noise variance ``nv``
+    [dB^2] (see :func:`fit_gain_process` for the other arguments and the result)."""
+    ok = np.isfinite(g) & (npair >= min_pairs) & (g > 0)
+    lags, g = lags[ok], g[ok]
+    out = {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": (lags * hop_s).tolist(),
+           "variogram_db2": g.tolist(), "noise_db2": nv}
+    if len(lags) < 3:
+        return out
+    ds, W = window_offsets(window, prf_hz)
+    # T beyond max_lag / 2.5 leaves the variogram's sill unseen (sigma and T trade off)
+    t_hi = min(tau_bounds_s[1], lags[-1] * hop_s / 2.5)
+    taus = TAU_GRID_S[(TAU_GRID_S >= tau_bounds_s[0]) & (TAU_GRID_S <= t_hi)]
+    sig = np.concatenate([[0.0], np.geomspace(0.1, 20.0, 120)])
+    kap = np.concatenate([[0.0], np.geomspace(0.01, 10.0, 25)]) if drift else np.zeros(1)
+    nug = nv * (np.linspace(0.0, 1.0, 5) if noise_free else np.ones(1))
+    Ls = lags * hop_s
+    lg = np.log(g)
+
+    def best(sv, tv, shape):
+        C = model_cov_db2(np.concatenate([[0.0], Ls]), sv[:, None], tv[None, :], ds, W, shape)  # [n_sig, n_tau, 1+n]
+        gm = ((C[..., :1] - C[..., 1:])[:, :, None, None, :] + kap[None, None, :, None, None] * Ls
+              + nug[None, None, None, :, None])
+        cost = np.sum((lg - np.log(np.maximum(gm, 1e-9))) ** 2, axis=-1)
+        i, j, k, q = np.unravel_index(int(np.argmin(cost)), cost.shape)
+        return float(cost[i, j, k, q]), i, j, k, gm[i, j, k, q]
+
+    results = []
+    for shape in SHAPES:
+        c0, i, j, k, fit = best(sig, taus, shape)
+        s_best, t_best, k_best = float(sig[i]), float(taus[j]), float(kap[k])
+        if 0 < i < len(sig) - 1:  # finer around the best (the sigma grid step is 4.5 %)
+            sf = np.linspace(sig[i - 1], sig[i + 1], 21)
+            tf = np.geomspace(taus[max(j - 1, 0)], taus[min(j + 1, len(taus) - 1)], 11)
+            c0, a, b, k, fit = best(sf, tf, shape)
+            s_best, t_best, k_best = float(sf[a]), float(tf[b]), float(kap[k])
+        results.append((c0, shape, s_best, t_best, k_best, fit))
+    cost_best, shape_best, s_best, t_best, k_best, fit = min(results, key=lambda r: r[0])
+    out["shape"] = shape_best
+    out.update({"sigma_db": s_best, "timescale_s": t_best if s_best > 0 else float("nan"),
+                "drift_db2_per_s": k_best,
+                "variogram_fit_db2": np.asarray(fit).tolist()})
+    return out
+
+
+def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
+                        window: np.ndarray, prf_hz: float, start: tuple, *, block: int = 512,
+                        tau_bounds_s: tuple = (0.01, 30.0), design: np.ndarray | None = None,
+                        free_white: bool = False) -> dict:
+    """Joint (sigma [dB], T [s]) of the gain in the series ``y`` [dB] (mean zero,
+    e.g. detrended) by its exact Gaussian likelihood: covariance c(L) of the
+    window-averaged exponentially correlated gain (:func:`model_cov_db2`, window
+    ``window`` at ``prf_hz``, samples ``hop_s`` apart) plus the measurement noise
+    ``noise_var_db2`` [n] of each valid sample (white); samples off ``valid`` are
+    left out of the covariance. Maximised by Nelder-Mead in (log sigma, log T) from
+    ``start`` = (sigma, T) (e.g. :func:`fit_gain_process`'s).
+
+    With ``design`` [n, p] (the regressors a trend was fitted on and taken out of
+    ``y``, e.g. 1, t, log range) the likelihood is the restricted one (REML): the
+    part of the gain the trend took out is not read as missing variance, which on
+    a record of a few tens of T biases sigma low (a 40 s flight with T = 2.5 s:
+    sigma 38 % low without it).
+
+    With ``free_white`` a third parameter, a white variance w [dB^2] added to every
+    sample's ``noise_var_db2``, is fitted with them (returned as ``extra_white_db2``):
+    for a nuisance whose size is only partly known (the part of the rotors' beats that
+    is common to the harmonics).
+
+    The series is cut into consecutive stretches of ``block`` samples whose
+    likelihoods are summed (cost linear in the record; the correlation across a
+    cut, over a few T, is a small loss for stretches of hundreds of T/hop).
+
+    Weighs every lag by its information where the variogram fit weighs the lags
+    alike: on a grid much finer than T (short windows) the short lags carry most of
+    the information on T. Needs the noise right: a nuisance that is not white on the
+    grid is read as part of the gain. Returns a dict ``sigma_db``, ``timescale_s``,
+    ``nll``, ``n_eval``.
+    """
+    from scipy.linalg import cho_factor, cho_solve
+    from scipy.optimize import minimize
+
+    y = np.asarray(y, float)
+    idx = np.flatnonzero(np.asarray(valid, bool))
+    out = {"sigma_db": float(start[0]), "timescale_s": float(start[1]), "nll": float("nan"), "n_eval": 0,
+           "extra_white_db2": 0.0}
+    if len(idx) < 20 or not (start[0] > 0 and np.isfinite(start[1]) and start[1] > 0):
+        return out
+    ds, W = window_offsets(window, prf_hz)
+    nv = np.asarray(noise_var_db2, float)
+    blocks = [idx[(idx >= a) & (idx < a + block)] for a in range(idx[0], idx[-1] + 1, block)]
+    blocks = [b for b in blocks if len(b) >= 2]
+    n_lag = max(int(b[-1] - b[0]) + 1 for b in blocks)
+    lag_idx = [np.abs(b[:, None] - b[None, :]) for b in blocks]
+    lo, hi = np.log(tau_bounds_s[0]), np.log(tau_bounds_s[1])
+    X = None if design is None else np.asarray(design, float)
+    if X is not None:  # drop regressors that add nothing (e.g. a constant range)
+        Rd = np.abs(np.diag(np.linalg.qr(X[idx], mode="r")))
+        X = X[:, Rd > 1e-8 * max(float(Rd.max()), 1e-300)]
+
+    def nll(p):
+        ls, lt = p[:2]
+        lw = p[2] if free_white else -np.inf
+        if not (lo <= lt <= hi) or not (-3.0 <= ls <= 3.0) or lw > 5.0:
+            return 1e12
+        cl = model_cov_db2(np.arange(n_lag) * hop_s, np.exp(ls), np.exp(lt), ds, W)
+        tot = 0.0
+        A = g = None
+        for b, L in zip(blocks, lag_idx):
+            C = cl[L]
+            C[np.diag_indices_from(C)] += nv[b] + np.exp(lw)
+            try:
+                cf = cho_factor(C, lower=True, check_finite=False)
+            except np.linalg.LinAlgError:
+                return 1e12
+            yb = y[b]
+            tot += float(np.sum(np.log(np.diag(cf[0]))) + 0.5 * yb @ cho_solve(cf, yb, check_finite=False))
+            if X is not None:
+                CiX = cho_solve(cf, X[b], check_finite=False)
+                A = X[b].T @ CiX if A is None else A + X[b].T @ CiX
+                g = CiX.T @ yb if g is None else g + CiX.T @ yb
+        if X is not None:
+            sgn, logdet = np.linalg.slogdet(A)
+            if sgn <= 0:
+                return 1e12
+            tot += 0.5 * logdet - 0.5 * float(g @ np.linalg.solve(A, g))
+        return tot
+
+    x0 = np.log([start[0], start[1]])
+    if free_white:  # from a small extra white, a tenth of the known noise (at least 0.01 dB^2)
+        x0 = np.r_[x0, np.log(max(0.1 * float(np.mean(nv[idx])), 0.01))]
+    r = minimize(nll, x0, method="Nelder-Mead",
+                 options={"xatol": 0.005, "fatol": 0.01, "maxiter": 300 if not free_white else 600})
+    if np.isfinite(r.fun) and r.fun < 1e11:
+        out.update({"sigma_db": float(np.exp(r.x[0])), "timescale_s": float(np.exp(r.x[1])), "nll": float(r.fun),
+                    "n_eval": int(r.nfev), "extra_white_db2": float(np.exp(r.x[2])) if free_white else 0.0})
+    return out
