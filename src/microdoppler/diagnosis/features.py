@@ -13,7 +13,7 @@ alpha envelope, S_blade and S_body are calibrated against the measurement
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft as sfft
@@ -21,7 +21,7 @@ from scipy.signal.windows import blackmanharris
 
 from ..rotors import sampling as sampling
 from ..io.motorlog import MotorLog
-from ..synthesis.model import Scaling, Track, synthesize
+from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 
 DB = 10.0 / np.log(10.0)
 
@@ -140,23 +140,24 @@ def local_floor(p_row: np.ndarray, st: Stft, f_c: float, excl_hz: float, span_hz
 
 
 def simulate_blades(log: MotorLog, n_pulses: int, prf_hz: float, *, wavelength_m: float, n_blades: int,
-                    blade_length_m: float, n_fft: int, seed: int, envelope_kw: dict | None = None,
+                    blade_length_m: float, n_fft: int, seed: int, extensions: ModelExtensions | None = None,
                     alpha_s: float = 0.0, s_blade: float = 1.0, s_body: float = 0.0, track: Track | None = None,
                     window_pulses: int = 2500) -> tuple[np.ndarray, np.ndarray]:
     """The paper's model of a flight: returns (iq complex64 [n_pulses], rev_s
     float32 [n_pulses, n_motors]) with sub-CPI sampled speeds of ``log``.
 
-    Without ``track`` the body is at zero Doppler (spectrum relative to the body)."""
+    Without ``track`` the body is at zero Doppler (spectrum relative to the body).
+    ``extensions``: model extensions acting inside the synthesis (default none)."""
     cfg = sampling.SamplingConfig(n_fft=n_fft, window_pulses=window_pulses)
     rev = sampling.sub_cpi(log, n_pulses, prf_hz, cfg)
     dur = n_pulses / prf_hz
     trk = track if track is not None else Track.constant_velocity(1000.0, 0.0, dur)
-    kw = dict(envelope_kw or {})
-    if alpha_s > 0 and "envelope" not in kw:
-        kw["envelope"] = _unit_envelope  # the alpha envelope as the FFT filter of eq. (2)
-    iq = synthesize(rev, trk, prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
-                    blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), seed=seed,
-                    **kw)
+    ext = extensions if extensions is not None else ModelExtensions()
+    if alpha_s > 0 and ext.envelope_gain is None:
+        ext = replace(ext, envelope_gain=_unit_envelope)  # the alpha envelope as the FFT filter of eq. (2)
+    config = SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
+                                blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), extensions=ext)
+    iq = synthesize(config, trk, rev, seed=seed)
     return iq, rev
 
 
