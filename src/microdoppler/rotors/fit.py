@@ -157,9 +157,10 @@ class FitConfig:
     min_power : float
         A rotor with under this fraction of the strongest rotor's sideband power (and of
         what the fit loses without the strongest) is a spare whose lines coincide with
-        another's: a drone's rotors return about equal power. 0.15 (b5e707c, c983cb4:
-        held out +1.0 / +1.4 points within 1 %; benchmarks/README.md, "A spare must
-        also be weak in what the fit loses without it").
+        another's: a drone's rotors return about equal power. 0.15 since b5e707c; the
+        second condition (c983cb4) gained +1.0 / +1.4 points within 1 % held out
+        (benchmarks/README.md, "A spare must also be weak in what the fit loses
+        without it").
     reseed_rel : float
         Relative half-width around the lines' centre in which a spare rotor is
         re-seeded at the residual's strongest comb: the rotors' spread about the group

@@ -126,11 +126,11 @@ LOG_STEP = 0.005
 
 #: local noise floor (step 1, :func:`local_floor_db`): the 20th percentile of 129 bins
 #: (~230 Hz at 7.3 kHz / 4096) every 16 bins; a low percentile ignores the lines that
-#: fill the bins around a drone's body, and the window spans more than a harmonic group
+#: fill the bins around a drone's body
 FLOOR_WINDOW_BINS = 129
 FLOOR_STEP_BINS = 16
 FLOOR_PERCENTILE = 20.0
-#: prominence of a spectral line [dB]: 6 dB, twice the noise's 3 dB (``NOISE_DB``)
+#: prominence of a spectral line [dB] (steps 1, 5-6)
 LINE_PROMINENCE_DB = 6.0
 #: rotors are searched within a factor 1.5 of the tracked group speed: under 2 so that a
 #: rotor's second harmonic stays outside the search (step 4)
@@ -179,20 +179,20 @@ class RotorSpeedConfig:
         Plausible rotor speeds [rev/s]: the paper's 40-250 Hz (§II) widened by a
         margin on both sides; a speed outside is no rotor's.
     n_harmonics : int
-        Highest harmonic order examined (steps 3, 6): 10 covers every order that
-        stands over the floor on the emulated flights (benchmarks/README.md,
-        eval_rotorspeed.py tables by visible pairs, >= 5).
+        Highest harmonic order examined (steps 3, 6); set with the estimator (0004c07),
+        not tuned since.
     pair_snr_db : float
         Both lines of a visible pair stand this far over the local noise floor [dB]:
         a periodogram bin of noise alone has exponentially distributed power, so it
         exceeds 10 dB over its mean with probability exp(-10), both lines of a pair
         with ~exp(-20).
     clutter_guard_hz : float
-        Dopplers within this of 0 Hz are masked as stationary clutter [Hz] (the paper's
-        15 Hz high-pass, with a margin for the clutter's spread).
+        Dopplers within this of 0 Hz are masked as stationary clutter [Hz] (wider than
+        the paper's 15 Hz high-pass; 0004c07).
     body_search_hz : float
         Search half-width of the centre of symmetry around the track's Doppler [Hz]:
-        the tracker's velocity error (20 Hz is 2.2 m/s at 1.35 GHz).
+        the track's radial-velocity error it tolerates, 20 Hz = 2.2 m/s at 1.35 GHz
+        (0004c07).
     max_step_rel : float
         Largest relative change of the rotor group's speed from one CPI to the next
         (one hop, n_fft / 2 pulses; step 4); a line smears over twice this within a
