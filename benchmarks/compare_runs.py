@@ -34,7 +34,16 @@ def _volatile(key: str) -> bool:
 
 
 def _attrs(node) -> dict:
-    return {k: v for k, v in dict(node.attrs).items() if not _volatile(k)}
+    return _drop_volatile(dict(node.attrs))
+
+
+def _drop_volatile(obj):
+    """``obj`` without the keys (at any depth) that record timings or code versions."""
+    if isinstance(obj, dict):
+        return {k: _drop_volatile(v) for k, v in obj.items() if not _volatile(k)}
+    if isinstance(obj, list):
+        return [_drop_volatile(v) for v in obj]
+    return obj
 
 
 def _strip(obj):
