@@ -203,6 +203,7 @@ _RULES = {
     "margin_lag_s": ("float", 0, None, False, False),
     "margin_scale": ("float", 0, None, False, False),
     "margin_imbalance_db": ("float", 0, None, False, False),
+    "margin_excess_db": ("float", 0, None, False, False),
     "margin_floor_rise_db": ("float", 0, None, False, False),
     "min_blade_wavelengths": ("float", 0, None, False, False),
     "min_log_coverage": ("float", 0, 1, True, False),
@@ -269,6 +270,12 @@ class DiagnosisConfig:
         to find (3 dB): 1.5 dB puts the non-multiple lines 21 dB below the
         blade-passing lines for two blades; balanced flights of the independent
         generator read 0.0 dB (median) at body SNR >= 36 dB.
+    margin_excess_db : float
+        Goodness of fit: the smallest held-out residual [dB] (measured over the
+        fitted model with every named cause's extension, in one Doppler band
+        relative to the body) that names ``unexplained``, when it is also
+        significant and seen in both folds. 4 dB: above the per-harmonic power error
+        of the alpha envelope's fit on catalog-only flights (benchmarks/eval_diagnosis.py).
     min_blade_wavelengths : float
         Blades shorter than this many wavelengths (below the thin wire's half-wave
         resonance) have rotor lines below the noise: such drones (the Mini 2's
@@ -297,6 +304,7 @@ class DiagnosisConfig:
     margin_scale: float = 0.025
     margin_floor_rise_db: float = 3.0
     margin_imbalance_db: float = 1.5
+    margin_excess_db: float = 4.0
     min_blade_wavelengths: float = 0.5
     min_log_coverage: float = 0.5
 
