@@ -4,7 +4,7 @@ Run:  python benchmarks/bench_synthesis.py [--pulses N] [--json PATH] [--skip-me
 
 * Throughput [pulses/s] of :func:`microdoppler.synthesis.model.synthesize` for 4 motors x
   2 blades (Inspire geometry, L-band, PRF 7300 Hz), with alpha > 0 (default: the
-  harmonic envelope; and the FFT filter, ``envelope_method="fft"``) and alpha = 0,
+  harmonic envelope; and the FFT filter, ``Envelope("fft")``) and alpha = 0,
   best and median of ``--repeats``; the per-pulse Python reference
   :func:`~microdoppler.synthesis.model.reference_synthesize` (alpha = 0, 10 000 pulses)
   runs in every repeat, interleaved with the kernels, and the speed-up over it is
@@ -39,6 +39,15 @@ import numpy as np  # noqa: E402
 PRF = 7300.0
 LAM = 299792458.0 / 1.35e9
 KW = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19)
+
+
+def config(alpha: float, method: str = "auto", **kw):
+    """The benchmark's SynthesisConfig (Inspire geometry, L-band): S_body = S_blade = 1."""
+    from microdoppler.synthesis.model import Envelope, Scaling, SynthesisConfig
+
+    margin = kw.pop("margin_pulses", 4096)
+    return SynthesisConfig.of(scaling=Scaling(kw.pop("s_body", 1.0), 1.0, alpha),
+                              envelope=Envelope(method, margin_pulses=margin), **KW, **kw)
 ALPHA = 5.5e-3  # Table IV, smallest Inspire alpha [s]
 
 
@@ -57,7 +66,7 @@ def track(duration_s: float):
 
 
 def throughput(n: int, repeats: int) -> dict:
-    from microdoppler.synthesis.model import Scaling, reference_synthesize, synthesize
+    from microdoppler.synthesis.model import reference_synthesize, synthesize
 
     rev = speeds(n)
     tr = track(n / PRF)
@@ -65,18 +74,18 @@ def throughput(n: int, repeats: int) -> dict:
     res = {}
     kernels = {"alpha>0": (ALPHA, "auto"), "alpha>0 fft": (ALPHA, "fft"), "alpha=0": (0.0, "auto")}
     for alpha, method in kernels.values():  # warm-up (tables for the speeds met, FFT plans)
-        synthesize(rev, tr, scaling=Scaling(1.0, 1.0, alpha), seed=1, out=out, envelope_method=method, **KW)
+        synthesize(config(alpha, method), tr, rev, seed=1, out=out)
     n_ref = 10000
     rref = rev[:n_ref]
-    ref_kw = dict(scaling=Scaling(1.0, 1.0, 0.0), initial_cycles=[0.1, 0.2, 0.3, 0.4], **KW)
+    start = [0.1, 0.2, 0.3, 0.4]
     times = {name: [] for name in (*kernels, "reference")}
     for _ in range(repeats):  # interleaved: each repeat's ratio to the reference sees similar load
         for name, (alpha, method) in kernels.items():
             t0 = time.perf_counter()
-            synthesize(rev, tr, scaling=Scaling(1.0, 1.0, alpha), seed=1, out=out, envelope_method=method, **KW)
+            synthesize(config(alpha, method), tr, rev, seed=1, out=out)
             times[name].append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        ref = reference_synthesize(rref, tr, **ref_kw)
+        ref = reference_synthesize(config(0.0), tr, rref, initial_cycles=start)
         times["reference"].append(time.perf_counter() - t0)
     for name, ts in times.items():
         m = n_ref if name == "reference" else n
@@ -85,14 +94,13 @@ def throughput(n: int, repeats: int) -> dict:
     for name in kernels:  # speed-up over the reference within each repeat, median over repeats
         res[name + " x reference median"] = float(np.median(
             [(n / t) / (n_ref / tr_) for t, tr_ in zip(times[name], times["reference"])]))
-    fast = synthesize(rref, tr, scaling=Scaling(1.0, 1.0, 0.0), initial_cycles=[0.1, 0.2, 0.3, 0.4], **KW)
+    fast = synthesize(config(0.0), tr, rref, initial_cycles=start)
     res["max_abs_diff_vs_reference"] = float(np.max(np.abs(fast - ref)))
     res["max_abs_reference"] = float(np.max(np.abs(ref)))
     # harmonic envelope vs the FFT filter (one FFT over the record, long margin), interior
     n_cmp = min(n, 1 << 16)
-    sc = Scaling(0.0, 1.0, ALPHA)
-    h = synthesize(rev[:n_cmp], tr, scaling=sc, seed=1, envelope_method="harmonic", **KW)
-    f = synthesize(rev[:n_cmp], tr, scaling=sc, seed=1, envelope_method="fft", chunk=n_cmp, margin=16384, **KW)
+    h = synthesize(config(ALPHA, "harmonic", s_body=0.0), tr, rev[:n_cmp], seed=1)
+    f = synthesize(config(ALPHA, "fft", s_body=0.0, margin_pulses=16384, chunk_pulses=n_cmp), tr, rev[:n_cmp], seed=1)
     s = slice(n_cmp // 8, n_cmp - n_cmp // 8)
     d, r = np.abs(h - f)[s], np.abs(f[s])
     res["harmonic_vs_fft_max_rel"] = float(np.max(d) / np.max(r))
@@ -107,7 +115,7 @@ for v in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 sys.path.insert(0, os.path.dirname(sys.argv[1]))
 import numpy as np, zarr
 import bench_synthesis as B
-from microdoppler.synthesis.model import Scaling, synthesize
+from microdoppler.synthesis.model import synthesize
 n = int(sys.argv[2]); alpha = float(sys.argv[3]); store = sys.argv[4]
 z = zarr.open_array(store, mode="r")
 out = np.empty(n, np.complex64); out[:] = 0          # the output, allocated and touched
@@ -122,7 +130,7 @@ def hwm():  # VmHWM: peak RSS of this process image (ru_maxrss would include the
 maxrss0 = hwm()
 tracemalloc.start()
 t0 = time.perf_counter()
-synthesize(z, tr, scaling=Scaling(1.0, 1.0, alpha), seed=1, out=out, **B.KW)
+synthesize(B.config(alpha), tr, z, seed=1, out=out)
 dt = time.perf_counter() - t0
 peak = tracemalloc.get_traced_memory()[1]
 tracemalloc.stop()

@@ -170,7 +170,16 @@ def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0
     flight, _ = emulate_flight(spec)
     echo = _echo_only(spec) if clean else None
     without: dict = {}  # part -> the recording without it, emulated when first needed
-    cfg = replace(rf.FitConfig(), **fit)
+    # a FitConfig field (lower case) or one of rotors.fit's fixed settings (upper case,
+    # e.g. KEEP, MOVE_PASSES), set in this worker for this run
+    fields = {k: v for k, v in fit.items() if k in rf.FitConfig.__dataclass_fields__}
+    for k, v in fit.items():
+        if k not in fields:
+            if not (k.isupper() and hasattr(rf, k)):
+                raise ValueError(f"--fit {k}=...: not a FitConfig field ({list(rf.FitConfig.__dataclass_fields__)}) "
+                                 f"nor a constant of microdoppler.rotors.fit")
+            setattr(rf, k, v)
+    cfg = replace(rf.FitConfig(), **fields)
     est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=cfg))
     out = {"flight": spec.flight_id, "cpis": []}
     if not est.ok:
@@ -260,7 +269,8 @@ def main(argv=None) -> int:
                     help="with --clean: refit each noise-class CPI on the recording without each part of the "
                          "background in turn (which part tips it)")
     ap.add_argument("--fit", action="append", default=[], metavar="KEY=VALUE",
-                    help="a FitConfig setting for the estimator's fit (repeatable), e.g. --fit keep=3")
+                    help="a FitConfig field or a fixed setting of microdoppler.rotors.fit for the estimator's fit "
+                         "(repeatable), e.g. --fit KEEP=3, --fit MOVE_PASSES=0, --fit move_rel=0.2")
     ap.add_argument("--from-json", nargs="+", default=None, metavar="JSON",
                     help="summarise saved --json records (several: pooled) instead of running")
     args = ap.parse_args(argv)

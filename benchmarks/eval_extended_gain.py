@@ -100,7 +100,7 @@ def evaluate_flight(p: dict) -> dict:
                                  n_fft=spec_cfg.n_fft, seed=seed)
         kw = {}
         if use.effects:
-            kw = dict(synth_kwargs=lambda s: use.synth_kwargs(prf_hz=prf, n_pulses=n, seed=s),
+            kw = dict(extensions=lambda s: use.model_extensions(prf_hz=prf, n_pulses=n, seed=s),
                       post=lambda x: use.post(x, prf_hz=prf, seed=seed))
         iq, res = fit_twin(flight, rev, use.transform_log(ml), spec_cfg=spec_cfg, cfg=cfg, seed=seed, **kw)
         injected = inject(iq, flight.background_iq, effects=dict(use.effects), prf_hz=prf, seed=seed)

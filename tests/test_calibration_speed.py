@@ -16,6 +16,7 @@ from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.motorlog import MotorLog
 from microdoppler.rotors.sampling import resample
 from microdoppler.spectra.spectrogram import SpectrogramConfig, highpass, spectrogram
+from microdoppler.synthesis.model import ModelExtensions
 
 SPEC = SpectrogramConfig()
 FAST = dict(n_alpha=4, max_iter=4)
@@ -107,8 +108,9 @@ def test_capped_and_segmented_fits_match_the_full_one(drone):
     a small margin of the search on all of fold A with whole-record synthesis."""
     fl, log, rev = drone
     full_cfg = calibration.CalibrationConfig(max_fit_cpis=0, **FAST)
-    # a synth_kwargs (no extension) forces whole-record synthesis
-    _, full = calibration.fit_twin(fl, rev, log, spec_cfg=SPEC, cfg=full_cfg, seed=5, synth_kwargs=lambda s: {})
+    # extensions (none in use) force whole-record synthesis
+    _, full = calibration.fit_twin(fl, rev, log, spec_cfg=SPEC, cfg=full_cfg, seed=5,
+                                   extensions=lambda s: ModelExtensions())
     _, seg = calibration.fit_twin(fl, rev, log, spec_cfg=SPEC, cfg=full_cfg, seed=5)
     assert seg["alpha_s"] == full["alpha_s"]
     assert seg["s_body"] == pytest.approx(full["s_body"], rel=2e-3)

@@ -71,7 +71,32 @@ def test_simulate_from_motor_log_and_track(tmp_path, ulog_path):
     np.testing.assert_allclose(f.track_range_m, 900 - 3 * f.track_time_s + 0.2 * f.track_time_s ** 2, atol=0.05)
 
 
+def test_simulate_blade_amplitudes_put_a_line_at_the_rotation_rate(tmp_path):
+    """--blade-amplitudes 1,0.5: one motor at 90 rev/s, body at rest, no body echo; the
+    rotation-rate line (90 Hz, odd) appears beside the blade-passing line (180 Hz) only
+    with unequal blades, and the amplitudes are recorded in the store."""
+    args = ["--motor-hz", "90", "--duration-s", "2", "--s-body", "0", "--radial-velocity-mps", "0", "--seed", "2"]
+    equal = _sim(tmp_path, "equal", *args)
+    weak = _sim(tmp_path, "weak", *args, "--blade-amplitudes", "1,0.5")
+    assert weak.attrs["simulation"]["blade_amplitudes"] == [1.0, 0.5]
+    assert "blade_amplitudes" not in equal.attrs["simulation"]
+
+    def line_db(fl, f0):
+        spec = spectrogram(fl.iq, fl.prf_hz, SpectrogramConfig(n_bins=0, highpass_hz=0))
+        p = spec.power_db.mean(axis=0)
+        return float(np.max(p[np.abs(spec.doppler_hz - f0) <= 2 * spec.bin_hz]))
+
+    for fl in (equal, weak):  # the blade-passing line is there either way
+        assert line_db(fl, 180.0) > line_db(fl, 135.0) + 60
+    assert line_db(weak, 90.0) > line_db(weak, 135.0) + 60  # rotation-rate line, far above leakage
+    assert line_db(weak, 90.0) > line_db(equal, 90.0) + 60  # ... and absent for equal blades
+
+
 @pytest.mark.parametrize("args, field", [
+    (["--motor-hz", "85,90", "--blade-amplitudes", "1,0.5,1"], "--blade-amplitudes"),
+    (["--motor-hz", "85,90", "--blade-amplitudes", "1,-0.5"], "--blade-amplitudes"),
+    (["--motor-hz", "85,90,95", "--blade-amplitudes", "1,1;1,0.5"], "--blade-amplitudes"),
+    (["--motor-hz", "85,90", "--blade-amplitudes", "1,x"], "--blade-amplitudes"),
     (["--motor-hz", "85,x"], "--motor-hz"),
     (["--motor-hz", "85", "--alpha", "-1"], "--alpha"),
     (["--motor-hz", "85", "--range-m", "10", "--radial-velocity-mps", "-20", "--duration-s", "1"], "--range-m"),

@@ -19,7 +19,7 @@ from microdoppler.datasets.workflow import split_and_table_iii
 from microdoppler.io.flightzarr import read_flight
 from microdoppler.io.inventory import ingest_flight_logs, read_ingested_log
 from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
-from microdoppler.synthesis.model import Scaling, Track, synthesize
+from microdoppler.synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 
 from test_datasets_world import WORLD, make_world
 
@@ -177,8 +177,9 @@ def test_calibration_is_a_real_fit(built):
     the fitted S_body/S_blade are doing the work."""
     fl = read_flight(built["measured"] / "mat1.zarr")
     rev = speeds.read_rev_s(speeds.open_speeds(built["root"] / "speeds.zarr")["mat1"])
-    raw = synthesize(rev, Track(fl.track_time_s, fl.track_range_m), prf_hz=fl.prf_hz, wavelength_m=fl.wavelength_m,
-                     n_blades=2, blade_length_m=0.22, scaling=Scaling(1.0, 1.0, 0.0), seed=1)
+    config = SynthesisConfig.of(prf_hz=fl.prf_hz, wavelength_m=fl.wavelength_m, n_blades=2, blade_length_m=0.22,
+                                scaling=Scaling(1.0, 1.0, 0.0))
+    raw = synthesize(config, Track(fl.track_time_s, fl.track_range_m), rev, seed=1)
     b_meas = np.mean(flight_body_snr_db(fl, spec_cfg=SPEC))
     b_raw = np.mean(flight_body_snr_db(fl, injection.inject(raw, fl.background_iq), spec_cfg=SPEC))
     row = built["table_iv"].set_index("flight_id").loc["mat1"]
@@ -262,19 +263,19 @@ class StubExtensions:
     """Stands in for ``microdoppler.synthesis.extensions`` (the diagnosis' model extensions)."""
 
     def __init__(self):
-        self.calls = {"transform_log": 0, "synth_kwargs": 0, "post": 0}
+        self.calls = {"transform_log": 0, "model_extensions": 0, "post": 0}
 
     def transform_log(self, log):
         self.calls["transform_log"] += 1
         return log
 
-    def synth_kwargs(self, *, prf_hz, n_pulses, seed):
-        self.calls["synth_kwargs"] += 1
+    def model_extensions(self, *, prf_hz, n_pulses, seed):
+        self.calls["model_extensions"] += 1
 
         def blade_hook(i0, i1, t_s, x):
             x *= np.float32(1.5)
 
-        return {"blade_hook": blade_hook, "envelope": lambda f: np.where(f > 0, 2.0, 0.7)}
+        return ModelExtensions(envelope_gain=lambda f: np.where(f > 0, 2.0, 0.7), blade_hook=blade_hook)
 
     def post(self, iq, *, prf_hz, seed):
         self.calls["post"] += 1

@@ -15,7 +15,7 @@ import numpy as np
 
 from microdoppler.io.flightzarr import Flight, write_flight
 from microdoppler.synthesis.radar import DRONE_MODELS
-from microdoppler.synthesis.model import Scaling, Track, add_noise, synthesize
+from microdoppler.synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, add_noise, synthesize
 
 PRF_HZ = 7300.0
 CARRIER_HZ = 1.35e9
@@ -50,17 +50,20 @@ def make_flight(fid, target, *, duration_s, seed, drone_model=None, radar_id="r1
         t = np.arange(n) / PRF_HZ
         slow = 1 + 0.03 * np.sin(2 * np.pi * t[:, None] / 7.0 + rng.uniform(0, 6, dm.n_motors))
         true_rev = (f0 * slow).astype(np.float32)
-        iq = synthesize(true_rev, track, prf_hz=PRF_HZ, wavelength_m=WAVELENGTH_M, n_blades=dm.n_blades,
-                        blade_length_m=dm.blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), seed=seed,
-                        envelope=lambda f: np.where(f > 0, 10 ** (4 / 20), 10 ** (-2 / 20)))
+        gain = ModelExtensions(envelope_gain=lambda f: np.where(f > 0, 10 ** (4 / 20), 10 ** (-2 / 20)))
+        config = SynthesisConfig.of(prf_hz=PRF_HZ, wavelength_m=WAVELENGTH_M, n_blades=dm.n_blades,
+                                    blade_length_m=dm.blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s),
+                                    extensions=gain)
+        iq = synthesize(config, track, true_rev, seed=seed)
         if with_log:
             mt = np.arange(0, duration_s, 1 / 30.0) + rng.uniform(-0.003, 0.003)
             mt = np.sort(np.clip(mt, 0, None))
             idx = np.clip((mt * PRF_HZ).astype(int), 0, n - 1)
             mr = np.round(true_rev[idx] * 60).astype(np.float32)
     else:
-        iq = synthesize(np.zeros((n, 1), np.float32), track, prf_hz=PRF_HZ, wavelength_m=WAVELENGTH_M, n_blades=2,
-                        blade_length_m=0.1, scaling=Scaling(s_body, 0.0, 0.0), seed=seed)
+        config = SynthesisConfig.of(prf_hz=PRF_HZ, wavelength_m=WAVELENGTH_M, n_blades=2, blade_length_m=0.1,
+                                    scaling=Scaling(s_body, 0.0, 0.0))
+        iq = synthesize(config, track, np.zeros((n, 1), np.float32), seed=seed)
         t = np.arange(n) / PRF_HZ
         iq *= (1 + 0.4 * np.sin(2 * np.pi * 5.0 * t)).astype(np.float32)
     iq = iq + _background(n, seed + 100)

@@ -1,12 +1,14 @@
 """Model extensions as options of the synthesis stage (microdoppler.synthesis.extensions)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from microdoppler.errors import InputError
 from microdoppler.synthesis.extensions import ExtensionSet, load_extensions, save_extensions
 from microdoppler.io.motorlog import MotorLog
-from microdoppler.synthesis.model import Scaling, Track, synthesize
+from microdoppler.synthesis.model import Scaling, SynthesisConfig, Track, synthesize
 
 PRF = 7300.0
 LAM = 299792458.0 / 1.35e9
@@ -19,11 +21,13 @@ def rng():
 
 def _blade_iq(ext, n=1 << 16, seed=3, rate=80.0):
     rev = np.full((n, 4), rate, np.float32) * np.array([1.0, 1.02, 0.985, 1.01], np.float32)
-    kw = ext.synth_kwargs(prf_hz=PRF, n_pulses=n, seed=seed)
-    kw.setdefault("envelope", _unit)  # same (FFT) envelope filter for both models
+    ext_in = ext.model_extensions(prf_hz=PRF, n_pulses=n, seed=seed)
+    if ext_in.envelope_gain is None:
+        ext_in = replace(ext_in, envelope_gain=_unit)  # same (FFT) envelope filter for both models
     track = Track.constant_velocity(1500.0, -5.0, n / PRF)
-    return synthesize(rev, track, prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19,
-                      scaling=Scaling(0.0, 1.0, 0.003), seed=seed, **kw)
+    config = SynthesisConfig.of(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19,
+                                scaling=Scaling(0.0, 1.0, 0.003), extensions=ext_in)
+    return synthesize(config, track, rev, seed=seed)
 
 
 def _unit(f_hz):
@@ -64,10 +68,10 @@ def test_transform_log_lag_and_scale(rng):
 def test_gain_hooks_have_the_catalog_std(cause, param, hook):
     n = int(PRF * 400)
     p = {param: 4.0} if cause == "body_fluctuation" else {param: 4.0, "timescale_s": 1.0}
-    kw = ExtensionSet({cause: p}).synth_kwargs(prf_hz=PRF, n_pulses=n, seed=5)
+    ext = ExtensionSet({cause: p}).model_extensions(prf_hz=PRF, n_pulses=n, seed=5)
     t = np.arange(0, n, 100) / PRF
     x = np.ones(len(t), np.complex64)
-    kw[hook](0, len(t), t, x)
+    getattr(ext, hook)(0, len(t), t, x)
     g_db = 20 * np.log10(np.abs(x))
     assert g_db.std() == pytest.approx(4.0, rel=0.15)
     assert abs(g_db.mean()) < 1.0
@@ -165,7 +169,7 @@ def test_body_timescale_is_used_and_skirt_defines_rms(tmp_path):
     n = int(20 * PRF)
 
     def gain_db(e):
-        hook = e.synth_kwargs(prf_hz=PRF, n_pulses=n, seed=4)["body_hook"]
+        hook = e.model_extensions(prf_hz=PRF, n_pulses=n, seed=4).body_hook
         x = np.ones(n, np.complex64)
         hook(0, n, np.arange(n) / PRF, x)
         return 20 * np.log10(np.abs(x[:: int(PRF / 100)]))  # every 10 ms

@@ -17,7 +17,7 @@ from microdoppler.diagnosis.measure import cpi_average
 from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.flightzarr import Flight, read_flight, write_flight
 from microdoppler.io.motorlog import read_motor_store
-from microdoppler.rotors.fit import refine_cpi
+from microdoppler.rotors.fit import FitConfig, refine_cpi
 from microdoppler.rotors.speed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
                                      instants_from_cpi_means)
 
@@ -53,10 +53,12 @@ def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_d
         if blades_drop is not None:
             x[t_s >= blades_drop[0]] *= 10 ** (-blades_drop[1] / 20)
 
-    iq = synthesis.synthesize(rev_s, track, prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades,
-                              blade_length_m=blade_length_m,
-                              scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s), seed=seed,
-                              blade_hook=blade_gain if blades_until_s is not None or blades_drop is not None else None)
+    hooked = blades_until_s is not None or blades_drop is not None
+    config = synthesis.SynthesisConfig.of(
+        prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades, blade_length_m=blade_length_m,
+        scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s),
+        extensions=synthesis.ModelExtensions(blade_hook=blade_gain if hooked else None))
+    iq = synthesis.synthesize(config, track, rev_s, seed=seed)
     w = blackmanharris(N_FFT, sym=False)
     noise = w.sum() ** 2 / (w ** 2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
     synthesis.add_noise(iq, noise, seed + 1)
@@ -196,8 +198,10 @@ def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
     assert np.mean(z[sel] <= 3) >= 0.85
     rel_sd = est.common_std_rev_s / est.common_rev_s
     assert np.median(rel_sd[sel & (mean_err > 0.01)]) > 0.005
-    with pytest.raises(ValueError, match="spread_share_sd"):
-        RotorSpeedConfig(spread_share_sd=0.0)
+    with pytest.raises(ValueError, match="max_step_rel"):
+        RotorSpeedConfig(max_step_rel=0.0)
+    with pytest.raises(ValueError, match="min_power"):
+        FitConfig(min_power=1.5)
 
 
 def test_the_iq_fit_counts_every_rotor_where_lines_merge():

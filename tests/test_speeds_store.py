@@ -24,7 +24,7 @@ from microdoppler.emulator.drone import DYNAMICS, loop_path, motor_speeds, write
 from microdoppler.errors import InputError
 from microdoppler.io.motorlog import MotorLog, read_ulog
 from microdoppler.synthesis.radar import DRONE_MODELS
-from microdoppler.synthesis.model import Track, synthesize
+from microdoppler.synthesis.model import SynthesisConfig, Track, synthesize
 
 PRF_HZ = 7300.0
 N_FFT = 4096
@@ -132,16 +132,16 @@ def test_stored_speeds_give_the_speeds1_twin_echo(tmp_path, flight200, variant):
     n = int(200.0 * PRF_HZ)
     rev, attrs, _ = roundtrip(tmp_path, variant, log, n)
     ref = reference_of(variant, log, n, attrs)
-    kw = dict(prf_hz=PRF_HZ, wavelength_m=299792458.0 / 1.35e9, n_blades=2, blade_length_m=0.19, seed=11)
-    iq_ref = synthesize(ref, track, **kw)
+    config = SynthesisConfig.of(prf_hz=PRF_HZ, wavelength_m=299792458.0 / 1.35e9, n_blades=2, blade_length_m=0.19)
+    iq_ref = synthesize(config, track, ref, seed=11)
 
     def rel_db(iq):
         d = np.sum(np.abs(iq.astype(np.complex128) - iq_ref) ** 2) / np.sum(np.abs(iq_ref.astype(np.complex128)) ** 2)
         return 10 * np.log10(max(d, 1e-30))
 
-    assert rel_db(synthesize(rev, track, **kw)) < IQ_TOL_DB
+    assert rel_db(synthesize(config, track, rev, seed=11)) < IQ_TOL_DB
     # the criterion has teeth: a speed bias of 1e-3 rev over the flight breaks it
-    assert rel_db(synthesize(ref + np.float32(PHASE_TOL_REV / 200.0), track, **kw)) > IQ_TOL_DB
+    assert rel_db(synthesize(config, track, ref + np.float32(PHASE_TOL_REV / 200.0), seed=11)) > IQ_TOL_DB
 
 
 @pytest.mark.parametrize("variant", ["sub_cpi", "per_cpi", "single_motor"])

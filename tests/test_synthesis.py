@@ -25,7 +25,8 @@ import pytest
 
 from microdoppler.synthesis.radar import Radar
 from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
-from microdoppler.synthesis.model import (BladeModel, Scaling, Track, add_noise, reference_synthesize, synthesize)
+from microdoppler.synthesis.model import (BladeModel, Envelope, ModelExtensions, Scaling, SynthesisConfig, Track,
+                                          add_noise, reference_synthesize, synthesize)
 
 RADAR = Radar(prf_hz=7300.0, carrier_hz=1.35e9)
 PRF = RADAR.prf_hz
@@ -41,11 +42,17 @@ def _const(speeds_hz, n):
     return np.broadcast_to(np.asarray(speeds_hz, np.float32), (n, len(speeds_hz)))
 
 
+def _config(*, prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, **kw):
+    """The common scene's SynthesisConfig; ``kw``: further :meth:`SynthesisConfig.of` parameters."""
+    return SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
+                              blade_length_m=blade_length_m, **kw)
+
+
 def _sim(speeds_hz, *, n=3 * 4096, blade_length_m=0.19, alpha_s=0.0, s_blade=1.0, s_body=1.0, v=V_APPROACH, seed=1,
          **kw):
     track = Track.constant_velocity(500.0, v, n / PRF)
-    return synthesize(_const(speeds_hz, n), track, prf_hz=PRF, wavelength_m=LAM, n_blades=2,
-                      blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), seed=seed, **kw)
+    config = _config(blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), **kw)
+    return synthesize(config, track, _const(speeds_hz, n), seed=seed)
 
 
 def _mean_spectrum(iq):
@@ -168,12 +175,12 @@ def test_sideband_pairs_fall_as_blade_shrinks_thin_wire():
 
 def test_dielectric_blades_mini_gives_no_pair_where_inspire_gives_several():
     """Same S_blade, speeds, SNR and threshold, only the blade length differs; plastic
-    blades (blade_scattering="dielectric"): the 0.06 m Mini blade gives no sideband
+    blades (scattering="dielectric"): the 0.06 m Mini blade gives no sideband
     pair at L-band where the 0.19 m Inspire blade gives several."""
     speeds = [85.0, 90.0, 95.0, 100.0]
     counts = {}
     for L in (0.22, 0.19, 0.12, 0.06):
-        iq = _noisy(_sim(speeds, blade_length_m=L, blade_scattering="dielectric"), 8)
+        iq = _noisy(_sim(speeds, blade_length_m=L, scattering="dielectric"), 8)
         counts[L], body_over_thr = _visible_pairs(iq, speeds)
         assert 28 < body_over_thr < 38
     assert counts[0.19] >= 3 and counts[0.22] >= 3, counts  # Inspire, Matrice: several
@@ -225,14 +232,14 @@ def _blade_lines(L, lam, model, n=8192):
     fm = 112 * PRF / n
     rev = _const([fm], n)
     R = 500.0
-    iq = synthesize(rev, Track.constant_velocity(R, 0.0, n / PRF), prf_hz=PRF, wavelength_m=lam, n_blades=2,
-                    blade_length_m=L, scaling=Scaling(0.0, 1.0, 0.0), initial_cycles=[0.0], blade_scattering=model)
+    config = _config(wavelength_m=lam, blade_length_m=L, scaling=Scaling(0.0, 1.0, 0.0), scattering=model)
+    iq = synthesize(config, Track.constant_velocity(R, 0.0, n / PRF), rev, initial_cycles=[0.0])
     X = np.fft.fft(iq.astype(np.complex128) / np.exp(-1j * 4 * np.pi * R / lam)) / n
     return {h: X[(112 * h) % n] for h in (-4, -2, 2, 4)}
 
 
 def test_dielectric_blade_echo_follows_rayleigh_gans():
-    """Plastic blades (blade_scattering="dielectric") against an independent Rayleigh-Gans
+    """Plastic blades (scattering="dielectric") against an independent Rayleigh-Gans
     computation: for two blade lengths (Mini 0.06 m, Matrice 0.22 m) and two carriers
     (L-band 1.35 GHz, S-band 3 GHz), the synthesised blade lines h f_m (h = +-2, +-4)
     equal the harmonics of the Rayleigh-Gans line density integrated numerically along
@@ -263,8 +270,8 @@ def test_dielectric_blade_echo_follows_rayleigh_gans():
     ref = _blade_lines(RG_REF_LENGTH_M, RG_REF_WAVELENGTH_M, "dielectric")
     wire = _blade_lines(RG_REF_LENGTH_M, RG_REF_WAVELENGTH_M, "thin_wire")
     assert all(abs(ref[h] - wire[h]) < 1e-6 * abs(wire[h]) for h in ref)
-    with pytest.raises(ValueError, match="blade_scattering"):
-        _sim([90.0], n=1000, blade_scattering="metal")
+    with pytest.raises(ValueError, match="scattering=.metal."):
+        _sim([90.0], n=1000, scattering="metal")
 
 
 def test_mini_blade_has_no_pair_with_a_modest_envelope():
@@ -277,10 +284,10 @@ def test_fast_kernel_agrees_with_reference(rng):
     n = 2500
     rev = (rng.uniform(60, 110, (1, 4)) + np.cumsum(rng.normal(0, 0.05, (n, 4)), axis=0)).astype(np.float32)
     track = Track(np.array([0.0, 0.2, 0.4]), np.array([500.0, 499.0, 497.6]))
-    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, scaling=Scaling(1.0, 0.7, 0.0),
-              initial_cycles=rng.uniform(0, 1, 4))
-    ref = reference_synthesize(rev, track, **kw)
-    fast = synthesize(rev, track, **kw)
+    config = _config(scaling=Scaling(1.0, 0.7, 0.0))
+    start = rng.uniform(0, 1, 4)
+    ref = reference_synthesize(config, track, rev, initial_cycles=start)
+    fast = synthesize(config, track, rev, initial_cycles=start)
     err = np.max(np.abs(fast - ref)) / np.max(np.abs(ref))
     assert err < 1e-3, err  # table lookup (2**16 entries) + linear carrier interpolation
 
@@ -328,8 +335,8 @@ def test_synthesized_blade_signal_matches_quadrature_of_eq1(n_blades, L, lam):
     1.9e-4, 3.1e-4, 1.9e-3 of max |G| (bounds 4e-4, 6e-4, 2.4e-3)."""
     n, fm, c0, R = 3000, 93.7, 0.123, 500.0
     rev = _const([fm], n)
-    iq = synthesize(rev, Track.constant_velocity(R, 0.0, n / PRF), prf_hz=PRF, wavelength_m=lam, n_blades=n_blades,
-                    blade_length_m=L, scaling=Scaling(0.0, 1.0, 0.0), initial_cycles=[c0])
+    config = _config(wavelength_m=lam, n_blades=n_blades, blade_length_m=L, scaling=Scaling(0.0, 1.0, 0.0))
+    iq = synthesize(config, Track.constant_velocity(R, 0.0, n / PRF), rev, initial_cycles=[c0])
     x = iq.astype(np.complex128) / np.exp(-1j * 4 * np.pi * R / lam)
     i = np.arange(0, n, 37)
     f32 = float(np.float32(fm))
@@ -347,27 +354,29 @@ def test_chunk_size_independence(rng, alpha):
     n = 20000
     rev = (90 + np.cumsum(rng.normal(0, 0.05, (n, 4)), axis=0)).astype(np.float32)
     track = Track(np.array([0.0, 1.0, 3.0]), np.array([800.0, 795.0, 790.0]))
-    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, scaling=Scaling(1.0, 1.0, alpha),
-              seed=3, margin=4096)
-    base = synthesize(rev, track, chunk=n, **kw)
+    def run(chunk, method="auto"):
+        config = _config(scaling=Scaling(1.0, 1.0, alpha), envelope=Envelope(method, margin_pulses=4096),
+                         chunk_pulses=chunk)
+        return synthesize(config, track, rev, seed=3)
+
+    base = run(n)
     for chunk in (1000, 4099, 8192):
         # alpha = 0 and the (default) harmonic envelope: chunking changes nothing
-        np.testing.assert_array_equal(synthesize(rev, track, chunk=chunk, **kw), base)
+        np.testing.assert_array_equal(run(chunk), base)
     if alpha > 0:
-        base = synthesize(rev, track, chunk=n, envelope_method="fft", **kw)
+        base = run(n, "fft")
         for chunk in (1000, 4099, 8192):
-            other = synthesize(rev, track, chunk=chunk, envelope_method="fft", **kw)
+            other = run(chunk, "fft")
             # overlap-save truncates the envelope's Lorentzian impulse response at the margin
             assert np.max(np.abs(other - base)) < 1e-2 * np.max(np.abs(base)), chunk
 
 
-def _harmonic_vs_fft(rev, alpha, n, n_blades=2):
+def _harmonic_vs_fft(rev, alpha, n, n_blades=2, blade_amplitudes=None):
     track = Track.constant_velocity(500.0, V_APPROACH, n / PRF)
-    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades, blade_length_m=0.19, scaling=Scaling(0.0, 1.0, alpha),
-              seed=3)
-    h = synthesize(rev, track, envelope_method="harmonic", **kw)
+    kw = dict(n_blades=n_blades, scaling=Scaling(0.0, 1.0, alpha), blade_amplitudes=blade_amplitudes)
+    h = synthesize(_config(envelope=Envelope("harmonic"), **kw), track, rev, seed=3)
     # one FFT over the record with a long margin: the linear filter without truncation
-    f = synthesize(rev, track, envelope_method="fft", chunk=n, margin=16384, **kw)
+    f = synthesize(_config(envelope=Envelope("fft", margin_pulses=16384), chunk_pulses=n, **kw), track, rev, seed=3)
     s = slice(8192, n - 8192)  # away from the FFT filter's zero-padded record edges
     d, ref = np.abs(h - f)[s], np.abs(f[s])
     return np.max(d) / np.max(ref), np.sqrt(np.mean(d ** 2) / np.mean(ref ** 2))
@@ -402,20 +411,124 @@ def test_harmonic_envelope_scales_each_line_by_exp_minus_alpha_n_fm():
     fm = 112 * PRF / n  # 99.8 rev/s: harmonic n on bin 112 n
     rev = _const([fm], n)
     track = Track.constant_velocity(500.0, 0.0, n / PRF)
-    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, seed=1)
-    x0 = np.fft.fft(synthesize(rev, track, scaling=Scaling(0.0, 1.0, 0.0), **kw).astype(np.complex128))
-    xa = np.fft.fft(synthesize(rev, track, scaling=Scaling(0.0, 1.0, alpha), **kw).astype(np.complex128))
+    x0 = np.fft.fft(synthesize(_config(scaling=Scaling(0.0, 1.0, 0.0)), track, rev, seed=1).astype(np.complex128))
+    xa = np.fft.fft(synthesize(_config(scaling=Scaling(0.0, 1.0, alpha)), track, rev, seed=1).astype(np.complex128))
     for h in (-4, -2, 2, 4):
         ratio = abs(xa[(112 * h) % n]) / abs(x0[(112 * h) % n])
         assert np.isclose(ratio, np.exp(-alpha * abs(h) * fm), rtol=5e-3), (h, ratio)
     assert np.isclose(abs(xa[0]), abs(x0[0]), rtol=1e-3)  # the DC term (n = 0) is not attenuated
 
 
-def test_envelope_method_validation():
-    with pytest.raises(ValueError, match="envelope_method"):
-        _sim([90.0], n=1000, alpha_s=1e-3, envelope_method="fir")
+# ---------------------------------------------------------------- unequal blades
+
+
+def _rotor_lines(amplitudes, *, alpha_s=0.0, n=8192):
+    """Complex amplitudes of the lines h f_m (h = -12..12, h != 0) of one 2-blade motor with
+    ``amplitudes`` (S_body = 0, S_blade = 1, body at rest: the constant carrier removed);
+    f_m = 112 prf / n puts line h on FFT bin 112 h (no leakage)."""
+    fm = 112 * PRF / n
+    R = 500.0
+    config = _config(scaling=Scaling(0.0, 1.0, alpha_s), blade_amplitudes=amplitudes)
+    iq = synthesize(config, Track.constant_velocity(R, 0.0, n / PRF), _const([fm], n), initial_cycles=[0.0])
+    X = np.fft.fft(iq.astype(np.complex128) / np.exp(-1j * 4 * np.pi * R / LAM)) / n
+    return fm, {h: X[(112 * h) % n] for h in range(-12, 13) if h}
+
+
+@pytest.mark.parametrize("a", [0.2, 0.5, 10 ** (-3 / 20), 10 ** (-10 / 20)])
+def test_a_weak_blade_puts_lines_at_odd_multiples_of_the_rotation_rate(a):
+    """Two blades, the second with amplitude a (a 3 dB and a 10 dB weak blade among them).
+
+    Derivation (eq. 1): one blade is g(phi) = int_0^L exp(-j k s cos phi) ds, and by the
+    Jacobi-Anger expansion exp(-j z cos phi) = sum_n (-j)^n J_n(z) exp(j n phi) its
+    harmonics are c_n = (-j)^n int_0^L J_n(k s) ds (c_-n = c_n). The second blade sits at
+    phi + pi, where harmonic n picks up (-1)^n, so the rotor's harmonic n is
+    C_n = c_n (1 + (-1)^n a): at a constant rate f_m a line at n f_m from the body with
+    power |c_n|^2 (1 - a)^2 for odd n and |c_n|^2 (1 + a)^2 for even n. Relative to the
+    blade's own harmonic, odd lines stand ((1 - a) / (1 + a))^2 below even ones.
+    c_n here by quadrature (independent of the library's closed form); the lines agree
+    in complex amplitude to ~6e-5 of the largest (the carrier table's phase, pi / 2**16;
+    tolerance 2e-4), the normalised powers to ~1e-7 (tolerance 1e-4)."""
+    _, lines = _rotor_lines([1.0, a])
+    c = {h: _harmonic_quad(abs(h), 0.19, LAM, n_blades=1) for h in lines}
+    top = max(abs(v) for v in c.values())
+    for h, x in lines.items():
+        expected = c[h] * (1 + (-1) ** h * a)
+        assert abs(x - expected) < 2e-4 * top, (h, x, expected)
+    q = {h: abs(lines[h]) ** 2 / abs(c[h]) ** 2 for h in lines if abs(h) <= 6}
+    odd = np.array([q[h] for h in q if h % 2])
+    even = np.array([q[h] for h in q if h % 2 == 0])
+    np.testing.assert_allclose(odd, (1 - a) ** 2, rtol=1e-4)
+    np.testing.assert_allclose(even, (1 + a) ** 2, rtol=1e-4)
+    assert np.mean(odd) / np.mean(even) == pytest.approx(((1 - a) / (1 + a)) ** 2, rel=1e-4)
+
+
+def test_equal_blades_have_no_odd_lines_and_unit_amplitudes_are_eq1_bit_for_bit():
+    """a = 1: C_n = 0 for odd n. The output is complex64 (amplitude rounding 6e-8, power
+    4e-15 relative), so any odd line above 1e-12 of the even ones' power would be the
+    model's, not rounding; measured: exactly 0 (bin-centred lines, no leakage). Unit
+    amplitudes, one row or one per motor, reproduce eq. (1) exactly, with and without
+    the envelope."""
+    _, lines = _rotor_lines([1.0, 1.0])
+    even = max(abs(x) ** 2 for h, x in lines.items() if h % 2 == 0)
+    odd = max(abs(x) ** 2 for h, x in lines.items() if h % 2)
+    assert odd < 1e-12 * even, odd / even
+    speeds = [85.0, 90.0, 95.0, 100.0]
+    for alpha in (0.0, 5.5e-3):
+        base = _sim(speeds, n=2 * 4096, alpha_s=alpha)
+        np.testing.assert_array_equal(_sim(speeds, n=2 * 4096, alpha_s=alpha, blade_amplitudes=[1.0, 1.0]), base)
+        np.testing.assert_array_equal(_sim(speeds, n=2 * 4096, alpha_s=alpha, blade_amplitudes=[[1.0, 1.0]] * 4),
+                                      base)
+
+
+def test_a_weak_blade_under_the_harmonic_envelope():
+    """The harmonic envelope scales every line of an unequal rotor, odd ones included, by
+    exp(-alpha |h| f_m) (its tables then span a whole turn, not 1/B), and equals the FFT
+    filter with a weak blade on some rotors (one row of amplitudes per motor)."""
+    alpha = 5.5e-3
+    fm, x0 = _rotor_lines([1.0, 0.5])
+    _, xa = _rotor_lines([1.0, 0.5], alpha_s=alpha)
+    for h in (-4, -3, -2, -1, 1, 2, 3, 4):
+        ratio = abs(xa[h]) / abs(x0[h])
+        assert np.isclose(ratio, np.exp(-alpha * abs(h) * fm), rtol=5e-3), (h, ratio)
+    n = 4 * 8192
+    rev = _const([71.0, 83.5, 96.0, 104.2], n)
+    err_max, err_rms = _harmonic_vs_fft(rev, alpha, n, blade_amplitudes=[[1.0, 0.5], [1.0, 1.0], [0.3, 1.0], [1.0, 1.0]])
+    assert err_rms < 1e-3 and err_max < 2e-3, (err_max, err_rms)
+
+
+def test_per_motor_blade_amplitudes_agree_with_reference(rng):
+    """The fast kernel with a row of blade amplitudes per motor against the per-pulse
+    evaluation of eq. (1)/(2) (3 blades, one rotor with a blade missing)."""
+    n = 2000
+    rev = (rng.uniform(60, 110, (1, 3)) + np.cumsum(rng.normal(0, 0.05, (n, 3)), axis=0)).astype(np.float32)
+    track = Track(np.array([0.0, 0.2, 0.4]), np.array([500.0, 499.0, 497.6]))
+    config = _config(n_blades=3, scaling=Scaling(1.0, 0.7, 0.0),
+                     blade_amplitudes=[[1.0, 1.0, 1.0], [1.0, 0.6, 0.9], [1.0, 0.0, 1.0]])
+    start = rng.uniform(0, 1, 3)
+    ref = reference_synthesize(config, track, rev, initial_cycles=start)
+    fast = synthesize(config, track, rev, initial_cycles=start)
+    err = np.max(np.abs(fast - ref)) / np.max(np.abs(ref))
+    assert err < 1e-3, err  # table lookup (2**16 entries) + linear carrier interpolation
+
+
+def test_configuration_is_validated_on_construction():
+    with pytest.raises(ValueError, match="method=.fir."):
+        Envelope(method="fir")
     with pytest.raises(ValueError, match="harmonic"):
-        _sim([90.0], n=1000, alpha_s=1e-3, envelope_method="harmonic", envelope=lambda f: np.ones_like(f))
+        _config(scaling=Scaling(0.0, 1.0, 1e-3), envelope=Envelope("harmonic"),
+                extensions=ModelExtensions(envelope_gain=lambda f: np.ones_like(f)))
+    with pytest.raises(ValueError, match="prf_hz=0"):
+        _config(prf_hz=0.0)
+    with pytest.raises(ValueError, match="chunk_pulses"):
+        _config(chunk_pulses=0)
+    with pytest.raises(ValueError, match="margin_pulses"):
+        Envelope(margin_pulses=-1)
+    with pytest.raises(ValueError, match="blade_amplitudes"):
+        _config(blade_amplitudes=[1.0, 0.5, 0.2])  # 3 amplitudes for 2 blades
+    with pytest.raises(ValueError, match="blade_amplitudes"):
+        _config(blade_amplitudes=[1.0, -0.5])
+    with pytest.raises(ValueError, match="blade_amplitudes has 2 rows"):  # rows per motor: 2 rows, 4 motors
+        _sim([85.0, 90.0, 95.0, 100.0], n=1000, blade_amplitudes=[[1.0, 0.5], [1.0, 1.0]])
 
 
 def test_energy_parseval():
@@ -446,8 +559,7 @@ def test_blade_phase_is_integral_of_speed():
     t = np.arange(n) / PRF
     rev = np.repeat((f0 + k * t)[:, None].astype(np.float32), 1, axis=1)
     track = Track.constant_velocity(500.0, 0.0, n / PRF)
-    iq = synthesize(rev, track, prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19,
-                    scaling=Scaling(0.0, 1.0, 0.0), seed=4)
+    iq = synthesize(_config(scaling=Scaling(0.0, 1.0, 0.0)), track, rev, seed=4)
     spec = spectrogram(iq, PRF, SpectrogramConfig(n_bins=0, highpass_hz=0.0))
     f = spec.doppler_hz
     for j, tc in enumerate(spec.time_s):
@@ -476,8 +588,8 @@ def test_zarr_input_is_sliced_not_loaded(tmp_path):
     z = zarr.create_array(str(tmp_path / "r.zarr"), shape=rev.shape, dtype=np.float32, chunks=(4096, 4))
     z[...] = rev
     track = Track.constant_velocity(500.0, -5.0, n / PRF)
-    kw = dict(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, seed=1, chunk=3000)
-    np.testing.assert_array_equal(synthesize(z, track, **kw), synthesize(rev, track, **kw))
+    config = _config(chunk_pulses=3000)
+    np.testing.assert_array_equal(synthesize(config, track, z, seed=1), synthesize(config, track, rev, seed=1))
 
 
 def test_envelope_callable_and_hooks():
@@ -490,8 +602,9 @@ def test_envelope_callable_and_hooks():
         seen.append((i0, i1))
         assert len(t) == i1 - i0 == len(x) and np.isclose(t[0], i0 / PRF)
 
-    iq = _sim(speeds, n=3 * 4096, envelope=lambda f: (f >= 0).astype(np.float64), body_hook=body_hook,
-              chunk=5000, margin=2048)
+    iq = _sim(speeds, n=3 * 4096, extensions=ModelExtensions(envelope_gain=lambda f: (f >= 0).astype(np.float64),
+                                                             body_hook=body_hook),
+              chunk_pulses=5000, envelope=Envelope(margin_pulses=2048))
     assert seen == [(0, 5000), (5000, 10000), (10000, 12288)]
     f, p = _mean_spectrum(iq)
     up, _ = _peak(f, p, F_BODY + 2 * 90.0)

@@ -19,7 +19,7 @@ from .io.motorlog import MotorLog, read_motor_log  # noqa: E402
 from .synthesis.radar import Radar  # noqa: E402
 from .rotors.sampling import SamplingConfig, per_cpi, sub_cpi  # noqa: E402
 from .spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram  # noqa: E402
-from .synthesis.model import Scaling, Track, add_noise, synthesize  # noqa: E402
+from .synthesis.model import Scaling, SynthesisConfig, Track, add_noise, synthesize  # noqa: E402
 
 #: paper-like false colour (blue floor, red lines)
 CMAP = "jet"
@@ -103,8 +103,9 @@ def fig2(out_png, *, ulog_path, prf_hz: float = 7000.0, carrier_hz: float = 1.35
             rev_s = sub_cpi(log, n, prf_hz, SamplingConfig(n_fft=radar.n_fft))
         else:
             rev_s = np.broadcast_to(np.asarray(speeds, np.float32), (n, 4))
-        iq = synthesize(rev_s, _wavy_track(dur), prf_hz=prf_hz, wavelength_m=radar.wavelength_m,
-                        n_blades=n_blades, blade_length_m=blade_length_m, scaling=Scaling(0.0, 1.0, 0.0), seed=seed)
+        config = SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=radar.wavelength_m, n_blades=n_blades,
+                                    blade_length_m=blade_length_m, scaling=Scaling(0.0, 1.0, 0.0))
+        iq = synthesize(config, _wavy_track(dur), rev_s, seed=seed)
         panels.append((label, spectrogram(iq, prf_hz, cfg)))
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8), constrained_layout=True)
     for ax, (label, spec) in zip(axes, panels):
@@ -131,8 +132,9 @@ def fig8(out_png, *, motor_log, prf_hz: float = 7300.0, carrier_hz: float = 1.35
     track = _wavy_track(log.duration_s)
     specs = {}
     for k, (name, rev_s) in enumerate(speeds.items()):
-        iq = synthesize(rev_s, track, prf_hz=prf_hz, wavelength_m=radar.wavelength_m, n_blades=n_blades,
-                        blade_length_m=blade_length_m, scaling=Scaling(1.0, s_blade, alpha_s), seed=seed)
+        config = SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=radar.wavelength_m, n_blades=n_blades,
+                                    blade_length_m=blade_length_m, scaling=Scaling(1.0, s_blade, alpha_s))
+        iq = synthesize(config, track, rev_s, seed=seed)
         add_noise(iq, 10 ** (-snr_db / 10), seed + 1)
         specs[name] = spectrogram(iq, prf_hz, SpectrogramConfig())
     t = np.arange(n) / prf_hz

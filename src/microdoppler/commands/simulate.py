@@ -2,7 +2,8 @@
 
 The echo is eq. (2) of the paper (thin-wire blades of eq. 1 summed over motors and
 blades, body return, alpha envelope; ``--blade-scattering dielectric`` scales the
-blade echo for plastic blades) from :func:`microdoppler.synthesis.model.synthesize`,
+blade echo for plastic blades, ``--blade-amplitudes`` gives blades their own scattering
+amplitudes) from :func:`microdoppler.synthesis.model.synthesize`,
 driven by constant per-motor speeds (``--motor-hz``) or a motor log (``--motor-log``,
 resampled to the PRF with ``--variant``), along a constant-velocity track or a track
 CSV (``time_s``, ``range_m``).
@@ -30,7 +31,7 @@ from ..io.outputs import check_output
 from ..io.motorlog import read_motor_log, read_motor_store
 from ..synthesis.radar import Radar
 from ..rotors.sampling import VARIANTS, SamplingConfig, resample
-from ..synthesis.model import BLADE_SCATTERING, Scaling, Track, add_noise, synthesize
+from ..synthesis.model import BLADE_SCATTERING, Scaling, SynthesisConfig, Track, add_noise, synthesize
 from . import add_overwrite, finite, non_negative, positive, positive_int, seed
 
 SRC = "simulate"
@@ -63,6 +64,11 @@ def register(subparsers) -> None:
     p.add_argument("--blade-scattering", choices=BLADE_SCATTERING, default="thin_wire",
                    help="blade echo model: thin_wire (eq. 1, default) or dielectric (plastic blades: echo ~ "
                         "(L/lambda)^2 below eq. 1, normalised to the 0.19 m blade at 1.35 GHz)")
+    p.add_argument("--blade-amplitudes", default=None,
+                   help="each blade's scattering amplitude relative to eq. 1 (>= 0), comma-separated, one per "
+                        "blade for every motor (e.g. 1,0.5: the second blade scatters half as much; unequal "
+                        "blades add lines at odd multiples of the rotation rate), or a row per motor separated "
+                        "by ';' (e.g. '1,1;1,0.5;1,1;1,1'); default all 1")
     p.add_argument("--drone-model", default="inspire2", help="drone_model attribute (default inspire2)")
     p.add_argument("--duration-s", type=positive, default=None,
                    help="flight duration [s] (default: the motor log's or track's span, else 10 s)")
@@ -107,6 +113,23 @@ def read_track_csv(path) -> Track:
     if np.any(r <= 0):
         raise InputError(path, "range_m", "has non-positive ranges", "ranges > 0 m")
     return Track(t - t[0], r)
+
+
+def parse_blade_amplitudes(text: str | None, n_blades: int, n_motors: int) -> list | None:
+    """``--blade-amplitudes`` -> a list [n_blades] (every motor) or [n_motors][n_blades]
+    of amplitudes >= 0; None when not given."""
+    if text is None:
+        return None
+    expected = (f"{n_blades} comma-separated amplitudes >= 0 (one per blade), or {n_motors} such rows "
+                f"separated by ';' (one per motor)")
+    try:
+        rows = [[float(v) for v in row.split(",")] for row in text.split(";")]
+    except ValueError:
+        raise InputError(SRC, "--blade-amplitudes", f"is {text!r}", expected) from None
+    ok = (all(len(r) == n_blades for r in rows) and len(rows) in (1, n_motors)
+          and all(np.isfinite(v) and v >= 0 for r in rows for v in r))
+    _check(ok, "--blade-amplitudes", repr(text), expected)
+    return rows[0] if len(rows) == 1 else rows
 
 
 def _load_log(path):
@@ -184,9 +207,11 @@ def run(args) -> int:
               f"{rate / 1e6:.1f} M pulses/s)", file=sys.stderr, flush=True)
 
     scaling = Scaling(s_body=args.s_body, s_blade=args.s_blade, alpha_s=args.alpha)
-    iq = synthesize(rev_s, track, prf_hz=args.prf_hz, wavelength_m=radar.wavelength_m, n_blades=args.n_blades,
-                    blade_length_m=args.blade_length_m, scaling=scaling, seed=args.seed, progress=progress,
-                    blade_scattering=args.blade_scattering)
+    amplitudes = parse_blade_amplitudes(args.blade_amplitudes, args.n_blades, n_motors)
+    config = SynthesisConfig.of(prf_hz=args.prf_hz, wavelength_m=radar.wavelength_m, n_blades=args.n_blades,
+                                blade_length_m=args.blade_length_m, scaling=scaling, blade_amplitudes=amplitudes,
+                                scattering=args.blade_scattering)
+    iq = synthesize(config, track, rev_s, seed=args.seed, progress=progress)
     noise_power = None
     if args.snr_db is not None:
         noise_power = args.s_body ** 2 / 10 ** (args.snr_db / 10)
@@ -204,6 +229,7 @@ def run(args) -> int:
         "n_motors": int(n_motors), "n_blades": int(args.n_blades), "blade_length_m": float(args.blade_length_m),
         "simulation": {"alpha_s": args.alpha, "s_body": args.s_body, "s_blade": args.s_blade,
                        "blade_scattering": args.blade_scattering, "seed": args.seed,
+                       **({"blade_amplitudes": amplitudes} if amplitudes is not None else {}),
                        "snr_db": args.snr_db, "snr_definition": "body power per pulse / noise power per pulse",
                        "noise_power": noise_power, **sim_log},
     }

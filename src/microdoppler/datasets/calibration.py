@@ -42,7 +42,7 @@ CPI, and step 3 checks the twin on every fit CPI: only these grow with the durat
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -55,7 +55,8 @@ from ..diagnosis.hypotheses import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig
-from ..synthesis.model import ENVELOPE_SPEED_STRIDE, BladeModel, Scaling, Track, synthesize
+from ..synthesis.model import (ENVELOPE_SPEED_STRIDE, BladeModel, ModelExtensions, Scaling, SynthesisConfig, Track,
+                               synthesize)
 from .injection import SYNTHETIC_SCHEMA, inject
 from .lines import LineSNR, body_doppler_hz, log_rate_at, rotor_rate_at
 from .batches import batch_filter
@@ -431,7 +432,7 @@ def _abs_peak_db(lines_db: np.ndarray, floor_db: np.ndarray) -> float:
 
 def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: SpectrogramConfig,
              cfg: CalibrationConfig = CalibrationConfig(), seed: int = 0,
-             synth_kwargs: Callable[[int], dict] | None = None,
+             extensions: Callable[[int], ModelExtensions] | None = None,
              post: Callable[[np.ndarray], np.ndarray] | None = None,
              fit_mask: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """Synthesise and calibrate the twin of one measured drone flight.
@@ -444,8 +445,9 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         The twin's rotor rates [rev/s] (a sampling variant of the log).
     motor_log : MotorLog
         The log that locates the measured flight's HERM lines.
-    synth_kwargs : callable, optional
-        ``synth_kwargs(seed) -> dict`` extra arguments of ``synthesize`` (extensions).
+    extensions : callable, optional
+        ``extensions(seed) -> ModelExtensions``: the model extensions acting inside
+        ``synthesize`` (``SynthesisConfig.extensions``).
         With it (or ``post``) the search synthesises whole records (the extensions'
         processes run over the whole flight), without it only the pulses around the
         search CPIs.
@@ -488,12 +490,11 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
     win = meter.windows(cpis, t_rate, t_spread_flight)
     body_win = meter.windows(cpis, None, 0)
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
-    geom = dict(prf_hz=flight.prf_hz, wavelength_m=flight.wavelength_m, n_blades=int(flight.attrs["n_blades"]),
-                blade_length_m=float(flight.attrs["blade_length_m"]))
+    blades = BladeModel(int(flight.attrs["n_blades"]), float(flight.attrs["blade_length_m"]), flight.wavelength_m)
 
     n_motors = rev_s.shape[1]
-    blade_mean = complex(BladeModel(geom["n_blades"], geom["blade_length_m"], geom["wavelength_m"]).table().mean())
-    whole = synth_kwargs is not None or post is not None
+    blade_mean = complex(blades.table().mean())
+    whole = extensions is not None or post is not None
     segs = _segments(stft, cpis, HIGHPASS_MARGIN_PULSES)  # whole: synthesised whole, high-passed in segments
     # segment synthesis starts each segment at the whole record's rotor angles: the
     # seed's initial angles (as synthesize draws them) plus the turns up to the segment
@@ -508,28 +509,28 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
                 turns[i] = cum[a - 1] / flight.prf_hz
 
     def synth(scaling, a=0, b=n, turns_a=None):
-        extra = dict(synth_kwargs(seed)) if synth_kwargs is not None else {}
+        ext = extensions(seed) if extensions is not None else ModelExtensions()
         if cfg.remove_blade_mean and scaling.s_blade > 0:
-            env = extra.get("envelope")
+            env = ext.envelope_gain
             dc = np.complex64(scaling.s_blade * n_motors * blade_mean
                               * (complex(np.asarray(env(np.zeros(1)))[0]) if env is not None else 1.0))
-            then = extra.get("blade_hook")
+            then = ext.blade_hook
 
             def hook(i0, i1, t_s, x, dc=dc, then=then):
                 x -= dc
                 if then is not None:
                     then(i0, i1, t_s, x)
 
-            extra["blade_hook"] = hook
+            ext = replace(ext, blade_hook=hook)
+        config = SynthesisConfig(flight.prf_hz, blades, scaling, extensions=ext)
         if a == 0 and b == n:
-            iq = synthesize(rev_s, track, scaling=scaling, n_pulses=n, seed=seed, **geom, **extra)
+            iq = synthesize(config, track, rev_s, n_pulses=n, seed=seed)
             return post(iq) if post is not None else iq
         init = np.mod(start_cycles + turns_a, 1.0)
         seg_track = seg_tracks.get(a)
         if seg_track is None:
             seg_track = seg_tracks[a] = Track(track.time_s - a / flight.prf_hz, track.range_m)
-        return synthesize(rev_s[a:b], seg_track, scaling=scaling, n_pulses=b - a, initial_cycles=init, **geom,
-                          **extra)
+        return synthesize(config, seg_track, rev_s[a:b], n_pulses=b - a, initial_cycles=init)
 
     # CPI -> segment: the search CPIs' columns are gathered segment by segment
     seg_of = np.searchsorted(starts, stft.frame_start[cpis], side="right") - 1
@@ -658,7 +659,7 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
             fseed = stable_seed(seed, "twin", BASE_SAMPLING.get(variant, variant), fid)
             kw, post = {}, None
             if active:
-                kw["synth_kwargs"] = lambda s, n=len(flight.iq), prf=flight.prf_hz, e=ext: e.synth_kwargs(
+                kw["extensions"] = lambda s, n=len(flight.iq), prf=flight.prf_hz, e=ext: e.model_extensions(
                     prf_hz=prf, n_pulses=n, seed=s)
                 post = lambda x, prf=flight.prf_hz, s=fseed, e=ext: e.post(x, prf_hz=prf, seed=s)
             iq, res = fit_twin(flight, read_rev_s(g, f"{speeds_zarr}/{fid}"), ml, spec_cfg=spec_cfg, cfg=cfg,

@@ -38,11 +38,11 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     alpha = calib.alpha_s if np.isfinite(calib.alpha_s) else 0.0
     a = flight.attrs
     lg = ext.transform_log(log) if ext is not None else log
-    kw = ext.synth_kwargs(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else {}
+    extensions = ext.model_extensions(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else None
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
     iq, _ = simulate_blades(lg, n, prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
                             blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=seed,
-                            envelope_kw=kw, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track)
+                            extensions=extensions, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track)
     if ext is not None:
         iq = ext.post(iq, prf_hz=prf, seed=seed)
     if flight.background_iq is not None:

@@ -46,7 +46,7 @@ from ..errors import InputError
 from ..io.inventory import RADAR_SOURCE
 from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
-from ..synthesis.model import Scaling, Track, synthesize
+from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 from .config import (BODY_SEARCH_HZ, LAG_STEP_S, LINE_GUARD_FRAC, LINE_HALF_BINS, MIN_MATCH, MIN_PAIR_SNR,
                      N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_CLUTTER_LINE_HZ,
                      PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
@@ -252,23 +252,26 @@ def local_floor(p_row: np.ndarray, st: Stft, f_c: float, excl_hz: float, span_hz
 
 
 def simulate_blades(log: MotorLog, n_pulses: int, prf_hz: float, *, wavelength_m: float, n_blades: int,
-                    blade_length_m: float, n_fft: int, seed: int, envelope_kw: dict | None = None,
+                    blade_length_m: float, n_fft: int, seed: int, extensions: ModelExtensions | None = None,
                     alpha_s: float = 0.0, s_blade: float = 1.0, s_body: float = 0.0, track: Track | None = None,
-                    window_pulses: int = 2500) -> tuple[np.ndarray, np.ndarray]:
+                    window_pulses: int = 2500, blade_amplitudes=None) -> tuple[np.ndarray, np.ndarray]:
     """The paper's model of a flight: returns (iq complex64 [n_pulses], rev_s
     float32 [n_pulses, n_motors]) with sub-CPI sampled speeds of ``log``.
 
-    Without ``track`` the body is at zero Doppler (spectrum relative to the body)."""
+    Without ``track`` the body is at zero Doppler (spectrum relative to the body).
+    ``extensions``: model extensions acting inside the synthesis (default none);
+    ``blade_amplitudes``: each blade's scattering amplitude (default all 1)."""
     cfg = sampling.SamplingConfig(n_fft=n_fft, window_pulses=window_pulses)
     rev = sampling.sub_cpi(log, n_pulses, prf_hz, cfg)
     dur = n_pulses / prf_hz
     trk = track if track is not None else Track.constant_velocity(1000.0, 0.0, dur)
-    kw = dict(envelope_kw or {})
-    if alpha_s > 0 and "envelope" not in kw:
-        kw["envelope"] = _unit_envelope  # the alpha envelope as the FFT filter of eq. (2)
-    iq = synthesize(rev, trk, prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
-                    blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), seed=seed,
-                    **kw)
+    ext = extensions if extensions is not None else ModelExtensions()
+    if alpha_s > 0 and ext.envelope_gain is None:
+        ext = replace(ext, envelope_gain=_unit_envelope)  # the alpha envelope as the FFT filter of eq. (2)
+    config = SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
+                                blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), extensions=ext,
+                                blade_amplitudes=blade_amplitudes)
+    iq = synthesize(config, trk, rev, seed=seed)
     return iq, rev
 
 

@@ -289,12 +289,13 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
 
         start = r_bl.uniform(0, 1, model.n_motors)  # rotor angles at t = 0 [rev]
         target = None
+        hooks = synthesis.ModelExtensions(envelope_gain=envelope, blade_hook=blade_hook, body_hook=body_hook)
         for k, fr in enumerate(BLADE_TAPER):
-            part = synthesis.synthesize(rev, track, prf_hz=prf, wavelength_m=lam, n_blades=B,
-                                        blade_length_m=model.blade_length_m * fr,
-                                        scaling=synthesis.Scaling(a_body if k == 0 else 0.0, s_blade, alpha_s),
-                                        initial_cycles=start, blade_hook=blade_hook,
-                                        body_hook=body_hook, envelope=envelope)
+            cfg = synthesis.SynthesisConfig.of(prf_hz=prf, wavelength_m=lam, n_blades=B,
+                                               blade_length_m=model.blade_length_m * fr,
+                                               scaling=synthesis.Scaling(a_body if k == 0 else 0.0, s_blade, alpha_s),
+                                               extensions=hooks)
+            part = synthesis.synthesize(cfg, track, rev, initial_cycles=start)
             target = part if target is None else target.__iadd__(part)
         target *= _straddle_gain(track.range_at(t))
         attrs.update({"drone_model": spec.drone_model, "n_motors": int(model.n_motors),

@@ -24,10 +24,10 @@ line, the periodogram's ambiguity, is not a choice here: each of the M rotors is
 
 Starts: the periodogram's lines (:mod:`microdoppler.rotors.speed`). With k < M distinct
 lines every composition of M rotors on them is tried (at two spreads around each shared
-line), first with ``harmonics[0]`` harmonics (a wide basin), the ``keep`` best carried on
+line), first with ``harmonics[0]`` harmonics (a wide basin), the ``KEEP`` best carried on
 to ``harmonics[-1]``. A fit whose weakest rotor has under ``min_power`` of the strongest
 rotor's power holds a spare rotor (its true lines coincide with another rotor's) and
-loses against one that does not; the weakest rotor is then re-seeded ``reseed`` times at
+loses against one that does not; the weakest rotor is then re-seeded ``RESEED`` times at
 the strongest harmonic comb of the residual, and a spare rotor left at the end is put on
 the strongest line (per rotor already there): the speed of a spare is not measured. At
 the end a weak rotor counts as a spare only if the fit also loses little without it
@@ -35,15 +35,15 @@ the end a weak rotor counts as a spare only if the fit also loses little without
 raises it): two rotors' models within a fraction of a bin trade large opposite
 amplitudes, and beside their inflated powers a rotor on lines of its own looked weak and
 was moved onto another line (1-5 % errors in the mean). A fit leaving the lines' range by
-more than ``bound_bins`` is dropped (the periodogram's estimate stands).
+more than ``BOUND_BINS`` is dropped (the periodogram's estimate stands).
 
 A rotor the periodogram's lines missed (its line smeared below the pair threshold, or
 shown as part of a split line) leaves every start with a rotor on a line that is not
 its own; where no spare results, or the rotor turns beyond the re-seeding window, the
 fit used to stop there. Last, the residual's strongest harmonic comb within
 ``move_rel`` of the re-seeding window's centre (a quadcopter's rotors differ by up to ~15 % in a
-manoeuvre) is tried in place of each of the ``move_tries`` weakest rotors, the best fit
-kept where it lowers the cost, ``move_passes`` times (keep ``move_rel`` under 0.2: at
+manoeuvre) is tried in place of each of the ``MOVE_TRIES`` weakest rotors, the best fit
+kept where it lowers the cost, ``MOVE_PASSES`` times (keep ``move_rel`` under 0.2: at
 25 % a rotor settled at 4/5 of a true rotor's speed, its fifth harmonic on the true
 rotor's fourth, and fitted better than the truth). Started at the true speeds, the
 fit reached a lower cost than its chosen fit in 60-75 % of the emulated tail; these
@@ -52,7 +52,7 @@ moves recover about half of those (``benchmarks/bound_rotorspeed.py``;
 
 Uncertainty: the Gauss-Newton covariance (residual variance times the inverse of
 J^T J with the prior), plus the spread of the mean over the lines a spare rotor could
-share, plus a relative floor ``rel_floor`` for what the quadratic phase does not
+share, plus a relative floor ``REL_FLOOR`` for what the quadratic phase does not
 capture, plus the composition's ambiguity. That covariance holds only if every rotor
 sits on its own true lines; where it does not (two rotors within a fraction of a bin
 fitted as one line, and another rotor on a line of its own that is not a rotor's), the
@@ -60,10 +60,10 @@ error is a large part of a bin, not a small multiple of sigma. The rotors of one
 return about equal power, so the fit's balance (its weakest rotor's power over its
 strongest's) tells how far to trust the composition: a balanced fit (>= 0.6) is within
 0.15 bin in 95 % of emulated CPIs, one under 0.3 off by over 1 % (~0.8 bin) in
-10-40 %. The ambiguity term is ``ambiguity_bins`` x exp(-balance / ``ambiguity_scale``)
-bins of the first harmonic for the mean speed, at most ``ambiguity_max_bins`` (where a
+10-40 %. The ambiguity term is ``AMBIGUITY_BINS`` x exp(-balance / ``AMBIGUITY_SCALE``)
+bins of the first harmonic for the mean speed, at most ``AMBIGUITY_MAX_BINS`` (where a
 spare is left, the spread over the lines it could share is already in sigma), and
-``ambiguity_rotor_*`` for each ranked rotor; calibrated on the emulated flights of one
+``AMBIGUITY_ROTOR_*`` for each ranked rotor; calibrated on the emulated flights of one
 seed so that 95 % of the errors lie within 2 sigma at every balance
 (``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``, "The I/Q fit's
 uncertainty"). Sigma is then a scale, not a Gaussian one-sigma: the
@@ -73,8 +73,8 @@ Where the periodogram showed one sideband pair only (``n_pairs=1``), the composi
 far less certain at every balance: the rotors' lines are read from one harmonic, and a
 rotor on another rotor's line or on a line that is none of theirs is off by one to
 several bins (one bin at n = 1 is ~1.2 % of the speed). Such a fit adds
-``one_pair_bins`` x exp(-balance / ``one_pair_scale``) bins to the mean's sigma and
-``one_pair_rotor_*`` to each ranked rotor's, calibrated on the 1,190 one-pair CPIs of
+``ONE_PAIR_BINS`` x exp(-balance / ``ONE_PAIR_SCALE``) bins to the mean's sigma and
+``ONE_PAIR_ROTOR_*`` to each ranked rotor's, calibrated on the 1,190 one-pair CPIs of
 six emulated seeds so that 95 % of their errors lie within 2 sigma (``benchmarks/README.md``,
 "One visible pair: its own uncertainty"). Such a sigma is wide (median ~3 % of the
 speed for the mean) because the errors are: 59-81 % of one-pair CPIs are within 1 %.
@@ -89,34 +89,105 @@ import numpy as np
 from scipy.signal.windows import blackmanharris
 
 
+# Fixed settings of the fit (module constants: search effort and calibrated terms, not
+# physical knobs). Each says what set it; the benchmark that measures the fit with them is
+# benchmarks/eval_rotorspeed.py (benchmarks/README.md, "The I/Q fit" and after).
+# ``benchmarks/bound_rotorspeed.py --fit NAME=VALUE`` overrides them for experiments.
+
+#: Gauss-Newton iterations per fit, and per screening fit of a start (with
+#: ``harmonics[0]``); a fit stops earlier once the cost falls by under TOLERANCE
+#: (relative). Set with the fit (356bdf1, tuned on seed 1's first flights).
+ITERATIONS = 10
+SCREEN_ITERATIONS = 4
+TOLERANCE = 1e-5
+#: screened starts carried on to the full harmonics: 4 instead of 2 was worse
+#: (-0.3 [-0.6, -0.1] points within 1 %, seed 1; benchmarks/README.md, "What the
+#: likelihood allows", tried (f))
+KEEP = 2
+#: spreads [bins of the first harmonic] at which rotors sharing a line start (356bdf1)
+SPREADS_BINS = (0.6, 1.5)
+#: a fit whose rotors leave the lines' range by more than this [bins] is dropped and the
+#: periodogram's estimate stands (356bdf1)
+BOUND_BINS = 5.0
+#: times the weakest rotor is re-seeded at the residual's strongest comb (b5e707c)
+RESEED = 3
+#: the residual's comb tried in place of each of the MOVE_TRIES weakest rotors, at most
+#: MOVE_PASSES times (benchmarks/README.md, "What the likelihood allows": the kept change
+#: +1.2 [+0.4, +2.2] points on seed 1, held out +1.9 / +1.3 on seeds 3 / 4; MOVE_TRIES = 1
+#: -0.4 [-0.8, +0.0], tried (d))
+MOVE_PASSES = 2
+MOVE_TRIES = 2
+#: relative uncertainty floor for what the quadratic phase does not capture (356bdf1)
+REL_FLOOR = 0.0004
+#: the composition's ambiguity by the fit's balance b (module docstring): the mean's sigma
+#: adds min(AMBIGUITY_BINS exp(-b / AMBIGUITY_SCALE), AMBIGUITY_MAX_BINS) bins, each ranked
+#: rotor's AMBIGUITY_ROTOR_BINS exp(-b / AMBIGUITY_ROTOR_SCALE); calibrated on one seed's
+#: emulated flights so that 95 % of errors lie within 2 sigma at every balance
+#: (benchmarks/README.md, "The I/Q fit's uncertainty"; ffc50e2)
+AMBIGUITY_BINS = 5.3
+AMBIGUITY_SCALE = 0.13
+AMBIGUITY_MAX_BINS = 2.0
+AMBIGUITY_ROTOR_BINS = 4.0
+AMBIGUITY_ROTOR_SCALE = 0.21
+#: the same for CPIs with one visible pair (in quadrature on top): fitted on 1,190
+#: one-pair CPIs of seeds 1-6, held out 90.0 / 97.6 % within 2 sigma on seeds 7 / 8
+#: (benchmarks/README.md, "One visible pair: its own uncertainty")
+ONE_PAIR_BINS = 4.25
+ONE_PAIR_SCALE = 0.8
+ONE_PAIR_ROTOR_BINS = 13.0
+ONE_PAIR_ROTOR_SCALE = 0.6
+
+
 @dataclass(frozen=True)
 class FitConfig:
-    """Settings of :func:`refine_cpi` (see the module docstring)."""
+    """Settings of :func:`refine_cpi` (see the module docstring); the search effort and
+    the calibrated uncertainty terms are module constants (``ITERATIONS``, ``KEEP``,
+    ``AMBIGUITY_*``, ...).
+
+    Parameters
+    ----------
+    harmonics : tuple of int
+        Harmonics per rotor and side in the model: starts are screened with
+        ``harmonics[0]`` (a wide basin), the best carried through the others; the last
+        is the final model order. (2, 5): set with the fit on seed 1 (356bdf1;
+        benchmarks/README.md, "The I/Q fit", held out +13.6 / +10.9 points on seeds 3 / 2).
+    chirp_sd_rev_s2 : float
+        Prior standard deviation of each rotor's rate of change about the group's
+        [rev/s^2] (356bdf1; same section).
+    min_power : float
+        A rotor with under this fraction of the strongest rotor's sideband power (and of
+        what the fit loses without the strongest) is a spare whose lines coincide with
+        another's: a drone's rotors return about equal power. 0.15 since b5e707c; the
+        second condition (c983cb4) gained +1.0 / +1.4 points within 1 % held out
+        (benchmarks/README.md, "A spare must also be weak in what the fit loses
+        without it").
+    reseed_rel : float
+        Relative half-width around the lines' centre in which a spare rotor is
+        re-seeded at the residual's strongest comb: the rotors' spread about the group
+        speed (b5e707c).
+    move_rel : float
+        Relative half-width in which a rotor the periodogram missed is searched (a
+        quadcopter's rotors differ by up to ~15 % in a manoeuvre); under 0.2, since at
+        0.25 a rotor settled at 4/5 of a true one's speed (benchmarks/README.md, "What
+        the likelihood allows": 0.16 kept, seed 1 +1.2 [+0.4, +2.2] points).
+    """
 
     harmonics: tuple = (2, 5)
-    iterations: int = 10
-    screen_iterations: int = 4
-    tolerance: float = 1e-5
-    keep: int = 2
     chirp_sd_rev_s2: float = 10.0
-    spreads_bins: tuple = (0.6, 1.5)
-    bound_bins: float = 5.0
     min_power: float = 0.15
-    reseed: int = 3
     reseed_rel: float = 0.12
-    rel_floor: float = 0.0004
-    ambiguity_bins: float = 5.3
-    ambiguity_scale: float = 0.13
-    ambiguity_max_bins: float = 2.0
-    ambiguity_rotor_bins: float = 4.0
-    ambiguity_rotor_scale: float = 0.21
-    one_pair_bins: float = 4.25
-    one_pair_scale: float = 0.8
-    one_pair_rotor_bins: float = 13.0
-    one_pair_rotor_scale: float = 0.6
-    move_passes: int = 2
     move_rel: float = 0.16
-    move_tries: int = 2
+
+    def __post_init__(self):
+        h = tuple(self.harmonics)
+        if not h or any(int(n) != n or n < 1 for n in h):
+            raise ValueError(f"harmonics={self.harmonics} must be a non-empty tuple of integers >= 1")
+        if not self.chirp_sd_rev_s2 > 0:
+            raise ValueError(f"chirp_sd_rev_s2={self.chirp_sd_rev_s2} must be > 0")
+        if not 0 <= self.min_power < 1:
+            raise ValueError(f"min_power={self.min_power} must be in [0, 1)")
+        if not (0 <= self.reseed_rel < 1 and 0 <= self.move_rel < 1):
+            raise ValueError(f"reseed_rel={self.reseed_rel} and move_rel={self.move_rel} must be in [0, 1)")
 
 
 @dataclass(frozen=True)
@@ -198,7 +269,7 @@ class _Model:
         """Gauss-Newton from ``p`` with ``N`` harmonics: (p, cost). Leaves J^T J (with
         the prior), the amplitudes, residual and per-rotor power at the result."""
         cfg, M = self.cfg, self.M
-        iterations = cfg.iterations if iterations is None else iterations
+        iterations = ITERATIONS if iterations is None else iterations
         ns = np.r_[np.arange(-N, 0), np.arange(1, N + 1)].astype(float)
         K = len(ns)
         A = self.build(p, N)
@@ -228,7 +299,7 @@ class _Model:
                     accepted = True
                     break
                 lam *= 6
-            if not accepted or rel < cfg.tolerance:
+            if not accepted or rel < TOLERANCE:
                 break
         self.power = np.array([np.sum(np.abs(c[1 + q * K:1 + (q + 1) * K]) ** 2) for q in range(M)])
         self.c, self.A, self.r, self._L, self._ns = c, A, r, L, ns
@@ -299,7 +370,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     Returns
     -------
     CpiFit or None
-        None where no start stays within ``bound_bins`` of the lines.
+        None where no start stays within ``BOUND_BINS`` of the lines.
     """
     cfg = config or FitConfig()
     B, M = int(n_blades), int(n_motors)
@@ -313,7 +384,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     p0 = np.r_[body_hz, body_rate_hz_s, np.resize(lines, M), np.full(M, rate_rev_s2)]
     F.g0 = float(rate_rev_s2)
     F.s2 = F.solve(F.build(p0, Ns[0]))[3] / len(x)
-    lo, hi = lines[0] - cfg.bound_bins * bin_rev, lines[-1] + cfg.bound_bins * bin_rev
+    lo, hi = lines[0] - BOUND_BINS * bin_rev, lines[-1] + BOUND_BINS * bin_rev
 
     def inside(p):
         f = p[2:2 + M]
@@ -321,18 +392,18 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
 
     starts = []
     for comp in (_compositions(M, k) if k < M else [[1] * M]):
-        for sp in (cfg.spreads_bins if max(comp) > 1 else cfg.spreads_bins[:1]):
+        for sp in (SPREADS_BINS if max(comp) > 1 else SPREADS_BINS[:1]):
             f0 = np.concatenate([ln + (np.arange(m) - (m - 1) / 2) * sp * bin_rev for ln, m in zip(lines, comp)])
             starts.append((f0, "+".join(map(str, comp))))
     cands = []
     for f0, name in starts:
         p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0],
-                        cfg.screen_iterations)
+                        SCREEN_ITERATIONS)
         if inside(p):
             cands.append((cost, name, p))
     cands.sort(key=lambda c: c[0])
     best = None
-    for cost, name, p in cands[:cfg.keep]:
+    for cost, name, p in cands[:KEEP]:
         for N in Ns[1:]:
             p, cost = F.fit(p, N)
         if not inside(p):
@@ -349,7 +420,7 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     # group's plausible spread (a rotor the periodogram missed lies outside the lines)
     mid = 0.5 * (lines[0] + lines[-1])
     wlo, whi = min(lo, mid * (1 - cfg.reseed_rel)), max(hi, mid * (1 + cfg.reseed_rel))
-    for k_seed in range(cfg.reseed):
+    for k_seed in range(RESEED):
         F.fit(p, N, iterations=0)
         if k_seed > 0 and not _spare(F.power, cfg).any():
             break
@@ -403,13 +474,13 @@ def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_
     a = np.zeros(len(p))
     a[2:2 + M] = weight / M
     # the composition's ambiguity, by the fit's balance (see the module docstring)
-    amb = min(cfg.ambiguity_bins * np.exp(-balance / cfg.ambiguity_scale), cfg.ambiguity_max_bins) * bin_rev
-    amb_rotor = cfg.ambiguity_rotor_bins * bin_rev * np.exp(-balance / cfg.ambiguity_rotor_scale)
+    amb = min(AMBIGUITY_BINS * np.exp(-balance / AMBIGUITY_SCALE), AMBIGUITY_MAX_BINS) * bin_rev
+    amb_rotor = AMBIGUITY_ROTOR_BINS * bin_rev * np.exp(-balance / AMBIGUITY_ROTOR_SCALE)
     if n_pairs == 1:
-        amb = np.hypot(amb, cfg.one_pair_bins * bin_rev * np.exp(-balance / cfg.one_pair_scale))
-        amb_rotor = np.hypot(amb_rotor, cfg.one_pair_rotor_bins * bin_rev * np.exp(-balance / cfg.one_pair_rotor_scale))
-    sd = np.sqrt(sd ** 2 + (cfg.rel_floor * f) ** 2 + amb_rotor ** 2)
-    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (cfg.rel_floor * f.mean()) ** 2 + amb ** 2))
+        amb = np.hypot(amb, ONE_PAIR_BINS * bin_rev * np.exp(-balance / ONE_PAIR_SCALE))
+        amb_rotor = np.hypot(amb_rotor, ONE_PAIR_ROTOR_BINS * bin_rev * np.exp(-balance / ONE_PAIR_ROTOR_SCALE))
+    sd = np.sqrt(sd ** 2 + (REL_FLOOR * f) ** 2 + amb_rotor ** 2)
+    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (REL_FLOOR * f.mean()) ** 2 + amb ** 2))
     order = np.argsort(f)
     return CpiFit(f[order], sd[order], mean_sd, name, balance)
 
@@ -418,16 +489,16 @@ def _move_to_missed(F: _Model, p: np.ndarray, cost: float, name: str, N: int, lo
                     bin_rev: float, cfg: FitConfig):
     """A rotor the periodogram's lines missed (module docstring): the residual's
     strongest harmonic comb within ``move_rel`` of the window's centre, tried in place
-    of each of the ``move_tries`` weakest rotors; the best fit that lowers the cost is
-    kept, up to ``move_passes`` times. Returns (p, cost, name)."""
+    of each of the ``MOVE_TRIES`` weakest rotors; the best fit that lowers the cost is
+    kept, up to ``MOVE_PASSES`` times. Returns (p, cost, name)."""
     M = F.M
     mid = 0.5 * (lo + hi)
     mlo, mhi = min(lo, mid * (1 - cfg.move_rel)), max(hi, mid * (1 + cfg.move_rel))
-    for _ in range(cfg.move_passes):
+    for _ in range(MOVE_PASSES):
         F.fit(p, N, iterations=0)
         peak = F.comb_peak(F.r, p, N, mlo, mhi, 0.1 * bin_rev)
         best = None
-        for q in np.argsort(F.power)[:cfg.move_tries]:
+        for q in np.argsort(F.power)[:MOVE_TRIES]:
             pm = p.copy()
             pm[2 + q], pm[2 + M + q] = peak, F.g0
             pn, cn = F.fit(pm, N)

@@ -13,9 +13,9 @@ the flight shows no HERM lines.
 Method (arrays per CPI):
 
 1. Spectrum in dB over the *local* noise floor (a low percentile over
-   ``floor_window_bins``, robust to the lines around a drone's body); the clutter
+   ``FLOOR_WINDOW_BINS``, robust to the lines around a drone's body); the clutter
    band ``|f| < clutter_guard_hz`` is masked ("unknown", neither evidence for nor
-   against a line). Lines are peaks with ``line_prominence_db``.
+   against a line). Lines are peaks with ``LINE_PROMINENCE_DB``.
 2. Centre of symmetry: HERM lines come in pairs f_c +- n B f_m, so the centre f_c is
    the half-bin near the track's Doppler (``body_search_hz``) where the mirrored line
    pattern best matches itself. Speeds below come from pair *differences*
@@ -28,13 +28,13 @@ Method (arrays per CPI):
    sub-harmonic or a ghost (where n = 1 falls in the clutter band, n = 2 and 3 stand
    in).
 4. Continuity prior: a Viterbi path over a 0.5 % log-speed grid (emission: the best
-   R in the cell; ``step_penalty_db`` per step, at most ``max_step_rel`` per hop)
+   R in the cell; ``STEP_PENALTY_DB`` per step, at most ``max_step_rel`` per hop)
    follows the rotor group from CPI to CPI; the rotors are searched within a factor
-   ``group_ratio`` of it.
+   ``GROUP_RATIO`` of it.
 5. Lines: peaks of the lowest examinable harmonic's pair spectrum form clusters
    (bounded by the minima between them). Each cluster's speed is the power-weighted
    centroid of its lines on both sides (noise subtracted; the outermost walk out
-   while above the noise), at n1 and up to ``n_measure`` harmonics (while the
+   while above the noise), at n1 and up to ``N_MEASURE`` harmonics (while the
    harmonic groups do not overlap), combined with inverse-variance weights. A
    centroid, unlike a peak, is unbiased by the speed changing within the CPI: a
    spectrogram line's first moment is the window^2-weighted mean of its
@@ -46,12 +46,12 @@ Method (arrays per CPI):
    per cluster are chosen from the clusters' power shares (averaged over every
    harmonic whose pair is visible anywhere in the group: close rotors interfere,
    differently at each harmonic) and the relative-speed pattern of neighbouring CPIs
-   (+-``pattern_cpis``) whose every rotor had its own line; the mean speed is
+   (+-``PATTERN_CPIS``) whose every rotor had its own line; the mean speed is
    averaged over the counts' posterior. The spread of the posterior under the
    measured share scatter (larger for lines that rotors share) adds to the
    uncertainty, so an ambiguous count shows as a larger sigma.
 8. Uncertainty: centroid noise (per-bin periodogram variance) plus a floor
-   ``rel_floor`` per measurement, inflated by the scatter over harmonics (Birge
+   ``REL_FLOOR`` per measurement, inflated by the scatter over harmonics (Birge
    ratio), plus the placement of lines that share a cluster.
 9. I/Q fit (``refine``, on by default): every CPI with an estimate is refitted by
    least squares on its samples (:mod:`microdoppler.rotors.fit`): each of the M rotors
@@ -119,64 +119,93 @@ METHOD = "herm-pairs+iq-fit/2"
 #: relative width of a cell of the Viterbi speed grid
 LOG_STEP = 0.005
 
+# Fixed settings of the method (module constants, not knobs: none has a physical value a
+# user would set per radar or drone, and each was set with the estimator in 0004c07 and
+# measured since only through the estimator's accuracy, ``benchmarks/eval_rotorspeed.py``,
+# benchmarks/README.md "eval_rotorspeed.py", unless the comment says otherwise).
+
+#: local noise floor (step 1, :func:`local_floor_db`): the 20th percentile of 129 bins
+#: (~230 Hz at 7.3 kHz / 4096) every 16 bins; a low percentile ignores the lines that
+#: fill the bins around a drone's body
+FLOOR_WINDOW_BINS = 129
+FLOOR_STEP_BINS = 16
+FLOOR_PERCENTILE = 20.0
+#: prominence of a spectral line [dB] (steps 1, 5-6)
+LINE_PROMINENCE_DB = 6.0
+#: rotors are searched within a factor 1.5 of the tracked group speed: under 2 so that a
+#: rotor's second harmonic stays outside the search (step 4)
+GROUP_RATIO = 1.5
+#: Viterbi penalty per 0.5 % speed step [dB of evidence] (step 4)
+STEP_PENALTY_DB = 0.5
+#: the outermost lines' regions end where the spectrum falls to 3 dB over the floor or
+#: 30 dB below the line's peak (step 5)
+NOISE_DB = 3.0
+LINE_RANGE_DB = 30.0
+#: harmonics (from the lowest) at which each cluster's centroid is measured (step 5);
+#: 6 and 10 were tried and did not help (benchmarks/README.md, "The tail")
+N_MEASURE = 4
+#: a cluster with under this share of the group's power is merged away (step 5)
+MIN_SHARE = 0.06
+#: rotor counts (step 7): the spread of a power share used to pick the counts, the cost
+#: [in -2 log-likelihood] of a resolved line left without a rotor, the spread of the
+#: relative-speed pattern, and the CPIs on either side that give the pattern
+POWER_SHARE_SD = 0.06
+SPLIT_COST = 10.0
+PATTERN_SD = 0.02
+PATTERN_CPIS = 8
+#: the uncertainty of the mean speed from the rotor counts (step 7): the share of a line
+#: of k rotors has variance SPREAD_SHARE_SD^2 + SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2;
+#: measured on emulated flights of eval_rotorspeed.py seed 1 (share scatter sd 0.074 for
+#: a line of one rotor, 0.13 for two; benchmarks/README.md, "Changes behind these
+#: numbers", commit 2b969d3)
+SPREAD_SHARE_SD = 0.075
+SPREAD_INTERFERENCE_SD = 0.10
+#: relative uncertainty floor of one centroid measurement (step 8)
+REL_FLOOR = 0.008
+#: CPIs per STFT block (memory only: the result does not depend on it)
+BLOCK_CPIS = 64
+
 
 @dataclass(frozen=True)
 class RotorSpeedConfig:
     """Settings of :func:`estimate_rotor_speeds` (the module docstring's steps).
 
+    The method's other settings are module constants (``FLOOR_*``, ``LINE_PROMINENCE_DB``,
+    ``GROUP_RATIO``, ...; each says why its value). Derived: :attr:`smear_rel`.
+
     Parameters
     ----------
     min_rev_s, max_rev_s : float
-        Plausible rotor speeds [rev/s] (paper §II: 40-250 Hz).
+        Plausible rotor speeds [rev/s]: the paper's 40-250 Hz (§II) widened by a
+        margin on both sides; a speed outside is no rotor's.
     n_harmonics : int
-        Highest harmonic order examined.
+        Highest harmonic order examined (steps 3, 6); set with the estimator (0004c07),
+        not tuned since.
     pair_snr_db : float
-        Both lines of a visible pair stand this far over the local floor [dB].
-    floor_window_bins, floor_step_bins, floor_percentile :
-        Local floor: the ``floor_percentile`` % point over ``floor_window_bins`` bins,
-        evaluated every ``floor_step_bins``.
-    line_prominence_db : float
-        Prominence of a spectral line [dB].
+        Both lines of a visible pair stand this far over the local noise floor [dB]:
+        a periodogram bin of noise alone has exponentially distributed power, so it
+        exceeds 10 dB over its mean with probability exp(-10), both lines of a pair
+        with ~exp(-20).
     clutter_guard_hz : float
-        Dopplers within this of 0 Hz (stationary clutter) are masked [Hz].
+        Dopplers within this of 0 Hz are masked as stationary clutter [Hz] (wider than
+        the paper's 15 Hz high-pass; 0004c07).
     body_search_hz : float
-        Search half-width of the centre of symmetry around the track's Doppler [Hz].
-    group_ratio : float
-        Rotors are searched from the tracked path's speed divided by this to it
-        multiplied by this (below 2: a rotor's second harmonic stays outside).
-    max_step_rel, step_penalty_db : float
-        Continuity prior: largest relative speed change per hop, and the penalty per
-        0.5 % step [dB of evidence].
-    smear_rel : float
-        Largest relative extent of a line beyond its peak (speed change within a CPI).
-    noise_db, line_range_db : float
-        The outermost lines' regions end where the spectrum falls below ``noise_db``
-        over the floor or ``line_range_db`` below the line's peak.
-    n_measure : int
-        Harmonics (from the lowest) at which each cluster's centroid is measured.
-    min_share : float
-        A cluster with less than this share of the group's power is merged away.
-    power_share_sd, split_cost, pattern_sd, pattern_cpis :
-        Rotor counts: the spread of a power share, the cost of a resolved line left
-        without a rotor, the spread of the relative-speed pattern, and the CPIs on
-        either side that give the pattern.
-    spread_share_sd, spread_interference_sd : float
-        The uncertainty of the mean speed from the rotor counts: the counts' posterior
-        with the measured scatter of a power share (emulated flights: sd 0.074 for a
-        line of one rotor, 0.13 for two; rotors sharing a line interfere), the share
-        of a line of k rotors having variance ``spread_share_sd``^2 +
-        ``spread_interference_sd``^2 k (k - 1) / 2. The estimate keeps the sharper
-        ``power_share_sd`` posterior (better counts); the uncertainty takes this one.
-    rel_floor : float
-        Relative uncertainty floor of one centroid measurement.
+        Search half-width of the centre of symmetry around the track's Doppler [Hz]:
+        the track's radial-velocity error it tolerates, 20 Hz = 2.2 m/s at 1.35 GHz
+        (0004c07).
+    max_step_rel : float
+        Largest relative change of the rotor group's speed from one CPI to the next
+        (one hop, n_fft / 2 pulses; step 4); a line smears over twice this within a
+        CPI (:attr:`smear_rel`).
     min_cpis : int
-        A flight needs this many CPIs with two or more visible harmonic orders.
-    block_cpis : int
-        CPIs per STFT block (memory).
+        A flight needs this many CPIs whose comb shows two or more harmonic orders
+        (a lone mirror pair can be clutter or birds; the negatives of
+        eval_rotorspeed.py, Minis and birds relabelled as drones, get none).
     refine : bool
         Step 9: refit every CPI with an estimate by least squares on its I/Q
         (:mod:`microdoppler.rotors.fit`, settings ``fit``); False keeps the periodogram's
-        estimate (``herm-pairs/1``).
+        estimate (``herm-pairs/1``). Measured: within 1 % 79.6 -> 93.2 % of CPIs with
+        >= 2 pairs (held-out seed 3; benchmarks/README.md, "The I/Q fit").
     fit : FitConfig
         Settings of the least-squares refinement.
     """
@@ -185,29 +214,10 @@ class RotorSpeedConfig:
     max_rev_s: float = 300.0
     n_harmonics: int = 10
     pair_snr_db: float = 10.0
-    floor_window_bins: int = 129
-    floor_step_bins: int = 16
-    floor_percentile: float = 20.0
-    line_prominence_db: float = 6.0
     clutter_guard_hz: float = 20.0
     body_search_hz: float = 20.0
-    group_ratio: float = 1.5
     max_step_rel: float = 0.06
-    step_penalty_db: float = 0.5
-    smear_rel: float = 0.12
-    noise_db: float = 3.0
-    line_range_db: float = 30.0
-    n_measure: int = 4
-    power_share_sd: float = 0.06
-    min_share: float = 0.06
-    split_cost: float = 10.0
-    pattern_sd: float = 0.02
-    pattern_cpis: int = 8
-    spread_share_sd: float = 0.075
-    spread_interference_sd: float = 0.10
-    rel_floor: float = 0.008
     min_cpis: int = 3
-    block_cpis: int = 64
     refine: bool = True
     fit: FitConfig = field(default_factory=FitConfig)
 
@@ -218,29 +228,19 @@ class RotorSpeedConfig:
             raise ValueError(f"n_harmonics={self.n_harmonics} must be >= 1")
         if not self.pair_snr_db > 0:
             raise ValueError(f"pair_snr_db={self.pair_snr_db} must be > 0")
-        if self.floor_window_bins < 9 or self.floor_step_bins < 1:
-            raise ValueError(f"floor_window_bins={self.floor_window_bins} must be >= 9 and "
-                             f"floor_step_bins={self.floor_step_bins} >= 1")
         if self.clutter_guard_hz < 0 or self.body_search_hz < 0:
-            raise ValueError("clutter_guard_hz and body_search_hz must be >= 0")
-        if not 1 < self.group_ratio < 2:
-            raise ValueError(f"group_ratio={self.group_ratio} must be in (1, 2)")
-        if not 0 < self.max_step_rel < 1:
-            raise ValueError(f"max_step_rel={self.max_step_rel} must be in (0, 1)")
-        for name in ("step_penalty_db", "line_prominence_db", "smear_rel", "noise_db", "line_range_db", "min_share",
-                     "split_cost", "rel_floor", "pattern_cpis"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name}={getattr(self, name)} must be >= 0")
-        if self.n_measure < 1 or not self.power_share_sd > 0 or not self.pattern_sd > 0:
-            raise ValueError(f"n_measure={self.n_measure} must be >= 1, power_share_sd={self.power_share_sd} and "
-                             f"pattern_sd={self.pattern_sd} > 0")
-        if not (self.spread_share_sd > 0 and self.spread_interference_sd >= 0):
-            raise ValueError(f"spread_share_sd={self.spread_share_sd} must be > 0 and "
-                             f"spread_interference_sd={self.spread_interference_sd} >= 0")
-        if not 0 < self.floor_percentile < 100:
-            raise ValueError(f"floor_percentile={self.floor_percentile} must be in (0, 100)")
-        if self.min_cpis < 1 or self.block_cpis < 1:
-            raise ValueError(f"min_cpis={self.min_cpis} and block_cpis={self.block_cpis} must be >= 1")
+            raise ValueError(f"clutter_guard_hz={self.clutter_guard_hz} and body_search_hz={self.body_search_hz} "
+                             f"must be >= 0")
+        if not 0 < self.max_step_rel < 0.5:
+            raise ValueError(f"max_step_rel={self.max_step_rel} must be in (0, 0.5)")
+        if self.min_cpis < 1:
+            raise ValueError(f"min_cpis={self.min_cpis} must be >= 1")
+
+    @property
+    def smear_rel(self) -> float:
+        """Largest relative extent of a line beyond its peak: the speed change over one
+        CPI, i.e. two hops of ``max_step_rel`` (50 % overlap)."""
+        return 2 * self.max_step_rel
 
 
 @dataclass
@@ -397,8 +397,8 @@ def _no_estimate(flight_id, n_cpi, t, n_motors, n_blades, n_fft, reason, info=No
                          int(n_motors), int(n_blades), int(n_fft), reason, dict(info or {}))
 
 
-def local_floor_db(power_db: np.ndarray, *, window_bins: int = 129, step_bins: int = 16,
-                   percentile: float = 20.0) -> np.ndarray:
+def local_floor_db(power_db: np.ndarray, *, window_bins: int = FLOOR_WINDOW_BINS,
+                   step_bins: int = FLOOR_STEP_BINS, percentile: float = FLOOR_PERCENTILE) -> np.ndarray:
     """Mean noise power per bin [dB] of periodogram rows ``power_db`` [k, n_bins].
 
     A low percentile over ``window_bins`` (centres every ``step_bins``, linear in
@@ -513,13 +513,13 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     cpis: list[_Cpi] = []
     emis = np.zeros((n_cpi, n_states))
     f_hz = None
-    for i0 in range(0, n_cpi, cfg.block_cpis):
-        i1 = min(n_cpi, i0 + cfg.block_cpis)
+    for i0 in range(0, n_cpi, BLOCK_CPIS):
+        i1 = min(n_cpi, i0 + BLOCK_CPIS)
         seg = np.asarray(flight.iq[i0 * hop:(i1 - 1) * hop + n_fft])
         sp = spectrogram(seg, prf, spec_cfg)
         f_hz = sp.doppler_hz.astype(np.float64)
-        z = sp.power_db - local_floor_db(sp.power_db, window_bins=cfg.floor_window_bins,
-                                         step_bins=cfg.floor_step_bins, percentile=cfg.floor_percentile)
+        z = sp.power_db - local_floor_db(sp.power_db, window_bins=FLOOR_WINDOW_BINS,
+                                         step_bins=FLOOR_STEP_BINS, percentile=FLOOR_PERCENTILE)
         masked = np.abs(f_hz) < cfg.clutter_guard_hz
         for k in range(i1 - i0):
             zk = np.where(masked, -100.0, z[k]).astype(np.float64)
@@ -529,7 +529,7 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
             emis[i0 + k] = np.maximum.reduceat(R, cell_start)
             cpis.append(_Cpi(zk.astype(np.float32), centre))
     # continuity prior: Viterbi over the log-speed cells
-    path = _viterbi(emis, int(np.ceil(cfg.max_step_rel / LOG_STEP)), cfg.step_penalty_db)
+    path = _viterbi(emis, int(np.ceil(cfg.max_step_rel / LOG_STEP)), STEP_PENALTY_DB)
     f_path = cfg.min_rev_s * np.exp(path * LOG_STEP)
 
     speeds = np.full((n_cpi, M), np.nan)
@@ -657,7 +657,7 @@ def _line_evidence(z: np.ndarray, cfg: RotorSpeedConfig) -> tuple[np.ndarray, np
     over ``pair_snr_db``, spread over +-1 and +-2 bins (-100 elsewhere, NaN near
     masked bins)."""
     n = len(z)
-    pk, _ = find_peaks(z, height=cfg.pair_snr_db, prominence=cfg.line_prominence_db)
+    pk, _ = find_peaks(z, height=cfg.pair_snr_db, prominence=LINE_PROMINENCE_DB)
     zpk = np.full(n, -100.0)
     zpk[pk] = z[pk]
     zpk1 = maximum_filter1d(zpk, 3)
@@ -809,8 +809,8 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     :class:`_Lines`, or None without a visible pair there."""
     T = cfg.pair_snr_db
     N = cfg.n_harmonics
-    lo = np.searchsorted(fgrid, f_path / cfg.group_ratio)
-    hi = np.searchsorted(fgrid, f_path * cfg.group_ratio)
+    lo = np.searchsorted(fgrid, f_path / GROUP_RATIO)
+    hi = np.searchsorted(fgrid, f_path * GROUP_RATIO)
     fw = fgrid[lo:hi]
     if len(fw) < 3:
         return None
@@ -824,7 +824,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     if n1 is None:
         return None
     q1 = _pair_db(c, n1, fw, B, bin_hz)
-    pk = _peaks(q1, T, cfg.line_prominence_db)
+    pk = _peaks(q1, T, LINE_PROMINENCE_DB)
     if len(pk) == 0:
         return None
     # a line at ~twice a strong lower line's speed is that line's second harmonic
@@ -847,7 +847,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
         f_lo = min(ext[0][0], anchors[0] * (1 - 0.5 * cfg.smear_rel))
         f_hi = max(ext[-1][1], anchors[-1] * (1 + 0.5 * cfg.smear_rel))
         per_n = []
-        for nn in range(n1, min(N, n1 + cfg.n_measure - 1) + 1):
+        for nn in range(n1, min(N, n1 + N_MEASURE - 1) + 1):
             if nn * f_hi >= (nn + 1) * f_lo:
                 break
             if not examined[nn - 1, pk].all():
@@ -864,12 +864,12 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
         if not per_n:
             return None
         frac = np.mean([s[2] / s[2].sum() for s in per_n], axis=0)
-        weak = frac < cfg.min_share
+        weak = frac < MIN_SHARE
         if not weak.any() or len(pk) == 1:
             break
         pk = np.delete(pk, int(np.argmin(frac)))  # a smear shoulder or a ghost: merge it away
     sp_n = np.array([s[0] for s in per_n])      # [n_harm, n_clusters]
-    var_n = np.array([s[1] for s in per_n]) + (cfg.rel_floor * sp_n) ** 2
+    var_n = np.array([s[1] for s in per_n]) + (REL_FLOOR * sp_n) ** 2
     w = 1.0 / var_n
     cl_speed = (w * sp_n).sum(0) / w.sum(0)
     cl_var = 1.0 / w.sum(0)
@@ -887,7 +887,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
             if not examined[nn - 1, sel].all() or not (E[nn - 1, sel] > 0).any():
                 continue
             qn = _pair_db(c, nn, fw[sel], B, bin_hz)
-            p = _peaks(qn, T, cfg.line_prominence_db)
+            p = _peaks(qn, T, LINE_PROMINENCE_DB)
             if len(p):
                 found.append((len(p), nn, fw[sel][p]))
         counts = sorted((f[0] for f in found), reverse=True)
@@ -992,12 +992,12 @@ def _pattern(speeds: np.ndarray) -> np.ndarray:
     return speeds / speeds.mean() - 1
 
 
-def _share_cost(frac: np.ndarray, count: np.ndarray, M: int, cfg: RotorSpeedConfig) -> float:
+def _share_cost(frac: np.ndarray, count: np.ndarray, M: int) -> float:
     """-2 log-likelihood of the power shares ``frac`` [n_clusters] for the rotor counts
-    ``count``: a line of k rotors has share k / M with variance spread_share_sd^2 +
-    spread_interference_sd^2 k (k - 1) / 2 (each pair of rotors on it interferes)."""
+    ``count``: a line of k rotors has share k / M with variance SPREAD_SHARE_SD^2 +
+    SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2 (each pair of rotors on it interferes)."""
     k = np.asarray(count, float)
-    var = cfg.spread_share_sd ** 2 + cfg.spread_interference_sd ** 2 * k * (k - 1) / 2
+    var = SPREAD_SHARE_SD ** 2 + SPREAD_INTERFERENCE_SD ** 2 * k * (k - 1) / 2
     return float(np.sum((frac - k / M) ** 2 / var + np.log(var)))
 
 
@@ -1008,7 +1008,7 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
     Close rotors merge into one line and interfere, so a line's power tells its
     rotor count poorly. The pattern of the rotors' relative speeds changes slowly:
     where a CPI has fewer lines than rotors, its counts are chosen to match both the
-    power shares and the median pattern of the CPIs within +-``pattern_cpis`` whose
+    power shares and the median pattern of the CPIs within +-``PATTERN_CPIS`` whose
     every rotor was seen as its own line.
     """
     n = len(lines)
@@ -1018,18 +1018,18 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
     # the relative-speed pattern of the CPIs where every rotor has its own line
     pattern = [_pattern(L.rotors(np.array([len(m) for m in L.members]))[0]) if full[i] else None
                for i, L in enumerate(lines)]
-    W = cfg.pattern_cpis
+    W = PATTERN_CPIS
     out = []
     for i, L in enumerate(lines):
         if L is None:
             out.append(None)
             continue
-        cost = np.array([float(np.sum((L.frac - cnt / M) ** 2)) / cfg.power_share_sd ** 2
-                         + cfg.split_cost * L.missing(cnt) for cnt in opts[i]])
+        cost = np.array([float(np.sum((L.frac - cnt / M) ** 2)) / POWER_SHARE_SD ** 2
+                         + SPLIT_COST * L.missing(cnt) for cnt in opts[i]])
         refs = [pattern[j] for j in range(max(0, i - W), min(n, i + W + 1)) if j != i and full[j]]
         if refs and len(opts[i]) > 1:
             ref = np.median(np.array(refs), axis=0)
-            cost = cost + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / cfg.pattern_sd ** 2
+            cost = cost + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD ** 2
         # MAP counts for the rotors; the mean speed averages over the counts' posterior
         # (weights exp(-cost / 2)), its spread adds to the uncertainty
         w = np.exp(-0.5 * (cost - cost.min()))
@@ -1037,9 +1037,9 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
         means = np.array([L.rotors(cnt)[0].mean() for cnt in opts[i]])
         mu = float(np.sum(w * means))
         # the uncertainty: the posterior under the measured (count-dependent) share scatter
-        cv = np.array([_share_cost(L.frac, cnt, M, cfg) + cfg.split_cost * L.missing(cnt) for cnt in opts[i]])
+        cv = np.array([_share_cost(L.frac, cnt, M) + SPLIT_COST * L.missing(cnt) for cnt in opts[i]])
         if refs and len(opts[i]) > 1:
-            cv = cv + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / cfg.pattern_sd ** 2
+            cv = cv + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD ** 2
         wv = np.exp(-0.5 * (cv - cv.min()))
         wv /= wv.sum()
         out.append((opts[i][int(np.argmin(cost))], mu, float(np.sum(wv * (means - mu) ** 2))))
@@ -1050,7 +1050,7 @@ def _cluster_stats(z, centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, ou
     """Per cluster at harmonic ``nn``: (speed [rev/s], noise variance [(rev/s)^2],
     power), arrays [n_clusters]; None when a region touches a masked bin. Inner
     bounds are the ``edges`` [rev/s]; the outer ones walk out of the outermost lines
-    while above ``noise_db`` (at most ``smear_rel``, and halfway to the neighbouring
+    while above ``NOISE_DB`` (at most ``smear_rel``, and halfway to the neighbouring
     harmonic groups or the body; ``outer`` [rev/s] bounds them too). The walks start
     at ``starts`` [rev/s] (default the outermost anchors)."""
     n = len(z)
@@ -1070,14 +1070,14 @@ def _cluster_stats(z, centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, ou
                 a0 = edges[ci - 1] * k_hz
             else:
                 j0 = int(np.round(centre + sign * d0))
-                stop = max(cfg.noise_db, float(np.max(z[max(j0 - 2, 0):j0 + 3])) - cfg.line_range_db)
+                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0):j0 + 3])) - LINE_RANGE_DB)
                 j = _walk(z, j0, -sign, stop, int(np.ceil(cfg.smear_rel * d0)) + 4)
                 a0 = max(sign * (j - centre), lim_lo)
             if ci < K - 1:
                 a1 = edges[ci] * k_hz
             else:
                 j0 = int(np.round(centre + sign * d1))
-                stop = max(cfg.noise_db, float(np.max(z[max(j0 - 2, 0):j0 + 3])) - cfg.line_range_db)
+                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0):j0 + 3])) - LINE_RANGE_DB)
                 j = _walk(z, j0, sign, stop, int(np.ceil(cfg.smear_rel * d1)) + 4)
                 a1 = min(sign * (j - centre), lim_hi)
             r = _centroid(z, _side_bins(centre, a0, a1, sign, n), centre, sign)

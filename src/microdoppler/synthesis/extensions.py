@@ -5,7 +5,7 @@ paper's model (eq. 2, :func:`microdoppler.synthesis.model.synthesize`) with the 
 parameter names, units and signs:
 
 ``sideband_asymmetry``  {asymmetry_db}
-    ``envelope(f)`` multiplies the alpha envelope H(f) by 10^(+a/40) above the body
+    ``envelope_gain(f)`` multiplies the alpha envelope H(f) by 10^(+a/40) above the body
     Doppler and 10^(-a/40) below it: upper/lower sideband power = 10^(a/10).
 ``sideband_fading``     {fading_std_db, timescale_s}
     ``blade_hook`` multiplies the blade signal by 10^(x(t)/20), x an
@@ -29,7 +29,7 @@ parameter names, units and signs:
     the synthesis.
 
 Stochastic extensions (fading, body fluctuation, phase noise) draw their processes
-from the ``seed`` given to :meth:`~ExtensionSet.synth_kwargs` / :meth:`~ExtensionSet.post`;
+from the ``seed`` given to :meth:`~ExtensionSet.model_extensions` / :meth:`~ExtensionSet.post`;
 the same seed gives the same result.
 """
 
@@ -47,6 +47,7 @@ from .catalog import CAUSES, PHASE_NOISE_BANDWIDTH_HZ, flat_rms_rad, flat_skirt_
 from ..errors import InputError
 from ..io.outputs import atomic_file
 from ..io.motorlog import MotorLog
+from .model import ModelExtensions
 from .processes import ou_process
 
 SCHEMA = "extensions/1"
@@ -195,9 +196,10 @@ class ExtensionSet:
             rpm = (rpm.astype(np.float64) * self.effects["motor_speed_scale"]["scale"]).astype(np.float32)
         return MotorLog(np.asarray(t, np.float64), rpm, log.source)
 
-    def synth_kwargs(self, *, prf_hz: float, n_pulses: int, seed: int) -> dict:
-        """Keyword arguments for :func:`microdoppler.synthesis.model.synthesize`
-        (``envelope``, ``blade_hook``, ``body_hook``; only those in use)."""
+    def model_extensions(self, *, prf_hz: float, n_pulses: int, seed: int) -> ModelExtensions:
+        """The extensions that act inside :func:`microdoppler.synthesis.model.synthesize`
+        (``SynthesisConfig.extensions``: envelope gain, blade and body hooks; None where
+        not in use) for a record of ``n_pulses`` at ``prf_hz``."""
         if not prf_hz > 0:
             raise ValueError(f"prf_hz={prf_hz} must be > 0")
         if n_pulses < 0:
@@ -206,7 +208,7 @@ class ExtensionSet:
         dur = n_pulses / prf_hz
         e = self.effects
         if "sideband_asymmetry" in e:
-            kw["envelope"] = asymmetry_envelope(e["sideband_asymmetry"]["asymmetry_db"])
+            kw["envelope_gain"] = asymmetry_envelope(e["sideband_asymmetry"]["asymmetry_db"])
         if "sideband_fading" in e:
             p = e["sideband_fading"]
             rng = np.random.default_rng([int(seed), _STREAM["sideband_fading"]])
@@ -215,7 +217,7 @@ class ExtensionSet:
             rng = np.random.default_rng([int(seed), _STREAM["body_fluctuation"]])
             p = e["body_fluctuation"]
             kw["body_hook"] = _GainHook(dur, p["body_std_db"], p["timescale_s"], rng)
-        return kw
+        return ModelExtensions(**kw)
 
     def post(self, iq: np.ndarray, *, prf_hz: float, seed: int) -> np.ndarray:
         """Post-step on the synthesised echo (phase noise); returns a new array

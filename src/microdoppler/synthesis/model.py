@@ -6,7 +6,9 @@ Eq. (1): each blade of length L is a thin wire rotating about its motor hub,
     g(phi) = L exp(-j k L/2 cos phi) sinc(k L/2 cos phi),   k = 4 pi / lambda,
 
 with sinc(x) = sin(x)/x, summed over the B blades of a rotor at phases
-phi + 2 pi b / B. The blade phase is the *time integral* of the rotation rate
+phi + 2 pi b / B, each times its own scattering amplitude a_b (``BladeModel.blade_amplitudes``,
+default 1: eq. (1) itself; unequal blades add lines at every multiple of the rotation
+rate). The blade phase is the *time integral* of the rotation rate
 (phi(t) = phi0 + 2 pi integral f(t) dt), not Omega_t * t, which would create false
 chirps once the speed varies.
 
@@ -28,9 +30,9 @@ linear filter with frequency response H(f) = exp(-alpha |f|) applied to m(t), i.
 in the frame that moves with the body, so the envelope is centred on the body
 Doppler as it changes. Larger alpha [s] leaves fewer sideband pairs (see NOTES.md).
 
-Two ways to apply the envelope (``synthesize(envelope_method=...)``):
+Two ways to apply the envelope (``Envelope(method=...)``):
 
-* "harmonic" (default when no ``envelope`` callable is given): G is periodic in
+* "harmonic" (default when no ``envelope_gain`` is given): G is periodic in
   the rotor angle, G(phi) = sum_n c_n exp(j n phi), and only harmonics n = m B are
   non-zero (B equal blades repeat every 1/B turn). At a constant motor speed f_m,
   harmonic n sits at Doppler n f_m relative to the body, so H is exactly the
@@ -39,8 +41,9 @@ Two ways to apply the envelope (``synthesize(envelope_method=...)``):
   turn (``ENVELOPE_TABLE_SIZE`` = 2048 angles, nearest lookup of the B-fold angle
   B phi) on a global grid of speeds (``ENVELOPE_SPEED_STEP`` = 0.25 rev/s; each
   pulse uses the grid speed nearest its motor's speed, read every
-  ``ENVELOPE_SPEED_STRIDE`` = 16 pulses). A pulse costs one lookup per motor and
-  no FFT, like alpha = 0. This is a *quasi-static* envelope: it uses each motor's current
+  ``ENVELOPE_SPEED_STRIDE`` = 16 pulses). Unequal blades repeat only once a turn:
+  their tables span the whole revolution (every n, 2048 angles per 1/B turn as
+  before). A pulse costs one lookup per motor and no FFT, like alpha = 0. This is a *quasi-static* envelope: it uses each motor's current
   speed, where the linear filter would mix the speeds within its impulse response (a
   Lorentzian of half-width alpha / (2 pi) s, ~1 ms at alpha = 5.5e-3 s). Measured
   against the FFT filter (record interior, one FFT over the whole record, 4 motors,
@@ -56,12 +59,12 @@ Two ways to apply the envelope (``synthesize(envelope_method=...)``):
   negligible), there are no edge effects (the FFT filter takes the blade signal as
   zero outside the record), and the result does not depend on chunking at all.
 * "fft": the linear filter H(f), applied per chunk by FFT with a margin of
-  ``margin`` pulses on each side (overlap-save), so memory does not grow with flight
+  ``margin_pulses`` on each side (overlap-save), so memory does not grow with flight
   length; outside the record the blade signal is taken as zero (the first and last
   chunks are zero-padded by the margin), so the result does not depend on the chunk
   size beyond the truncation of the envelope's Lorentzian impulse response at
-  ``margin`` (relative error ~ alpha prf / (pi^2 margin)). Used whenever an
-  ``envelope(f)`` callable is given (model extensions: asymmetric sidebands), and
+  ``margin_pulses`` (relative error ~ alpha prf / (pi^2 margin)). Used whenever an
+  ``envelope_gain(f)`` is given (model extensions: asymmetric sidebands), and
   on request.
 """
 
@@ -81,12 +84,40 @@ TABLE_SIZE = 1 << 16
 
 @dataclass(frozen=True)
 class BladeModel:
-    """Rotor of ``n_blades`` thin-wire blades of ``blade_length_m`` at ``wavelength_m``."""
+    """Rotor of ``n_blades`` thin-wire blades of ``blade_length_m`` at ``wavelength_m`` (eq. 1).
+
+    Parameters
+    ----------
+    n_blades : int
+        Blades per rotor, at angles 2 pi b / n_blades.
+    blade_length_m : float
+        Blade length, hub to tip [m].
+    wavelength_m : float
+        Radar wavelength [m].
+    table_size : int
+        Angles of the rotor table over one revolution (a power of two).
+    blade_amplitudes : array-like, float [n_blades] or [n_motors, n_blades], optional
+        Each blade's scattering amplitude relative to eq. (1)'s thin wire (>= 0):
+        G(phi) = sum_b a_b g(phi + 2 pi b / B). Default (None): every blade 1, eq. (1)
+        itself. One row applies to every motor; a row per motor gives each rotor its
+        own. Unequal blades (chipped, bent, repaired, tagged) put lines at every
+        multiple of the rotation rate, not only at multiples of the blade-passing rate:
+        for two blades harmonic n of the rotor is c_n (a_0 + (-1)^n a_1), c_n the single
+        blade's (the second blade sits at phi + pi), so relative to the blade's own
+        harmonics the odd lines stand ((a_0 - a_1) / (a_0 + a_1))^2 below the even ones.
+    scattering : {"thin_wire", "dielectric"}
+        Blade echo model (:func:`blade_scattering_gain`): eq. (1)'s thin wire (default,
+        the paper's model) or thin plastic blades, whose echo falls as (L / lambda)^2
+        below eq. (1) for small blades (normalised to the 0.19 m blade at 1.35 GHz);
+        :attr:`gain` multiplies S_blade.
+    """
 
     n_blades: int
     blade_length_m: float
     wavelength_m: float
     table_size: int = TABLE_SIZE
+    blade_amplitudes: tuple | None = None
+    scattering: str = "thin_wire"
 
     def __post_init__(self):
         if self.n_blades < 1:
@@ -95,8 +126,48 @@ class BladeModel:
             raise ValueError(f"blade_length_m={self.blade_length_m} must be > 0")
         if not self.wavelength_m > 0:
             raise ValueError(f"wavelength_m={self.wavelength_m} must be > 0")
-        if self.table_size & (self.table_size - 1):
+        if self.table_size < 1 or self.table_size & (self.table_size - 1):
             raise ValueError(f"table_size={self.table_size} must be a power of two")
+        if self.scattering not in BLADE_SCATTERING:
+            raise ValueError(f"scattering={self.scattering!r} must be one of {BLADE_SCATTERING}")
+        if self.blade_amplitudes is not None:
+            a = np.asarray(self.blade_amplitudes, np.float64)
+            if a.ndim not in (1, 2) or a.shape[-1] != self.n_blades or a.size == 0:
+                raise ValueError(f"blade_amplitudes has shape {a.shape}, expected (n_blades={self.n_blades},) "
+                                 f"or (n_motors, {self.n_blades})")
+            if not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise ValueError(f"blade_amplitudes={a.tolist()} must be finite and >= 0")
+            amps = tuple(map(float, a)) if a.ndim == 1 else tuple(tuple(map(float, r)) for r in a)
+            object.__setattr__(self, "blade_amplitudes", amps)
+
+    @property
+    def gain(self) -> float:
+        """Blade echo amplitude relative to eq. (1) (:func:`blade_scattering_gain`)."""
+        return blade_scattering_gain(self.blade_length_m, self.wavelength_m, self.scattering)
+
+    @property
+    def equal_blades(self) -> bool:
+        """True when every rotor's blades scatter alike (harmonics only at multiples of
+        ``n_blades``); rotors may still differ from each other."""
+        if self.blade_amplitudes is None:
+            return True
+        rows = np.atleast_2d(np.asarray(self.blade_amplitudes, np.float64))
+        return bool(np.all(rows == rows[:, :1]))
+
+    def check_motors(self, n_motors: int) -> None:
+        """Raise ValueError unless the amplitudes fit ``n_motors`` rotors."""
+        a = self.blade_amplitudes
+        if a is not None and isinstance(a[0], tuple) and len(a) != n_motors:
+            raise ValueError(f"blade_amplitudes has {len(a)} rows, expected 1 or one per motor ({n_motors})")
+
+    def amplitudes(self, motor: int = 0) -> tuple | None:
+        """Blade amplitudes of rotor ``motor`` (float [n_blades]); None for eq. (1)'s
+        equal unit blades."""
+        a = self.blade_amplitudes
+        if a is None:
+            return None
+        row = a[motor] if isinstance(a[0], tuple) else a
+        return None if all(v == 1.0 for v in row) else row
 
     def blade(self, phi: np.ndarray) -> np.ndarray:
         """Eq. (1) for one blade at rotor angle ``phi`` [rad], complex128."""
@@ -104,14 +175,21 @@ class BladeModel:
         a = k * self.blade_length_m / 2 * np.cos(phi)
         return self.blade_length_m * np.exp(-1j * a) * np.sinc(a / np.pi)
 
-    def rotor(self, phi: np.ndarray) -> np.ndarray:
-        """Sum over the rotor's blades at rotor angle ``phi`` [rad], complex128."""
+    def rotor(self, phi: np.ndarray, motor: int = 0) -> np.ndarray:
+        """Sum over rotor ``motor``'s blades (each times its amplitude) at rotor angle
+        ``phi`` [rad], complex128."""
         phi = np.asarray(phi, dtype=np.float64)
-        return sum(self.blade(phi + 2 * np.pi * b / self.n_blades) for b in range(self.n_blades))
+        B = self.n_blades
+        amps = self.amplitudes(motor)
+        if amps is None:
+            return sum(self.blade(phi + 2 * np.pi * b / B) for b in range(B))
+        return sum(a * self.blade(phi + 2 * np.pi * b / B) for b, a in enumerate(amps))
 
-    def table(self) -> np.ndarray:
-        """G over one revolution: complex64 [table_size] at angles 2 pi i / table_size."""
-        return _rotor_table(self.n_blades, self.blade_length_m, self.wavelength_m, self.table_size)
+    def table(self, motor: int = 0) -> np.ndarray:
+        """G of rotor ``motor`` over one revolution: complex64 [table_size] at angles
+        2 pi i / table_size."""
+        return _rotor_table(self.n_blades, self.blade_length_m, self.wavelength_m, self.table_size,
+                            self.amplitudes(motor))
 
 
 #: blade scattering models (:func:`blade_scattering_gain`)
@@ -162,10 +240,10 @@ def blade_scattering_gain(blade_length_m: float, wavelength_m: float, model: str
 _TABLES: dict = {}
 
 
-def _rotor_table(n_blades, blade_length_m, wavelength_m, size):
-    key = (n_blades, blade_length_m, wavelength_m, size)
+def _rotor_table(n_blades, blade_length_m, wavelength_m, size, amplitudes=None):
+    key = (n_blades, blade_length_m, wavelength_m, size) + ((amplitudes,) if amplitudes is not None else ())
     if key not in _TABLES:
-        bm = BladeModel(n_blades, blade_length_m, wavelength_m, size)
+        bm = BladeModel(n_blades, blade_length_m, wavelength_m, size, blade_amplitudes=amplitudes)
         phi = 2 * np.pi * np.arange(size) / size
         _TABLES[key] = bm.rotor(phi).astype(np.complex64)
     return _TABLES[key]
@@ -373,6 +451,121 @@ class _HarmonicTables:
 
 Hook = Callable[[int, int, np.ndarray, np.ndarray], None]
 
+
+@dataclass(frozen=True)
+class Envelope:
+    """How eq. (2)'s alpha envelope (``Scaling.alpha_s``) is applied (module docstring).
+
+    Parameters
+    ----------
+    method : {"auto", "harmonic", "fft"}
+        "harmonic" scales rotor harmonic n by exp(-alpha |n f_m|) at each motor's
+        current speed (tables per ``ENVELOPE_SPEED_STEP`` rev/s; quasi-static, no FFT);
+        "fft" filters m(t) with H(f) per chunk (overlap-save). "auto" (default): "fft"
+        where the extensions give an ``envelope_gain``, else "harmonic".
+    margin_pulses : int
+        Filter margin [pulses] on each side of a chunk (overlap-save; "fft" only): the
+        envelope's Lorentzian impulse response is truncated there (relative error
+        ~ alpha prf / (pi^2 margin)).
+    """
+
+    method: str = "auto"
+    margin_pulses: int = 4096
+
+    def __post_init__(self):
+        if self.method not in ENVELOPE_METHODS:
+            raise ValueError(f"method={self.method!r} must be one of {ENVELOPE_METHODS}")
+        if self.margin_pulses < 0:
+            raise ValueError(f"margin_pulses={self.margin_pulses} must be >= 0")
+
+
+@dataclass(frozen=True)
+class ModelExtensions:
+    """Model extensions acting inside the synthesis (what
+    :meth:`microdoppler.synthesis.extensions.ExtensionSet.model_extensions` gives).
+
+    Parameters
+    ----------
+    envelope_gain : callable, optional
+        ``envelope_gain(f_hz) -> gain`` multiplies H(f) (f relative to the body Doppler,
+        on the FFT grid), e.g. an asymmetric gain for upper vs lower sidebands; with
+        it the envelope is applied by the FFT filter.
+    blade_hook, body_hook : callable, optional
+        ``hook(i0, i1, t_s, x)`` modifies the blade signal (after the envelope and
+        S_blade) or the body amplitude of pulses [i0, i1) in place (``t_s``: float64
+        [i1 - i0] pulse times [s]).
+    """
+
+    envelope_gain: Callable[[np.ndarray], np.ndarray] | None = None
+    blade_hook: Hook | None = None
+    body_hook: Hook | None = None
+
+
+@dataclass(frozen=True)
+class SynthesisConfig:
+    """Everything :func:`synthesize` needs besides the flight (track, rotor speeds).
+
+    Parameters
+    ----------
+    prf_hz : float
+        Pulse repetition frequency [Hz]; pulse i is at t = i / prf_hz.
+    blades : BladeModel
+        Rotor geometry, wavelength, per-blade amplitudes and scattering model.
+    scaling : Scaling
+        S_body, S_blade and alpha (eq. 2).
+    envelope : Envelope
+        How the alpha envelope is applied.
+    extensions : ModelExtensions
+        Envelope gain and blade/body hooks of model extensions (default: none).
+    chunk_pulses : int, optional
+        Output pulses per chunk (default 2**17; with the FFT filter 2**17 minus the
+        two filter margins, so the envelope FFT has a power-of-two length). Memory
+        beyond the output is O(chunk); the result does not depend on it (FFT filter:
+        beyond the truncation at ``envelope.margin_pulses``).
+    """
+
+    prf_hz: float
+    blades: BladeModel
+    scaling: Scaling = Scaling()
+    envelope: Envelope = Envelope()
+    extensions: ModelExtensions = ModelExtensions()
+    chunk_pulses: int | None = None
+
+    def __post_init__(self):
+        if not self.prf_hz > 0:
+            raise ValueError(f"prf_hz={self.prf_hz} must be > 0")
+        if self.chunk_pulses is not None and self.chunk_pulses < 1:
+            raise ValueError(f"chunk_pulses={self.chunk_pulses} must be >= 1")
+        if self.envelope.method == "harmonic" and self.extensions.envelope_gain is not None:
+            raise ValueError("Envelope(method='harmonic') does not take an envelope_gain; use 'fft' or 'auto'")
+
+    @classmethod
+    def of(cls, *, prf_hz: float, wavelength_m: float, n_blades: int, blade_length_m: float,
+           scaling: Scaling = Scaling(), blade_amplitudes=None, scattering: str = "thin_wire",
+           envelope: Envelope = Envelope(), extensions: ModelExtensions = ModelExtensions(),
+           chunk_pulses: int | None = None) -> "SynthesisConfig":
+        """The configuration from flat parameters (a :class:`BladeModel` built here)."""
+        blades = BladeModel(int(n_blades), blade_length_m, wavelength_m, blade_amplitudes=blade_amplitudes,
+                            scattering=scattering)
+        return cls(prf_hz, blades, scaling, envelope, extensions, chunk_pulses)
+
+    @property
+    def wavelength_m(self) -> float:
+        return self.blades.wavelength_m
+
+    @property
+    def harmonic(self) -> bool:
+        """True when the alpha envelope is applied by the harmonic tables."""
+        return (self.scaling.alpha_s > 0 and self.scaling.s_blade > 0 and self.extensions.envelope_gain is None
+                and self.envelope.method in ("auto", "harmonic"))
+
+    @property
+    def fft_filter(self) -> bool:
+        """True when the envelope is applied by the FFT filter."""
+        return ((self.scaling.alpha_s > 0 or self.extensions.envelope_gain is not None)
+                and self.scaling.s_blade > 0 and not self.harmonic)
+
+
 #: fixed-point phase: one revolution (or one carrier cycle) = 2**32, so uint32
 #: arithmetic wraps modulo one revolution for free
 PHASE_ONE = 1 << 32
@@ -441,77 +634,30 @@ def _carrier_phase(track: "Track", a: int, b: int, prf_hz: float, wavelength_m: 
     return out[a - g0: a - g0 + n]
 
 
-def synthesize(
-    rev_s,
-    track: Track,
-    *,
-    prf_hz: float,
-    wavelength_m: float,
-    n_blades: int,
-    blade_length_m: float,
-    scaling: Scaling = Scaling(),
-    n_pulses: int | None = None,
-    initial_cycles: Sequence[float] | None = None,
-    seed: int = 0,
-    chunk: int | None = None,
-    margin: int = 4096,
-    blade_hook: Hook | None = None,
-    body_hook: Hook | None = None,
-    envelope: Callable[[np.ndarray], np.ndarray] | None = None,
-    out: np.ndarray | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    envelope_method: str = "auto",
-    blade_scattering: str = "thin_wire",
-) -> np.ndarray:
+def synthesize(config: SynthesisConfig, track: Track, rev_s, *, n_pulses: int | None = None,
+               initial_cycles: Sequence[float] | None = None, seed: int = 0, out: np.ndarray | None = None,
+               progress: Callable[[int, int], None] | None = None) -> np.ndarray:
     """Synthesise the drone echo of eq. (2) without background or noise.
 
     Parameters
     ----------
+    config : SynthesisConfig
+        Radar PRF, blade model, scaling, envelope and extensions.
+    track : Track
+        Body range over time; pulse i is at t = i / prf_hz.
     rev_s : array-like, float [n_pulses, n_motors]
         Rotation rate of each motor at each pulse [rev/s]; sliced per chunk, so a
         Zarr array or memory map works and is never loaded whole.
-    track : Track
-        Body range over time; pulse i is at t = i / prf_hz.
-    prf_hz, wavelength_m : float
-    n_blades : int
-    blade_length_m : float
-    scaling : Scaling
-        S_body, S_blade and alpha.
     n_pulses : int, optional
         Pulses to synthesise (default ``rev_s.shape[0]``).
     initial_cycles : sequence of float, optional
         Initial rotor angles [rev]; default drawn from ``seed``.
     seed : int
         Seed of the initial rotor angles.
-    chunk : int, optional
-        Output pulses per chunk (default 2**17; with the FFT filter 2**17 minus the two
-        filter margins, so the envelope FFT has a power-of-two length). The result does
-        not depend on it (FFT filter: beyond the truncation at ``margin``).
-    margin : int
-        Envelope filter margin [pulses] on each side of a chunk (overlap-save; FFT
-        filter only).
-    blade_hook, body_hook : callable, optional
-        ``hook(i0, i1, t_s, x)`` modifies the blade signal (after the envelope) or the
-        body amplitude of pulses [i0, i1) in place; model extensions use these.
-    envelope : callable, optional
-        ``envelope(f_hz) -> gain`` multiplies H(f) (f relative to the body Doppler,
-        on the FFT grid); e.g. an asymmetric gain for upper vs lower sidebands.
-        Given an ``envelope``, the FFT filter is used.
     out : ndarray, complex64 [n_pulses], optional
         Output buffer.
     progress : callable, optional
         ``progress(done, total)`` after each chunk [pulses].
-    envelope_method : {"auto", "harmonic", "fft"}
-        How the alpha envelope is applied (module docstring): "harmonic" scales rotor
-        harmonic n by exp(-alpha |n f_m|) at each motor's current speed (tables per
-        ``ENVELOPE_SPEED_STEP`` rev/s; quasi-static, no FFT); "fft" filters m(t) with
-        H(f) per chunk (overlap-save). "auto" (default): "fft" if ``envelope`` is
-        given, else "harmonic".
-    blade_scattering : {"thin_wire", "dielectric"}
-        Blade echo model (:func:`blade_scattering_gain`): eq. (1)'s thin wire
-        (default, the paper's model) or thin plastic blades, whose echo falls as
-        (L / lambda)^2 below eq. (1) for small blades (normalised to the 0.19 m blade
-        at 1.35 GHz). The gain multiplies S_blade.
 
     Returns
     -------
@@ -525,169 +671,219 @@ def synthesize(
     frequency error below 1e-5 Hz. The table index is the top ``log2(TABLE_SIZE)``
     bits (nearest neighbour). Memory beyond ``out`` is O(chunk).
     """
-    if not prf_hz > 0:
-        raise ValueError(f"prf_hz={prf_hz} must be > 0")
-    if not wavelength_m > 0:
-        raise ValueError(f"wavelength_m={wavelength_m} must be > 0")
     n_total = rev_s.shape[0] if n_pulses is None else int(n_pulses)
-    n_motors = rev_s.shape[1]
     if n_total > rev_s.shape[0]:
         raise ValueError(f"n_pulses={n_total} exceeds the {rev_s.shape[0]} rows of rev_s")
-    if margin < 0:
-        raise ValueError(f"margin={margin} must be >= 0")
-    if envelope_method not in ENVELOPE_METHODS:
-        raise ValueError(f"envelope_method={envelope_method!r} must be one of {ENVELOPE_METHODS}")
-    if envelope_method == "harmonic" and envelope is not None:
-        raise ValueError("envelope_method='harmonic' does not take an envelope callable; use 'fft' or 'auto'")
-    s_blade = scaling.s_blade * blade_scattering_gain(blade_length_m, wavelength_m, blade_scattering)
+    start = _initial_cycles(initial_cycles, seed, rev_s.shape[1])
     if out is None:
         out = np.empty(n_total, np.complex64)
-    table = _rotor_table(n_blades, blade_length_m, wavelength_m, TABLE_SIZE)
-    carrier = _carrier_table()
-    shift = 32 - (TABLE_SIZE.bit_length() - 1)
-    half = 1 << (shift - 1)  # rounds the top bits to the nearest table entry
-    harmonic = (scaling.alpha_s > 0 and scaling.s_blade > 0 and envelope is None
-                and envelope_method in ("auto", "harmonic"))
-    if harmonic:
-        tsize = ENVELOPE_TABLE_SIZE
-        while tsize * n_blades > TABLE_SIZE:  # many blades: the period 1/B turn is short
-            tsize //= 2
-        hkey = ("harmonic", n_blades, blade_length_m, wavelength_m, scaling.alpha_s, tsize, ENVELOPE_SPEED_STEP)
-        henv = _TABLES.get(hkey)
-        if henv is None:  # rows are filled lazily for the speeds met and kept for later calls
-            if len([k for k in _TABLES if k[0] == "harmonic"]) >= 8:
-                for k in [k for k in _TABLES if k[0] == "harmonic"]:
-                    del _TABLES[k]
-            henv = _TABLES[hkey] = _HarmonicTables(table, scaling.alpha_s, n_blades, tsize,
-                                                   ENVELOPE_SPEED_STEP)
-        rshift = 32 - henv.bits
-        inv_step = 1.0 / henv.step
-    else:
-        henv = None
-        rshift = shift
-    rhalf = 1 << (rshift - 1)
+    k = _Kernel(config, n_total, start)
+    for i0 in range(0, n_total, k.chunk):
+        i1 = min(i0 + k.chunk, n_total)
+        a, b = max(0, i0 - k.margin), min(n_total, i1 + k.margin)
+        m = k.envelope_filter(k.blade_signal(rev_s, a, i0, i1, b), a, b)
+        k.emit(m[i0 - a:i1 - a], i0, i1, track, out)
+        if progress is not None:
+            progress(i1, n_total)
+    return out
+
+
+def _initial_cycles(initial_cycles, seed: int, n_motors: int) -> np.ndarray:
+    """Rotor angles at pulse 0 [rev]: float64 [n_motors], given or drawn from ``seed``."""
     rng = np.random.default_rng(seed)
     start = (np.asarray(initial_cycles, np.float64) if initial_cycles is not None
              else rng.uniform(0, 1, n_motors))
     if start.shape != (n_motors,):
         raise ValueError(f"initial_cycles has shape {start.shape}, expected ({n_motors},)")
-    use_filter = (scaling.alpha_s > 0 or envelope is not None) and scaling.s_blade > 0 and not harmonic
-    mg = margin if use_filter else 0
-    if chunk is None:
-        chunk = (1 << 17) - 2 * mg if mg < (1 << 15) else 1 << 17
-    if chunk < 1:
-        raise ValueError(f"chunk={chunk} must be >= 1")
-    # harmonic tables are indexed by the B-fold angle B phi (one table period = 1/B rev)
-    fold = n_blades if harmonic else 1
-    scale = PHASE_ONE * fold / prf_hz
-    # phase at the first pulse of the current chunk, with the rounding half-step
-    ph_i0 = [(int(v) + rhalf) & (PHASE_ONE - 1) for v in _fixed_phase(start * fold)]
-    blk = min(chunk, n_total) + 2 * mg
-    sub = min(SUB_BLOCK, blk)
-    f64 = np.empty(sub, np.float64)
-    inc = np.empty(sub, np.uint32)
-    ph = np.empty(sub, np.uint32)
-    idx = np.empty(sub, np.intp)
-    tmp = np.empty(sub, np.complex64)
-    mbuf = np.empty(blk, np.complex64)
-    cph = np.empty((-(-min(chunk, n_total) // CARRIER_STEP) + 1) * CARRIER_STEP, np.uint32)
-    cidx = np.empty(cph.shape[0], np.intp)
-    car = np.empty(cph.shape[0], np.complex64)
-    nfft = None
-    H = None
-    for i0 in range(0, n_total, chunk):
-        i1 = min(i0 + chunk, n_total)
-        a, b = max(0, i0 - mg), min(n_total, i1 + mg)
-        m = mbuf[: b - a]
-        if scaling.s_blade > 0:
-            # rotor phase at pulse a: step back over the margin (exact modulo 2**32)
-            cur = [int(v) for v in ph_i0]  # Python ints: wrap explicitly, no overflow warnings
-            if harmonic:
-                # speed bin k (nearest k * step) of each motor on the global grid of every
-                # ENVELOPE_SPEED_STRIDE-th pulse, held for the next stride (the same for any
-                # chunking) -> row offset (k - k0) * size into the flat speed-major table
-                q = ENVELOPE_SPEED_STRIDE
-                g0 = a - a % q
-                r_read = np.asarray(rev_s[g0:b])  # one read per chunk
-                r_all = r_read[a - g0:]
-                kf = np.rint(np.asarray(r_read[::q], np.float64).T * inv_step)
-                if not np.all(np.isfinite(kf)):
-                    raise ValueError(f"rev_s has non-finite speeds in pulses [{g0}, {b})")
-                henv.cover(int(kf.min()), int(kf.max()))
-                koff = ((kf - henv.k0) * henv.size).astype(np.intp)  # [n_motors, segments]
-                rtab = henv.table.reshape(-1)
-            else:
-                r_all = np.asarray(rev_s[a:b])  # one read per chunk (Zarr: each stored chunk decoded once)
-                rtab = table
-            # one range check per chunk instead of per motor and sub-block (with slack for
-            # the float32 product in _increments; out of range -> checked per sub-block)
-            in_range = bool(r_all.size) and float(r_all.min()) >= 0 and float(r_all.max()) * scale < 0.999 * PHASE_ONE
-            for s0 in range(a, i0, sub):
-                r = r_all[s0 - a:min(s0 + sub, i0) - a]
-                for k in range(n_motors):
-                    d = _increments(r[:, k], scale, f64, inc, in_range)
-                    cur[k] = (cur[k] - int(d.sum(dtype=np.uint64))) & (PHASE_ONE - 1)
-            bounds = ([(s0, min(s0 + sub, i0)) for s0 in range(a, i0, sub)]
-                      + [(s0, min(s0 + sub, i1)) for s0 in range(i0, i1, sub)]
-                      + [(s0, min(s0 + sub, b)) for s0 in range(i1, b, sub)])
-            for s0, s1 in bounds:
-                if s0 == i1:
-                    ph_i0 = list(cur)  # phase at the next chunk's first pulse
-                r = r_all[s0 - a:s1 - a]
-                n = s1 - s0
-                for k in range(n_motors):
-                    d = _increments(r[:, k], scale, f64, inc, in_range)
-                    p = ph[:n]
-                    p[0] = 0
-                    np.cumsum(d[:-1], out=p[1:])
-                    p += np.uint32(cur[k])
-                    cur[k] = (int(p[-1]) + int(d[-1])) & (PHASE_ONE - 1)
-                    np.right_shift(p, rshift, out=idx[:n], casting="unsafe")
-                    if harmonic:
-                        _add_row_offsets(idx[:n], s0 - g0, q, koff[k])
-                    # indices are in range by construction; "clip" skips numpy's bounds check
-                    if k == 0:
-                        np.take(rtab, idx[:n], out=m[s0 - a:s1 - a], mode="clip")
-                    else:
-                        np.take(rtab, idx[:n], out=tmp[:n], mode="clip")
-                        m[s0 - a:s1 - a] += tmp[:n]
-            if b == i1:
-                ph_i0 = cur
+    return start
+
+
+def _harmonic_tables(config: SynthesisConfig, table: np.ndarray, amplitudes, fold: int) -> _HarmonicTables:
+    """The cached harmonic envelope tables of one rotor table (period 1/``fold`` turn)."""
+    bm, alpha = config.blades, config.scaling.alpha_s
+    # angles per table period: ENVELOPE_TABLE_SIZE per 1/B turn (more for a full-turn period)
+    tsize = ENVELOPE_TABLE_SIZE << (bm.n_blades // fold - 1).bit_length()
+    while tsize * fold > TABLE_SIZE:  # many blades: the period 1/B turn is short
+        tsize //= 2
+    hkey = ("harmonic", bm.n_blades, bm.blade_length_m, bm.wavelength_m, alpha, tsize, ENVELOPE_SPEED_STEP)
+    if amplitudes is not None:
+        hkey += (amplitudes,)
+    henv = _TABLES.get(hkey)
+    if henv is None:  # rows are filled lazily for the speeds met and kept for later calls
+        if len([k for k in _TABLES if k[0] == "harmonic"]) >= 8:
+            for k in [k for k in _TABLES if k[0] == "harmonic"]:
+                del _TABLES[k]
+        henv = _TABLES[hkey] = _HarmonicTables(table, alpha, fold, tsize, ENVELOPE_SPEED_STEP)
+    return henv
+
+
+class _Kernel:
+    """The tables, buffers and rotor phases of one :func:`synthesize` call; chunk by
+    chunk, :meth:`blade_signal` gives m(t) (with the margins of the FFT filter),
+    :meth:`envelope_filter` applies H(f), :meth:`emit` adds the body and the carrier."""
+
+    def __init__(self, config: SynthesisConfig, n_total: int, start: np.ndarray):
+        bm, sc = config.blades, config.scaling
+        n_motors = len(start)
+        bm.check_motors(n_motors)
+        self.config, self.n_total, self.n_motors = config, n_total, n_motors
+        self.s_blade = sc.s_blade * bm.gain
+        amps = [bm.amplitudes(k) for k in range(n_motors)]
+        tables = [_rotor_table(bm.n_blades, bm.blade_length_m, bm.wavelength_m, TABLE_SIZE, a) for a in amps]
+        self.carrier = _carrier_table()
+        self.shift = 32 - (TABLE_SIZE.bit_length() - 1)
+        self.half = 1 << (self.shift - 1)  # rounds the top bits to the nearest table entry
+        self.harmonic = config.harmonic
+        if self.harmonic:
+            # equal blades repeat every 1/B turn: tables over one period, indexed by the
+            # B-fold angle B phi; unequal blades repeat once a turn
+            fold = bm.n_blades if bm.equal_blades else 1
+            henvs = {}
+            for a, t in zip(amps, tables):
+                if a not in henvs:
+                    henvs[a] = _harmonic_tables(config, t, a, fold)
+            self.henvs = [henvs[a] for a in amps]
+            rshift = 32 - self.henvs[0].bits
+            self.inv_step = 1.0 / self.henvs[0].step
         else:
+            fold = 1
+            self.tables = tables
+            rshift = self.shift
+        self.rshift = rshift
+        self.margin = config.envelope.margin_pulses if config.fft_filter else 0
+        mg = self.margin
+        chunk = config.chunk_pulses
+        if chunk is None:
+            chunk = (1 << 17) - 2 * mg if mg < (1 << 15) else 1 << 17
+        self.chunk = chunk
+        self.scale = PHASE_ONE * fold / config.prf_hz
+        # phase at the first pulse of the current chunk, with the rounding half-step
+        rhalf = 1 << (rshift - 1)
+        self.ph_i0 = [(int(v) + rhalf) & (PHASE_ONE - 1) for v in _fixed_phase(start * fold)]
+        blk = min(chunk, n_total) + 2 * mg
+        sub = self.sub = min(SUB_BLOCK, blk)
+        self.f64 = np.empty(sub, np.float64)
+        self.inc = np.empty(sub, np.uint32)
+        self.ph = np.empty(sub, np.uint32)
+        self.idx = np.empty(sub, np.intp)
+        self.tmp = np.empty(sub, np.complex64)
+        self.mbuf = np.empty(blk, np.complex64)
+        self.cph = np.empty((-(-min(chunk, n_total) // CARRIER_STEP) + 1) * CARRIER_STEP, np.uint32)
+        self.cidx = np.empty(self.cph.shape[0], np.intp)
+        self.car = np.empty(self.cph.shape[0], np.complex64)
+        self.nfft = None
+        self.H = None
+
+    def _speed_rows(self, rev_s, a: int, b: int):
+        """Harmonic tables: the speeds of pulses [a, b), each motor's row offsets into
+        its flat speed-major table and the flat tables. The speed bin k (nearest
+        k * step) of each motor is read on the global grid of every
+        ENVELOPE_SPEED_STRIDE-th pulse and held for the next stride (the same for any
+        chunking)."""
+        q = ENVELOPE_SPEED_STRIDE
+        g0 = a - a % q
+        r_read = np.asarray(rev_s[g0:b])  # one read per chunk
+        kf = np.rint(np.asarray(r_read[::q], np.float64).T * self.inv_step)
+        if not np.all(np.isfinite(kf)):
+            raise ValueError(f"rev_s has non-finite speeds in pulses [{g0}, {b})")
+        for h in {id(h): h for h in self.henvs}.values():
+            h.cover(int(kf.min()), int(kf.max()))
+        koff = [((kf[k] - h.k0) * h.size).astype(np.intp) for k, h in enumerate(self.henvs)]
+        return r_read[a - g0:], koff, [h.table.reshape(-1) for h in self.henvs], g0
+
+    def blade_signal(self, rev_s, a: int, i0: int, i1: int, b: int) -> np.ndarray:
+        """m(t) at pulses [a, b) (output pulses [i0, i1) plus the filter margins):
+        complex64 [b - a], a view of the chunk buffer. Advances the rotor phases to
+        pulse i1."""
+        m = self.mbuf[: b - a]
+        if not self.config.scaling.s_blade > 0:
             m[:] = 0
-        if use_filter:
-            # zeros outside the record: at the record's edges pad by the margin so the
-            # circular FFT does not wrap the other end in (same result for any chunking)
-            pad = mg if (a == 0 or b == n_total) else 0
-            n = sfft.next_fast_len(b - a + pad)
-            if n != nfft:
-                nfft, H = n, envelope_response(n, prf_hz, scaling.alpha_s)
-                if envelope is not None:
-                    H = (H * envelope(sfft.fftfreq(n, 1.0 / prf_hz))).astype(np.complex64)
-            M = sfft.fft(m, n, workers=1)
-            M *= H
-            m = sfft.ifft(M, workers=1, overwrite_x=True)[: b - a]
-        s, e = i0 - a, i1 - a
-        blade = m[s:e]
-        tt = (np.arange(i0, i1, dtype=np.float64) / prf_hz
-              if (blade_hook is not None or body_hook is not None) else None)
-        if s_blade != 1:
-            blade *= np.float32(s_blade)
-        if blade_hook is not None:
-            blade_hook(i0, i1, tt, blade)
-        if body_hook is not None:
-            body = np.full(e - s, scaling.s_body, np.complex64)
-            body_hook(i0, i1, tt, body)
+            return m
+        # rotor phase at pulse a: step back over the margin (exact modulo 2**32)
+        cur = [int(v) for v in self.ph_i0]  # Python ints: wrap explicitly, no overflow warnings
+        if self.harmonic:
+            r_all, koff, rtabs, g0 = self._speed_rows(rev_s, a, b)
+        else:
+            r_all = np.asarray(rev_s[a:b])  # one read per chunk (Zarr: each stored chunk decoded once)
+            rtabs = self.tables
+        scale, sub = self.scale, self.sub
+        # one range check per chunk instead of per motor and sub-block (with slack for
+        # the float32 product in _increments; out of range -> checked per sub-block)
+        in_range = bool(r_all.size) and float(r_all.min()) >= 0 and float(r_all.max()) * scale < 0.999 * PHASE_ONE
+        for s0 in range(a, i0, sub):
+            r = r_all[s0 - a:min(s0 + sub, i0) - a]
+            for k in range(self.n_motors):
+                d = _increments(r[:, k], scale, self.f64, self.inc, in_range)
+                cur[k] = (cur[k] - int(d.sum(dtype=np.uint64))) & (PHASE_ONE - 1)
+        bounds = ([(s0, min(s0 + sub, i0)) for s0 in range(a, i0, sub)]
+                  + [(s0, min(s0 + sub, i1)) for s0 in range(i0, i1, sub)]
+                  + [(s0, min(s0 + sub, b)) for s0 in range(i1, b, sub)])
+        idx, tmp, ph = self.idx, self.tmp, self.ph
+        for s0, s1 in bounds:
+            if s0 == i1:
+                self.ph_i0 = list(cur)  # phase at the next chunk's first pulse
+            r = r_all[s0 - a:s1 - a]
+            n = s1 - s0
+            for k in range(self.n_motors):
+                d = _increments(r[:, k], scale, self.f64, self.inc, in_range)
+                p = ph[:n]
+                p[0] = 0
+                np.cumsum(d[:-1], out=p[1:])
+                p += np.uint32(cur[k])
+                cur[k] = (int(p[-1]) + int(d[-1])) & (PHASE_ONE - 1)
+                np.right_shift(p, self.rshift, out=idx[:n], casting="unsafe")
+                if self.harmonic:
+                    _add_row_offsets(idx[:n], s0 - g0, ENVELOPE_SPEED_STRIDE, koff[k])
+                # indices are in range by construction; "clip" skips numpy's bounds check
+                if k == 0:
+                    np.take(rtabs[k], idx[:n], out=m[s0 - a:s1 - a], mode="clip")
+                else:
+                    np.take(rtabs[k], idx[:n], out=tmp[:n], mode="clip")
+                    m[s0 - a:s1 - a] += tmp[:n]
+        if b == i1:
+            self.ph_i0 = cur
+        return m
+
+    def envelope_filter(self, m: np.ndarray, a: int, b: int) -> np.ndarray:
+        """H(f) (times the extensions' envelope gain) applied to m(t) at pulses [a, b)
+        by FFT, where the FFT filter is in use; else m itself."""
+        if not self.config.fft_filter:
+            return m
+        cfg, mg = self.config, self.margin
+        # zeros outside the record: at the record's edges pad by the margin so the
+        # circular FFT does not wrap the other end in (same result for any chunking)
+        pad = mg if (a == 0 or b == self.n_total) else 0
+        n = sfft.next_fast_len(b - a + pad)
+        if n != self.nfft:
+            self.nfft, self.H = n, envelope_response(n, cfg.prf_hz, cfg.scaling.alpha_s)
+            gain = cfg.extensions.envelope_gain
+            if gain is not None:
+                self.H = (self.H * gain(sfft.fftfreq(n, 1.0 / cfg.prf_hz))).astype(np.complex64)
+        M = sfft.fft(m, n, workers=1)
+        M *= self.H
+        return sfft.ifft(M, workers=1, overwrite_x=True)[: b - a]
+
+    def emit(self, blade: np.ndarray, i0: int, i1: int, track: Track, out: np.ndarray) -> None:
+        """out[i0:i1] = (S_blade m + S_body) b(t): the blade signal of pulses [i0, i1)
+        (modified in place) scaled and hooked, the body added, times the body carrier."""
+        cfg = self.config
+        ext, s_body = cfg.extensions, cfg.scaling.s_body
+        tt = (np.arange(i0, i1, dtype=np.float64) / cfg.prf_hz
+              if (ext.blade_hook is not None or ext.body_hook is not None) else None)
+        if self.s_blade != 1:
+            blade *= np.float32(self.s_blade)
+        if ext.blade_hook is not None:
+            ext.blade_hook(i0, i1, tt, blade)
+        if ext.body_hook is not None:
+            body = np.full(i1 - i0, s_body, np.complex64)
+            ext.body_hook(i0, i1, tt, body)
             blade += body
-        elif scaling.s_body != 0:
-            blade += np.float32(scaling.s_body)
-        cp = _carrier_phase(track, i0, i1, prf_hz, wavelength_m, half, cph)
-        ci = np.right_shift(cp, shift, out=cidx[: i1 - i0], casting="unsafe")
-        c = np.take(carrier, ci, out=car[: i1 - i0], mode="clip")
+        elif s_body != 0:
+            blade += np.float32(s_body)
+        cp = _carrier_phase(track, i0, i1, cfg.prf_hz, cfg.wavelength_m, self.half, self.cph)
+        ci = np.right_shift(cp, self.shift, out=self.cidx[: i1 - i0], casting="unsafe")
+        c = np.take(self.carrier, ci, out=self.car[: i1 - i0], mode="clip")
         np.multiply(blade, c, out=out[i0:i1])
-        if progress is not None:
-            progress(i1, n_total)
-    return out
 
 
 def add_noise(iq: np.ndarray, noise_power: float, seed: int, chunk: int = 1 << 18) -> np.ndarray:
@@ -701,27 +897,34 @@ def add_noise(iq: np.ndarray, noise_power: float, seed: int, chunk: int = 1 << 1
     return iq
 
 
-def reference_synthesize(rev_s, track: Track, *, prf_hz, wavelength_m, n_blades, blade_length_m,
-                         scaling: Scaling = Scaling(), initial_cycles=None) -> np.ndarray:
-    """Straightforward per-pulse evaluation of eq. (1)/(2) (alpha = 0), for tests and
-    the benchmark's reference. Slow on purpose: a Python loop over pulses."""
+def reference_synthesize(config: SynthesisConfig, track: Track, rev_s, *, initial_cycles=None) -> np.ndarray:
+    """Straightforward per-pulse evaluation of eq. (1)/(2) (alpha = 0, no extensions;
+    per-blade amplitudes and the scattering gain included), for tests and the
+    benchmark's reference. Slow on purpose: a Python loop over pulses."""
     import math, cmath
 
+    if config.scaling.alpha_s != 0 or config.extensions != ModelExtensions():
+        raise ValueError("reference_synthesize evaluates alpha_s = 0 without extensions")
     n, M = rev_s.shape
-    k = 4 * math.pi / wavelength_m
-    L = blade_length_m
+    bm = config.blades
+    bm.check_motors(M)
+    k = 4 * math.pi / bm.wavelength_m
+    L = bm.blade_length_m
+    B = bm.n_blades
+    amps = [bm.amplitudes(mm) or (1.0,) * B for mm in range(M)]
+    s_blade = config.scaling.s_blade * bm.gain
     cyc = [0.0] * M if initial_cycles is None else list(initial_cycles)
     out = np.empty(n, np.complex64)
     for i in range(n):
-        t = i / prf_hz
+        t = i / config.prf_hz
         R = float(track.range_at(t))
         s = 0j
         for mm in range(M):
-            for bb in range(n_blades):
-                phi = 2 * math.pi * (cyc[mm] + bb / n_blades)
+            for bb in range(B):
+                phi = 2 * math.pi * (cyc[mm] + bb / B)
                 a = k * L / 2 * math.cos(phi)
                 sinc = math.sin(a) / a if a != 0 else 1.0
-                s += L * cmath.exp(-1j * a) * sinc
-            cyc[mm] += float(rev_s[i, mm]) / prf_hz
-        out[i] = (scaling.s_body + scaling.s_blade * s) * cmath.exp(-1j * 4 * math.pi * R / wavelength_m)
+                s += amps[mm][bb] * L * cmath.exp(-1j * a) * sinc
+            cyc[mm] += float(rev_s[i, mm]) / config.prf_hz
+        out[i] = (config.scaling.s_body + s_blade * s) * cmath.exp(-1j * 4 * math.pi * R / bm.wavelength_m)
     return out
