@@ -42,7 +42,8 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
     iq, _ = simulate_blades(lg, n, prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
                             blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=seed,
-                            extensions=extensions, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track)
+                            extensions=extensions, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track,
+                            blade_amplitudes=ext.blade_amplitudes(int(a["n_blades"])) if ext is not None else None)
     if ext is not None:
         iq = ext.post(iq, prf_hz=prf, seed=seed)
     if flight.background_iq is not None:

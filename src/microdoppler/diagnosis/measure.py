@@ -692,6 +692,15 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
         for n in range(1, 16):
             for sg in (1, -1):
                 keep &= np.abs(ff - (fb + sg * n * spacing)) > LINE_GUARD_FRAC * spacing
+        n_b = int(M.info.get("n_blades", 2))
+        if M.info.get("non_multiple_lines_visible"):
+            # a weak or strong blade's lines between the HERM lines (guard as theirs,
+            # on the rotation rate's spacing)
+            f_rot = spacing / n_b
+            for k in range(1, 16 * n_b):
+                if k % n_b:
+                    for sg in (1, -1):
+                        keep &= np.abs(ff - (fb + sg * k * f_rot)) > LINE_GUARD_FRAC * f_rot
         if M.sim_stft is not None and calib is not None:
             # off the blade power the calibrated model predicts there (smeared lines too)
             d = ff - fb
@@ -712,6 +721,23 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
 
 
 # ---------------------------------------------------------------- the measurement
+
+#: the lines at non-multiples of the blade count are "visible" when their median power
+#: stands this many noise standard deviations above zero (then the phase-noise floor
+#: keeps off them as off the HERM lines)
+NON_MULTIPLE_VISIBLE_Z = 3.0
+
+
+def non_multiple_visible(power: np.ndarray, noise_var: np.ndarray, n_blades: int) -> bool:
+    """Whether the rotation harmonics that are not multiples of ``n_blades`` (a weak or
+    strong blade's lines) stand above the noise: median over (CPI, order, side) of
+    power / noise std > :data:`NON_MULTIPLE_VISIBLE_Z`."""
+    k = np.arange(1, power.shape[1] + 1)
+    sel = (k % n_blades) != 0
+    z = power[:, sel] / np.sqrt(noise_var[:, sel])
+    z = z[np.isfinite(z)]
+    return bool(len(z) >= 10 and np.median(z) > NON_MULTIPLE_VISIBLE_Z)
+
 
 #: relative broadening of one rotor's line within a CPI (its speed wanders ~1 % over a
 #: CPI in logged flights), times the line's order, plus 1.5 bins of window main lobe
@@ -918,7 +944,8 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         log=log, log_from_radar=log_from_radar, stft=st, bg_stft=bg, sim_stft=sim, body_fine=fine,
         side_fine=side_fine,
         info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()),
-              "match_q": float(np.nanmedian(q))},
+              "match_q": float(np.nanmedian(q)),
+              "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B)},
         rot_pow=rot[0], rot_var=rot[1], rot_cross=rot[2], rot_n=rot[3], rot_wire=rot_wire)
     # the model calibrated on the measurement, then the floor off the calibrated lines
     M = replace(M, calib=calibrate(M))
