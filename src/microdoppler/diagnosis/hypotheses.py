@@ -880,6 +880,8 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
 
 CAUSE_ORDER = ("sideband_asymmetry", "sideband_fading", "body_fluctuation", "motor_log_lag",
                "motor_speed_scale", "phase_noise", "blade_imbalance")
+#: causes whose tests need the body line (not testable when it lies in the clutter notch)
+BODY_CAUSES = ("body_fluctuation", "phase_noise")
 #: causes whose tests need the rotors' HERM lines
 ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor_speed_scale", "blade_imbalance")
 #: pairs of causes whose statistics depend on each other: the test of one is redone
@@ -954,6 +956,11 @@ def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
         "phase_noise": test_phase_noise(M, cfg, fold),
         "blade_imbalance": test_imbalance(M, cfg, fold),
     }
+    if M.info.get("body_in_notch"):
+        for name in BODY_CAUSES:
+            tests[name] = CauseTest(name, testable=False, evidence={
+                "reason": "body Doppler inside the clutter notch (hovering, on a stand or a staring recording): "
+                          "the body line is not measurable"})
     if M.log_from_radar:
         for name in ("motor_log_lag", "motor_speed_scale"):
             tests[name].testable = False
