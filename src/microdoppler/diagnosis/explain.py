@@ -11,13 +11,16 @@ statistic that named the first cause (or the strongest test when none was named)
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-
-from ..synthesis.extensions import ExtensionSet
-from ..synthesis.model import Track, add_noise
+import scipy.fft as sfft
 from scipy.stats import norm
+
+from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ
+from ..synthesis.extensions import ExtensionSet
+from ..synthesis.model import ModelExtensions, Track, add_noise
 
 from .config import BODY_SEARCH_HZ, PN_OUTER_HZ, DiagnosisConfig
 from .decide import Decision
@@ -27,7 +30,12 @@ from .measure import DB, Measurements, body_doppler, refine_peak, simulate_blade
 
 def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
     """The paper's model of ``flight`` (calibrated), optionally extended, plus the
-    flight's background recording (or white noise at its floor)."""
+    flight's background recording (or white noise at its floor).
+
+    The blades are simulated relative to the body and their mean return (every
+    component within half the rotation rate of the body Doppler, with whatever slow
+    gain the extensions put on it) is taken out, as part of the body's RCS: the body
+    line is S_body as measured, and a fading blade gain does not spread it."""
     prf = flight.prf_hz
     n = len(flight.iq)
     w2 = float((M.stft.window ** 2).sum())
@@ -37,15 +45,25 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     s_blade = calib.s_blade if np.isfinite(calib.s_blade) else 0.0
     alpha = calib.alpha_s if np.isfinite(calib.alpha_s) else 0.0
     a = flight.attrs
+    n_blades = int(a["n_blades"])
     lg = ext.transform_log(log) if ext is not None else log
-    extensions = ext.model_extensions(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else None
+    extensions = ext.model_extensions(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else ModelExtensions()
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
-    iq, _ = simulate_blades(lg, n, prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
-                            blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=seed,
-                            extensions=extensions, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track,
-                            blade_amplitudes=ext.blade_amplitudes(int(a["n_blades"])) if ext is not None else None)
+    common = dict(wavelength_m=flight.wavelength_m, n_blades=n_blades, blade_length_m=float(a["blade_length_m"]),
+                  n_fft=n_fft, seed=seed)
+    blades, rev = simulate_blades(lg, n, prf, **common, extensions=replace(extensions, body_hook=None),
+                                  alpha_s=alpha, s_blade=amp * s_blade, s_body=0.0,
+                                  blade_amplitudes=ext.blade_amplitudes(n_blades) if ext is not None else None)
+    f_rot = float(np.median(rev)) if rev.size else 0.0
+    spec = sfft.fft(blades.astype(np.complex128))
+    spec[np.abs(sfft.fftfreq(n, 1.0 / prf)) < f_rot / 2] = 0.0
+    blades = sfft.ifft(spec)
+    body, _ = simulate_blades(lg, n, prf, **common, extensions=ModelExtensions(body_hook=extensions.body_hook),
+                              s_blade=0.0, s_body=amp, track=track)
+    body = body.astype(np.complex128)
+    iq = body + blades * body / np.maximum(np.abs(body), 1e-30)
     if ext is not None:
-        iq = ext.post(iq, prf_hz=prf, seed=seed)
+        iq = ext.post(iq.astype(np.complex64), prf_hz=prf, seed=seed)
     if flight.background_iq is not None:
         iq = iq + flight.background_iq
     else:
@@ -72,7 +90,8 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     it the envelope is extrapolated, not fitted); the body's band (S_body's
     calibration; with a fluctuating body named, the bands beside it too) and the
     clutter line's skirt (twice the clutter notch, three times without a background
-    recording, twice the phase-noise band when phase noise is named) are left out. Per band, the residual is
+    recording, twice the phase-noise band when phase noise is named, and then the
+    edge of the body's skirt too, 75-150 Hz from it) are left out. Per band, the residual is
     10 log10 of measured over model mean power, averaged over blocks of
     ``block_cpis`` CPIs; its standard error comes from the blocks' scatter (fading and
     noise included). A band is ``excess`` when ``|residual| >= margin_excess_db``,
@@ -102,8 +121,11 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     # background recording), wider without a background; with phase noise named, its
     # whole skirt band (the catalog's flat skirt need not have the measured shape)
     guard = cfg.clutter_guard_hz * (2.0 if flight.background_iq is not None else 3.0)
+    skirt_edge = None
     if ext is not None and "phase_noise" in ext.effects:
         guard = max(guard, 2 * PN_OUTER_HZ)
+        # the edge of the body's skirt, whose shape the catalog's flat process does not know
+        skirt_edge = (0.75 * PHASE_NOISE_BANDWIDTH_HZ, 1.5 * PHASE_NOISE_BANDWIDTH_HZ)
     # the body's band (its level is S_body's calibration); with a fluctuating body
     # named, its neighbours too (the fluctuation's skirt scales with the body line,
     # which the model draws with the blades' mean return added)
@@ -116,6 +138,8 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
             rel = spec.f_hz - fb
             b = np.rint(rel / bw).astype(int) + n_side
             ok = (b >= 0) & (b < n_bands) & (np.abs(spec.f_hz) > guard) & (np.abs(rel) > body_half)
+            if skirt_edge is not None:
+                ok &= (np.abs(rel) < skirt_edge[0]) | (np.abs(rel) > skirt_edge[1])
             s = np.bincount(b[ok], spec.p[i, ok], minlength=n_bands)
             c = np.bincount(b[ok], minlength=n_bands)
             vals.append(np.where(c >= 3, s / np.maximum(c, 1), np.nan))
