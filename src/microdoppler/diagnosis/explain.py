@@ -175,6 +175,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
             "band_hz": worst["band_hz"] if worst else None, "bands": flagged, "n_bands": int(fin.sum()),
             "n_blocks": int(len(blocks)), "z_threshold": round(z_crit, 2),
             "max_abs_residual_db": round(float(np.nanmax(np.abs(mu))), 2) if fin.any() else None,
+            "analysed_band_hz": [round(float(centres[0] - bw / 2), 2), round(float(centres[-1] + bw / 2), 2)],
             "model": sorted(ext.effects) if ext is not None else [],
             "_residual_db": mu, "_band_centres_hz": centres}
 

@@ -336,6 +336,30 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
     return res, s2
 
 
+#: a common sideband gain that correlates this much with the body power is the whole
+#: target's (range-cell straddle, aspect), not a blade fading (the catalog's fading is
+#: independent of the body; the emulator's and the independent generator's fading
+#: flights read |r| < 0.3)
+COMMON_GAIN_CORR = 0.7
+
+
+def common_gain_correlation(M, e: np.ndarray, m: np.ndarray) -> float | None:
+    """Correlation of the detrended common sideband power ``e`` (the fading test's
+    series, on CPIs ``m``) with the detrended body power [dB] on the same CPIs; None
+    when the body line is not measurable (in the clutter notch) or too few CPIs hold it."""
+    if M.info.get("body_in_notch"):
+        return None
+    ok = M.body_pow[m] > 0
+    if ok.sum() < 8:
+        return None
+    y = DB * np.log(np.maximum(M.body_pow[m][ok], 1e-30))
+    yb = _detrend(y, M.t_s[m][ok], M.range_m[m][ok])
+    x = e[ok]
+    if np.std(x) <= 0 or np.std(yb) <= 0:
+        return None
+    return float(np.corrcoef(x, yb)[0, 1])
+
+
 def test_fading(M, cfg, fold) -> CauseTest:
     """Common-mode (random-effects) test: a fading gain moves every harmonic together,
     while the paper's model leaves each harmonic's power to vary on its own (beats of
@@ -416,8 +440,17 @@ def test_fading(M, cfg, fold) -> CauseTest:
     res.effect = true_sd
     # named by the CPI grid's size (the naming as before the short windows)
     res.relevant = cpi_sd >= cfg.margin_std_db
+    body_corr = common_gain_correlation(M, e, m)
+    if res.relevant and body_corr is not None and body_corr > COMMON_GAIN_CORR:
+        # the sidebands follow the body: one gain on the whole target (a range-cell
+        # straddle, an aspect change), not a blade fading independent of the body
+        res.relevant = False
+        res.evidence["common_gain_db"] = round(cpi_sd, 2)
+        res.evidence["reason"] = (f"the common sideband power follows the body's (correlation {body_corr:.2f} > "
+                                  f"{COMMON_GAIN_CORR}): a gain on the whole target, not a fading of the blades")
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
-    res.evidence = {"fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
+    res.evidence = {**res.evidence, "fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
+                    "body_correlation": None if body_corr is None else round(body_corr, 3),
                     "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
                     "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
                     "speed_tilt_db_per_harmonic_rev_s": round(est["speed_tilt_db"], 4),

@@ -86,10 +86,23 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
     could not test, so that ``none`` is never read as "tested and absent"."""
     out = dict(entry)
     causes = list(out["causes"])
+    fading = T.tests.get("sideband_fading")
+    common = (fading is not None and fading.testable and "common_gain_db" in fading.evidence
+              and fading.log_e >= entry["evidence"]["log_evalue_threshold"])
     if gof["excess"]:
         causes.append({"cause": UNEXPLAINED,
                        "params": {"excess_db": gof["excess_db"], "band_hz": gof["band_hz"]},
                        "evidence": {k: v for k, v in gof.items() if not k.startswith("_")}})
+    elif common:
+        # a significant gain common to the body and the blades (range-cell straddle,
+        # aspect): no catalog cause is a gain on the whole target
+        span = gof["analysed_band_hz"]
+        causes.append({"cause": UNEXPLAINED,
+                       "params": {"excess_db": fading.evidence["common_gain_db"], "band_hz": span},
+                       "evidence": {"kind": "a power fluctuation common to the body and the blades",
+                                    "std_db": fading.evidence["common_gain_db"],
+                                    "body_correlation": fading.evidence.get("body_correlation"),
+                                    "log_evalue": fading.log_e}})
     out["causes"] = causes
     out["cause"] = causes[0]["cause"] if causes else "none"
     out["not_testable"] = {c: str(t.evidence.get("reason", "not testable")) for c, t in T.tests.items()
