@@ -77,8 +77,11 @@ KNOWN_MISSES: list = []
 
 
 def test_cases_cover_the_catalog_radars_and_signs():
-    assert {c.cause for c in CASES} == set(CATALOG)
-    for cause in CATALOG:
+    # "unexplained" is no effect to hide; blade_imbalance is hidden by the emulator's
+    # airframes (a population effect) and by tests/test_diagnosis_blades.py
+    emulated = [c for c in CATALOG if c not in ("unexplained", "blade_imbalance")]
+    assert {c.cause for c in CASES} == set(emulated)
+    for cause in emulated:
         assert {c.radar_id for c in CASES if c.cause == cause} == {"radar1", "radar2"}, cause
     for cause in ("sideband_asymmetry", "motor_log_lag", "motor_speed_scale"):
         assert {c.sign for c in CASES if c.cause == cause} == {1, -1}, cause

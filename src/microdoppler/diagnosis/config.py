@@ -202,6 +202,8 @@ _RULES = {
     "margin_std_db": ("float", 0, None, False, False),
     "margin_lag_s": ("float", 0, None, False, False),
     "margin_scale": ("float", 0, None, False, False),
+    "margin_imbalance_db": ("float", 0, None, False, False),
+    "margin_excess_db": ("float", 0, None, False, False),
     "margin_floor_rise_db": ("float", 0, None, False, False),
     "min_blade_wavelengths": ("float", 0, None, False, False),
     "min_log_coverage": ("float", 0, 1, True, False),
@@ -263,6 +265,17 @@ class DiagnosisConfig:
         (>= 3 dB; 1.5 dB until cac01d9, when sizes came from the variogram), lag
         0.15 s (>= 0.3 s), scale 0.025 (>= 0.05), the phase-noise floor rise
         3 dB (>= 6 dB).
+    margin_imbalance_db : float
+        Relevance margin of a blade imbalance [dB], half the smallest the issue asks
+        to find (3 dB): 1.5 dB puts the non-multiple lines 21 dB below the
+        blade-passing lines for two blades; balanced flights of the independent
+        generator read 0.0 dB (median) at body SNR >= 36 dB.
+    margin_excess_db : float
+        Goodness of fit: the smallest held-out residual [dB] (measured over the
+        fitted model with every named cause's extension, in one Doppler band
+        relative to the body) that names ``unexplained``, when it is also
+        significant and seen in both folds. 4 dB: above the per-harmonic power error
+        of the alpha envelope's fit on catalog-only flights (benchmarks/eval_diagnosis.py).
     min_blade_wavelengths : float
         Blades shorter than this many wavelengths (below the thin wire's half-wave
         resonance) have rotor lines below the noise: such drones (the Mini 2's
@@ -290,6 +303,8 @@ class DiagnosisConfig:
     margin_lag_s: float = 0.15
     margin_scale: float = 0.025
     margin_floor_rise_db: float = 3.0
+    margin_imbalance_db: float = 1.5
+    margin_excess_db: float = 4.0
     min_blade_wavelengths: float = 0.5
     min_log_coverage: float = 0.5
 

@@ -1,26 +1,41 @@
-"""Step 4 of the diagnosis: the figure that explains a flight's decision.
+"""Step 4 of the diagnosis: what the named causes explain, and what they leave.
 
-:func:`plot_diagnosis` shows the measured spectrogram against the calibrated paper's
-model (baseline) and the model extended by the named cause, the residual (measured -
-baseline) and the statistic that named the cause (or the strongest test when none
-was named)."""
+:func:`goodness_of_fit` compares the measured spectrogram with the calibrated paper's
+model extended by every named cause, band by band relative to the body Doppler: a
+band whose residual exceeds what the flight's own scatter allows (significant,
+replicated in both folds, at least ``margin_excess_db``) makes the flight
+``unexplained``, so that ``none`` always means that the model fits.
+:func:`plot_diagnosis` shows the measured spectrogram, the baseline, the model with
+every named cause's extension, its residual with the unexplained band marked, and the
+statistic that named the first cause (or the strongest test when none was named)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import scipy.fft as sfft
+from scipy.stats import norm
 
+from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ
 from ..synthesis.extensions import ExtensionSet
-from ..synthesis.model import Track, add_noise
-from .config import DiagnosisConfig
+from ..synthesis.model import ModelExtensions, Track, add_noise
+
+from .config import BODY_SEARCH_HZ, PN_OUTER_HZ, DiagnosisConfig
 from .decide import Decision
-from .measure import DB, Measurements, simulate_blades, stft_power
+from .hypotheses import folds
+from .measure import DB, Measurements, body_doppler, refine_peak, simulate_blades, stft_power
 
 
 def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
     """The paper's model of ``flight`` (calibrated), optionally extended, plus the
-    flight's background recording (or white noise at its floor)."""
+    flight's background recording (or white noise at its floor).
+
+    The blades are simulated relative to the body and their mean return (every
+    component within half the rotation rate of the body Doppler, with whatever slow
+    gain the extensions put on it) is taken out, as part of the body's RCS: the body
+    line is S_body as measured, and a fading blade gain does not spread it."""
     prf = flight.prf_hz
     n = len(flight.iq)
     w2 = float((M.stft.window ** 2).sum())
@@ -30,14 +45,25 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     s_blade = calib.s_blade if np.isfinite(calib.s_blade) else 0.0
     alpha = calib.alpha_s if np.isfinite(calib.alpha_s) else 0.0
     a = flight.attrs
+    n_blades = int(a["n_blades"])
     lg = ext.transform_log(log) if ext is not None else log
-    extensions = ext.model_extensions(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else None
+    extensions = ext.model_extensions(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else ModelExtensions()
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
-    iq, _ = simulate_blades(lg, n, prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
-                            blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=seed,
-                            extensions=extensions, alpha_s=alpha, s_blade=amp * s_blade, s_body=amp, track=track)
+    common = dict(wavelength_m=flight.wavelength_m, n_blades=n_blades, blade_length_m=float(a["blade_length_m"]),
+                  n_fft=n_fft, seed=seed)
+    blades, rev = simulate_blades(lg, n, prf, **common, extensions=replace(extensions, body_hook=None),
+                                  alpha_s=alpha, s_blade=amp * s_blade, s_body=0.0,
+                                  blade_amplitudes=ext.blade_amplitudes(n_blades) if ext is not None else None)
+    f_rot = float(np.median(rev)) if rev.size else 0.0
+    spec = sfft.fft(blades.astype(np.complex128))
+    spec[np.abs(sfft.fftfreq(n, 1.0 / prf)) < f_rot / 2] = 0.0
+    blades = sfft.ifft(spec)
+    body, _ = simulate_blades(lg, n, prf, **common, extensions=ModelExtensions(body_hook=extensions.body_hook),
+                              s_blade=0.0, s_body=amp, track=track)
+    body = body.astype(np.complex128)
+    iq = body + blades * body / np.maximum(np.abs(body), 1e-30)
     if ext is not None:
-        iq = ext.post(iq, prf_hz=prf, seed=seed)
+        iq = ext.post(iq.astype(np.complex64), prf_hz=prf, seed=seed)
     if flight.background_iq is not None:
         iq = iq + flight.background_iq
     else:
@@ -46,9 +72,121 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     return iq.astype(np.complex64)
 
 
-def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisConfig) -> Path:
-    """Write the figure of ``flight``'s diagnosis (its measurement ``M`` and decision
-    ``D``) to ``path`` (PNG, atomically); returns the path."""
+def named_extensions(D: Decision) -> ExtensionSet | None:
+    """Every named cause's extension (the report's own parameters), or None."""
+    causes = [c for c in D.entry["causes"] if c.get("extension")]
+    if not causes:
+        return None
+    return ExtensionSet({c["extension"]["name"]: c["extension"]["params"] for c in causes})
+
+
+def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) -> dict:
+    """Held-out residual of the measured spectrogram against the model with every
+    named cause's extension (:func:`simulate_flight`, with the flight's background).
+
+    Both spectrograms are read relative to their own body Doppler in bands of half
+    the rotation rate (so lines and the gaps between them fall in separate bands), up
+    to half a line spacing beyond the highest harmonic the calibration used (beyond
+    it the envelope is extrapolated, not fitted); the body's band (S_body's
+    calibration; with a fluctuating body named, the bands beside it too) and the
+    clutter line's skirt (twice the clutter notch, three times without a background
+    recording, twice the phase-noise band when phase noise is named, and then the
+    edge of the body's skirt too, 75-150 Hz from it) are left out. Per band, the residual is
+    10 log10 of measured over model mean power, averaged over blocks of
+    ``block_cpis`` CPIs; its standard error comes from the blocks' scatter (fading and
+    noise included). A band is ``excess`` when ``|residual| >= margin_excess_db``,
+    ``|residual| / se`` beats the two-sided Bonferroni level ``alpha / n_bands``, and
+    each fold's mean has the same sign and at least half the margin.
+
+    Returns a dict: ``excess`` (bool), ``excess_db`` and ``band_hz`` (the worst band,
+    body-relative [Hz]), ``bands`` (every excess band), ``n_bands``, ``n_blocks`` and
+    ``max_abs_residual_db`` (the largest band residual, excess or not)."""
+    st = M.stft
+    prf = flight.prf_hz
+    ext = named_extensions(D)
+    sim = stft_power(simulate_flight(flight, M, ext, cfg.seed, cfg.n_fft), prf, cfg.n_fft)
+    f_sim = refine_peak(sim, body_doppler(flight, sim.t_s), BODY_SEARCH_HZ)
+    B = int(flight.attrs["n_blades"])
+    dil = np.where(np.isfinite(M.dil), M.dil, 1.0)
+    f_rot = float(np.median(M.f_log_hz * dil))
+    bw = f_rot / 2
+    # the region the calibrated model speaks for: up to half a spacing beyond the
+    # highest harmonic the calibration used (beyond it the envelope is extrapolated),
+    # without the body line (its level is S_body's calibration)
+    usable = np.flatnonzero(M.usable_pairs)
+    n_top = int(M.harm[usable[-1]]) if len(usable) else 1
+    n_side = int(np.floor((n_top + 0.5) * B * f_rot / bw))
+    n_bands = 2 * n_side + 1
+    # the clutter line's skirt (wind-blown clutter differs between the flight and its
+    # background recording), wider without a background; with phase noise named, its
+    # whole skirt band (the catalog's flat skirt need not have the measured shape)
+    guard = cfg.clutter_guard_hz * (2.0 if flight.background_iq is not None else 3.0)
+    skirt_edge = None
+    if ext is not None and "phase_noise" in ext.effects:
+        guard = max(guard, 2 * PN_OUTER_HZ)
+        # the edge of the body's skirt, whose shape the catalog's flat process does not know
+        skirt_edge = (0.75 * PHASE_NOISE_BANDWIDTH_HZ, 1.5 * PHASE_NOISE_BANDWIDTH_HZ)
+    # the body's band (its level is S_body's calibration); with a fluctuating body
+    # named, its neighbours too (the fluctuation's skirt scales with the body line,
+    # which the model draws with the blades' mean return added)
+    body_half = bw / 2 if ext is None or "body_fluctuation" not in ext.effects else 1.5 * bw
+    use = np.flatnonzero(M.valid)
+    d = np.full((len(st.t_s), n_bands), np.nan)
+    for i in use:
+        vals = []
+        for spec, fb in ((st, M.f_body_hz[i]), (sim, f_sim[i])):
+            rel = spec.f_hz - fb
+            b = np.rint(rel / bw).astype(int) + n_side
+            ok = (b >= 0) & (b < n_bands) & (np.abs(spec.f_hz) > guard) & (np.abs(rel) > body_half)
+            if skirt_edge is not None:
+                ok &= (np.abs(rel) < skirt_edge[0]) | (np.abs(rel) > skirt_edge[1])
+            s = np.bincount(b[ok], spec.p[i, ok], minlength=n_bands)
+            c = np.bincount(b[ok], minlength=n_bands)
+            vals.append(np.where(c >= 3, s / np.maximum(c, 1), np.nan))
+        d[i] = DB * np.log(vals[0] / vals[1])
+    fold = folds(len(st.t_s), cfg.block_cpis)
+    block = np.arange(len(st.t_s)) // cfg.block_cpis
+    blocks = np.unique(block[use])
+    with np.errstate(invalid="ignore"):
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            Db = np.array([np.nanmean(d[block == k], axis=0) for k in blocks])       # [n_blocks, n_bands]
+            fb = np.array([fold[block == k][0] for k in blocks])
+            mu = np.nanmean(Db, axis=0)
+            nb = np.sum(np.isfinite(Db), axis=0)
+            se = np.nanstd(Db, axis=0, ddof=1) / np.sqrt(np.maximum(nb, 1))
+            mf = [np.nanmean(Db[fb == k], axis=0) for k in (0, 1)]
+    z_crit = float(norm.isf(cfg.alpha / (2 * n_bands)))
+    centres = (np.arange(n_bands) - n_side) * bw
+    flagged = []
+    for j in range(n_bands):
+        if nb[j] < 4 or not np.isfinite(mu[j]) or not np.isfinite(se[j]) or se[j] <= 0:
+            continue
+        same = all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2
+                   for m in mf)
+        if abs(mu[j]) >= cfg.margin_excess_db and abs(mu[j]) / se[j] > z_crit and same:
+            flagged.append({"band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
+                            "excess_db": round(float(mu[j]), 2), "z": round(float(mu[j] / se[j]), 1)})
+    fin = np.isfinite(mu)
+    worst = max(flagged, key=lambda b: abs(b["excess_db"])) if flagged else None
+    return {"excess": bool(flagged), "excess_db": worst["excess_db"] if worst else None,
+            "band_hz": worst["band_hz"] if worst else None, "bands": flagged, "n_bands": int(fin.sum()),
+            "n_blocks": int(len(blocks)), "z_threshold": round(z_crit, 2),
+            "max_abs_residual_db": round(float(np.nanmax(np.abs(mu))), 2) if fin.any() else None,
+            "analysed_band_hz": [round(float(centres[0] - bw / 2), 2), round(float(centres[-1] + bw / 2), 2)],
+            "model": sorted(ext.effects) if ext is not None else [],
+            "_residual_db": mu, "_band_centres_hz": centres}
+
+
+def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisConfig, *, gof: dict | None = None) -> Path:
+    """Write the figure of ``flight``'s diagnosis (its measurement ``M``, decision
+    ``D`` and goodness of fit ``gof``) to ``path`` (PNG, atomically); returns the path.
+
+    Panels: measured; the paper's model (baseline); the model with every named
+    cause's extension; its residual (measured - extended) with the unexplained bands
+    marked; the statistic that named the first cause."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,8 +196,9 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     base_iq = simulate_flight(flight, M, None, cfg.seed, cfg.n_fft)
-    ext = ExtensionSet({cause: tests[cause].params}) if cause != "none" else None
+    ext = named_extensions(D)
     ext_iq = simulate_flight(flight, M, ext, cfg.seed, cfg.n_fft) if ext else base_iq
+    named = " + ".join(sorted(ext.effects)) if ext is not None else "none"
     st = M.stft
     sb = stft_power(base_iq, flight.prf_hz, cfg.n_fft)
     se = stft_power(ext_iq, flight.prf_hz, cfg.n_fft) if ext else sb
@@ -71,16 +210,22 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     ref = DB * np.log(np.median(M.floor))
     fig, ax = plt.subplots(1, 5, figsize=(20, 5), constrained_layout=True)
     for a_, s_, title in ((ax[0], st, "measured"), (ax[1], sb, "baseline (paper model)"),
-                          (ax[2], se, f"extended ({cause})")):
+                          (ax[2], se, f"extended ({named})")):
         im = a_.imshow((DB * np.log(s_.p[:, sel] + 1e-30) - ref).T, origin="lower", aspect="auto", extent=ext_t,
                        vmin=-5, vmax=45, cmap="viridis")
         a_.set_title(title)
         a_.set_xlabel("time [s]")
     ax[0].set_ylabel("Doppler [Hz]")
     fig.colorbar(im, ax=ax[2], label="dB over floor")
-    res = DB * np.log((st.p[:, sel] + 1e-30) / (sb.p[:, sel] + 1e-30))
+    res = DB * np.log((st.p[:, sel] + 1e-30) / (se.p[:, sel] + 1e-30))
     im2 = ax[3].imshow(res.T, origin="lower", aspect="auto", extent=ext_t, vmin=-10, vmax=10, cmap="RdBu_r")
-    ax[3].set_title("residual: measured - baseline [dB]")
+    ax[3].set_title("residual: measured - extended [dB]")
+    for band in (gof or {}).get("bands", []):
+        for edge in band["band_hz"]:
+            ax[3].axhline(fc + edge, color="k", lw=0.8, ls="--")
+    if gof and gof.get("excess"):
+        ax[3].set_title(f"residual: measured - extended [dB]\nunexplained: {gof['excess_db']:+.1f} dB in "
+                        f"{gof['band_hz'][0]:+.0f}..{gof['band_hz'][1]:+.0f} Hz (dashed)", fontsize=9)
     ax[3].set_xlabel("time [s]")
     fig.colorbar(im2, ax=ax[3])
     show = cause if cause != "none" else max((t for t in tests.values() if t.testable),
@@ -100,7 +245,8 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     ax[4].set_title(f"{show.cause if show else ''}: {show.statistic if show else ''}\n"
                     f"log e-value {show.log_e:.1f}" if show else "no statistic", fontsize=9)
     ax[4].set_xlabel("time [s]")
-    fig.suptitle(f"{flight.flight_id}: diagnosis = {cause}")
+    shown = [c["cause"] for c in D.entry["causes"]] + (["unexplained"] if gof and gof.get("excess") else [])
+    fig.suptitle(f"{flight.flight_id}: diagnosis = {', '.join(shown) or 'none'}")
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=80)
     plt.close(fig)

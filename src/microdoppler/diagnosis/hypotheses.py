@@ -208,6 +208,108 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     return res
 
 
+def imbalance_from_ratio(r: float, n_blades: int) -> float:
+    """``imbalance_db`` of one blade of amplitude a (the others 1) whose lines at the
+    non-multiples of the blade count stand r below the blade-passing lines.
+
+    Rotation harmonic k of the rotor is the single blade's, c_k, times
+    sum_b a_b exp(j 2 pi k b / B): B - 1 + a for k a multiple of B, a - 1 otherwise,
+    so r = ((1 - a) / (B - 1 + a))^2 and a = (1 - (B - 1) q) / (1 + q), q = sqrt(r).
+    Returns -20 log10(a) [dB] (0 for r <= 0); NaN when r >= 1 / (B - 1)^2, more than
+    one blade alone can make (a <= 0)."""
+    if not np.isfinite(r) or r <= 0:
+        return 0.0
+    q = float(np.sqrt(r))
+    a = (1 - (n_blades - 1) * q) / (1 + q)
+    return float(-20 * np.log10(a)) if a > 0 else float("nan")
+
+
+def imbalance_observations(M):
+    """The blade-imbalance test's observations, one per (CPI, non-multiple order k,
+    side): the measured power ``x`` of the rotors' lines of order k, its noise variance
+    ``v0`` and variance per unit line power ``w``, and the reference ``ref``: the
+    blade-passing lines on both sides of k (geometric mean), each divided by one thin
+    wire's line power and the pair multiplied by order k's (:func:`.measure.thin_wire_line_power`),
+    so the envelope exp(-alpha |f|) and the wire's own line powers cancel, scaled by
+    the share of rotors whose line of order k is clear. Returns flat arrays and each
+    observation's CPI index."""
+    B = M.info["n_blades"]
+    P, V, W, R, c2 = M.rot_pow, M.rot_var, M.rot_cross, M.rot_n, M.rot_wire
+    n_m = M.log.n_motors
+    out = [[], [], [], [], []]
+    for k in range(1, P.shape[1] + 1):
+        n1 = (k // B) * B
+        n2 = n1 + B
+        if k % B == 0 or n1 < 1 or n2 > P.shape[1]:
+            continue
+        for s in (0, 1):
+            a, b = P[:, n1 - 1, s], P[:, n2 - 1, s]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ref = (np.sqrt(np.clip(a, 0, None) * np.clip(b, 0, None)) * c2[k] / np.sqrt(c2[n1] * c2[n2])
+                       * R[:, k - 1, s] / n_m)
+            x = P[:, k - 1, s]
+            ok = (np.isfinite(x) & np.isfinite(ref) & (ref > 0) & (R[:, n1 - 1, s] == n_m)
+                  & (R[:, n2 - 1, s] == n_m))
+            i = np.flatnonzero(ok)
+            for lst, arr in zip(out, (x[i], V[i, k - 1, s], W[i, k - 1, s], ref[i], i)):
+                lst.append(arr)
+    x, v0, w, ref, idx = (np.concatenate(z) if z else np.zeros(0) for z in out)
+    return x, v0, w, ref, idx.astype(int)
+
+
+def test_imbalance(M, cfg, fold) -> CauseTest:
+    """Lines at non-multiples of the blade count (:func:`imbalance_observations`),
+    relative to the blade-passing lines beside them: eq. (1)'s identical blades make
+    none (base: mean 0), a weak or strong blade makes them r below (extended: mean r;
+    :func:`imbalance_from_ratio` turns r into ``imbalance_db``). Both models carry the
+    noise variance and an extra variance fitted on the training fold (ML); r is the
+    training fold's median ratio."""
+    res = CauseTest("blade_imbalance", statistic="non-multiple / blade-passing line power")
+    B = M.info["n_blades"]
+    if M.rot_pow is None:
+        res.testable = False
+        res.evidence = {"reason": "rotation harmonics not measured"}
+        return res
+    x, v0, w, ref, idx = imbalance_observations(M)
+    f = fold[idx] if len(idx) else np.zeros(0, int)
+    n_cpi = len(np.unique(idx))
+    if n_cpi < 2 * cfg.block_cpis or len(np.unique(f)) < 2:
+        res.testable = False
+        res.evidence = {"reason": f"blade-passing lines on both sides of a non-multiple order, clear of "
+                                  f"other lines, in {n_cpi} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"}
+        return res
+    z = x / ref
+    vz0 = v0 / ref ** 2
+    wz = w / ref
+
+    def fit(sel):
+        r = max(float(np.median(z[sel])), 0.0)
+        vb = _ml_extra_var(z[sel], vz0[sel])
+        ve = _ml_extra_var(z[sel] - r, vz0[sel] + wz[sel] * r)
+        return r, vb, ve
+
+    def score(th, sel):
+        r, vb, ve = th
+        return (_gauss_ll(z[sel], 0.0, vz0[sel] + vb + 1e-12),
+                _gauss_ll(z[sel], r, vz0[sel] + wz[sel] * r + ve + 1e-12))
+
+    _crossfit(f, fit, score, res)
+    r = max(float(np.median(z)), 0.0)
+    imb = imbalance_from_ratio(r, B)
+    res.params = {"imbalance_db": imb if np.isfinite(imb) else float("nan")}
+    res.effect = imb if np.isfinite(imb) else 0.0
+    res.relevant = bool(np.isfinite(imb) and imb >= cfg.margin_imbalance_db)
+    res.evidence = {"ratio_db": round(float(DB * np.log(max(r, 1e-12))), 2), "n_blades": int(B),
+                    "n_cpis": int(n_cpi), "n_lines": int(len(z))}
+    if not np.isfinite(imb):
+        res.evidence["reason"] = (f"the non-multiple lines stand {DB * np.log(r):.1f} dB from the blade-passing "
+                                  "lines: more than one weak or strong blade can make, not an imbalance")
+    cpi_r = np.array([np.median(z[idx == i]) for i in np.unique(idx)])
+    res.series = {"t_s": M.t_s[np.unique(idx)], "stat": DB * np.log(np.clip(cpi_r, 1e-6, None)),
+                  "base": np.full(n_cpi, -60.0), "ext": np.full(n_cpi, DB * np.log(max(r, 1e-6)))}
+    return res
+
+
 def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
     res = CauseTest(cause)
     if m.sum() < 2 * cfg.block_cpis + 4:
@@ -232,6 +334,30 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
                     "noise_std_db": round(float(np.sqrt(np.median(sd0[m] ** 2))), 3),
                     "residual_std_db": round(float(e.std()), 2)}
     return res, s2
+
+
+#: a common sideband gain that correlates this much with the body power is the whole
+#: target's (range-cell straddle, aspect), not a blade fading (the catalog's fading is
+#: independent of the body; the emulator's and the independent generator's fading
+#: flights read |r| < 0.3)
+COMMON_GAIN_CORR = 0.7
+
+
+def common_gain_correlation(M, e: np.ndarray, m: np.ndarray) -> float | None:
+    """Correlation of the detrended common sideband power ``e`` (the fading test's
+    series, on CPIs ``m``) with the detrended body power [dB] on the same CPIs; None
+    when the body line is not measurable (in the clutter notch) or too few CPIs hold it."""
+    if M.info.get("body_in_notch"):
+        return None
+    ok = M.body_pow[m] > 0
+    if ok.sum() < 8:
+        return None
+    y = DB * np.log(np.maximum(M.body_pow[m][ok], 1e-30))
+    yb = _detrend(y, M.t_s[m][ok], M.range_m[m][ok])
+    x = e[ok]
+    if np.std(x) <= 0 or np.std(yb) <= 0:
+        return None
+    return float(np.corrcoef(x, yb)[0, 1])
 
 
 def test_fading(M, cfg, fold) -> CauseTest:
@@ -314,8 +440,17 @@ def test_fading(M, cfg, fold) -> CauseTest:
     res.effect = true_sd
     # named by the CPI grid's size (the naming as before the short windows)
     res.relevant = cpi_sd >= cfg.margin_std_db
+    body_corr = common_gain_correlation(M, e, m)
+    if res.relevant and body_corr is not None and body_corr > COMMON_GAIN_CORR:
+        # the sidebands follow the body: one gain on the whole target (a range-cell
+        # straddle, an aspect change), not a blade fading independent of the body
+        res.relevant = False
+        res.evidence["common_gain_db"] = round(cpi_sd, 2)
+        res.evidence["reason"] = (f"the common sideband power follows the body's (correlation {body_corr:.2f} > "
+                                  f"{COMMON_GAIN_CORR}): a gain on the whole target, not a fading of the blades")
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
-    res.evidence = {"fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
+    res.evidence = {**res.evidence, "fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
+                    "body_correlation": None if body_corr is None else round(body_corr, 3),
                     "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
                     "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
                     "speed_tilt_db_per_harmonic_rev_s": round(est["speed_tilt_db"], 4),
@@ -777,9 +912,11 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
 
 
 CAUSE_ORDER = ("sideband_asymmetry", "sideband_fading", "body_fluctuation", "motor_log_lag",
-               "motor_speed_scale", "phase_noise")
+               "motor_speed_scale", "phase_noise", "blade_imbalance")
+#: causes whose tests need the body line (not testable when it lies in the clutter notch)
+BODY_CAUSES = ("body_fluctuation", "phase_noise")
 #: causes whose tests need the rotors' HERM lines
-ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor_speed_scale")
+ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor_speed_scale", "blade_imbalance")
 #: pairs of causes whose statistics depend on each other: the test of one is redone
 #: with the other's extension in both models once the other is named. Every other
 #: cause's statistic is unchanged by another cause's extension in both models (the
@@ -850,7 +987,13 @@ def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
         "motor_log_lag": lag,
         "motor_speed_scale": sc,
         "phase_noise": test_phase_noise(M, cfg, fold),
+        "blade_imbalance": test_imbalance(M, cfg, fold),
     }
+    if M.info.get("body_in_notch"):
+        for name in BODY_CAUSES:
+            tests[name] = CauseTest(name, testable=False, evidence={
+                "reason": "body Doppler inside the clutter notch (hovering, on a stand or a staring recording): "
+                          "the body line is not measurable"})
     if M.log_from_radar:
         for name in ("motor_log_lag", "motor_speed_scale"):
             tests[name].testable = False

@@ -25,7 +25,11 @@ usable motor log, long enough; else :class:`Undiagnosable`), then:
 - the body's and the sidebands' power on short windows (:func:`body_power_fine`,
   :func:`sideband_power_fine`), for the fluctuations' correlation times;
 - the floor near the clutter line, off the target, with the background recording's
-  PSD there (:func:`floor_ordinates`), for the phase-noise test.
+  PSD there (:func:`floor_ordinates`), for the phase-noise test;
+- every rotation harmonic of every rotor at its own speed (:func:`rotation_line_powers`):
+  identical blades make lines only at multiples of the blade count; the others, which
+  a weak or strong blade adds, are read where no other line lies, for the
+  blade-imbalance test.
 
 The fixed settings read here are :mod:`.config`'s constants.
 """
@@ -348,6 +352,11 @@ class Measurements:
     body_fine: dict              # short-window body power series (body_power_fine)
     side_fine: dict              # short-window sideband power per harmonic (sideband_power_fine)
     info: dict = field(default_factory=dict)  # spread, prf_hz, n_blades, n_artifact_cpis, match_q
+    rot_pow: np.ndarray | None = None   # [n_t, K, 2] power of rotation harmonic k = 1..K, upper/lower (rotation_line_powers)
+    rot_var: np.ndarray | None = None   # [n_t, K, 2] its noise variance (the part without the line)
+    rot_cross: np.ndarray | None = None  # [n_t, K, 2] variance per unit line power (2 kappa fl)
+    rot_n: np.ndarray | None = None     # [n_t, K, 2] int: rotors whose line of order k the sum holds
+    rot_wire: np.ndarray | None = None  # [K + 1] one thin-wire blade's line power per rotation harmonic
     calib: Calibration | None = None          # the paper's model calibrated (calibrate)
     floor_ordinates: FloorOrdinates | None = None  # None without a background recording
 
@@ -683,6 +692,15 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
         for n in range(1, 16):
             for sg in (1, -1):
                 keep &= np.abs(ff - (fb + sg * n * spacing)) > LINE_GUARD_FRAC * spacing
+        n_b = int(M.info.get("n_blades", 2))
+        if M.info.get("non_multiple_lines_visible"):
+            # a weak or strong blade's lines between the HERM lines (guard as theirs,
+            # on the rotation rate's spacing)
+            f_rot = spacing / n_b
+            for k in range(1, 16 * n_b):
+                if k % n_b:
+                    for sg in (1, -1):
+                        keep &= np.abs(ff - (fb + sg * k * f_rot)) > LINE_GUARD_FRAC * f_rot
         if M.sim_stft is not None and calib is not None:
             # off the blade power the calibrated model predicts there (smeared lines too)
             d = ff - fb
@@ -703,6 +721,100 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
 
 
 # ---------------------------------------------------------------- the measurement
+
+#: the lines at non-multiples of the blade count are "visible" when their median power
+#: stands this many noise standard deviations above zero (then the phase-noise floor
+#: keeps off them as off the HERM lines)
+NON_MULTIPLE_VISIBLE_Z = 3.0
+
+
+def non_multiple_visible(power: np.ndarray, noise_var: np.ndarray, n_blades: int) -> bool:
+    """Whether the rotation harmonics that are not multiples of ``n_blades`` (a weak or
+    strong blade's lines) stand above the noise: median over (CPI, order, side) of
+    power / noise std > :data:`NON_MULTIPLE_VISIBLE_Z`."""
+    k = np.arange(1, power.shape[1] + 1)
+    sel = (k % n_blades) != 0
+    z = power[:, sel] / np.sqrt(noise_var[:, sel])
+    z = z[np.isfinite(z)]
+    return bool(len(z) >= 10 and np.median(z) > NON_MULTIPLE_VISIBLE_Z)
+
+
+#: relative broadening of one rotor's line within a CPI (its speed wanders ~1 % over a
+#: CPI in logged flights), times the line's order, plus 1.5 bins of window main lobe
+ROTOR_WANDER_REL = 0.025
+
+
+def thin_wire_line_power(blade_length_m: float, wavelength_m: float, k_max: int, n: int = 4096) -> np.ndarray:
+    """|c_k|^2, k = 0..k_max: the power of the k-th rotation harmonic of ONE thin-wire
+    blade of eq. (1), L exp(-j u cos phi) sinc(u cos phi / pi) with u = 2 pi L / lambda,
+    as a Fourier series over one revolution (symmetric in k). Identical blades keep only
+    the multiples of the blade count; a weak blade lets the others through."""
+    phi = 2 * np.pi * np.arange(n) / n
+    u = 2 * np.pi * blade_length_m / wavelength_m
+    c = np.cos(phi)
+    ck = np.fft.fft(np.exp(-1j * u * c) * np.sinc(u * c / np.pi)) / n
+    return np.abs(ck[: k_max + 1]) ** 2
+
+
+def _bins_near(st, centres, half) -> np.ndarray:
+    """bool [n_bins]: bins within ``half`` [Hz] of any of ``centres`` [Hz]."""
+    m = np.zeros(len(st.f_hz), bool)
+    for c, w in zip(np.ravel(centres), np.ravel(half)):
+        lo, hi = int(np.ceil(st.at(c - w))), int(np.floor(st.at(c + w)))
+        if hi >= 0 and lo < len(m):
+            m[max(lo, 0):min(hi, len(m) - 1) + 1] = True
+    return m
+
+
+def rotation_line_powers(st, f_body_hz, motor_rev_s, valid, n_blades: int, k_max: int, floor, *,
+                         clutter_guard_hz: float, raised_floor_db: float):
+    """Noise-subtracted power of every rotation harmonic k = 1..k_max on each side of
+    the body, summed over the rotors whose line of order k is clear of every other
+    rotor's lines of orders k-2..k+2.
+
+    Returns ``(power, noise_var, cross, n_rotors)``: float [n_t, k_max, 2] (side 0
+    upper, 1 lower; NaN where not measurable); the variance of ``power`` is
+    ``noise_var + cross * power`` (kappa (n_b fl^2 + 2 P fl), :func:`noise_power_factor`);
+    int [n_t, k_max, 2], how many rotors' lines the sum holds."""
+    n_t, n_m = motor_rev_s.shape
+    df, nyq = st.bin_hz, st.f_hz[-1]
+    kappa = noise_power_factor(st.window)
+    P = np.full((n_t, k_max, 2), np.nan)
+    V = np.full((n_t, k_max, 2), np.nan)
+    W = np.full((n_t, k_max, 2), np.nan)
+    R = np.zeros((n_t, k_max, 2), int)
+    for i in np.flatnonzero(valid):
+        fr = motor_rev_s[i]
+        if not np.all(np.isfinite(fr)) or np.any(fr <= 0):
+            continue
+        for k in range(1, k_max + 1):
+            half = k * fr * ROTOR_WANDER_REL + 1.5 * df
+            for s, sg in enumerate((1.0, -1.0)):
+                cs = f_body_hz[i] + sg * k * fr
+                near_orders = [f_body_hz[i] + sg * k2 * fr for k2 in range(max(0, k - 2), k + 3) if k2 != k]
+                clear = []
+                for m in range(n_m):
+                    mine = _bins_near(st, cs[m], half[m])
+                    oth = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
+                    if abs(cs[m]) + half[m] < nyq and abs(cs[m]) > clutter_guard_hz + half[m] and not np.any(mine & oth):
+                        clear.append(m)
+                if not clear:
+                    continue
+                mine = _bins_near(st, cs[clear], half[clear])
+                others = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
+                near = _bins_near(st, [cs.mean()], [0.5 * fr.mean()]) & ~mine & ~others & ~_bins_near(st, cs, half)
+                if near.sum() < 4:
+                    continue
+                fl = float(np.median(st.p[i, near]) / np.log(2.0))
+                if DB * np.log(fl / floor[i]) > raised_floor_db:
+                    continue
+                nb = int(mine.sum())
+                P[i, k - 1, s] = float(st.p[i, mine].sum()) - nb * fl
+                V[i, k - 1, s] = kappa * nb * fl ** 2
+                W[i, k - 1, s] = 2 * kappa * fl
+                R[i, k - 1, s] = len(clear)
+    return P, V, W, R
+
 
 def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | None = None) -> Measurements:
     """Measure ``flight`` against the paper's model of it (module doc).
@@ -809,12 +921,24 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     rng_m = np.interp(st.t_s, flight.track_time_s, flight.track_range_m)
     # CPIs outside the motor log's span: the log's speeds there are unknown
     in_log = (st.t_s >= log.time_s[0]) & (st.t_s <= log.time_s[-1])
-    valid = body_valid & ~art & in_log
+    # a body inside the clutter notch for most of the flight (hovering, on a stand, a
+    # staring recording): the body line is not measurable, but the rotor lines are,
+    # so every CPI counts for them (tests that need the body report not testable)
+    body_in_notch = bool(np.median(np.abs(f_body)) <= cfg.clutter_guard_hz + cfg.body_half_hz)
+    valid = (body_valid | body_in_notch) & ~art & in_log
     fine = body_power_fine(iq, prf, st.t_s, f_body, valid, n_fft, flight.track_time_s, flight.track_range_m,
                            floor_ratio=fl_ratio)
     side_fine = sideband_power_fine(iq, prf, st.t_s, f_body, h0 * dil_f, harm, spread, n_fft,
                                     flight.track_time_s, flight.track_range_m)
     lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, LAG_STEP_S)
+    # every rotation harmonic, per rotor at its own logged speed (times the measured
+    # dilation): the blade-passing lines and, between them, what unequal blades add
+    rev_m = np.stack([cpi_average(t_fine[::step], rev[::step, m], st.t_s, st.window, prf)
+                      for m in range(rev.shape[1])], axis=1) * dil_f[:, None]
+    k_max = B * N_HARMONICS
+    rot = rotation_line_powers(st, f_body, rev_m, in_log & ~art, B, k_max, floor,
+                               clutter_guard_hz=cfg.clutter_guard_hz, raised_floor_db=RAISED_FLOOR_DB)
+    rot_wire = thin_wire_line_power(float(a["blade_length_m"]), flight.wavelength_m, k_max)
     M = Measurements(
         flight.flight_id, st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
         up, lo, up_sd, lo_sd, ok, model_h,
@@ -824,7 +948,10 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         log=log, log_from_radar=log_from_radar, stft=st, bg_stft=bg, sim_stft=sim, body_fine=fine,
         side_fine=side_fine,
         info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()),
-              "match_q": float(np.nanmedian(q))})
+              "match_q": float(np.nanmedian(q)),
+              "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B),
+              "body_in_notch": body_in_notch},
+        rot_pow=rot[0], rot_var=rot[1], rot_cross=rot[2], rot_n=rot[3], rot_wire=rot_wire)
     # the model calibrated on the measurement, then the floor off the calibrated lines
     M = replace(M, calib=calibrate(M))
     return replace(M, floor_ordinates=floor_ordinates(M, cfg))

@@ -24,12 +24,12 @@ from ..errors import ConfigError, InputError
 from ..io.flightzarr import read_flight
 from ..io.motorlog import MotorLog
 from ..io.outputs import atomic_file
-from ..synthesis.catalog import CATALOG
+from ..synthesis.catalog import CATALOG, UNEXPLAINED
 from ..synthesis.extensions import save_extensions
 from .aggregate import aggregate, aggregate_twins
 from .config import DiagnosisConfig, unknown_key_error
 from .decide import decide_flight, skipped_entry
-from .explain import plot_diagnosis
+from .explain import goodness_of_fit, plot_diagnosis
 from .hypotheses import run_tests
 from .measure import Undiagnosable, measure
 
@@ -72,9 +72,43 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     M = measure(flight, motor_log, cfg)
     T = run_tests(M, cfg)
     D = decide_flight(M, T, cfg, started=started)
+    gof = goodness_of_fit(flight, M, D, cfg)
+    entry = explained_entry(D.entry, gof, T)
     if figure_path is not None and cfg.figures:
-        plot_diagnosis(flight, M, D, figure_path, cfg)
-    return D.entry
+        plot_diagnosis(flight, M, D, figure_path, cfg, gof=gof)
+    return entry
+
+
+def explained_entry(entry: dict, gof: dict, T) -> dict:
+    """The report entry with what the named causes leave: ``unexplained`` appended to
+    ``causes`` (with ``excess_db`` and ``band_hz``) when the goodness of fit finds an
+    excess, and ``not_testable`` ({cause: reason}) for the causes the flight's data
+    could not test, so that ``none`` is never read as "tested and absent"."""
+    out = dict(entry)
+    causes = list(out["causes"])
+    fading = T.tests.get("sideband_fading")
+    common = (fading is not None and fading.testable and "common_gain_db" in fading.evidence
+              and fading.log_e >= entry["evidence"]["log_evalue_threshold"])
+    if gof["excess"]:
+        causes.append({"cause": UNEXPLAINED,
+                       "params": {"excess_db": gof["excess_db"], "band_hz": gof["band_hz"]},
+                       "evidence": {k: v for k, v in gof.items() if not k.startswith("_")}})
+    elif common:
+        # a significant gain common to the body and the blades (range-cell straddle,
+        # aspect): no catalog cause is a gain on the whole target
+        span = gof["analysed_band_hz"]
+        causes.append({"cause": UNEXPLAINED,
+                       "params": {"excess_db": fading.evidence["common_gain_db"], "band_hz": span},
+                       "evidence": {"kind": "a power fluctuation common to the body and the blades",
+                                    "std_db": fading.evidence["common_gain_db"],
+                                    "body_correlation": fading.evidence.get("body_correlation"),
+                                    "log_evalue": fading.log_e}})
+    out["causes"] = causes
+    out["cause"] = causes[0]["cause"] if causes else "none"
+    out["not_testable"] = {c: str(t.evidence.get("reason", "not testable")) for c, t in T.tests.items()
+                           if not t.testable}
+    out["evidence"] = {**out["evidence"], "goodness_of_fit": {k: v for k, v in gof.items() if not k.startswith("_")}}
+    return out
 
 
 def write_json(obj, path) -> Path:
@@ -106,7 +140,7 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
             e = skipped_entry(f.flight_id, exc.reason)
             log(f"{f.flight_id}: skipped: {exc.reason}")
         else:
-            named = "; ".join(f"{c['cause']} {c['extension']['params']}" for c in e["causes"]) or "none"
+            named = "; ".join(f"{c['cause']} {(c.get('extension') or c)['params']}" for c in e["causes"]) or "none"
             log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
     report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}

@@ -81,10 +81,21 @@ CAUSES: dict[str, Cause] = {
                    "relative to the carrier (any spectral shape; for the flat process "
                    ":func:`flat_skirt_dbc_hz` of rms_rad)", ">= about -75 dBc/Hz")),
         ),
+        Cause(
+            "blade_imbalance",
+            "the blades of a propeller do not scatter alike (a tagged, chipped, bent or differently pitched "
+            "blade): lines at multiples of the rotation rate that are not multiples of the blade-passing rate",
+            (Param("imbalance_db", "dB", "how far the weakest blade's scattering amplitude lies below the mean of "
+                   "the propeller's other blades, 20 log10 of the amplitude ratio, positive", ">= 3"),),
+        ),
     ]
 }
 
-CATALOG: tuple[str, ...] = tuple(CAUSES)
+#: not a model extension: the model, with every named cause's extension, still misses
+#: the held-out data by more than noise and the fit's uncertainty allow. Reported last,
+#: so that "none" always means that the model fits.
+UNEXPLAINED = "unexplained"
+CATALOG: tuple[str, ...] = tuple(CAUSES) + (UNEXPLAINED,)
 PHASE_NOISE_BANDWIDTH_HZ = 100.0
 #: offset from the carrier at which ``skirt_dbc_hz`` is read [Hz]
 SKIRT_OFFSET_HZ = 50.0

@@ -20,6 +20,11 @@ parameter names, units and signs:
     logged one with its times moved by -lag_s (:meth:`ExtensionSet.transform_log`).
 ``motor_speed_scale``   {scale}
     true speed = scale * logged speed (:meth:`ExtensionSet.transform_log`).
+``blade_imbalance``     {imbalance_db}
+    :meth:`ExtensionSet.blade_amplitudes`: blade 0 of every rotor scatters
+    10^(-imbalance_db/20) of the others (amplitudes scaled to sum to the blade count),
+    so lines appear at the multiples of the rotation rate that are not multiples of
+    the blade count (``BladeModel.blade_amplitudes``).
 ``phase_noise``         {rms_rad, skirt_dbc_hz}
     :meth:`ExtensionSet.post` multiplies the echo by exp(j theta(t)), theta Gaussian
     with a flat spectrum on |f| < 100 Hz and rms ``rms_rad``. ``skirt_dbc_hz`` (the
@@ -218,6 +223,18 @@ class ExtensionSet:
             p = e["body_fluctuation"]
             kw["body_hook"] = _GainHook(dur, p["body_std_db"], p["timescale_s"], rng)
         return ModelExtensions(**kw)
+
+    def blade_amplitudes(self, n_blades: int) -> np.ndarray | None:
+        """Each blade's scattering amplitude for ``blade_imbalance`` (float [n_blades];
+        None without it): blade 0 at 10^(-imbalance_db/20) of the others, all scaled so
+        that they sum to ``n_blades``, so the blade-passing lines (which sum the blades)
+        keep the calibrated level and only the lines between them appear."""
+        if "blade_imbalance" not in self.effects:
+            return None
+        a = 10 ** (-self.effects["blade_imbalance"]["imbalance_db"] / 20)
+        amps = np.ones(int(n_blades))
+        amps[0] = a
+        return amps * n_blades / amps.sum()
 
     def post(self, iq: np.ndarray, *, prf_hz: float, seed: int) -> np.ndarray:
         """Post-step on the synthesised echo (phase noise); returns a new array
