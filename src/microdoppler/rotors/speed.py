@@ -182,7 +182,7 @@ class RotorSpeedConfig:
     """
 
     min_rev_s: float = 20.0
-    max_rev_s: float = 300.0
+    max_rev_s: float = 400.0
     n_harmonics: int = 10
     pair_snr_db: float = 10.0
     floor_window_bins: int = 129
@@ -369,6 +369,7 @@ class RotorEstimate:
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
                 **fitted,
+                **_order_attrs(self),
                 "settings": self.info.get("settings", {}),
             },
         }
@@ -388,6 +389,11 @@ class RotorEstimate:
         return (f"{self.flight_id}: {int(v.sum())} of {len(v)} CPIs, mean rotor speed "
                 f"{np.nanmean(self.common_rev_s):.1f} rev/s, median {np.median(self.n_pairs[v]):.0f} pairs, "
                 f"{int(self.separated.sum())} CPIs with every rotor separated")
+
+
+def _order_attrs(est) -> dict:
+    from .order import order_attrs
+    return order_attrs(est)
 
 
 def _no_estimate(flight_id, n_cpi, t, n_motors, n_blades, n_fft, reason, info=None) -> RotorEstimate:
@@ -449,7 +455,7 @@ class _Cpi:
 
 def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | None = None,
                           n_blades: int | None = None, config: RotorSpeedConfig | None = None,
-                          progress=None) -> RotorEstimate:
+                          progress=None, order: bool = True) -> RotorEstimate:
     """Estimate each rotor's speed over time from the flight's HERM lines.
 
     Parameters
@@ -465,6 +471,10 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         Method settings (see the module docstring).
     progress : callable(done, total), optional
         Called during the I/Q fit (step 9, ~0.35 s per CPI) every 64 CPIs and at its end.
+    order : bool
+        Check the comb's harmonic order (:func:`microdoppler.rotors.order.resolve_order`:
+        unequal blades, folded Doppler, sub- and super-harmonics; alternatives and their
+        doubt in ``info["order"]`` and the uncertainties). False: the comb as found.
 
     Returns
     -------
@@ -580,8 +590,13 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         est = _no_estimate(fid, n_cpi, t, M, B, n_fft, reason, info)
         est.n_pairs = n_pairs
         return est
-    return RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
-                         balance)
+    est = RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
+                        balance)
+    if order:  # which comb the lines are, with its doubt (rotors.order)
+        from .order import resolve_order
+        est = resolve_order(flight, est, cfg, rerun=lambda c: estimate_rotor_speeds(
+            flight, n_fft=n_fft, n_motors=M, n_blades=B, config=c, progress=progress, order=False))
+    return est
 
 
 def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,

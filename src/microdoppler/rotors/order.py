@@ -1,0 +1,709 @@
+"""Which comb the HERM lines are: the rotation rate's harmonic order, with its doubt.
+
+:func:`microdoppler.rotors.speed.estimate_rotor_speeds` measures the spacing of a
+flight's HERM lines well, and reads it as the blade-passing rate B f of rotors turning
+at f [rev/s]. Other line sets share that spacing, and with them the speed is off by a
+simple ratio while the lines are measured well:
+
+- unequal blades (a tag, a chip, a different pitch): a rotor returns lines at every
+  multiple of f, not only at multiples of B f; read as a blade-passing comb they give
+  f / B (0.5x for two blades);
+- Doppler beyond +-PRF/2 folds: the lines wrap modulo the PRF and interleave with the
+  unfolded ones, so that a comb of a different spacing (1.5x, 2x) matches them;
+- sub- and super-harmonics: a comb at f / 2 contains every line of the true one, one
+  at 2 f half of them.
+
+:func:`resolve_order` scores candidate rotation rates by the likelihood of every CPI's
+spectral lines under a line model that knows both line families and folding, and by
+physics, and where two rates remain plausible says so.
+
+Candidates: the estimate's mean rate times 1/3, 1/2, 2/3, 1, 3/2, 2, 3 (and 1/B, B),
+plus the best local maxima of a screen of the likelihood over the whole range
+``min_rev_s``-``max_rev_s`` (a coarse model on a few CPIs), each with the estimate's
+time profile and rotor spread. A candidate is excluded by physics where its blade tips
+would pass ``max_tip_mach`` (2 pi f L over the speed of sound).
+
+Line model, per CPI, for a rotation rate f (the rotors' rates f p_m, p_m the
+estimate's relative spread): rotation harmonic k has a line at body + s k f (s = +-1,
+folded modulo the PRF into the spectrum) within a window covering the rotors' spread,
+k f (p_min..p_max), plus the line width; the blade-passing family (k a multiple of B)
+has the level a - beta d / f_max, d = k f p_max, the rotation-rate family (other k)
+the same level times rho^2 (``imbalance``: rho = 0 for equal blades, at most the rho of
+one blade ``max_weak_blade_db`` weaker than the others), and no line lies beyond
+kappa f_max, where f_max = 2 (2 pi f L) / lambda is the blade tips' Doppler: the blade
+flash's Doppler extent. ``extent_range`` bounds kappa (the stated tolerance: below 1
+for a rotor plane seen at an elevation, a weak tip, a drooping envelope; above 1 for a
+blade length known to ~10 %). Observations are the spectrum's peaks (``line_db`` over
+the local floor, ``prominence_db``; clutter and body bands masked):
+
+- a peak inside a window of a line: density (1 - fade) N(y; mu, line_sd_db) / width;
+- a window of a line without a peak: 1 - (1 - fade) Phi((mu - line_db) / line_sd_db);
+- a peak no line explains: a spurious line, ``spurious_per_cpi`` per CPI spread
+  uniformly over the band and over ``spurious_range_db``.
+
+The data are the same for every candidate (every peak is explained or spurious), so
+their likelihoods compare: a sub-harmonic pays for its empty windows, a super-harmonic
+or a wrong folding for the peaks it leaves unexplained, the rotation-rate family at
+twice the rate for lines as strong as the blade-passing ones (rho capped), and a rate
+too low for lines beyond its blade-tip Doppler. The level a (per CPI), beta, kappa and
+rho are fitted per candidate on a grid. CPIs overlap by half and the model is not the
+world, so the log-likelihood is divided by ``temperature`` before the candidates are
+weighed (relative likelihood exp(LL - LL_max)).
+
+Where another candidate's relative likelihood is ``ambiguous_at`` or more, the flight's
+order is ambiguous: ``RotorEstimate.info["order"]`` lists the alternatives, the store's
+``motors_radar`` attributes ``rotor_order_alternatives_rev_s`` and
+``rotor_order_relative_likelihood`` carry them, and every CPI's uncertainty includes
+the order's: sigma^2 + sum_h w_h (v_h - v)^2 over the candidates h (weights w, speeds v_h
+= v f_h / f), the spread of the mixture about the reported speed. Where the chosen rate
+is not the estimate's, the speeds are measured again with the search confined around it
+(``rerun``) and, where that does not find it, scaled.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+from scipy.signal import find_peaks
+from scipy.signal.windows import blackmanharris
+from scipy.special import log_ndtr
+
+from .speed import local_floor_db
+
+METHOD = "order/1"
+SOUND_MPS = 343.0
+C_MPS = 299_792_458.0
+#: the standard ratios to the estimate's rate that are always examined
+RATIOS = (1 / 3, 1 / 2, 2 / 3, 1.0, 3 / 2, 2.0, 3.0)
+
+
+@dataclass(frozen=True)
+class OrderConfig:
+    """Settings of :func:`resolve_order` (see the module docstring).
+
+    Parameters
+    ----------
+    min_rev_s, max_rev_s : float
+        Plausible rotation rates [rev/s] of the mean rotor.
+    max_tip_mach : float
+        Blade tips faster than this (Mach) exclude a candidate.
+    extent_range : (float, float)
+        Bounds of kappa, the blade flash's Doppler extent over 2 (2 pi f L) / lambda.
+    max_weak_blade_db : float
+        The rotation-rate family's level is at most that of one blade this much weaker
+        than the others (amplitude, 20 log10).
+    line_db, prominence_db : float
+        A peak stands ``line_db`` over the local floor with ``prominence_db``.
+    line_sd_db : float
+        Spread of a line's level about the envelope [dB].
+    fade : float
+        Probability that a line falls out (fading, interference of rotors).
+    spurious_per_cpi, spurious_range_db : float
+        Peaks no rotor explains: expected count per CPI over the band, and the span of
+        their heights above ``line_db``.
+    clutter_guard_hz, body_guard_hz : float
+        Masked bands around 0 Hz and the body [Hz].
+    max_cpis, screen_cpis : int
+        CPIs used (evenly spread, preferring non-overlapping ones) for the likelihood
+        and for the screen.
+    screen_step, screen_keep, min_separation : float, int, float
+        Screen grid (relative step), local maxima kept, and their least separation.
+    temperature : float
+        The log-likelihood is divided by this before candidates are weighed.
+    ambiguous_at : float
+        Alternatives with this relative likelihood or more make the order ambiguous.
+    report_at : float
+        Alternatives below this relative likelihood are not listed (their weight still
+        enters the uncertainty).
+    same_rel : float
+        Candidates within this relative distance are one.
+    rerun_margin : float
+        The re-measurement searches the chosen rate's range widened by this factor.
+    spread_margin : float
+        A line window covers the estimate's rotor spread widened by this (relative)
+        on either side, for the rotors the lines did not separate.
+    coverage_free, min_evidence : float
+        Where two combs' windows cover more than ``coverage_free`` of the spectrum
+        (folded, dense lines), the evidence between them is scaled by
+        (1 - coverage) / (1 - coverage_free), at least ``min_evidence``.
+    prior_lines : float
+        Log-likelihood advantage of the comb the lines were read as (the estimator's
+        own evidence: its first pair visible, its harmonics).
+    """
+
+    min_rev_s: float = 20.0
+    max_rev_s: float = 400.0
+    max_tip_mach: float = 0.7
+    extent_range: tuple = (0.6, 1.1)
+    max_weak_blade_db: float = 12.0
+    line_db: float = 10.0
+    prominence_db: float = 6.0
+    line_sd_db: float = 5.0
+    fade: float = 0.05
+    spurious_per_cpi: float = 1.0
+    spurious_range_db: float = 50.0
+    clutter_guard_hz: float = 20.0
+    body_guard_hz: float = 20.0
+    max_cpis: int = 64
+    screen_cpis: int = 24
+    screen_step: float = 0.004
+    screen_keep: int = 6
+    min_separation: float = 0.03
+    temperature: float = 2.0
+    ambiguous_at: float = 0.05
+    report_at: float = 0.01
+    same_rel: float = 0.02
+    rerun_margin: float = 1.2
+    spread_margin: float = 0.01
+    coverage_free: float = 0.5
+    min_evidence: float = 0.05
+    prior_lines: float = 1.0
+
+    def __post_init__(self):
+        if not 0 < self.min_rev_s < self.max_rev_s:
+            raise ValueError(f"min_rev_s={self.min_rev_s}, max_rev_s={self.max_rev_s} must satisfy 0 < min < max")
+        lo, hi = self.extent_range
+        if not 0 < lo < hi:
+            raise ValueError(f"extent_range={self.extent_range} must satisfy 0 < low < high")
+        for name in ("max_tip_mach", "line_sd_db", "spurious_per_cpi", "spurious_range_db", "temperature",
+                     "screen_step", "rerun_margin"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}={getattr(self, name)} must be > 0")
+        if not 0 <= self.fade < 1:
+            raise ValueError(f"fade={self.fade} must be in [0, 1)")
+        if not 0 < self.report_at <= self.ambiguous_at <= 1:
+            raise ValueError(f"report_at={self.report_at} and ambiguous_at={self.ambiguous_at} must satisfy "
+                             "0 < report_at <= ambiguous_at <= 1")
+        if self.max_cpis < 1 or self.screen_cpis < 1 or self.screen_keep < 0:
+            raise ValueError("max_cpis and screen_cpis must be >= 1, screen_keep >= 0")
+
+
+def rho_max(n_blades: int, weak_db: float) -> float:
+    """Largest ratio of a rotation-rate line to a blade-passing line at the same
+    Doppler: one blade of amplitude g = 10^(-weak_db/20) among B - 1 of amplitude 1
+    gives |1 - g| / (B - 1 + g) (the k-th harmonic's blade sum for k not a multiple of B)."""
+    g = 10 ** (-weak_db / 20)
+    return (1 - g) / (n_blades - 1 + g)
+
+
+@dataclass
+class _Data:
+    """The CPIs' peaks and geometry (Hz relative to the body, per CPI)."""
+
+    prf: float
+    bin_hz: float
+    n_fft: int
+    peaks_x: np.ndarray      # [n_cpi, P] peak offset from the body [Hz], NaN padding
+    peaks_y: np.ndarray      # [n_cpi, P] height over the floor [dB]
+    pk_table: list           # sparse table of peak heights, CPIs concatenated (each doubled: circular)
+    masked: np.ndarray       # [n_cpi, 2 n_fft + 1] prefix counts of masked bins (doubled, circular)
+    centre_bin: np.ndarray   # [n_cpi] body [fractional bin, 0..n_fft)
+    p_lo: np.ndarray         # [n_cpi] slowest rotor's rate / reference
+    p_hi: np.ndarray         # [n_cpi] fastest rotor's rate / reference
+    cpi_index: np.ndarray    # which CPIs of the estimate
+
+
+def _sparse_table(v: np.ndarray) -> list:
+    out = [v]
+    j = 1
+    while 2 * j <= len(v):
+        prev = out[-1]
+        out.append(np.maximum(prev[:len(prev) - j], prev[j:]))
+        j *= 2
+    return out
+
+
+def _range_max(table: list, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """max v[lo..hi] (inclusive, lo <= hi) from a sparse table."""
+    ln = np.maximum(hi - lo + 1, 1)
+    lev = np.floor(np.log2(ln)).astype(int)
+    out = np.full(lo.shape, -np.inf)
+    for L in np.unique(lev):
+        s = lev == L
+        t = table[min(L, len(table) - 1)]
+        out[s] = np.maximum(t[lo[s]], t[hi[s] - (1 << L) + 1])
+    return out
+
+
+def _row_median(r: np.ndarray) -> np.ndarray:
+    """Median of the finite entries of each row (NaN where none)."""
+    srt = np.sort(r, axis=1)  # NaN last
+    cnt = np.isfinite(r).sum(axis=1)
+    lo = np.clip((cnt - 1) // 2, 0, None)
+    hi = np.clip(cnt // 2, 0, None)
+    rows = np.arange(len(r))
+    out = 0.5 * (srt[rows, np.minimum(lo, r.shape[1] - 1)] + srt[rows, np.minimum(hi, r.shape[1] - 1)])
+    return np.where(cnt > 0, out, np.nan)
+
+
+def _choose_cpis(valid: np.ndarray, k: int) -> np.ndarray:
+    """Up to ``k`` of the valid CPIs, evenly spread, non-overlapping ones first."""
+    idx = np.flatnonzero(valid)
+    if len(idx) <= k:
+        return idx
+    even = idx[idx % 2 == 0]
+    pool = even if len(even) >= k else idx
+    return pool[np.round(np.linspace(0, len(pool) - 1, k)).astype(int)]
+
+
+def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg) -> _Data:
+    n = int(est.n_fft)
+    hop = n // 2
+    prf = float(flight.prf_hz)
+    bin_hz = prf / n
+    w = blackmanharris(n, sym=False)
+    f = np.fft.fftfreq(n, 1 / prf)
+    P = []
+    px, py, tabs, masks, cb = [], [], [], [], []
+    for i in cpis:
+        x = np.asarray(flight.iq[i * hop:i * hop + n], np.complex128) * w
+        p = np.abs(np.fft.fft(x)) ** 2 / (w ** 2).sum()
+        pdb = np.fft.fftshift(10 * np.log10(p + 1e-30))
+        fl = local_floor_db(pdb[None, :], window_bins=scfg.floor_window_bins, step_bins=scfg.floor_step_bins,
+                            percentile=scfg.floor_percentile)[0]
+        z = np.fft.ifftshift(pdb - fl)
+        body = float(est.body_hz[i])
+        rel = (f - body + prf / 2) % prf - prf / 2
+        mask = (np.abs(f) < ocfg.clutter_guard_hz) | (np.abs(rel) < ocfg.body_guard_hz)
+        z = np.where(mask, -100.0, z)
+        pad = 8
+        zz = np.r_[z[-pad:], z, z[:pad]]
+        pk, _ = find_peaks(zz, height=ocfg.line_db, prominence=ocfg.prominence_db)
+        pk = pk[(pk >= pad) & (pk < pad + n)]
+        # parabolic refinement of each peak's bin
+        a, b, c = zz[pk - 1], zz[pk], zz[pk + 1]
+        den = a - 2 * b + c
+        off = np.where(den < 0, np.clip(0.5 * (a - c) / np.where(den < 0, den, -1), -0.5, 0.5), 0.0)
+        pos = (pk - pad + off) % n
+        cbin = (body / bin_hz) % n
+        xr = ((pos - cbin + n / 2) % n - n / 2) * bin_hz
+        px.append(xr)
+        py.append(b)
+        hv = np.full(n, -np.inf)
+        hv[pk - pad] = b
+        tabs.append(np.r_[hv, hv])
+        masks.append(np.r_[0, np.cumsum(np.r_[mask, mask])])
+        cb.append(cbin)
+        P.append(len(pk))
+    Pm = max(max(P) if P else 0, 1)
+    peaks_x = np.full((len(cpis), Pm), np.nan)
+    peaks_y = np.full((len(cpis), Pm), np.nan)
+    for r, (x, y) in enumerate(zip(px, py)):
+        peaks_x[r, :len(x)] = x
+        peaks_y[r, :len(y)] = y
+    sp = est.speeds_rev_s[cpis]
+    p_lo = np.nanmin(sp, axis=1) / ref
+    p_hi = np.nanmax(sp, axis=1) / ref
+    # the rotor spread seen in the data: peaks within 12 % of the comb's first three
+    # blade-passing harmonics (where no other order's line falls); the estimate may have
+    # put two rotors on one line and missed the fastest or slowest
+    fb = int(est.n_blades) * ref
+    ax = np.abs(peaks_x)
+    nn = np.round(ax / fb)
+    dev = np.where((nn >= 1) & (nn <= 3) & (peaks_y >= ocfg.line_db + 3.0), ax / np.maximum(nn, 1) / fb - 1, np.nan)
+    dev = np.where(np.abs(dev) <= 0.12, dev, np.nan)
+    with np.errstate(all="ignore"):
+        has = np.isfinite(dev).any(axis=1)
+        p_lo = np.where(has, np.minimum(p_lo, 1 + np.nanmin(np.where(has[:, None], dev, 0.0), axis=1)), p_lo)
+        p_hi = np.where(has, np.maximum(p_hi, 1 + np.nanmax(np.where(has[:, None], dev, 0.0), axis=1)), p_hi)
+    mid = 0.5 * (p_lo + p_hi)
+    half = np.minimum(0.5 * (p_hi - p_lo), 0.1 * mid) + ocfg.spread_margin * mid  # (over 20 %: not one drone's)
+    return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks), np.array(cb), mid - half, mid + half,
+                 np.asarray(cpis))
+
+
+@dataclass
+class _Geometry:
+    """Windows and peak assignments of one candidate rate (arrays over the CPIs)."""
+
+    f: float
+    d: np.ndarray          # [n_cpi, W] unfolded offset of the outermost rotor's line [Hz]
+    fam: np.ndarray        # [n_cpi, W] True: rotation-rate family (k not a multiple of B)
+    valid: np.ndarray      # [n_cpi, W] window observable (centre unmasked)
+    detected: np.ndarray   # [n_cpi, W] a peak inside
+    fmax: np.ndarray       # [n_cpi] blade-tip Doppler of the fastest rotor [Hz]
+    pk_d: np.ndarray       # [n_cpi, P, 2] per peak: offset d of the covering window, per family (inf: none)
+    pk_w: np.ndarray       # [n_cpi, P, 2] its width [Hz]
+    pk_y: np.ndarray       # [n_cpi, P]
+    pk_ok: np.ndarray      # [n_cpi, P]
+    lo_bin: np.ndarray     # [n_cpi, W] first bin of each window (mod n_fft)
+    hi_bin: np.ndarray     # [n_cpi, W] last bin (lo_bin + width, may pass n_fft)
+
+
+def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: OrderConfig,
+              rows: np.ndarray | None = None) -> _Geometry:
+    rows = np.arange(len(data.p_lo)) if rows is None else rows
+    prf, bh, n = data.prf, data.bin_hz, data.n_fft
+    lo, hi = f * data.p_lo[rows], f * data.p_hi[rows]                    # [R] Hz per harmonic
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    kmax_ext = ocfg.extent_range[1]
+    if L is not None:
+        fmax = 4 * np.pi * hi * L / lam
+        dmax = kmax_ext * fmax
+    else:
+        fmax = np.full(len(rows), np.inf)
+        dmax = np.full(len(rows), prf)
+    K = int(np.clip(np.ceil(np.max(dmax / lo)), 1, 4000))
+    k = np.arange(1, K + 1)
+    # windows: [R, 2K] (k for s = +1 then s = -1)
+    kk = np.r_[k, k][None, :].astype(float)
+    s = np.r_[np.ones(K), -np.ones(K)][None, :]
+    hw = np.minimum(kk * (half[:, None] + 0.004 * mid[:, None]) + 1.5 * bh, 0.5 * mid[:, None])
+    centre = kk * mid[:, None]
+    d = kk * hi[:, None]
+    inrange = d <= dmax[:, None]
+    cbin = data.centre_bin[rows][:, None] + s * centre / bh
+    lo_b = np.floor(cbin - hw / bh).astype(np.int64)
+    hi_b = np.ceil(cbin + hw / bh).astype(np.int64)
+    width_b = np.minimum(hi_b - lo_b, n - 1)
+    lo_m = lo_b % n
+    hi_m = lo_m + width_b
+    base = (rows * 2 * n)[:, None]
+    det = np.isfinite(_range_max(data.pk_table, lo_m + base, hi_m + base))
+    cm = np.round(cbin).astype(np.int64) % n
+    msk = data.masked[rows]
+    centre_masked = (np.take_along_axis(msk, cm + 1, 1) - np.take_along_axis(msk, cm, 1)) > 0
+    valid = inrange & ~centre_masked
+    fam = (np.r_[k, k] % B != 0)[None, :].repeat(len(rows), 0)
+    # peaks: the covering window of each family, over the folds
+    x = data.peaks_x[rows]                                                # [R, P]
+    ok = np.isfinite(x)
+    J = int(np.ceil(np.max(dmax) / prf)) + 1
+    js = np.arange(-J, J + 1)
+    xj = np.where(ok, x, 0.0)[:, :, None] + js[None, None, :] * prf       # [R, P, 2J+1]
+    ax = np.abs(xj)
+    pk_d = np.full(x.shape + (2,), np.inf)
+    pk_w = np.full(x.shape + (2,), np.inf)
+    m_ = mid[:, None, None]
+    # the nearest harmonic and its neighbours (windows widen with k and may reach over)
+    kf = np.round(ax / m_)[..., None] + np.array([-1.0, 0.0, 1.0])       # [R, P, 2J+1, 3]
+    kf = kf.reshape(ax.shape[:2] + (-1,))
+    ax = np.repeat(ax, 3, axis=2)
+    kf_ok = (kf >= 1) & (kf <= K)
+    hwk = np.minimum(kf * (half[:, None, None] + 0.004 * m_) + 1.5 * bh, 0.5 * m_)
+    inside = kf_ok & (np.abs(ax - kf * m_) <= hwk) & (kf * hi[:, None, None] <= dmax[:, None, None])
+    dd = np.where(inside, kf * hi[:, None, None], np.inf)
+    famk = (kf.astype(np.int64) % B) != 0
+    for fi, fsel in enumerate((~famk, famk)):
+        dsel = np.where(fsel, dd, np.inf)
+        j = np.argmin(dsel, axis=2)
+        pk_d[:, :, fi] = np.take_along_axis(dsel, j[:, :, None], 2)[:, :, 0]
+        wsel = np.take_along_axis(np.where(fsel & inside, 2 * hwk, np.inf), j[:, :, None], 2)[:, :, 0]
+        pk_w[:, :, fi] = wsel
+    return _Geometry(f, d, fam, valid, det, fmax, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m)
+
+
+def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, betas, rhos_db, a_offsets, per_cpi=False,
+            with_cpis=False):
+    """Maximised log-likelihood of a candidate over the parameter grid: (LL, params),
+    (LL, params, per-CPI LL) where ``with_cpis``, or the per-CPI LL array of the best
+    parameters where ``per_cpi``."""
+    T, sd = ocfg.line_db, ocfg.line_sd_db
+    log_keep = np.log1p(-ocfg.fade)
+    spur = np.log(ocfg.spurious_per_cpi / data.prf / ocfg.spurious_range_db)
+    y = np.where(g.pk_ok, g.pk_y, 0.0)
+    fmax = g.fmax[:, None]
+    best = (-np.inf, None, None)
+    for kap in kappas:
+        lim = kap * fmax
+        act_w = g.valid & (g.d <= lim)
+        for rho in rhos_db:
+            use_imb = np.isfinite(rho)
+            w_act = act_w & (~g.fam | use_imb)
+            pd_b = g.pk_d[:, :, 0]
+            pd_i = g.pk_d[:, :, 1]
+            ex_b = g.pk_ok & (pd_b <= lim)
+            ex_i = g.pk_ok & use_imb & (pd_i <= lim)
+            for beta in betas:
+                shp_b = -beta * np.where(ex_b, pd_b, 0.0) / np.where(np.isfinite(fmax), fmax, data.prf)
+                shp_i = -beta * np.where(ex_i, pd_i, 0.0) / np.where(np.isfinite(fmax), fmax, data.prf) + (
+                    rho if use_imb else 0.0)
+                # level a per CPI: median of the explained blade-family peaks' (y - shape)
+                r = np.where(ex_b, y - shp_b, np.nan)
+                a0 = _row_median(r)
+                a0 = np.where(np.isfinite(a0), a0, T - 2 * sd)
+                shp_w = -beta * g.d / np.where(np.isfinite(fmax), fmax, data.prf) + np.where(g.fam, rho if use_imb
+                                                                                          else 0.0, 0.0)
+                for ao in a_offsets:
+                    a = (a0 + ao)[:, None]
+                    # a peak explained by either family: the better-fitting one
+                    lb = np.where(ex_b, log_keep - 0.5 * ((y - a - shp_b) / sd) ** 2 - np.log(sd * np.sqrt(2 * np.pi))
+                                  - np.log(np.where(ex_b, g.pk_w[:, :, 0], 1.0)), -np.inf)
+                    li = np.where(ex_i, log_keep - 0.5 * ((y - a - shp_i) / sd) ** 2 - np.log(sd * np.sqrt(2 * np.pi))
+                                  - np.log(np.where(ex_i, g.pk_w[:, :, 1], 1.0)), -np.inf)
+                    lp = np.maximum(np.maximum(lb, li), spur)
+                    lp = np.where(g.pk_ok, lp, 0.0).sum(axis=1)
+                    mu = a + shp_w
+                    miss = w_act & ~g.detected
+                    pdet = np.exp(log_keep + log_ndtr((mu - T) / sd))
+                    lm = np.where(miss, np.log1p(-np.minimum(pdet, 1 - 1e-12)), 0.0).sum(axis=1)
+                    tot = lp + lm
+                    s = float(tot.sum())
+                    if s > best[0]:
+                        best = (s, (kap, beta, rho if use_imb else None, a0 + ao), tot)
+    if per_cpi:
+        return best[2]
+    kap, beta, rho, a = best[1]
+    params = {"kappa": float(kap), "beta_db": float(beta), "imbalance_db": None if rho is None else float(rho),
+              "level_db": float(np.median(a))}
+    return (best[0], params, best[2]) if with_cpis else (best[0], params)
+
+
+@dataclass
+class Candidate:
+    """One candidate rotation rate and its score."""
+
+    rev_s: float
+    ratio: float
+    loglik: float
+    params: dict
+    tip_mach: float
+    extent_ratio: float
+    explained_share: float
+    origin: str
+    coverage: float = 0.0
+    per_cpi: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    relative_likelihood: float = 0.0
+
+
+def _coverage(g: _Geometry, params: dict, n: int) -> float:
+    """Share of the spectrum's bins inside the candidate's active line windows (the
+    chance that a peak anywhere is explained: near 1 the comb tells little)."""
+    act = g.valid & (g.d <= params["kappa"] * g.fmax[:, None]) & (~g.fam | (params["imbalance_db"] is not None))
+    R = act.shape[0]
+    diff = np.zeros((R, 2 * n + 2))
+    rr = np.repeat(np.arange(R)[:, None], act.shape[1], 1)[act]
+    np.add.at(diff, (rr, g.lo_bin[act]), 1)
+    np.add.at(diff, (rr, np.minimum(g.hi_bin[act] + 1, 2 * n + 1)), -1)
+    cov = np.cumsum(diff, axis=1)[:, :2 * n] > 0
+    cov = cov[:, :n] | cov[:, n:]
+    return float(cov.mean())
+
+
+def _explained(g: _Geometry, params: dict) -> tuple[float, float]:
+    """(share of peaks explained, the blade flash's extent over f_max: the 90th
+    percentile over CPIs of the farthest explained blade-family line)."""
+    lim = params["kappa"] * g.fmax[:, None]
+    ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
+    ex_i = g.pk_ok & (params["imbalance_db"] is not None) & (g.pk_d[:, :, 1] <= lim)
+    share = float((ex_b | ex_i).sum() / max(g.pk_ok.sum(), 1))
+    far = np.where(ex_b, g.pk_d[:, :, 0], 0.0).max(axis=1)
+    ext = float(np.percentile(far / g.fmax, 90)) if np.all(np.isfinite(g.fmax)) and len(far) else float("nan")
+    return share, ext
+
+
+def _score(data: _Data, f: float, B: int, L, lam: float, ocfg: OrderConfig, grid_full: tuple, ref: float,
+           p_top: float, origin: str) -> Candidate:
+    """The full model's score of rate ``f``: log-likelihood (over ``temperature``), the
+    fitted envelope, per-CPI log-likelihoods, the blades' tip Mach, extent and coverage."""
+    g = _geometry(data, f, B, L, lam, ocfg)
+    ll, params, per = _loglik(g, data, ocfg, *grid_full, with_cpis=True)
+    share, ext = _explained(g, params)
+    return Candidate(float(f), float(f / ref), float(ll) / ocfg.temperature, params,
+                     float(2 * np.pi * f * p_top * L / SOUND_MPS) if L is not None else float("nan"), ext, share,
+                     origin, _coverage(g, params, data.n_fft), per / ocfg.temperature)
+
+
+def _relative(best: Candidate, c: Candidate, ocfg: OrderConfig) -> float:
+    """Likelihood of ``c`` relative to ``best``, tempered twice: by the CPIs' own scatter
+    (the per-CPI differences d_i have variance ~2 mean(d) where the model holds; a larger
+    scatter scales the evidence down by 2 mean / variance), and by the share of the
+    spectrum the two combs' windows cover (a peak is explained by chance there: the
+    evidence is scaled by (1 - coverage) / (1 - ``coverage_free``), at least
+    ``min_evidence``)."""
+    if c is best:
+        return 1.0
+    d = best.per_cpi - c.per_cpi
+    total = best.loglik - c.loglik
+    if total <= 0:
+        return 1.0
+    if len(d) > 1:
+        mu, var = float(d.mean()), float(d.var(ddof=1))
+        if mu > 0 and var > 2 * mu:
+            total *= 2 * mu / var
+    cov = max(best.coverage, c.coverage)
+    total *= float(np.clip((1 - cov) / (1 - ocfg.coverage_free), ocfg.min_evidence, 1.0))
+    return float(np.exp(-total))
+
+
+def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | None = None):
+    """Choose the rotation rate's harmonic order for an estimate (module docstring).
+
+    Parameters
+    ----------
+    flight : Flight
+        The flight the estimate was made from.
+    est : RotorEstimate
+        :func:`microdoppler.rotors.speed.estimate_rotor_speeds`'s estimate (without
+        order); returned unchanged where it has none.
+    speed_config : RotorSpeedConfig
+        The estimate's settings (floor, and the base of a re-measurement).
+    rerun : callable(RotorSpeedConfig) -> RotorEstimate, optional
+        Measures the speeds again with other settings (the search confined to the
+        chosen rate); without it a changed order scales the speeds.
+    config : OrderConfig, optional
+
+    Returns
+    -------
+    RotorEstimate
+        With ``info["order"]`` (candidates, the chosen one, alternatives and their
+        relative likelihood, whether the order is ambiguous) and uncertainties that
+        include the order's.
+    """
+    ocfg = config or OrderConfig()
+    if not est.ok:
+        return est
+    valid = est.valid
+    if valid.sum() == 0:
+        return est
+    B = int(est.n_blades)
+    L = flight.attrs.get("blade_length_m")
+    L = float(L) if L is not None and float(L) > 0 else None
+    lam = C_MPS / float(flight.carrier_hz)
+    ref = float(np.nanmedian(est.common_rev_s[valid]))
+    cpis = _choose_cpis(valid, ocfg.max_cpis)
+    data = _prepare(flight, est, cpis, ref, ocfg, speed_config)
+    p_top = float(np.max(data.p_hi))
+
+    def physical(f):
+        if not ocfg.min_rev_s <= f <= ocfg.max_rev_s:
+            return False
+        return L is None or 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach
+
+    rmax = rho_max(B, ocfg.max_weak_blade_db)
+    rmax_db = 20 * np.log10(rmax)
+    rhos = (-np.inf, rmax_db - 12.0, rmax_db - 6.0, rmax_db)
+    kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None \
+        else (1.0,)
+    betas = (0.0, 15.0, 40.0)
+    a_off = (-4.0, 0.0)
+    grid_full = (kappas, betas, rhos, a_off)
+    # screen: a coarse model on a few CPIs over the whole range
+    srows = np.unique(np.round(np.linspace(0, len(cpis) - 1, min(ocfg.screen_cpis, len(cpis)))).astype(int))
+    grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
+    grid = grid[[physical(f) for f in grid]]
+    sk = (min(1.0, ocfg.extent_range[1]),) if L is not None else (1.0,)
+    sc = np.full(len(grid), -np.inf)
+    for gi, f in enumerate(grid):
+        g = _geometry(data, f, B, L, lam, ocfg, srows)
+        sc[gi] = _loglik(g, data, ocfg, sk, (0.0, 20.0), (-np.inf, rmax_db), (-3.0,))[0]
+    cand = []  # (rate, origin)
+    for gi in np.argsort(sc)[::-1]:
+        if len(cand) >= ocfg.screen_keep or not np.isfinite(sc[gi]):
+            break
+        if sc[gi] < max(sc[gi - 1] if gi > 0 else -np.inf, sc[gi + 1] if gi + 1 < len(sc) else -np.inf):
+            continue  # not a local maximum
+        f = float(grid[gi])
+        if all(abs(np.log(f / c)) > ocfg.min_separation for c, _ in cand):
+            cand.append((f, "screen"))
+    ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
+    for r in ratios:
+        if physical(r * ref):
+            cand.append((r * ref, f"x{r:.3g}"))
+    # the full model on every CPI used
+    cands = []
+    for f, how in cand:
+        cands.append(_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, how))
+    if not cands:
+        return est
+    for c in cands:  # the comb the lines were read as keeps a small prior advantage
+        c.loglik += ocfg.prior_lines if abs(np.log(c.rev_s / ref)) <= ocfg.same_rel else 0.0
+    # merge candidates within same_rel (keep the likelier)
+    cands.sort(key=lambda c: -c.loglik)
+    kept = []
+    for c in cands:
+        if all(abs(np.log(c.rev_s / k.rev_s)) > ocfg.same_rel for k in kept):
+            kept.append(c)
+    chosen = kept[0]
+    # the chosen rate: a simple ratio to the lines' comb where it is one (the lines are
+    # measured well), else refined on a finer grid
+    simple = [r for r in ratios if abs(np.log(chosen.rev_s / (r * ref))) <= ocfg.same_rel]
+    if simple:
+        rate = simple[0] * ref
+    else:
+        fine = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, chosen.origin)
+                for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)]
+        rate = max(fine, key=lambda c: c.loglik).rev_s
+    # each alternative's likelihood relative to the chosen one, tempered (module doc)
+    for c in kept:
+        c.relative_likelihood = _relative(chosen, c, ocfg)
+    out = est
+    how = "kept"
+    if abs(np.log(rate / ref)) > ocfg.same_rel:
+        out, how = _remeasure(flight, est, rate / ref, speed_config, rerun, ocfg)
+    # the order's uncertainty: the mixture's spread about the reported speed
+    v = out.valid
+    mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
+    wsum = sum(c.relative_likelihood for c in kept)
+    var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in kept)
+    out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
+    out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
+    alts = [c for c in kept[1:] if c.relative_likelihood >= ocfg.report_at]
+    ambiguous = any(c.relative_likelihood >= ocfg.ambiguous_at for c in alts)
+    info = dict(out.info)
+    info["order"] = {
+        "method": METHOD,
+        "chosen_rev_s": round(mean_now, 3),
+        "lines_rev_s": round(ref, 3),
+        "ratio_to_lines": round(rate / ref, 4),
+        "remeasured": how,
+        "ambiguous": bool(ambiguous),
+        "alternatives_rev_s": [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts],
+        "coverage": round(chosen.coverage, 3),
+        "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
+        "order_rel_std": float(np.sqrt(var_rel)),
+        "n_cpis": int(len(cpis)),
+        "candidates": [{**{k: (round(v, 4) if isinstance(v, float) else v) for k, v in asdict(c).items()
+                           if k not in ("params", "per_cpi")}, **c.params} for c in kept],
+        "settings": asdict(ocfg),
+    }
+    out.info = info
+    return out
+
+
+def _remeasure(flight, est, ratio: float, scfg, rerun, ocfg: OrderConfig):
+    """The estimate at ``ratio`` times its rate: measured again with the search confined
+    to the chosen rate's range (``rerun``) where that finds it, else scaled."""
+    v = est.valid
+    lo = float(np.nanmin(est.common_rev_s[v])) * ratio / ocfg.rerun_margin
+    hi = float(np.nanmax(est.common_rev_s[v])) * ratio * ocfg.rerun_margin
+    lo, hi = max(lo, 0.5 * ocfg.min_rev_s), min(hi, 1.5 * ocfg.max_rev_s)
+    if rerun is not None and lo < hi:
+        new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi))
+        if new.ok:
+            m_new = float(np.nanmedian(new.common_rev_s[new.valid]))
+            m_want = float(np.nanmedian(est.common_rev_s[v])) * ratio
+            if abs(np.log(m_new / m_want)) <= 0.03:
+                return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
+    out = replace(est)
+    out.speeds_rev_s = est.speeds_rev_s * ratio
+    out.speeds_std_rev_s = est.speeds_std_rev_s * ratio
+    out.common_rev_s = est.common_rev_s * ratio
+    out.common_std_rev_s = est.common_std_rev_s * ratio
+    return out, "scaled"
+
+
+def ambiguity_line(est) -> str | None:
+    """One line naming an ambiguous order, e.g. ``ambiguous: 80.8 or 161.6 rev/s
+    (likelihood ratio 1.3)``; None where the order is not ambiguous."""
+    o = (est.info or {}).get("order")
+    if not o or not o.get("ambiguous"):
+        return None
+    alts = [(a, r) for a, r in zip(o["alternatives_rev_s"], o["relative_likelihood"])]
+    speeds = " or ".join([f"{o['chosen_rev_s']:.1f}"] + [f"{a:.1f}" for a, _ in alts])
+    ratios = ", ".join(f"{1 / r:.3g}" for _, r in alts)
+    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}; the store's "
+            f"rpm_std includes it)")
+
+
+def order_attrs(est) -> dict:
+    """``motors_radar`` attributes of the order: the alternatives' mean speeds [rev/s]
+    and their likelihood relative to the chosen one (empty lists where none)."""
+    o = (est.info or {}).get("order")
+    if not o:
+        return {}
+    return {"rotor_order": {k: o[k] for k in ("method", "chosen_rev_s", "lines_rev_s", "ratio_to_lines", "ambiguous",
+                                              "remeasured", "order_rel_std")},
+            "rotor_order_alternatives_rev_s": list(o["alternatives_rev_s"]),
+            "rotor_order_relative_likelihood": list(o["relative_likelihood"])}
