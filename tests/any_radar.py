@@ -247,3 +247,18 @@ def true_cpi_means(truth: dict, time_s: np.ndarray, n_fft: int, prf_hz: float) -
     tt = np.asarray(time_s)[:, None] + (k[None, :] - n_fft / 2) / prf_hz
     rev = np.asarray(truth["rev_s"])
     return np.stack([np.interp(tt, truth["time_s"], rev[:, m]) @ wk for m in range(rev.shape[1])], axis=1)
+
+
+def rotor_line_spacing_hz(blades: np.ndarray, prf_hz: float, rev_s: float, *, floor_db: float = 30.0):
+    """(the lowest line's Doppler, the blade energy's Doppler extent) [Hz] of a noise-free
+    blade signal: peaks of its mean 4096-point periodogram within ``floor_db`` of the
+    strongest line; the lowest line is the comb's spacing (B f for equal blades, f for
+    unequal ones), the extent the farthest such line from 0 Hz (no folding assumed)."""
+    w = blackmanharris(N_FFT, sym=False)
+    starts = np.arange(0, len(blades) - N_FFT + 1, N_FFT // 2)
+    p = np.mean([np.abs(np.fft.fft(blades[s:s + N_FFT] * w)) ** 2 for s in starts], axis=0)
+    f = np.fft.fftfreq(N_FFT, 1 / prf_hz)
+    db = 10 * np.log10(p + 1e-30)
+    peak = (db >= np.roll(db, 1)) & (db >= np.roll(db, -1))
+    strong = peak & (db >= db.max() - floor_db) & (np.abs(f) > 0.3 * rev_s)
+    return float(np.min(np.abs(f[strong]))), float(np.max(np.abs(f[strong])))

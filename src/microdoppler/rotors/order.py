@@ -30,10 +30,12 @@ k f (p_min..p_max), plus the line width; the blade-passing family (k a multiple 
 has the level a - beta d / f_max, d = k f p_max, the rotation-rate family (other k)
 the same level times rho^2 (``imbalance``: rho = 0 for equal blades, at most the rho of
 one blade ``max_weak_blade_db`` weaker than the others), and no line lies beyond
-kappa f_max, where f_max = 2 (2 pi f L) / lambda is the blade tips' Doppler: the blade
-flash's Doppler extent. ``extent_range`` bounds kappa (the stated tolerance: below 1
-for a rotor plane seen at an elevation, a weak tip, a drooping envelope; above 1 for a
-blade length known to ~10 %). Observations are the spectrum's peaks (``line_db`` over
+kappa f_max + ``tail_harmonics`` beta^(1/3) f, where f_max = 2 (2 pi f L) / lambda =
+beta f is the blade tips' Doppler, the blade flash's Doppler extent (beta = 4 pi L /
+lambda; the tip's Bessel lines J_k(beta) fall off over ~beta^(1/3) harmonics beyond
+k = beta). ``extent_range`` bounds kappa (the stated tolerance: below 1 for a rotor
+plane seen at an elevation, a weak tip, a drooping envelope; above 1 for a blade length
+known to ~10 %). Observations are the spectrum's peaks (``line_db`` over
 the local floor, ``prominence_db``; clutter and body bands masked):
 
 - a peak inside a window of a line: density (1 - fade) N(y; mu, line_sd_db) / width;
@@ -123,6 +125,13 @@ class OrderConfig:
     spread_margin : float
         A line window covers the estimate's rotor spread widened by this (relative)
         on either side, for the rotors the lines did not separate.
+    tail_harmonics : float
+        Lines may reach this many times beta^(1/3) rotation harmonics beyond kappa
+        f_max (beta = 4 pi L / lambda: the Bessel lines of the tip fall off over
+        ~beta^(1/3) harmonics beyond k = beta).
+    rescue_spread, rescue_rel, rescue_tries : float, float, int
+        Where the lines found no comb: the rotors' assumed spread for the screen, the
+        relative half-width of each confined search, and how many rates are tried.
     coverage_free, min_evidence : float
         Where two combs' windows cover more than ``coverage_free`` of the spectrum
         (folded, dense lines), the evidence between them is scaled by
@@ -130,6 +139,9 @@ class OrderConfig:
     prior_lines : float
         Log-likelihood advantage of the comb the lines were read as (the estimator's
         own evidence: its first pair visible, its harmonics).
+    snap_rel : float
+        A screen maximum within this (relative) of a simple ratio of the lines' comb is
+        that ratio (the lines measure the spacing; a nearby maximum is no other order).
     """
 
     min_rev_s: float = 20.0
@@ -156,9 +168,14 @@ class OrderConfig:
     same_rel: float = 0.02
     rerun_margin: float = 1.2
     spread_margin: float = 0.01
+    tail_harmonics: float = 2.0
+    rescue_spread: float = 0.05
+    rescue_rel: float = 0.15
+    rescue_tries: int = 3
     coverage_free: float = 0.5
     min_evidence: float = 0.05
     prior_lines: float = 1.0
+    snap_rel: float = 0.08
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -202,6 +219,8 @@ class _Data:
     p_lo: np.ndarray         # [n_cpi] slowest rotor's rate / reference
     p_hi: np.ndarray         # [n_cpi] fastest rotor's rate / reference
     cpi_index: np.ndarray    # which CPIs of the estimate
+    band_hz: np.ndarray      # [n_cpi] analysed offsets |x| <= band (the comb's harmonics resolved)
+    extent_hz: float         # the blade energy's Doppler extent: how far lines reach (a lower bound)
 
 
 def _sparse_table(v: np.ndarray) -> list:
@@ -292,7 +311,11 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
     for r, (x, y) in enumerate(zip(px, py)):
         peaks_x[r, :len(x)] = x
         peaks_y[r, :len(y)] = y
-    sp = est.speeds_rev_s[cpis]
+    sp = np.asarray(est.speeds_rev_s[cpis], float)
+    # a rotor put on another order's line (over 15 % from the CPI's median rotor) is no
+    # part of the spread
+    med = np.nanmedian(sp, axis=1, keepdims=True)
+    sp = np.where(np.abs(sp / med - 1) <= 0.15, sp, np.nan)
     p_lo = np.nanmin(sp, axis=1) / ref
     p_hi = np.nanmax(sp, axis=1) / ref
     # the rotor spread seen in the data: peaks within 12 % of the comb's first three
@@ -309,8 +332,21 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
         p_hi = np.where(has, np.maximum(p_hi, 1 + np.nanmax(np.where(has[:, None], dev, 0.0), axis=1)), p_hi)
     mid = 0.5 * (p_lo + p_hi)
     half = np.minimum(0.5 * (p_hi - p_lo), 0.1 * mid) + ocfg.spread_margin * mid  # (over 20 %: not one drone's)
-    return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks), np.array(cb), mid - half, mid + half,
-                 np.asarray(cpis))
+    # the blade energy's extent: per CPI the M-th farthest line (M rotors), the median
+    # over CPIs (folded lines put it at the band's edge: a lower bound of the extent)
+    far = []
+    for x, y in zip(px, py):
+        a = np.sort(np.abs(x[y >= ocfg.line_db + 3.0]))
+        if len(a):
+            far.append(a[-min(len(a), int(est.n_motors))])
+    extent = float(np.median(far)) if far else 0.0
+    # the analysed band: where the rotation harmonics' windows of the lines' comb stay
+    # apart (beyond, the rotors' lines merge into a continuum that tells no order)
+    band = np.minimum(0.5 / (half / mid + 0.004) * ref * mid, prf / 2)
+    peaks_x = np.where(np.abs(peaks_x) <= band[:, None], peaks_x, np.nan)
+    peaks_y = np.where(np.isfinite(peaks_x), peaks_y, np.nan)
+    return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks),
+                 np.array(cb), mid - half, mid + half, np.asarray(cpis), band, extent)
 
 
 @dataclass
@@ -323,6 +359,7 @@ class _Geometry:
     valid: np.ndarray      # [n_cpi, W] window observable (centre unmasked)
     detected: np.ndarray   # [n_cpi, W] a peak inside
     fmax: np.ndarray       # [n_cpi] blade-tip Doppler of the fastest rotor [Hz]
+    tail: np.ndarray       # [n_cpi] the edge's allowance beyond kappa fmax [Hz]
     pk_d: np.ndarray       # [n_cpi, P, 2] per peak: offset d of the covering window, per family (inf: none)
     pk_w: np.ndarray       # [n_cpi, P, 2] its width [Hz]
     pk_y: np.ndarray       # [n_cpi, P]
@@ -340,9 +377,13 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
     kmax_ext = ocfg.extent_range[1]
     if L is not None:
         fmax = 4 * np.pi * hi * L / lam
-        dmax = kmax_ext * fmax
+        # the lines of a point at the tip, J_k(beta) with beta = 4 pi L / lambda, fall off
+        # over ~beta^(1/3) harmonics beyond k = beta: the edge's allowance
+        tail = ocfg.tail_harmonics * (4 * np.pi * L / lam) ** (1 / 3) * hi
+        dmax = kmax_ext * fmax + tail
     else:
         fmax = np.full(len(rows), np.inf)
+        tail = np.zeros(len(rows))
         dmax = np.full(len(rows), prf)
     K = int(np.clip(np.ceil(np.max(dmax / lo)), 1, 4000))
     k = np.arange(1, K + 1)
@@ -364,7 +405,8 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
     cm = np.round(cbin).astype(np.int64) % n
     msk = data.masked[rows]
     centre_masked = (np.take_along_axis(msk, cm + 1, 1) - np.take_along_axis(msk, cm, 1)) > 0
-    valid = inrange & ~centre_masked
+    folded = np.abs((s * centre + prf / 2) % prf - prf / 2)
+    valid = inrange & ~centre_masked & (folded <= data.band_hz[rows][:, None])
     fam = (np.r_[k, k] % B != 0)[None, :].repeat(len(rows), 0)
     # peaks: the covering window of each family, over the folds
     x = data.peaks_x[rows]                                                # [R, P]
@@ -391,7 +433,7 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
         pk_d[:, :, fi] = np.take_along_axis(dsel, j[:, :, None], 2)[:, :, 0]
         wsel = np.take_along_axis(np.where(fsel & inside, 2 * hwk, np.inf), j[:, :, None], 2)[:, :, 0]
         pk_w[:, :, fi] = wsel
-    return _Geometry(f, d, fam, valid, det, fmax, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m)
+    return _Geometry(f, d, fam, valid, det, fmax, tail, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m)
 
 
 def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, betas, rhos_db, a_offsets, per_cpi=False,
@@ -406,7 +448,7 @@ def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, betas, rhos_db
     fmax = g.fmax[:, None]
     best = (-np.inf, None, None)
     for kap in kappas:
-        lim = kap * fmax
+        lim = kap * fmax + g.tail[:, None]
         act_w = g.valid & (g.d <= lim)
         for rho in rhos_db:
             use_imb = np.isfinite(rho)
@@ -467,10 +509,12 @@ class Candidate:
     relative_likelihood: float = 0.0
 
 
-def _coverage(g: _Geometry, params: dict, n: int) -> float:
-    """Share of the spectrum's bins inside the candidate's active line windows (the
-    chance that a peak anywhere is explained: near 1 the comb tells little)."""
-    act = g.valid & (g.d <= params["kappa"] * g.fmax[:, None]) & (~g.fam | (params["imbalance_db"] is not None))
+def _coverage(g: _Geometry, params: dict, data: _Data) -> float:
+    """Share of the analysed band's bins inside the candidate's active line windows (the
+    chance that a peak anywhere in it is explained: near 1 the comb tells little)."""
+    n = data.n_fft
+    act = g.valid & (g.d <= params["kappa"] * g.fmax[:, None] + g.tail[:, None]) & (
+        ~g.fam | (params["imbalance_db"] is not None))
     R = act.shape[0]
     diff = np.zeros((R, 2 * n + 2))
     rr = np.repeat(np.arange(R)[:, None], act.shape[1], 1)[act]
@@ -478,13 +522,16 @@ def _coverage(g: _Geometry, params: dict, n: int) -> float:
     np.add.at(diff, (rr, np.minimum(g.hi_bin[act] + 1, 2 * n + 1)), -1)
     cov = np.cumsum(diff, axis=1)[:, :2 * n] > 0
     cov = cov[:, :n] | cov[:, n:]
-    return float(cov.mean())
+    rows = np.arange(R) if R == len(data.band_hz) else None
+    x = ((np.arange(n)[None, :] - data.centre_bin[rows][:, None] + n / 2) % n - n / 2) * data.bin_hz
+    inband = np.abs(x) <= data.band_hz[rows][:, None]
+    return float(cov[inband].mean()) if inband.any() else 0.0
 
 
 def _explained(g: _Geometry, params: dict) -> tuple[float, float]:
     """(share of peaks explained, the blade flash's extent over f_max: the 90th
     percentile over CPIs of the farthest explained blade-family line)."""
-    lim = params["kappa"] * g.fmax[:, None]
+    lim = params["kappa"] * g.fmax[:, None] + g.tail[:, None]
     ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
     ex_i = g.pk_ok & (params["imbalance_db"] is not None) & (g.pk_d[:, :, 1] <= lim)
     share = float((ex_b | ex_i).sum() / max(g.pk_ok.sum(), 1))
@@ -502,7 +549,7 @@ def _score(data: _Data, f: float, B: int, L, lam: float, ocfg: OrderConfig, grid
     share, ext = _explained(g, params)
     return Candidate(float(f), float(f / ref), float(ll) / ocfg.temperature, params,
                      float(2 * np.pi * f * p_top * L / SOUND_MPS) if L is not None else float("nan"), ext, share,
-                     origin, _coverage(g, params, data.n_fft), per / ocfg.temperature)
+                     origin, _coverage(g, params, data), per / ocfg.temperature)
 
 
 def _relative(best: Candidate, c: Candidate, ocfg: OrderConfig) -> float:
@@ -539,9 +586,11 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         order); returned unchanged where it has none.
     speed_config : RotorSpeedConfig
         The estimate's settings (floor, and the base of a re-measurement).
-    rerun : callable(RotorSpeedConfig) -> RotorEstimate, optional
-        Measures the speeds again with other settings (the search confined to the
-        chosen rate); without it a changed order scales the speeds.
+    rerun : callable(RotorSpeedConfig, n_blades=B) -> RotorEstimate, optional
+        Measures the speeds again with other settings (the lines alone; the search
+        confined to the chosen rate; the rotation-rate comb, ``n_blades=1``, where the
+        blade-passing comb gave no estimate); without it a changed order scales the
+        speeds.
     config : OrderConfig, optional
 
     Returns
@@ -549,36 +598,53 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     RotorEstimate
         With ``info["order"]`` (candidates, the chosen one, alternatives and their
         relative likelihood, whether the order is ambiguous) and uncertainties that
-        include the order's.
+        include the order's; ``est`` itself where neither comb gives an estimate.
     """
     ocfg = config or OrderConfig()
-    if not est.ok:
-        return est
-    valid = est.valid
-    if valid.sum() == 0:
-        return est
     B = int(est.n_blades)
+    if not est.ok or not est.valid.any():
+        # the lines found no comb; they may have followed a sub-harmonic path (unequal
+        # blades, a first pair in the clutter band): screen the whole range and measure
+        # again around the likeliest rates
+        if rerun is None or est.reason is None or not est.reason.startswith(("no sideband", "no HERM")):
+            return est
+        return _rescue(flight, est, speed_config, rerun, ocfg)
+    else:
+        # the lines alone (steps 1-8) measure the comb's spacing; an I/Q fit made at a
+        # wrong order is biased, so the order is judged on the lines
+        lines = est
+        if getattr(speed_config, "refine", False) and rerun is not None:
+            lines = rerun(replace(speed_config, refine=False))
+            if not lines.ok or not lines.valid.any():
+                lines = est
+    valid = lines.valid
     L = flight.attrs.get("blade_length_m")
     L = float(L) if L is not None and float(L) > 0 else None
     lam = C_MPS / float(flight.carrier_hz)
-    ref = float(np.nanmedian(est.common_rev_s[valid]))
+    # the comb's rate: the median rotor (robust to a rotor put on another order's line)
+    ref = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[valid], axis=1)))
     cpis = _choose_cpis(valid, ocfg.max_cpis)
-    data = _prepare(flight, est, cpis, ref, ocfg, speed_config)
+    data = _prepare(flight, lines, cpis, ref, ocfg, speed_config)
     p_top = float(np.max(data.p_hi))
 
+    beta = 4 * np.pi * L / lam if L is not None else None
+    p_mid_hi = float(np.median(data.p_hi))
+
     def physical(f):
+        """Rates in range, blade tips below ``max_tip_mach``, and a blade-tip Doppler
+        that the lines do not pass (lines beyond it are impossible)."""
         if not ocfg.min_rev_s <= f <= ocfg.max_rev_s:
             return False
-        return L is None or 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach
+        if L is None:
+            return True
+        reach = (ocfg.extent_range[1] * beta + ocfg.tail_harmonics * beta ** (1 / 3)) * f * p_mid_hi
+        return 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach and data.extent_hz <= reach
 
-    rmax = rho_max(B, ocfg.max_weak_blade_db)
-    rmax_db = 20 * np.log10(rmax)
+    rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
     rhos = (-np.inf, rmax_db - 12.0, rmax_db - 6.0, rmax_db)
     kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None \
         else (1.0,)
-    betas = (0.0, 15.0, 40.0)
-    a_off = (-4.0, 0.0)
-    grid_full = (kappas, betas, rhos, a_off)
+    grid_full = (kappas, (0.0, 15.0, 40.0), rhos, (-4.0, 0.0))
     # screen: a coarse model on a few CPIs over the whole range
     srows = np.unique(np.round(np.linspace(0, len(cpis) - 1, min(ocfg.screen_cpis, len(cpis)))).astype(int))
     grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
@@ -588,50 +654,44 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     for gi, f in enumerate(grid):
         g = _geometry(data, f, B, L, lam, ocfg, srows)
         sc[gi] = _loglik(g, data, ocfg, sk, (0.0, 20.0), (-np.inf, rmax_db), (-3.0,))[0]
-    cand = []  # (rate, origin)
+    ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
+    cand = [(r * ref, f"x{r:.3g}") for r in ratios if physical(r * ref)]
+    n_screen = 0
     for gi in np.argsort(sc)[::-1]:
-        if len(cand) >= ocfg.screen_keep or not np.isfinite(sc[gi]):
+        if n_screen >= ocfg.screen_keep or not np.isfinite(sc[gi]):
             break
         if sc[gi] < max(sc[gi - 1] if gi > 0 else -np.inf, sc[gi + 1] if gi + 1 < len(sc) else -np.inf):
             continue  # not a local maximum
         f = float(grid[gi])
-        if all(abs(np.log(f / c)) > ocfg.min_separation for c, _ in cand):
-            cand.append((f, "screen"))
-    ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
-    for r in ratios:
-        if physical(r * ref):
-            cand.append((r * ref, f"x{r:.3g}"))
+        # near a simple ratio of the lines' comb it is that ratio (measured by the lines),
+        # and a screen maximum near a kept one is the same
+        if any(abs(np.log(f / c)) <= (ocfg.snap_rel if how != "screen" else ocfg.min_separation)
+               for c, how in cand):
+            continue
+        cand.append((f, "screen"))
+        n_screen += 1
     # the full model on every CPI used
-    cands = []
-    for f, how in cand:
-        cands.append(_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, how))
+    cands = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, how) for f, how in cand]
     if not cands:
         return est
     for c in cands:  # the comb the lines were read as keeps a small prior advantage
-        c.loglik += ocfg.prior_lines if abs(np.log(c.rev_s / ref)) <= ocfg.same_rel else 0.0
-    # merge candidates within same_rel (keep the likelier)
+        c.loglik += ocfg.prior_lines if c.origin == "x1" else 0.0
     cands.sort(key=lambda c: -c.loglik)
-    kept = []
-    for c in cands:
-        if all(abs(np.log(c.rev_s / k.rev_s)) > ocfg.same_rel for k in kept):
-            kept.append(c)
-    chosen = kept[0]
-    # the chosen rate: a simple ratio to the lines' comb where it is one (the lines are
-    # measured well), else refined on a finer grid
-    simple = [r for r in ratios if abs(np.log(chosen.rev_s / (r * ref))) <= ocfg.same_rel]
-    if simple:
-        rate = simple[0] * ref
-    else:
+    chosen = cands[0]
+    rate = chosen.rev_s
+    if chosen.origin == "screen":  # refined on a finer grid
         fine = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, chosen.origin)
                 for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)]
         rate = max(fine, key=lambda c: c.loglik).rev_s
     # each alternative's likelihood relative to the chosen one, tempered (module doc)
+    kept = cands
     for c in kept:
         c.relative_likelihood = _relative(chosen, c, ocfg)
     out = est
     how = "kept"
-    if abs(np.log(rate / ref)) > ocfg.same_rel:
-        out, how = _remeasure(flight, est, rate / ref, speed_config, rerun, ocfg)
+    if chosen.origin != "x1" or int(lines.n_blades) != B:
+        out, how = _remeasure(flight, est, lines, rate / ref, speed_config, rerun, ocfg)
+        out = replace(out, n_blades=B)
     # the order's uncertainty: the mixture's spread about the reported speed
     v = out.valid
     mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
@@ -651,6 +711,8 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "ambiguous": bool(ambiguous),
         "alternatives_rev_s": [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts],
         "coverage": round(chosen.coverage, 3),
+        "extent_hz": round(data.extent_hz, 1),
+        "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
         "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
         "order_rel_std": float(np.sqrt(var_rel)),
         "n_cpis": int(len(cpis)),
@@ -662,26 +724,72 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     return out
 
 
-def _remeasure(flight, est, ratio: float, scfg, rerun, ocfg: OrderConfig):
-    """The estimate at ``ratio`` times its rate: measured again with the search confined
-    to the chosen rate's range (``rerun``) where that finds it, else scaled."""
-    v = est.valid
-    lo = float(np.nanmin(est.common_rev_s[v])) * ratio / ocfg.rerun_margin
-    hi = float(np.nanmax(est.common_rev_s[v])) * ratio * ocfg.rerun_margin
+def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
+    """Where the lines found no comb over the whole range: the screen's likeliest rates
+    (the body from the track, rotors within +-``rescue_spread``), each measured again
+    with the search confined to it (``rescue_rel``); the first that finds a comb is
+    judged as any estimate (:func:`resolve_order`). ``est`` where none does."""
+    from types import SimpleNamespace
+
+    from ..spectra.snr import body_doppler_hz
+
+    if len(est.time_s) == 0:
+        return est
+    B = int(est.n_blades)
+    L = flight.attrs.get("blade_length_m")
+    L = float(L) if L is not None and float(L) > 0 else None
+    lam = C_MPS / float(flight.carrier_hz)
+    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, est.time_s)
+    n = len(est.time_s)
+    sp = np.tile(1 + np.linspace(-ocfg.rescue_spread, ocfg.rescue_spread, max(int(est.n_motors), 2)), (n, 1))
+    pseudo = SimpleNamespace(n_fft=est.n_fft, body_hz=body, speeds_rev_s=sp, n_blades=B, n_motors=est.n_motors)
+    cpis = _choose_cpis(np.ones(n, bool), ocfg.screen_cpis)
+    data = _prepare(flight, pseudo, cpis, 1.0, ocfg, scfg)
+    rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
+    grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
+    if L is not None:
+        grid = grid[2 * np.pi * grid * (1 + ocfg.rescue_spread) * L / SOUND_MPS <= ocfg.max_tip_mach]
+    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), data, ocfg, (1.0,), (0.0, 20.0),
+                           (-np.inf, rmax_db), (-3.0,))[0] for f in grid])
+    tried = []
+    for gi in np.argsort(sc)[::-1]:
+        if len(tried) >= ocfg.rescue_tries or not np.isfinite(sc[gi]):
+            break
+        f = float(grid[gi])
+        if any(abs(np.log(f / t)) <= ocfg.rescue_rel for t in tried):
+            continue
+        tried.append(f)
+        narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel))
+        new = rerun(narrow)
+        if new.ok and new.valid.any():
+            out = resolve_order(flight, new, narrow, rerun, ocfg)
+            if "order" in out.info:
+                out.info["order"]["rescued"] = (f"the lines over {scfg.min_rev_s:g}-{scfg.max_rev_s:g} rev/s found "
+                                                f"no comb ({est.reason}); found within "
+                                                f"{narrow.min_rev_s:.1f}-{narrow.max_rev_s:.1f} rev/s")
+            return out
+    return est
+
+
+def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig):
+    """The estimate at ``ratio`` times the lines' rate: measured again with the search
+    confined to the chosen rate's range (``rerun``, with the I/Q fit where ``scfg`` has
+    it) where that finds it, else the lines' estimate scaled. Returns (estimate, how)."""
+    v = lines.valid
+    want = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[v], axis=1))) * ratio
+    lo = float(np.nanmin(lines.common_rev_s[v])) * ratio / ocfg.rerun_margin
+    hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * ocfg.rerun_margin
     lo, hi = max(lo, 0.5 * ocfg.min_rev_s), min(hi, 1.5 * ocfg.max_rev_s)
     if rerun is not None and lo < hi:
-        new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi))
-        if new.ok:
-            m_new = float(np.nanmedian(new.common_rev_s[new.valid]))
-            m_want = float(np.nanmedian(est.common_rev_s[v])) * ratio
-            if abs(np.log(m_new / m_want)) <= 0.03:
-                return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
-    out = replace(est)
-    out.speeds_rev_s = est.speeds_rev_s * ratio
-    out.speeds_std_rev_s = est.speeds_std_rev_s * ratio
-    out.common_rev_s = est.common_rev_s * ratio
-    out.common_std_rev_s = est.common_std_rev_s * ratio
-    return out, "scaled"
+        new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi), n_blades=int(est.n_blades))
+        if new.ok and abs(np.log(float(np.nanmedian(new.common_rev_s[new.valid])) / want)) <= 0.03:
+            return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
+    out = replace(lines)
+    out.speeds_rev_s = lines.speeds_rev_s * ratio
+    out.speeds_std_rev_s = lines.speeds_std_rev_s * ratio
+    out.common_rev_s = lines.common_rev_s * ratio
+    out.common_std_rev_s = lines.common_std_rev_s * ratio
+    return out, "the lines' estimate scaled (a re-measurement did not find the comb)"
 
 
 def ambiguity_line(est) -> str | None:

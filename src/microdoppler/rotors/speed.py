@@ -589,13 +589,13 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     if reason is not None:
         est = _no_estimate(fid, n_cpi, t, M, B, n_fft, reason, info)
         est.n_pairs = n_pairs
-        return est
-    est = RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
-                        balance)
+    else:
+        est = RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
+                            balance)
     if order:  # which comb the lines are, with its doubt (rotors.order)
         from .order import resolve_order
-        est = resolve_order(flight, est, cfg, rerun=lambda c: estimate_rotor_speeds(
-            flight, n_fft=n_fft, n_motors=M, n_blades=B, config=c, progress=progress, order=False))
+        est = resolve_order(flight, est, cfg, rerun=lambda c, n_blades=B: estimate_rotor_speeds(
+            flight, n_fft=n_fft, n_motors=M, n_blades=n_blades, config=c, progress=progress, order=False))
     return est
 
 
