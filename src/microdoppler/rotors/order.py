@@ -56,8 +56,11 @@ Where another candidate's relative likelihood is ``ambiguous_at`` or more, the f
 order is ambiguous: ``RotorEstimate.info["order"]`` lists the alternatives, the store's
 ``motors_radar`` attributes ``rotor_order_alternatives_rev_s`` and
 ``rotor_order_relative_likelihood`` carry them, and every CPI's uncertainty includes
-the order's: sigma^2 + sum_h w_h (v_h - v)^2 over the candidates h (weights w, speeds v_h
-= v f_h / f), the spread of the mixture about the reported speed. Where the chosen rate
+the order's: sigma^2 + sum_h w_h (v_h - v)^2 over the candidates h whose relative
+likelihood is ``ambiguous_at`` or more (weights w normalised over them, speeds v_h =
+v f_h / f), the spread of the mixture about the reported speed (a candidate below
+``ambiguous_at`` lies outside the mixture's 95 % interval and is listed, down to
+``report_at``, without widening sigma). Where the chosen rate
 is not the estimate's, the speeds are measured again with the search confined around it
 (``rerun``) and, where that does not find it, scaled.
 """
@@ -436,59 +439,78 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
     return _Geometry(f, d, fam, valid, det, fmax, tail, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m)
 
 
-def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, betas, rhos_db, a_offsets, per_cpi=False,
-            with_cpis=False):
-    """Maximised log-likelihood of a candidate over the parameter grid: (LL, params),
-    (LL, params, per-CPI LL) where ``with_cpis``, or the per-CPI LL array of the best
-    parameters where ``per_cpi``."""
+def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> tuple[np.ndarray, float]:
+    """Line level a per CPI [dB] and decay beta [dB/Hz] (one for all CPIs) by least
+    squares on the explained peaks (heights ``y`` at offsets ``d``, mask ``ex``, [R, P]);
+    CPIs without a peak get ``floor_db``."""
+    n = ex.sum(axis=1)
+    with np.errstate(all="ignore"):
+        dm = np.where(n > 0, (d * ex).sum(axis=1) / n, 0.0)
+        ym = np.where(n > 0, (y * ex).sum(axis=1) / n, 0.0)
+    dc = np.where(ex, d - dm[:, None], 0.0)
+    sxx = float((dc ** 2).sum())
+    sxy = float((dc * np.where(ex, y - ym[:, None], 0.0)).sum())
+    beta = max(0.0, -sxy / sxx) if sxx > 0 else 0.0
+    return np.where(n > 0, ym + beta * dm, floor_db), beta
+
+
+def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
+            a_offsets, per_cpi=False, with_cpis=False):
+    """Maximised log-likelihood of a candidate: (LL, params), (LL, params, per-CPI LL)
+    where ``with_cpis``, or the per-CPI LL of the best parameters where ``per_cpi``.
+
+    Over a grid of kappa (``kappas``) and of the rotation-rate family (``rho_modes``:
+    None, absent; "fit", its level from its peaks, at most ``rho_cap_db``); the level per
+    CPI and the decay by least squares on the explained blade-passing peaks, then
+    varied by ``beta_mults`` and ``a_offsets`` (the detected peaks bias both)."""
     T, sd = ocfg.line_db, ocfg.line_sd_db
     log_keep = np.log1p(-ocfg.fade)
+    log_norm = np.log(sd * np.sqrt(2 * np.pi))
     spur = np.log(ocfg.spurious_per_cpi / data.prf / ocfg.spurious_range_db)
     y = np.where(g.pk_ok, g.pk_y, 0.0)
+    pd_b = np.where(np.isfinite(g.pk_d[:, :, 0]), g.pk_d[:, :, 0], 0.0)
+    pd_i = np.where(np.isfinite(g.pk_d[:, :, 1]), g.pk_d[:, :, 1], 0.0)
+    lw_b = -np.log(np.where(np.isfinite(g.pk_w[:, :, 0]), g.pk_w[:, :, 0], 1.0))
+    lw_i = -np.log(np.where(np.isfinite(g.pk_w[:, :, 1]), g.pk_w[:, :, 1], 1.0))
     fmax = g.fmax[:, None]
     best = (-np.inf, None, None)
     for kap in kappas:
         lim = kap * fmax + g.tail[:, None]
         act_w = g.valid & (g.d <= lim)
-        for rho in rhos_db:
-            use_imb = np.isfinite(rho)
+        ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
+        a_fit, beta_fit = _envelope(y, pd_b, ex_b, T - 2 * sd)
+        for mode in rho_modes:
+            use_imb = mode is not None
+            ex_i = g.pk_ok & use_imb & (g.pk_d[:, :, 1] <= lim)
+            rho = 0.0
+            if use_imb:
+                only = ex_i & ~ex_b
+                r = (y - (a_fit[:, None] - beta_fit * pd_i))[only]
+                rho = float(np.clip(np.median(r), rho_cap_db - 20, rho_cap_db)) if r.size else rho_cap_db - 20
             w_act = act_w & (~g.fam | use_imb)
-            pd_b = g.pk_d[:, :, 0]
-            pd_i = g.pk_d[:, :, 1]
-            ex_b = g.pk_ok & (pd_b <= lim)
-            ex_i = g.pk_ok & use_imb & (pd_i <= lim)
-            for beta in betas:
-                shp_b = -beta * np.where(ex_b, pd_b, 0.0) / np.where(np.isfinite(fmax), fmax, data.prf)
-                shp_i = -beta * np.where(ex_i, pd_i, 0.0) / np.where(np.isfinite(fmax), fmax, data.prf) + (
-                    rho if use_imb else 0.0)
-                # level a per CPI: median of the explained blade-family peaks' (y - shape)
-                r = np.where(ex_b, y - shp_b, np.nan)
-                a0 = _row_median(r)
-                a0 = np.where(np.isfinite(a0), a0, T - 2 * sd)
-                shp_w = -beta * g.d / np.where(np.isfinite(fmax), fmax, data.prf) + np.where(g.fam, rho if use_imb
-                                                                                          else 0.0, 0.0)
+            miss = w_act & ~g.detected
+            for bm in beta_mults:
+                beta = beta_fit * bm
+                a0 = a_fit + (beta - beta_fit) * np.where(ex_b, pd_b, 0.0).sum(1) / np.maximum(ex_b.sum(1), 1)
+                shp_b = -beta * pd_b
+                shp_i = -beta * pd_i + rho
+                shp_w = -beta * g.d + np.where(g.fam, rho, 0.0)
                 for ao in a_offsets:
                     a = (a0 + ao)[:, None]
-                    # a peak explained by either family: the better-fitting one
-                    lb = np.where(ex_b, log_keep - 0.5 * ((y - a - shp_b) / sd) ** 2 - np.log(sd * np.sqrt(2 * np.pi))
-                                  - np.log(np.where(ex_b, g.pk_w[:, :, 0], 1.0)), -np.inf)
-                    li = np.where(ex_i, log_keep - 0.5 * ((y - a - shp_i) / sd) ** 2 - np.log(sd * np.sqrt(2 * np.pi))
-                                  - np.log(np.where(ex_i, g.pk_w[:, :, 1], 1.0)), -np.inf)
-                    lp = np.maximum(np.maximum(lb, li), spur)
-                    lp = np.where(g.pk_ok, lp, 0.0).sum(axis=1)
-                    mu = a + shp_w
-                    miss = w_act & ~g.detected
-                    pdet = np.exp(log_keep + log_ndtr((mu - T) / sd))
+                    lb = np.where(ex_b, log_keep - 0.5 * ((y - a - shp_b) / sd) ** 2 - log_norm + lw_b, -np.inf)
+                    li = np.where(ex_i, log_keep - 0.5 * ((y - a - shp_i) / sd) ** 2 - log_norm + lw_i, -np.inf)
+                    lp = np.where(g.pk_ok, np.maximum(np.maximum(lb, li), spur), 0.0).sum(axis=1)
+                    pdet = np.exp(log_keep + log_ndtr((a + shp_w - T) / sd))
                     lm = np.where(miss, np.log1p(-np.minimum(pdet, 1 - 1e-12)), 0.0).sum(axis=1)
                     tot = lp + lm
-                    s = float(tot.sum())
-                    if s > best[0]:
-                        best = (s, (kap, beta, rho if use_imb else None, a0 + ao), tot)
+                    s_ = float(tot.sum())
+                    if s_ > best[0]:
+                        best = (s_, (kap, beta, rho if use_imb else None, a0 + ao), tot)
     if per_cpi:
         return best[2]
     kap, beta, rho, a = best[1]
-    params = {"kappa": float(kap), "beta_db": float(beta), "imbalance_db": None if rho is None else float(rho),
-              "level_db": float(np.median(a))}
+    params = {"kappa": float(kap), "decay_db_per_khz": float(1e3 * beta),
+              "imbalance_db": None if rho is None else float(rho), "level_db": float(np.median(a))}
     return (best[0], params, best[2]) if with_cpis else (best[0], params)
 
 
@@ -641,10 +663,9 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         return 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach and data.extent_hz <= reach
 
     rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
-    rhos = (-np.inf, rmax_db - 12.0, rmax_db - 6.0, rmax_db)
     kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None \
         else (1.0,)
-    grid_full = (kappas, (0.0, 15.0, 40.0), rhos, (-4.0, 0.0))
+    grid_full = (kappas, rmax_db, (None, "fit"), (0.6, 1.0, 1.5), (-4.0, 0.0))
     # screen: a coarse model on a few CPIs over the whole range
     srows = np.unique(np.round(np.linspace(0, len(cpis) - 1, min(ocfg.screen_cpis, len(cpis)))).astype(int))
     grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
@@ -653,7 +674,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     sc = np.full(len(grid), -np.inf)
     for gi, f in enumerate(grid):
         g = _geometry(data, f, B, L, lam, ocfg, srows)
-        sc[gi] = _loglik(g, data, ocfg, sk, (0.0, 20.0), (-np.inf, rmax_db), (-3.0,))[0]
+        sc[gi] = _loglik(g, data, ocfg, sk, rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
     ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
     cand = [(r * ref, f"x{r:.3g}") for r in ratios if physical(r * ref)]
     n_screen = 0
@@ -695,8 +716,11 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     # the order's uncertainty: the mixture's spread about the reported speed
     v = out.valid
     mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
-    wsum = sum(c.relative_likelihood for c in kept)
-    var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in kept)
+    # (the candidates that make the order ambiguous: under ``ambiguous_at`` an alternative
+    # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
+    plaus = [c for c in kept if c.relative_likelihood >= ocfg.ambiguous_at]
+    wsum = sum(c.relative_likelihood for c in plaus)
+    var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
     out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
     out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
     alts = [c for c in kept[1:] if c.relative_likelihood >= ocfg.report_at]
@@ -749,8 +773,8 @@ def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
     grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
     if L is not None:
         grid = grid[2 * np.pi * grid * (1 + ocfg.rescue_spread) * L / SOUND_MPS <= ocfg.max_tip_mach]
-    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), data, ocfg, (1.0,), (0.0, 20.0),
-                           (-np.inf, rmax_db), (-3.0,))[0] for f in grid])
+    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), data, ocfg, (1.0,), rmax_db, (None, "fit"),
+                           (1.0,), (-3.0,))[0] for f in grid])
     tried = []
     for gi in np.argsort(sc)[::-1]:
         if len(tried) >= ocfg.rescue_tries or not np.isfinite(sc[gi]):
