@@ -43,7 +43,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from any_radar import draw_case, make_recording, true_cpi_means  # noqa: E402
 
-from microdoppler.rotors.speed import estimate_rotor_speeds  # noqa: E402
+from microdoppler.rotors.speed import RotorSpeedConfig, estimate_rotor_speeds  # noqa: E402
 from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates  # noqa: E402
 
 
@@ -150,11 +150,17 @@ def timing_run(seconds: float = 60.0) -> dict:
                      blade_length_m=0.12, tip_speed_mps=85.0, setup="flying", radial_speed_mps=6.0,
                      weak_blade_db=0.0, blade_to_body_db=0.0)
     flight, _ = make_recording(case)
-    t0 = time.process_time()
-    est = estimate_rotor_speeds(flight)
-    dt = time.process_time() - t0
+    parts = {}
+    for name, kw in (("lines", dict(config=RotorSpeedConfig(refine=False), order=False)),
+                     ("lines + order", dict(config=RotorSpeedConfig(refine=False))),
+                     ("default (lines + order + I/Q fit)", {})):
+        t0 = time.process_time()
+        est = estimate_rotor_speeds(flight, **kw)
+        parts[name] = 60 * (time.process_time() - t0) / seconds
+    dt = parts["default (lines + order + I/Q fit)"] * seconds / 60
     return {"recording_s": seconds, "cpu_s": dt, "cpu_s_per_minute": 60 * dt / seconds, "n_cpi": len(est.time_s),
-            "ok": est.ok, "order": {k: est.info.get("order", {}).get(k) for k in ("ratio_to_lines", "ambiguous")}}
+            "cpu_s_per_minute_by_part": parts, "ok": est.ok,
+            "order": {k: est.info.get("order", {}).get(k) for k in ("ratio_to_lines", "ambiguous")}}
 
 
 def main(argv=None) -> int:
@@ -204,7 +210,8 @@ def main(argv=None) -> int:
     if args.timing:
         timing = timing_run()
         print(f"timing run: {timing['recording_s']:.0f} s recording, 4 rotors, 10 kHz PRF: {timing['cpu_s']:.1f} CPU s "
-              f"({timing['cpu_s_per_minute']:.1f} s per minute, {timing['n_cpi']} CPIs)")
+              f"({timing['cpu_s_per_minute']:.1f} s per minute, {timing['n_cpi']} CPIs); per minute by part: "
+              + ", ".join(f"{k} {v:.1f} s" for k, v in timing["cpu_s_per_minute_by_part"].items()))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"args": vars(args), "rows": rows, "table": tab, "timing": timing, "wall_s": wall}, fh,

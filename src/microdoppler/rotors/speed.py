@@ -62,6 +62,12 @@ Method (arrays per CPI):
    with the strongest line and its ambiguity adds to the uncertainty. Where no fit
    stays near the lines, the periodogram's estimate stands.
 
+10. Order (``order=True``, :mod:`microdoppler.rotors.order`): which comb the lines are
+   (blade-passing or rotation-rate family, folded Doppler, sub- and super-harmonics),
+   judged by a line likelihood and physics (the blade flash's Doppler extent against
+   ``blade_length_m``, tip speed); alternatives and their doubt go into
+   ``info["order"]``, the uncertainties and the store.
+
 A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a lone
 mirror pair can be clutter or birds); otherwise there is no estimate and ``reason``
 says why. CPIs without a visible pair are NaN; speeds outside ``min_rev_s`` to
@@ -127,7 +133,7 @@ class RotorSpeedConfig:
     Parameters
     ----------
     min_rev_s, max_rev_s : float
-        Plausible rotor speeds [rev/s] (paper §II: 40-250 Hz).
+        Plausible rotor speeds [rev/s] (paper §II: 40-250 Hz; drones of any size 20-400).
     n_harmonics : int
         Highest harmonic order examined.
     pair_snr_db : float
