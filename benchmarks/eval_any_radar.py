@@ -203,9 +203,9 @@ def main(argv=None) -> int:
     secs = sum(r["seconds"] for r in rows)
     dur = sum(r["duration_s"] for r in rows)
     sub = [r for r in rows if r["n_rotors"] == 4 and r["prf_hz"] <= 10000]
+    per_min_sub = 60 * sum(r["seconds"] for r in sub) / max(sum(r["duration_s"] for r in sub), 1e-9)
     print(f"estimator CPU: {60 * secs / dur:.1f} s per minute of recording over all ({secs:.0f} s for {dur:.0f} s); "
-          f"4 rotors at <= 10 kHz: {60 * sum(r['seconds'] for r in sub) / max(sum(r['duration_s'] for r in sub), 1e-9):.1f}"
-          f" s per minute ({len(sub)} recordings); wall {wall:.0f} s")
+          f"4 rotors at <= 10 kHz: {per_min_sub:.1f} s per minute ({len(sub)} recordings); wall {wall:.0f} s")
     timing = None
     if args.timing:
         timing = timing_run()
