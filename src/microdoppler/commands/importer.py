@@ -231,6 +231,9 @@ def estimate_motors(flight, warns: list):
         warns.append(f"no rotor-speed estimate: {est.reason}")
         return flight
     print(f"rotor speeds from the radar: {est.summary()}", file=sys.stderr)  # information, not a warning
+    from ..rotors.order import ambiguity_line
+    if (line := ambiguity_line(est)) is not None:
+        print(line, file=sys.stderr)
     return est.with_flight(flight)
 
 

@@ -62,6 +62,12 @@ Method (arrays per CPI):
    with the strongest line and its ambiguity adds to the uncertainty. Where no fit
    stays near the lines, the periodogram's estimate stands.
 
+10. Order (``order=True``, :mod:`microdoppler.rotors.order`): which comb the lines are
+   (blade-passing or rotation-rate family, folded Doppler, sub- and super-harmonics),
+   judged by a line likelihood and physics (the blade flash's Doppler extent against
+   ``blade_length_m``, tip speed); alternatives and their doubt go into
+   ``info["order"]``, the uncertainties and the store.
+
 A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a lone
 mirror pair can be clutter or birds); otherwise there is no estimate and ``reason``
 says why. CPIs without a visible pair are NaN; speeds outside ``min_rev_s`` to
@@ -100,7 +106,6 @@ import itertools
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from scipy.ndimage import maximum_filter1d
 from scipy.signal import find_peaks
 from scipy.signal.windows import blackmanharris
@@ -109,6 +114,7 @@ from ..io.flightzarr import Flight
 from ..io.motorlog import MotorLog
 from .fit import FitConfig, refine_cpi
 from .sampling import log_curve
+from ..spectra.floor import FLOOR_PERCENTILE, FLOOR_STEP_BINS, FLOOR_WINDOW_BINS, local_floor_db
 from ..spectra.snr import body_doppler_hz
 from ..spectra.spectrogram import SpectrogramConfig, spectrogram
 
@@ -124,12 +130,6 @@ LOG_STEP = 0.005
 # measured since only through the estimator's accuracy, ``benchmarks/eval_rotorspeed.py``,
 # benchmarks/README.md "eval_rotorspeed.py", unless the comment says otherwise).
 
-#: local noise floor (step 1, :func:`local_floor_db`): the 20th percentile of 129 bins
-#: (~230 Hz at 7.3 kHz / 4096) every 16 bins; a low percentile ignores the lines that
-#: fill the bins around a drone's body
-FLOOR_WINDOW_BINS = 129
-FLOOR_STEP_BINS = 16
-FLOOR_PERCENTILE = 20.0
 #: prominence of a spectral line [dB] (steps 1, 5-6)
 LINE_PROMINENCE_DB = 6.0
 #: rotors are searched within a factor 1.5 of the tracked group speed: under 2 so that a
@@ -177,7 +177,7 @@ class RotorSpeedConfig:
     ----------
     min_rev_s, max_rev_s : float
         Plausible rotor speeds [rev/s]: the paper's 40-250 Hz (§II) widened by a
-        margin on both sides; a speed outside is no rotor's.
+        margin on both sides; drones of any size 20-400 rev/s; a speed outside is no rotor's.
     n_harmonics : int
         Highest harmonic order examined (steps 3, 6); set with the estimator (0004c07),
         not tuned since.
@@ -211,7 +211,7 @@ class RotorSpeedConfig:
     """
 
     min_rev_s: float = 20.0
-    max_rev_s: float = 300.0
+    max_rev_s: float = 400.0
     n_harmonics: int = 10
     pair_snr_db: float = 10.0
     clutter_guard_hz: float = 20.0
@@ -369,6 +369,7 @@ class RotorEstimate:
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
                 **fitted,
+                **_order_attrs(self),
                 "settings": self.info.get("settings", {}),
             },
         }
@@ -390,37 +391,16 @@ class RotorEstimate:
                 f"{int(self.separated.sum())} CPIs with every rotor separated")
 
 
+def _order_attrs(est) -> dict:
+    from .order import order_attrs
+    return order_attrs(est)
+
+
 def _no_estimate(flight_id, n_cpi, t, n_motors, n_blades, n_fft, reason, info=None) -> RotorEstimate:
     nan = np.full(n_cpi, np.nan)
     return RotorEstimate(flight_id, t, np.full((n_cpi, n_motors), np.nan), np.full((n_cpi, n_motors), np.nan),
                          nan.copy(), nan.copy(), np.zeros(n_cpi, int), np.zeros(n_cpi, int), nan.copy(),
                          int(n_motors), int(n_blades), int(n_fft), reason, dict(info or {}))
-
-
-def local_floor_db(power_db: np.ndarray, *, window_bins: int = FLOOR_WINDOW_BINS,
-                   step_bins: int = FLOOR_STEP_BINS, percentile: float = FLOOR_PERCENTILE) -> np.ndarray:
-    """Mean noise power per bin [dB] of periodogram rows ``power_db`` [k, n_bins].
-
-    A low percentile over ``window_bins`` (centres every ``step_bins``, linear in
-    between) is robust to the lines that fill the bins around a drone's body; for
-    exponentially distributed noise power the p-th percentile is -ln(1 - p) times
-    the mean, which is added back. Returns float32 [k, n_bins].
-    """
-    p_db = np.atleast_2d(np.asarray(power_db, np.float32))
-    k, n = p_db.shape
-    h = window_bins // 2
-    pad = np.pad(p_db, ((0, 0), (h, h)), mode="reflect")
-    centres = np.arange(0, n, step_bins)
-    if centres[-1] != n - 1:
-        centres = np.append(centres, n - 1)
-    q = int(np.floor(percentile / 100 * (2 * h)))
-    win = sliding_window_view(pad, 2 * h + 1, axis=1)[:, centres]
-    low = np.partition(win, q, axis=2)[:, :, q]
-    out = np.empty((k, n), np.float32)
-    x = np.arange(n)
-    for i in range(k):
-        out[i] = np.interp(x, centres, low[i])
-    return out - np.float32(10 * np.log10(-np.log(1 - percentile / 100)))
 
 
 def _parabolic(y_m1, y0, y_p1) -> float:
@@ -449,7 +429,7 @@ class _Cpi:
 
 def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | None = None,
                           n_blades: int | None = None, config: RotorSpeedConfig | None = None,
-                          progress=None) -> RotorEstimate:
+                          progress=None, order: bool = True) -> RotorEstimate:
     """Estimate each rotor's speed over time from the flight's HERM lines.
 
     Parameters
@@ -465,6 +445,10 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         Method settings (see the module docstring).
     progress : callable(done, total), optional
         Called during the I/Q fit (step 9, ~0.35 s per CPI) every 64 CPIs and at its end.
+    order : bool
+        Check the comb's harmonic order (:func:`microdoppler.rotors.order.resolve_order`:
+        unequal blades, folded Doppler, sub- and super-harmonics; alternatives and their
+        doubt in ``info["order"]`` and the uncertainties). False: the comb as found.
 
     Returns
     -------
@@ -579,9 +563,14 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     if reason is not None:
         est = _no_estimate(fid, n_cpi, t, M, B, n_fft, reason, info)
         est.n_pairs = n_pairs
-        return est
-    return RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
-                         balance)
+    else:
+        est = RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
+                            balance)
+    if order:  # which comb the lines are, with its doubt (rotors.order)
+        from .order import resolve_order
+        est = resolve_order(flight, est, cfg, rerun=lambda c, n_blades=B: estimate_rotor_speeds(
+            flight, n_fft=n_fft, n_motors=M, n_blades=n_blades, config=c, progress=progress, order=False))
+    return est
 
 
 def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,

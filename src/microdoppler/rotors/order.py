@@ -1,0 +1,863 @@
+"""Which comb the HERM lines are: the rotation rate's harmonic order, with its doubt.
+
+:func:`microdoppler.rotors.speed.estimate_rotor_speeds` measures the spacing of a
+flight's HERM lines well, and reads it as the blade-passing rate B f of rotors turning
+at f [rev/s]. Other line sets share that spacing, and with them the speed is off by a
+simple ratio while the lines are measured well:
+
+- unequal blades (a tag, a chip, a different pitch): a rotor returns lines at every
+  multiple of f, not only at multiples of B f; read as a blade-passing comb they give
+  f / B (0.5x for two blades);
+- Doppler beyond +-PRF/2 folds: the lines wrap modulo the PRF and interleave with the
+  unfolded ones, so that a comb of a different spacing (1.5x, 2x) matches them;
+- sub- and super-harmonics: a comb at f / 2 contains every line of the true one, one
+  at 2 f half of them.
+
+:func:`resolve_order` (called by ``estimate_rotor_speeds`` unless ``order=False``)
+scores candidate rotation rates by the likelihood of the CPIs' spectral lines under a
+line model that knows both line families and folding, and by physics, and where two
+rates remain plausible says so.
+
+1. The lines: the order is judged on the periodogram's lines (steps 1-8 of
+   :mod:`~microdoppler.rotors.speed`; an I/Q fit made at a wrong order is biased).
+   Their comb's rate is the median rotor's, the rotors' spread per CPI that of the
+   lines within 15 % of it, widened by the spread of the peaks around the comb's
+   first three blade-passing harmonics and by ``spread_margin``.
+2. Candidates: the comb's rate times 1/3, 1/2, 2/3, 1, 3/2, 2, 3 (and 1/B, B), plus
+   the ``screen_keep`` best local maxima of a coarse likelihood (``screen_cpis`` CPIs)
+   over ``min_rev_s``-``max_rev_s`` in steps of ``screen_step``, away from the
+   ratios (``snap_rel``), each with the lines' time profile and rotor spread.
+3. Physics excludes a candidate whose blade tips would pass ``max_tip_mach`` (2 pi f L
+   over the speed of sound) or whose blade-tip Doppler the lines pass: the blade
+   energy's extent (per CPI the M-th farthest line of ``line_db`` + 3 dB, the median
+   over CPIs; folded lines make it a lower bound) must not exceed (kappa_max beta +
+   ``tail_harmonics`` beta^(1/3)) f, where beta f = 2 (2 pi f L) / lambda = f_max is
+   the tips' Doppler, the blade flash's Doppler extent (beta = 4 pi L / lambda; the
+   tip's Bessel lines J_k(beta) fall off over ~beta^(1/3) harmonics beyond k = beta).
+4. Line model, per CPI, for a rate f (rotors at f p_m): rotation harmonic k has a line
+   at body + s k f (s = +-1, folded modulo the PRF into the spectrum) within a window
+   covering the rotors' spread k f (p_min..p_max) plus 1.5 bins; the blade-passing
+   family (k a multiple of B) has the level a - beta_d d (d = k f p_max), the
+   rotation-rate family (other k) that level times rho^2 (rho = 0 for equal blades;
+   fitted, at most :func:`rho_max` of one blade ``max_weak_blade_db`` weaker than the
+   others), and no line lies beyond kappa f_max + the tail; kappa in ``extent_range``
+   (the stated tolerance: below 1 for a rotor plane seen at an elevation, a weak tip, a
+   drooping envelope; above 1 for a blade length known to ~10 %). The level a per CPI
+   and the decay beta_d [dB/Hz] are fitted by least squares to the explained peaks.
+   Observations are the spectrum's peaks (``line_db`` over the local floor,
+   ``prominence_db``; clutter and body bands masked) within the analysed band: offsets
+   from the body where the comb's rotation harmonics stay apart (half over the
+   relative spread; beyond, the rotors' lines merge into a continuum that tells no
+   order). A peak inside a window of a line has the density (1 - fade) N(y; mu,
+   ``line_sd_db``) / width; a window without a peak 1 - (1 - fade) Phi((mu -
+   ``line_db``) / ``line_sd_db``); a peak no line explains is spurious,
+   ``spurious_per_cpi`` per CPI spread over the band and over ``spurious_range_db``.
+   The data are the same for every candidate (every peak is explained or spurious), so
+   their likelihoods compare: a sub-harmonic pays for its empty windows, a
+   super-harmonic or a wrong folding for the peaks it leaves unexplained, the
+   rotation-rate family at twice the rate for lines as strong as the blade-passing
+   ones (rho capped), a rate too low for lines beyond its tips' Doppler.
+5. Weighing: the log-likelihood over ``temperature`` (CPIs overlap by half), plus
+   ``prior_lines`` for the comb the lines were read as. An alternative's evidence is
+   scaled down by the CPIs' own scatter (the per-CPI differences d_i have variance
+   ~2 mean(d) where the model holds; a larger variance scales the evidence by 2 mean /
+   variance) and where the two combs' windows cover more than ``coverage_free`` of the
+   band (folded, dense lines: a peak is explained by chance) by (1 - coverage) / (1 -
+   ``coverage_free``), at least ``min_evidence``; relative likelihood exp(-evidence).
+6. The speeds: where the chosen rate is the comb's, the estimate stands; else it is
+   measured again with the search confined to the chosen rate's range (``rerun``,
+   widened by ``rerun_margin``) and, where that does not find it within 3 %, the
+   lines' estimate is scaled. Where the lines found no comb at all over the whole
+   range (they may follow a sub-harmonic path into nothing), the screen's likeliest
+   rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
+
+Where another candidate's relative likelihood is ``ambiguous_at`` or more, the flight's
+order is ambiguous: ``RotorEstimate.info["order"]`` lists the alternatives (down to
+``report_at``), the store's ``motors_radar`` attributes ``rotor_order_alternatives_rev_s``
+and ``rotor_order_relative_likelihood`` carry them (:func:`order_attrs`), ``import``
+prints :func:`ambiguity_line`, and every CPI's uncertainty includes the order's:
+sigma^2 + sum_h w_h (v_h - v)^2 over the candidates h whose relative likelihood is
+``ambiguous_at`` or more (weights w normalised over them, speeds v_h = v f_h / f), the
+spread of the mixture about the reported speed (a candidate below ``ambiguous_at`` lies
+outside the mixture's 95 % interval and is listed without widening sigma).
+
+Tested on recordings the project did not shape (``tests/any_radar.py``,
+``tests/test_rotor_order.py``; ``benchmarks/eval_any_radar.py``); the settings were
+chosen on the generator's seeds 1-99 and on the emulated flights, the benchmark runs on
+seeds from 1000.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+from scipy.signal import find_peaks
+from scipy.signal.windows import blackmanharris
+from scipy.special import log_ndtr
+
+from ..spectra.floor import local_floor_db
+
+METHOD = "order/1"
+SOUND_MPS = 343.0
+C_MPS = 299_792_458.0
+#: the standard ratios to the estimate's rate that are always examined
+RATIOS = (1 / 3, 1 / 2, 2 / 3, 1.0, 3 / 2, 2.0, 3.0)
+
+
+@dataclass(frozen=True)
+class OrderConfig:
+    """Settings of :func:`resolve_order` (see the module docstring).
+
+    Parameters
+    ----------
+    min_rev_s, max_rev_s : float
+        Plausible rotation rates [rev/s] of the mean rotor.
+    max_tip_mach : float
+        Blade tips faster than this (Mach) exclude a candidate.
+    extent_range : (float, float)
+        Bounds of kappa, the blade flash's Doppler extent over 2 (2 pi f L) / lambda.
+    max_weak_blade_db : float
+        The rotation-rate family's level is at most that of one blade this much weaker
+        than the others (amplitude, 20 log10).
+    line_db, prominence_db : float
+        A peak stands ``line_db`` over the local floor with ``prominence_db``.
+    line_sd_db : float
+        Spread of a line's level about the envelope [dB].
+    fade : float
+        Probability that a line falls out (fading, interference of rotors).
+    spurious_per_cpi, spurious_range_db : float
+        Peaks no rotor explains: expected count per CPI over the band, and the span of
+        their heights above ``line_db``.
+    clutter_guard_hz, body_guard_hz : float
+        Masked bands around 0 Hz and the body [Hz].
+    max_cpis, screen_cpis : int
+        CPIs used (evenly spread, preferring non-overlapping ones) for the likelihood
+        and for the screen.
+    screen_step, screen_keep, min_separation : float, int, float
+        Screen grid (relative step), local maxima kept, and their least separation.
+    temperature : float
+        The log-likelihood is divided by this before candidates are weighed.
+    ambiguous_at : float
+        Alternatives with this relative likelihood or more make the order ambiguous.
+    report_at : float
+        Alternatives below this relative likelihood are not listed (their weight still
+        enters the uncertainty).
+    same_rel : float
+        Candidates within this relative distance are one.
+    rerun_margin : float
+        The re-measurement searches the chosen rate's range widened by this factor.
+    spread_margin : float
+        A line window covers the estimate's rotor spread widened by this (relative)
+        on either side, for the rotors the lines did not separate.
+    tail_harmonics : float
+        Lines may reach this many times beta^(1/3) rotation harmonics beyond kappa
+        f_max (beta = 4 pi L / lambda: the Bessel lines of the tip fall off over
+        ~beta^(1/3) harmonics beyond k = beta).
+    rescue_spread, rescue_rel, rescue_tries : float, float, int
+        Where the lines found no comb: the rotors' assumed spread for the screen, the
+        relative half-width of each confined search, and how many rates are tried.
+    coverage_free, min_evidence : float
+        Where two combs' windows cover more than ``coverage_free`` of the spectrum
+        (folded, dense lines), the evidence between them is scaled by
+        (1 - coverage) / (1 - coverage_free), at least ``min_evidence``.
+    prior_lines : float
+        Log-likelihood advantage of the comb the lines were read as (the estimator's
+        own evidence: its first pair visible, its harmonics).
+    snap_rel : float
+        A screen maximum within this (relative) of a simple ratio of the lines' comb is
+        that ratio (the lines measure the spacing; a nearby maximum is no other order).
+    """
+
+    min_rev_s: float = 20.0
+    max_rev_s: float = 400.0
+    max_tip_mach: float = 0.7
+    extent_range: tuple = (0.6, 1.1)
+    max_weak_blade_db: float = 12.0
+    line_db: float = 10.0
+    prominence_db: float = 6.0
+    line_sd_db: float = 5.0
+    fade: float = 0.05
+    spurious_per_cpi: float = 1.0
+    spurious_range_db: float = 50.0
+    clutter_guard_hz: float = 20.0
+    body_guard_hz: float = 20.0
+    max_cpis: int = 64
+    screen_cpis: int = 24
+    screen_step: float = 0.004
+    screen_keep: int = 6
+    min_separation: float = 0.03
+    temperature: float = 2.0
+    ambiguous_at: float = 0.05
+    report_at: float = 0.01
+    same_rel: float = 0.02
+    rerun_margin: float = 1.2
+    spread_margin: float = 0.01
+    tail_harmonics: float = 2.0
+    rescue_spread: float = 0.05
+    rescue_rel: float = 0.15
+    rescue_tries: int = 3
+    coverage_free: float = 0.5
+    min_evidence: float = 0.05
+    prior_lines: float = 1.0
+    snap_rel: float = 0.08
+
+    def __post_init__(self):
+        if not 0 < self.min_rev_s < self.max_rev_s:
+            raise ValueError(f"min_rev_s={self.min_rev_s}, max_rev_s={self.max_rev_s} must satisfy 0 < min < max")
+        lo, hi = self.extent_range
+        if not 0 < lo < hi:
+            raise ValueError(f"extent_range={self.extent_range} must satisfy 0 < low < high")
+        for name in ("max_tip_mach", "line_sd_db", "spurious_per_cpi", "spurious_range_db", "temperature",
+                     "screen_step", "rerun_margin"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}={getattr(self, name)} must be > 0")
+        if not 0 <= self.fade < 1:
+            raise ValueError(f"fade={self.fade} must be in [0, 1)")
+        if not 0 < self.report_at <= self.ambiguous_at <= 1:
+            raise ValueError(f"report_at={self.report_at} and ambiguous_at={self.ambiguous_at} must satisfy "
+                             "0 < report_at <= ambiguous_at <= 1")
+        if self.max_cpis < 1 or self.screen_cpis < 1 or self.screen_keep < 0:
+            raise ValueError("max_cpis and screen_cpis must be >= 1, screen_keep >= 0")
+
+
+def rho_max(n_blades: int, weak_db: float) -> float:
+    """Largest ratio of a rotation-rate line to a blade-passing line at the same
+    Doppler: one blade of amplitude g = 10^(-weak_db/20) among B - 1 of amplitude 1
+    gives |1 - g| / (B - 1 + g) (the k-th harmonic's blade sum for k not a multiple of B)."""
+    g = 10 ** (-weak_db / 20)
+    return (1 - g) / (n_blades - 1 + g)
+
+
+@dataclass
+class _Data:
+    """The CPIs' peaks and geometry (Hz relative to the body, per CPI)."""
+
+    prf: float
+    bin_hz: float
+    n_fft: int
+    peaks_x: np.ndarray      # [n_cpi, P] peak offset from the body [Hz], NaN padding
+    peaks_y: np.ndarray      # [n_cpi, P] height over the floor [dB]
+    pk_table: list           # sparse table of peak heights, CPIs concatenated (each doubled: circular)
+    masked: np.ndarray       # [n_cpi, 2 n_fft + 1] prefix counts of masked bins (doubled, circular)
+    centre_bin: np.ndarray   # [n_cpi] body [fractional bin, 0..n_fft)
+    p_lo: np.ndarray         # [n_cpi] slowest rotor's rate / reference
+    p_hi: np.ndarray         # [n_cpi] fastest rotor's rate / reference
+    cpi_index: np.ndarray    # which CPIs of the estimate
+    band_hz: np.ndarray      # [n_cpi] analysed offsets |x| <= band (the comb's harmonics resolved)
+    extent_hz: float         # the blade energy's Doppler extent: how far lines reach (a lower bound)
+
+
+def _sparse_table(v: np.ndarray) -> list:
+    out = [v]
+    j = 1
+    while 2 * j <= len(v):
+        prev = out[-1]
+        out.append(np.maximum(prev[:len(prev) - j], prev[j:]))
+        j *= 2
+    return out
+
+
+def _range_max(table: list, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """max v[lo..hi] (inclusive, lo <= hi) from a sparse table."""
+    ln = np.maximum(hi - lo + 1, 1)
+    lev = np.floor(np.log2(ln)).astype(int)
+    out = np.full(lo.shape, -np.inf)
+    for L in np.unique(lev):
+        s = lev == L
+        t = table[min(L, len(table) - 1)]
+        out[s] = np.maximum(t[lo[s]], t[hi[s] - (1 << L) + 1])
+    return out
+
+
+def _row_median(r: np.ndarray) -> np.ndarray:
+    """Median of the finite entries of each row (NaN where none)."""
+    srt = np.sort(r, axis=1)  # NaN last
+    cnt = np.isfinite(r).sum(axis=1)
+    lo = np.clip((cnt - 1) // 2, 0, None)
+    hi = np.clip(cnt // 2, 0, None)
+    rows = np.arange(len(r))
+    out = 0.5 * (srt[rows, np.minimum(lo, r.shape[1] - 1)] + srt[rows, np.minimum(hi, r.shape[1] - 1)])
+    return np.where(cnt > 0, out, np.nan)
+
+
+def _choose_cpis(valid: np.ndarray, k: int) -> np.ndarray:
+    """Up to ``k`` of the valid CPIs, evenly spread, non-overlapping ones first."""
+    idx = np.flatnonzero(valid)
+    if len(idx) <= k:
+        return idx
+    even = idx[idx % 2 == 0]
+    pool = even if len(even) >= k else idx
+    return pool[np.round(np.linspace(0, len(pool) - 1, k)).astype(int)]
+
+
+def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg) -> _Data:
+    n = int(est.n_fft)
+    hop = n // 2
+    prf = float(flight.prf_hz)
+    bin_hz = prf / n
+    w = blackmanharris(n, sym=False)
+    f = np.fft.fftfreq(n, 1 / prf)
+    P = []
+    px, py, tabs, masks, cb = [], [], [], [], []
+    for i in cpis:
+        x = np.asarray(flight.iq[i * hop:i * hop + n], np.complex128) * w
+        p = np.abs(np.fft.fft(x)) ** 2 / (w ** 2).sum()
+        pdb = np.fft.fftshift(10 * np.log10(p + 1e-30))
+        fl = local_floor_db(pdb[None, :], window_bins=scfg.floor_window_bins, step_bins=scfg.floor_step_bins,
+                            percentile=scfg.floor_percentile)[0]
+        z = np.fft.ifftshift(pdb - fl)
+        body = float(est.body_hz[i])
+        rel = (f - body + prf / 2) % prf - prf / 2
+        mask = (np.abs(f) < ocfg.clutter_guard_hz) | (np.abs(rel) < ocfg.body_guard_hz)
+        z = np.where(mask, -100.0, z)
+        pad = 8
+        zz = np.r_[z[-pad:], z, z[:pad]]
+        pk, _ = find_peaks(zz, height=ocfg.line_db, prominence=ocfg.prominence_db)
+        pk = pk[(pk >= pad) & (pk < pad + n)]
+        # parabolic refinement of each peak's bin
+        a, b, c = zz[pk - 1], zz[pk], zz[pk + 1]
+        den = a - 2 * b + c
+        off = np.where(den < 0, np.clip(0.5 * (a - c) / np.where(den < 0, den, -1), -0.5, 0.5), 0.0)
+        pos = (pk - pad + off) % n
+        cbin = (body / bin_hz) % n
+        xr = ((pos - cbin + n / 2) % n - n / 2) * bin_hz
+        px.append(xr)
+        py.append(b)
+        hv = np.full(n, -np.inf)
+        hv[pk - pad] = b
+        tabs.append(np.r_[hv, hv])
+        masks.append(np.r_[0, np.cumsum(np.r_[mask, mask])])
+        cb.append(cbin)
+        P.append(len(pk))
+    Pm = max(max(P) if P else 0, 1)
+    peaks_x = np.full((len(cpis), Pm), np.nan)
+    peaks_y = np.full((len(cpis), Pm), np.nan)
+    for r, (x, y) in enumerate(zip(px, py)):
+        peaks_x[r, :len(x)] = x
+        peaks_y[r, :len(y)] = y
+    sp = np.asarray(est.speeds_rev_s[cpis], float)
+    # a rotor put on another order's line (over 15 % from the CPI's median rotor) is no
+    # part of the spread
+    med = np.nanmedian(sp, axis=1, keepdims=True)
+    sp = np.where(np.abs(sp / med - 1) <= 0.15, sp, np.nan)
+    p_lo = np.nanmin(sp, axis=1) / ref
+    p_hi = np.nanmax(sp, axis=1) / ref
+    # the rotor spread seen in the data: peaks within 12 % of the comb's first three
+    # blade-passing harmonics (where no other order's line falls); the estimate may have
+    # put two rotors on one line and missed the fastest or slowest
+    fb = int(est.n_blades) * ref
+    ax = np.abs(peaks_x)
+    nn = np.round(ax / fb)
+    dev = np.where((nn >= 1) & (nn <= 3) & (peaks_y >= ocfg.line_db + 3.0), ax / np.maximum(nn, 1) / fb - 1, np.nan)
+    dev = np.where(np.abs(dev) <= 0.12, dev, np.nan)
+    with np.errstate(all="ignore"):
+        has = np.isfinite(dev).any(axis=1)
+        p_lo = np.where(has, np.minimum(p_lo, 1 + np.nanmin(np.where(has[:, None], dev, 0.0), axis=1)), p_lo)
+        p_hi = np.where(has, np.maximum(p_hi, 1 + np.nanmax(np.where(has[:, None], dev, 0.0), axis=1)), p_hi)
+    mid = 0.5 * (p_lo + p_hi)
+    half = np.minimum(0.5 * (p_hi - p_lo), 0.1 * mid) + ocfg.spread_margin * mid  # (over 20 %: not one drone's)
+    # the blade energy's extent: per CPI the M-th farthest line (M rotors), the median
+    # over CPIs (folded lines put it at the band's edge: a lower bound of the extent)
+    far = []
+    for x, y in zip(px, py):
+        a = np.sort(np.abs(x[y >= ocfg.line_db + 3.0]))
+        if len(a):
+            far.append(a[-min(len(a), int(est.n_motors))])
+    extent = float(np.median(far)) if far else 0.0
+    # the analysed band: where the rotation harmonics' windows of the lines' comb stay
+    # apart (beyond, the rotors' lines merge into a continuum that tells no order)
+    band = np.minimum(0.5 / (half / mid + 0.004) * ref * mid, prf / 2)
+    peaks_x = np.where(np.abs(peaks_x) <= band[:, None], peaks_x, np.nan)
+    peaks_y = np.where(np.isfinite(peaks_x), peaks_y, np.nan)
+    return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks),
+                 np.array(cb), mid - half, mid + half, np.asarray(cpis), band, extent)
+
+
+@dataclass
+class _Geometry:
+    """Windows and peak assignments of one candidate rate (arrays over the CPIs)."""
+
+    f: float
+    d: np.ndarray          # [n_cpi, W] unfolded offset of the outermost rotor's line [Hz]
+    fam: np.ndarray        # [n_cpi, W] True: rotation-rate family (k not a multiple of B)
+    valid: np.ndarray      # [n_cpi, W] window observable (centre unmasked)
+    detected: np.ndarray   # [n_cpi, W] a peak inside
+    fmax: np.ndarray       # [n_cpi] blade-tip Doppler of the fastest rotor [Hz]
+    tail: np.ndarray       # [n_cpi] the edge's allowance beyond kappa fmax [Hz]
+    pk_d: np.ndarray       # [n_cpi, P, 2] per peak: offset d of the covering window, per family (inf: none)
+    pk_w: np.ndarray       # [n_cpi, P, 2] its width [Hz]
+    pk_y: np.ndarray       # [n_cpi, P]
+    pk_ok: np.ndarray      # [n_cpi, P]
+    lo_bin: np.ndarray     # [n_cpi, W] first bin of each window (mod n_fft)
+    hi_bin: np.ndarray     # [n_cpi, W] last bin (lo_bin + width, may pass n_fft)
+
+
+def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: OrderConfig,
+              rows: np.ndarray | None = None) -> _Geometry:
+    rows = np.arange(len(data.p_lo)) if rows is None else rows
+    prf, bh, n = data.prf, data.bin_hz, data.n_fft
+    lo, hi = f * data.p_lo[rows], f * data.p_hi[rows]                    # [R] Hz per harmonic
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    kmax_ext = ocfg.extent_range[1]
+    if L is not None:
+        fmax = 4 * np.pi * hi * L / lam
+        # the lines of a point at the tip, J_k(beta) with beta = 4 pi L / lambda, fall off
+        # over ~beta^(1/3) harmonics beyond k = beta: the edge's allowance
+        tail = ocfg.tail_harmonics * (4 * np.pi * L / lam) ** (1 / 3) * hi
+        dmax = kmax_ext * fmax + tail
+    else:
+        fmax = np.full(len(rows), np.inf)
+        tail = np.zeros(len(rows))
+        dmax = np.full(len(rows), prf)
+    K = int(np.clip(np.ceil(np.max(dmax / lo)), 1, 4000))
+    k = np.arange(1, K + 1)
+    # windows: [R, 2K] (k for s = +1 then s = -1)
+    kk = np.r_[k, k][None, :].astype(float)
+    s = np.r_[np.ones(K), -np.ones(K)][None, :]
+    hw = np.minimum(kk * (half[:, None] + 0.004 * mid[:, None]) + 1.5 * bh, 0.5 * mid[:, None])
+    centre = kk * mid[:, None]
+    d = kk * hi[:, None]
+    inrange = d <= dmax[:, None]
+    cbin = data.centre_bin[rows][:, None] + s * centre / bh
+    lo_b = np.floor(cbin - hw / bh).astype(np.int64)
+    hi_b = np.ceil(cbin + hw / bh).astype(np.int64)
+    width_b = np.minimum(hi_b - lo_b, n - 1)
+    lo_m = lo_b % n
+    hi_m = lo_m + width_b
+    base = (rows * 2 * n)[:, None]
+    det = np.isfinite(_range_max(data.pk_table, lo_m + base, hi_m + base))
+    cm = np.round(cbin).astype(np.int64) % n
+    msk = data.masked[rows]
+    centre_masked = (np.take_along_axis(msk, cm + 1, 1) - np.take_along_axis(msk, cm, 1)) > 0
+    folded = np.abs((s * centre + prf / 2) % prf - prf / 2)
+    valid = inrange & ~centre_masked & (folded <= data.band_hz[rows][:, None])
+    fam = (np.r_[k, k] % B != 0)[None, :].repeat(len(rows), 0)
+    # peaks: the covering window of each family, over the folds
+    x = data.peaks_x[rows]                                                # [R, P]
+    ok = np.isfinite(x)
+    J = int(np.ceil(np.max(dmax) / prf)) + 1
+    js = np.arange(-J, J + 1)
+    xj = np.where(ok, x, 0.0)[:, :, None] + js[None, None, :] * prf       # [R, P, 2J+1]
+    ax = np.abs(xj)
+    pk_d = np.full(x.shape + (2,), np.inf)
+    pk_w = np.full(x.shape + (2,), np.inf)
+    m_ = mid[:, None, None]
+    # the nearest harmonic and its neighbours (windows widen with k and may reach over)
+    kf = np.round(ax / m_)[..., None] + np.array([-1.0, 0.0, 1.0])       # [R, P, 2J+1, 3]
+    kf = kf.reshape(ax.shape[:2] + (-1,))
+    ax = np.repeat(ax, 3, axis=2)
+    kf_ok = (kf >= 1) & (kf <= K)
+    hwk = np.minimum(kf * (half[:, None, None] + 0.004 * m_) + 1.5 * bh, 0.5 * m_)
+    inside = kf_ok & (np.abs(ax - kf * m_) <= hwk) & (kf * hi[:, None, None] <= dmax[:, None, None])
+    dd = np.where(inside, kf * hi[:, None, None], np.inf)
+    famk = (kf.astype(np.int64) % B) != 0
+    for fi, fsel in enumerate((~famk, famk)):
+        dsel = np.where(fsel, dd, np.inf)
+        j = np.argmin(dsel, axis=2)
+        pk_d[:, :, fi] = np.take_along_axis(dsel, j[:, :, None], 2)[:, :, 0]
+        wsel = np.take_along_axis(np.where(fsel & inside, 2 * hwk, np.inf), j[:, :, None], 2)[:, :, 0]
+        pk_w[:, :, fi] = wsel
+    return _Geometry(f, d, fam, valid, det, fmax, tail, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m)
+
+
+def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> tuple[np.ndarray, float]:
+    """Line level a per CPI [dB] and decay beta [dB/Hz] (one for all CPIs) by least
+    squares on the explained peaks (heights ``y`` at offsets ``d``, mask ``ex``, [R, P]);
+    CPIs without a peak get ``floor_db``."""
+    n = ex.sum(axis=1)
+    with np.errstate(all="ignore"):
+        dm = np.where(n > 0, (d * ex).sum(axis=1) / n, 0.0)
+        ym = np.where(n > 0, (y * ex).sum(axis=1) / n, 0.0)
+    dc = np.where(ex, d - dm[:, None], 0.0)
+    sxx = float((dc ** 2).sum())
+    sxy = float((dc * np.where(ex, y - ym[:, None], 0.0)).sum())
+    beta = max(0.0, -sxy / sxx) if sxx > 0 else 0.0
+    return np.where(n > 0, ym + beta * dm, floor_db), beta
+
+
+def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
+            a_offsets, per_cpi=False, with_cpis=False):
+    """Maximised log-likelihood of a candidate: (LL, params), (LL, params, per-CPI LL)
+    where ``with_cpis``, or the per-CPI LL of the best parameters where ``per_cpi``.
+
+    Over a grid of kappa (``kappas``) and of the rotation-rate family (``rho_modes``:
+    None, absent; "fit", its level from its peaks, at most ``rho_cap_db``); the level per
+    CPI and the decay by least squares on the explained blade-passing peaks, then
+    varied by ``beta_mults`` and ``a_offsets`` (the detected peaks bias both)."""
+    T, sd = ocfg.line_db, ocfg.line_sd_db
+    log_keep = np.log1p(-ocfg.fade)
+    log_norm = np.log(sd * np.sqrt(2 * np.pi))
+    spur = np.log(ocfg.spurious_per_cpi / data.prf / ocfg.spurious_range_db)
+    y = np.where(g.pk_ok, g.pk_y, 0.0)
+    pd_b = np.where(np.isfinite(g.pk_d[:, :, 0]), g.pk_d[:, :, 0], 0.0)
+    pd_i = np.where(np.isfinite(g.pk_d[:, :, 1]), g.pk_d[:, :, 1], 0.0)
+    lw_b = -np.log(np.where(np.isfinite(g.pk_w[:, :, 0]), g.pk_w[:, :, 0], 1.0))
+    lw_i = -np.log(np.where(np.isfinite(g.pk_w[:, :, 1]), g.pk_w[:, :, 1], 1.0))
+    fmax = g.fmax[:, None]
+    best = (-np.inf, None, None)
+    for kap in kappas:
+        lim = kap * fmax + g.tail[:, None]
+        act_w = g.valid & (g.d <= lim)
+        ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
+        a_fit, beta_fit = _envelope(y, pd_b, ex_b, T - 2 * sd)
+        for mode in rho_modes:
+            use_imb = mode is not None
+            ex_i = g.pk_ok & use_imb & (g.pk_d[:, :, 1] <= lim)
+            rho = 0.0
+            if use_imb:
+                only = ex_i & ~ex_b
+                r = (y - (a_fit[:, None] - beta_fit * pd_i))[only]
+                rho = float(np.clip(np.median(r), rho_cap_db - 20, rho_cap_db)) if r.size else rho_cap_db - 20
+            w_act = act_w & (~g.fam | use_imb)
+            miss = w_act & ~g.detected
+            for bm in beta_mults:
+                beta = beta_fit * bm
+                a0 = a_fit + (beta - beta_fit) * np.where(ex_b, pd_b, 0.0).sum(1) / np.maximum(ex_b.sum(1), 1)
+                shp_b = -beta * pd_b
+                shp_i = -beta * pd_i + rho
+                shp_w = -beta * g.d + np.where(g.fam, rho, 0.0)
+                for ao in a_offsets:
+                    a = (a0 + ao)[:, None]
+                    lb = np.where(ex_b, log_keep - 0.5 * ((y - a - shp_b) / sd) ** 2 - log_norm + lw_b, -np.inf)
+                    li = np.where(ex_i, log_keep - 0.5 * ((y - a - shp_i) / sd) ** 2 - log_norm + lw_i, -np.inf)
+                    lp = np.where(g.pk_ok, np.maximum(np.maximum(lb, li), spur), 0.0).sum(axis=1)
+                    pdet = np.exp(log_keep + log_ndtr((a + shp_w - T) / sd))
+                    lm = np.where(miss, np.log1p(-np.minimum(pdet, 1 - 1e-12)), 0.0).sum(axis=1)
+                    tot = lp + lm
+                    s_ = float(tot.sum())
+                    if s_ > best[0]:
+                        best = (s_, (kap, beta, rho if use_imb else None, a0 + ao), tot)
+    if per_cpi:
+        return best[2]
+    kap, beta, rho, a = best[1]
+    params = {"kappa": float(kap), "decay_db_per_khz": float(1e3 * beta),
+              "imbalance_db": None if rho is None else float(rho), "level_db": float(np.median(a))}
+    return (best[0], params, best[2]) if with_cpis else (best[0], params)
+
+
+@dataclass
+class Candidate:
+    """One candidate rotation rate and its score."""
+
+    rev_s: float
+    ratio: float
+    loglik: float
+    params: dict
+    tip_mach: float
+    extent_ratio: float
+    explained_share: float
+    origin: str
+    coverage: float = 0.0
+    per_cpi: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    relative_likelihood: float = 0.0
+
+
+def _coverage(g: _Geometry, params: dict, data: _Data) -> float:
+    """Share of the analysed band's bins inside the candidate's active line windows (the
+    chance that a peak anywhere in it is explained: near 1 the comb tells little)."""
+    n = data.n_fft
+    act = g.valid & (g.d <= params["kappa"] * g.fmax[:, None] + g.tail[:, None]) & (
+        ~g.fam | (params["imbalance_db"] is not None))
+    R = act.shape[0]
+    diff = np.zeros((R, 2 * n + 2))
+    rr = np.repeat(np.arange(R)[:, None], act.shape[1], 1)[act]
+    np.add.at(diff, (rr, g.lo_bin[act]), 1)
+    np.add.at(diff, (rr, np.minimum(g.hi_bin[act] + 1, 2 * n + 1)), -1)
+    cov = np.cumsum(diff, axis=1)[:, :2 * n] > 0
+    cov = cov[:, :n] | cov[:, n:]
+    rows = np.arange(R) if R == len(data.band_hz) else None
+    x = ((np.arange(n)[None, :] - data.centre_bin[rows][:, None] + n / 2) % n - n / 2) * data.bin_hz
+    inband = np.abs(x) <= data.band_hz[rows][:, None]
+    return float(cov[inband].mean()) if inband.any() else 0.0
+
+
+def _explained(g: _Geometry, params: dict) -> tuple[float, float]:
+    """(share of peaks explained, the blade flash's extent over f_max: the 90th
+    percentile over CPIs of the farthest explained blade-family line)."""
+    lim = params["kappa"] * g.fmax[:, None] + g.tail[:, None]
+    ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
+    ex_i = g.pk_ok & (params["imbalance_db"] is not None) & (g.pk_d[:, :, 1] <= lim)
+    share = float((ex_b | ex_i).sum() / max(g.pk_ok.sum(), 1))
+    far = np.where(ex_b, g.pk_d[:, :, 0], 0.0).max(axis=1)
+    ext = float(np.percentile(far / g.fmax, 90)) if np.all(np.isfinite(g.fmax)) and len(far) else float("nan")
+    return share, ext
+
+
+def _score(data: _Data, f: float, B: int, L, lam: float, ocfg: OrderConfig, grid_full: tuple, ref: float,
+           p_top: float, origin: str) -> Candidate:
+    """The full model's score of rate ``f``: log-likelihood (over ``temperature``), the
+    fitted envelope, per-CPI log-likelihoods, the blades' tip Mach, extent and coverage."""
+    g = _geometry(data, f, B, L, lam, ocfg)
+    ll, params, per = _loglik(g, data, ocfg, *grid_full, with_cpis=True)
+    share, ext = _explained(g, params)
+    return Candidate(float(f), float(f / ref), float(ll) / ocfg.temperature, params,
+                     float(2 * np.pi * f * p_top * L / SOUND_MPS) if L is not None else float("nan"), ext, share,
+                     origin, _coverage(g, params, data), per / ocfg.temperature)
+
+
+def _relative(best: Candidate, c: Candidate, ocfg: OrderConfig) -> float:
+    """Likelihood of ``c`` relative to ``best``, tempered twice: by the CPIs' own scatter
+    (the per-CPI differences d_i have variance ~2 mean(d) where the model holds; a larger
+    scatter scales the evidence down by 2 mean / variance), and by the share of the
+    spectrum the two combs' windows cover (a peak is explained by chance there: the
+    evidence is scaled by (1 - coverage) / (1 - ``coverage_free``), at least
+    ``min_evidence``)."""
+    if c is best:
+        return 1.0
+    d = best.per_cpi - c.per_cpi
+    total = best.loglik - c.loglik
+    if total <= 0:
+        return 1.0
+    if len(d) > 1:
+        mu, var = float(d.mean()), float(d.var(ddof=1))
+        if mu > 0 and var > 2 * mu:
+            total *= 2 * mu / var
+    cov = max(best.coverage, c.coverage)
+    total *= float(np.clip((1 - cov) / (1 - ocfg.coverage_free), ocfg.min_evidence, 1.0))
+    return float(np.exp(-total))
+
+
+def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | None = None):
+    """Choose the rotation rate's harmonic order for an estimate (module docstring).
+
+    Parameters
+    ----------
+    flight : Flight
+        The flight the estimate was made from.
+    est : RotorEstimate
+        :func:`microdoppler.rotors.speed.estimate_rotor_speeds`'s estimate (without
+        order); returned unchanged where it has none.
+    speed_config : RotorSpeedConfig
+        The estimate's settings (floor, and the base of a re-measurement).
+    rerun : callable(RotorSpeedConfig, n_blades=B) -> RotorEstimate, optional
+        Measures the speeds again with other settings (the lines alone; the search
+        confined to the chosen rate; the rotation-rate comb, ``n_blades=1``, where the
+        blade-passing comb gave no estimate); without it a changed order scales the
+        speeds.
+    config : OrderConfig, optional
+
+    Returns
+    -------
+    RotorEstimate
+        With ``info["order"]`` (candidates, the chosen one, alternatives and their
+        relative likelihood, whether the order is ambiguous) and uncertainties that
+        include the order's; ``est`` itself where neither comb gives an estimate.
+    """
+    ocfg = config or OrderConfig()
+    B = int(est.n_blades)
+    if not est.ok or not est.valid.any():
+        # the lines found no comb; they may have followed a sub-harmonic path (unequal
+        # blades, a first pair in the clutter band): screen the whole range and measure
+        # again around the likeliest rates
+        if rerun is None or est.reason is None or not est.reason.startswith(("no sideband", "no HERM")):
+            return est
+        return _rescue(flight, est, speed_config, rerun, ocfg)
+    else:
+        # the lines alone (steps 1-8) measure the comb's spacing; an I/Q fit made at a
+        # wrong order is biased, so the order is judged on the lines
+        lines = est
+        if getattr(speed_config, "refine", False) and rerun is not None:
+            lines = rerun(replace(speed_config, refine=False))
+            if not lines.ok or not lines.valid.any():
+                lines = est
+    valid = lines.valid
+    L = flight.attrs.get("blade_length_m")
+    L = float(L) if L is not None and float(L) > 0 else None
+    lam = C_MPS / float(flight.carrier_hz)
+    # the comb's rate: the median rotor (robust to a rotor put on another order's line)
+    ref = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[valid], axis=1)))
+    cpis = _choose_cpis(valid, ocfg.max_cpis)
+    data = _prepare(flight, lines, cpis, ref, ocfg, speed_config)
+    p_top = float(np.max(data.p_hi))
+
+    beta = 4 * np.pi * L / lam if L is not None else None
+    p_mid_hi = float(np.median(data.p_hi))
+
+    def physical(f):
+        """Rates in range, blade tips below ``max_tip_mach``, and a blade-tip Doppler
+        that the lines do not pass (lines beyond it are impossible)."""
+        if not ocfg.min_rev_s <= f <= ocfg.max_rev_s:
+            return False
+        if L is None:
+            return True
+        reach = (ocfg.extent_range[1] * beta + ocfg.tail_harmonics * beta ** (1 / 3)) * f * p_mid_hi
+        return 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach and data.extent_hz <= reach
+
+    rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
+    kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None \
+        else (1.0,)
+    grid_full = (kappas, rmax_db, (None, "fit"), (0.6, 1.0, 1.5), (-4.0, 0.0))
+    # screen: a coarse model on a few CPIs over the whole range
+    srows = np.unique(np.round(np.linspace(0, len(cpis) - 1, min(ocfg.screen_cpis, len(cpis)))).astype(int))
+    grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
+    grid = grid[[physical(f) for f in grid]]
+    sk = (min(1.0, ocfg.extent_range[1]),) if L is not None else (1.0,)
+    sc = np.full(len(grid), -np.inf)
+    for gi, f in enumerate(grid):
+        g = _geometry(data, f, B, L, lam, ocfg, srows)
+        sc[gi] = _loglik(g, data, ocfg, sk, rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
+    ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
+    cand = [(r * ref, f"x{r:.3g}") for r in ratios if physical(r * ref)]
+    n_screen = 0
+    for gi in np.argsort(sc)[::-1]:
+        if n_screen >= ocfg.screen_keep or not np.isfinite(sc[gi]):
+            break
+        if sc[gi] < max(sc[gi - 1] if gi > 0 else -np.inf, sc[gi + 1] if gi + 1 < len(sc) else -np.inf):
+            continue  # not a local maximum
+        f = float(grid[gi])
+        # near a simple ratio of the lines' comb it is that ratio (measured by the lines),
+        # and a screen maximum near a kept one is the same
+        if any(abs(np.log(f / c)) <= (ocfg.snap_rel if how != "screen" else ocfg.min_separation)
+               for c, how in cand):
+            continue
+        cand.append((f, "screen"))
+        n_screen += 1
+    # the full model on every CPI used
+    cands = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, how) for f, how in cand]
+    if not cands:
+        return est
+    for c in cands:  # the comb the lines were read as keeps a small prior advantage
+        c.loglik += ocfg.prior_lines if c.origin == "x1" else 0.0
+    cands.sort(key=lambda c: -c.loglik)
+    chosen = cands[0]
+    rate = chosen.rev_s
+    if chosen.origin == "screen":  # refined on a finer grid
+        fine = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, chosen.origin)
+                for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)]
+        rate = max(fine, key=lambda c: c.loglik).rev_s
+    # each alternative's likelihood relative to the chosen one, tempered (module doc)
+    kept = cands
+    for c in kept:
+        c.relative_likelihood = _relative(chosen, c, ocfg)
+    out = est
+    how = "kept"
+    if chosen.origin != "x1" or int(lines.n_blades) != B:
+        out, how = _remeasure(flight, est, lines, rate / ref, speed_config, rerun, ocfg)
+        out = replace(out, n_blades=B)
+    # the order's uncertainty: the mixture's spread about the reported speed
+    v = out.valid
+    mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
+    # (the candidates that make the order ambiguous: under ``ambiguous_at`` an alternative
+    # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
+    plaus = [c for c in kept if c.relative_likelihood >= ocfg.ambiguous_at]
+    wsum = sum(c.relative_likelihood for c in plaus)
+    var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
+    out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
+    out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
+    alts = [c for c in kept[1:] if c.relative_likelihood >= ocfg.report_at]
+    ambiguous = any(c.relative_likelihood >= ocfg.ambiguous_at for c in alts)
+    info = dict(out.info)
+    info["order"] = {
+        "method": METHOD,
+        "chosen_rev_s": round(mean_now, 3),
+        "lines_rev_s": round(ref, 3),
+        "ratio_to_lines": round(rate / ref, 4),
+        "remeasured": how,
+        "ambiguous": bool(ambiguous),
+        "alternatives_rev_s": [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts],
+        "coverage": round(chosen.coverage, 3),
+        "extent_hz": round(data.extent_hz, 1),
+        "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
+        "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
+        "order_rel_std": float(np.sqrt(var_rel)),
+        "n_cpis": int(len(cpis)),
+        "candidates": [{**{k: (round(v, 4) if isinstance(v, float) else v) for k, v in asdict(c).items()
+                           if k not in ("params", "per_cpi")}, **c.params} for c in kept],
+        "settings": asdict(ocfg),
+    }
+    out.info = info
+    return out
+
+
+def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
+    """Where the lines found no comb over the whole range: the screen's likeliest rates
+    (the body from the track, rotors within +-``rescue_spread``), each measured again
+    with the search confined to it (``rescue_rel``); the first that finds a comb is
+    judged as any estimate (:func:`resolve_order`). ``est`` where none does."""
+    from types import SimpleNamespace
+
+    from ..spectra.snr import body_doppler_hz
+
+    if len(est.time_s) == 0:
+        return est
+    B = int(est.n_blades)
+    L = flight.attrs.get("blade_length_m")
+    L = float(L) if L is not None and float(L) > 0 else None
+    lam = C_MPS / float(flight.carrier_hz)
+    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, est.time_s)
+    n = len(est.time_s)
+    sp = np.tile(1 + np.linspace(-ocfg.rescue_spread, ocfg.rescue_spread, max(int(est.n_motors), 2)), (n, 1))
+    pseudo = SimpleNamespace(n_fft=est.n_fft, body_hz=body, speeds_rev_s=sp, n_blades=B, n_motors=est.n_motors)
+    cpis = _choose_cpis(np.ones(n, bool), ocfg.screen_cpis)
+    data = _prepare(flight, pseudo, cpis, 1.0, ocfg, scfg)
+    rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
+    grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
+    if L is not None:
+        grid = grid[2 * np.pi * grid * (1 + ocfg.rescue_spread) * L / SOUND_MPS <= ocfg.max_tip_mach]
+    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), data, ocfg, (1.0,), rmax_db, (None, "fit"),
+                           (1.0,), (-3.0,))[0] for f in grid])
+    tried = []
+    for gi in np.argsort(sc)[::-1]:
+        if len(tried) >= ocfg.rescue_tries or not np.isfinite(sc[gi]):
+            break
+        f = float(grid[gi])
+        if any(abs(np.log(f / t)) <= ocfg.rescue_rel for t in tried):
+            continue
+        tried.append(f)
+        narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel))
+        new = rerun(narrow)
+        if new.ok and new.valid.any():
+            out = resolve_order(flight, new, narrow, rerun, ocfg)
+            if "order" in out.info:
+                out.info["order"]["rescued"] = (f"the lines over {scfg.min_rev_s:g}-{scfg.max_rev_s:g} rev/s found "
+                                                f"no comb ({est.reason}); found within "
+                                                f"{narrow.min_rev_s:.1f}-{narrow.max_rev_s:.1f} rev/s")
+            return out
+    return est
+
+
+def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig):
+    """The estimate at ``ratio`` times the lines' rate: measured again with the search
+    confined to the chosen rate's range (``rerun``, with the I/Q fit where ``scfg`` has
+    it) where that finds it, else the lines' estimate scaled. Returns (estimate, how)."""
+    v = lines.valid
+    want = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[v], axis=1))) * ratio
+    lo = float(np.nanmin(lines.common_rev_s[v])) * ratio / ocfg.rerun_margin
+    hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * ocfg.rerun_margin
+    lo, hi = max(lo, 0.5 * ocfg.min_rev_s), min(hi, 1.5 * ocfg.max_rev_s)
+    if rerun is not None and lo < hi:
+        new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi), n_blades=int(est.n_blades))
+        if new.ok and abs(np.log(float(np.nanmedian(new.common_rev_s[new.valid])) / want)) <= 0.03:
+            return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
+    out = replace(lines)
+    out.speeds_rev_s = lines.speeds_rev_s * ratio
+    out.speeds_std_rev_s = lines.speeds_std_rev_s * ratio
+    out.common_rev_s = lines.common_rev_s * ratio
+    out.common_std_rev_s = lines.common_std_rev_s * ratio
+    return out, "the lines' estimate scaled (a re-measurement did not find the comb)"
+
+
+def ambiguity_line(est) -> str | None:
+    """One line naming an ambiguous order, e.g. ``ambiguous: 80.8 or 161.6 rev/s
+    (likelihood ratio 1.3)``; None where the order is not ambiguous."""
+    o = (est.info or {}).get("order")
+    if not o or not o.get("ambiguous"):
+        return None
+    alts = [(a, r) for a, r in zip(o["alternatives_rev_s"], o["relative_likelihood"])]
+    speeds = " or ".join([f"{o['chosen_rev_s']:.1f}"] + [f"{a:.1f}" for a, _ in alts])
+    ratios = ", ".join(f"{1 / r:.3g}" for _, r in alts)
+    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}; the store's "
+            f"rpm_std includes it)")
+
+
+def order_attrs(est) -> dict:
+    """``motors_radar`` attributes of the order: the alternatives' mean speeds [rev/s]
+    and their likelihood relative to the chosen one (empty lists where none)."""
+    o = (est.info or {}).get("order")
+    if not o:
+        return {}
+    return {"rotor_order": {k: o[k] for k in ("method", "chosen_rev_s", "lines_rev_s", "ratio_to_lines", "ambiguous",
+                                              "remeasured", "order_rel_std")},
+            "rotor_order_alternatives_rev_s": list(o["alternatives_rev_s"]),
+            "rotor_order_relative_likelihood": list(o["relative_likelihood"])}
