@@ -1,4 +1,10 @@
-"""Shared fixtures: a seeded rng, the real PX4 motor log, small flight stores."""
+"""Shared fixtures: a seeded rng, the real PX4 motor log, small flight stores; the
+fast loop's parameter split (:func:`fast_first`).
+
+The fast loop is ``python -m pytest -q -m "not slow"``: every module of
+src/microdoppler imported and exercised, in about a minute on two cores. The whole
+suite (``python -m pytest -q``, what CI runs) adds the tests marked ``slow``: whole
+workflow runs, and the statistical tests whose evidence is many seeded flights."""
 
 from __future__ import annotations
 
@@ -25,6 +31,18 @@ def ulog_path():
         pytest.fail(f"real motor log not found: expected {ULOG_FIXTURE.resolve()} "
                     f"(../shared/data/motor-logs/px4_esc_status.ulg next to the repository {REPO})", pytrace=False)
     return ULOG_FIXTURE
+
+
+def fast_first(values, key=lambda v: v):
+    """``values`` for ``pytest.mark.parametrize``: the first value of each ``key(value)``
+    runs in the fast loop, the others are marked ``slow`` (the whole suite runs all)."""
+    seen, out = set(), []
+    for v in values:
+        k = key(v)
+        args = v if isinstance(v, tuple) else (v,)
+        out.append(pytest.param(*args) if k not in seen else pytest.param(*args, marks=pytest.mark.slow))
+        seen.add(k)
+    return out
 
 
 def make_flight(fid="f1", n=4096, rng=None, with_log=True):

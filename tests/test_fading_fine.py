@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from conftest import fast_first
 from microdoppler.diagnosis import causes as C
 from microdoppler.diagnosis.measure import sideband_power_fine
 from test_fidelity import ou_db  # the tests' own OU process (not the emulator's)
@@ -71,7 +72,8 @@ def _estimate(iq):
     return C.fading_estimate_fine(M, ok, m, 0.0, np.zeros(n_t)), F
 
 
-@pytest.mark.parametrize("kind,seed", [("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)])
+@pytest.mark.parametrize("kind,seed", fast_first([("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)],
+                                                 key=lambda v: v[0]))
 def test_fine_sideband_fading_timescale(kind, seed):
     est, F = _estimate(_flight(seed, kind))
     assert est is not None
@@ -127,6 +129,7 @@ def test_gain_process_ml_unbiased_on_window_averaged_ou():
     assert np.exp(np.mean(np.log(ss))) == pytest.approx(4.0, rel=0.05)
 
 
+@pytest.mark.slow
 def test_beating_rotors_do_not_shorten_the_ou_timescale():
     """Four rotors 1-3 % apart beat inside a short window, and the part of the beats
     common to the harmonics is white but not in the harmonics' differences: with it
