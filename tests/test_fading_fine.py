@@ -73,7 +73,7 @@ def _estimate(iq):
 
 
 @pytest.mark.parametrize("kind,seed", fast_first([("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)],
-                                                 key=lambda v: v[0]))
+                                                 key=lambda v: "all"))
 def test_fine_sideband_fading_timescale(kind, seed):
     est, F = _estimate(_flight(seed, kind))
     assert est is not None
@@ -84,6 +84,7 @@ def test_fine_sideband_fading_timescale(kind, seed):
     assert est["sigma_db"] == pytest.approx(4.0, rel=0.2)
 
 
+@pytest.mark.slow
 def test_fine_sideband_no_fading_is_small():
     """Without a gain the beats and the noise are taken out: no fading of size."""
     rng_flight = _flight(5, "ou", std_db=0.0)
@@ -91,6 +92,7 @@ def test_fine_sideband_no_fading_is_small():
     assert est is None or est["sigma_db"] < 1.0
 
 
+@pytest.mark.slow
 def test_gain_process_ml_unbiased_on_window_averaged_ou():
     """The exact likelihood (``timescales.fit_gain_process_ml``) on an OU dB gain
     power-averaged through 0.3 s Blackman-Harris windows every 0.16 s, plus white
