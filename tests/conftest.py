@@ -1,5 +1,5 @@
 """Shared fixtures: a seeded rng, the real PX4 motor log, small flight stores; the
-fast loop's parameter split (:func:`fast_first`).
+fast loop's parameter split (:func:`fast_loop`).
 
 The fast loop is ``python -m pytest -q -m "not slow"``: every module of
 src/microdoppler imported and exercised, in about a minute on two cores. The whole
@@ -33,15 +33,13 @@ def ulog_path():
     return ULOG_FIXTURE
 
 
-def fast_first(values, key=lambda v: v):
-    """``values`` for ``pytest.mark.parametrize``: the first value of each ``key(value)``
-    runs in the fast loop, the others are marked ``slow`` (the whole suite runs all)."""
-    seen, out = set(), []
+def fast_loop(values, fast):
+    """``values`` for ``pytest.mark.parametrize``: those for which ``fast(value)`` is true
+    run in the fast loop, the others are marked ``slow`` (the whole suite runs them all)."""
+    out = []
     for v in values:
-        k = key(v)
         args = v if isinstance(v, tuple) else (v,)
-        out.append(pytest.param(*args) if k not in seen else pytest.param(*args, marks=pytest.mark.slow))
-        seen.add(k)
+        out.append(pytest.param(*args) if fast(v) else pytest.param(*args, marks=pytest.mark.slow))
     return out
 
 
