@@ -1,4 +1,16 @@
-"""Shared fixtures: a seeded rng, the real PX4 motor log, small flight stores."""
+"""Shared fixtures: a seeded rng, the real PX4 motor log, small flight stores; the
+fast loop's parameter split (:func:`fast_loop`); how runs use the cores.
+
+- The whole suite, ``python -m pytest -q`` (README command 2, CI), adds to the fast
+  loop the tests marked ``slow``: whole-workflow runs, and the statistical tests whose
+  evidence is many seeded flights.
+- The fast loop, ``python -m pytest -q -m "not slow"``: every module of
+  src/microdoppler imported and exercised.
+- Both spread their tests over the machine's cores (pytest-xdist, ``-n auto`` in
+  pyproject.toml); a run that names files or tests (``python -m pytest tests/test_x.py``)
+  stays in one process (:func:`pytest_xdist_auto_num_workers`), and ``-n 0`` keeps any
+  run in one. ``--dist loadscope``: a module's tests run on one worker, so a module-scoped
+  fixture (a workflow run, a built world) is built once."""
 
 from __future__ import annotations
 
@@ -10,6 +22,15 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 #: the real PX4 log, referenced relative to the repository root
 ULOG_FIXTURE = REPO / ".." / "shared" / "data" / "motor-logs" / "px4_esc_status.ulg"
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject's addopts): the cores for the configured test paths (the
+    whole suite, the fast loop); one process, no workers, for named files or tests."""
+    if config.args_source != pytest.Config.ArgsSource.TESTPATHS:
+        return 0
+    return None  # xdist's own count of the cores
 
 
 @pytest.fixture
@@ -25,6 +46,16 @@ def ulog_path():
         pytest.fail(f"real motor log not found: expected {ULOG_FIXTURE.resolve()} "
                     f"(../shared/data/motor-logs/px4_esc_status.ulg next to the repository {REPO})", pytrace=False)
     return ULOG_FIXTURE
+
+
+def fast_loop(values, fast):
+    """``values`` for ``pytest.mark.parametrize``: those for which ``fast(value)`` is true
+    run in the fast loop, the others are marked ``slow`` (the whole suite runs them all)."""
+    out = []
+    for v in values:
+        args = v if isinstance(v, tuple) else (v,)
+        out.append(pytest.param(*args) if fast(v) else pytest.param(*args, marks=pytest.mark.slow))
+    return out
 
 
 def make_flight(fid="f1", n=4096, rng=None, with_log=True):

@@ -20,6 +20,7 @@ def _clustered_test_set(rng, n_flights=30, images=12, mean=0.85, spread=3.0):
     return rng.binomial(n, p).astype(float), n.astype(float), mean
 
 
+@pytest.mark.slow
 def test_flight_bootstrap_covers_and_image_bootstrap_does_not():
     """Over 150 simulated test sets, the flight bootstrap's 95 % interval holds the
     population accuracy about 95 % of the time; treating images as independent (each

@@ -294,3 +294,21 @@ def test_extended_variant_uses_the_extensions(built):
     assert all(v > 0 for v in ext.calls.values())
     fitted = t4[t4.status.isin(["ok", "missed"])]
     assert len(fitted) == 4 and (fitted.status == "ok").all()
+
+
+def test_twin_figure_stacks_the_measured_flight_over_each_variant(built, tmp_path):
+    """datasets.figures (rule plot_twins): a model's flight with a twin in every variant,
+    measured on top and one panel per variant below; a model without twins gets a small
+    figure saying so (and no flight)."""
+    import matplotlib.image as mpimg
+
+    from microdoppler.datasets.figures import plot_twins
+
+    injected = built["root"] / "injected.zarr"
+    variants = {VARIANT: injected, "again": injected}  # two variants: three panels
+    fid = plot_twins(built["measured"], variants, "inspire2", tmp_path / "ins.png", spec_cfg=SPEC, max_timesteps=8)
+    assert fid in flight_ids(open_store(injected, injection.INJECTED_SCHEMA))
+    assert read_flight(built["measured"] / f"{fid}.zarr").attrs["drone_model"] == "inspire2"
+    assert mpimg.imread(tmp_path / "ins.png").shape[:2] == (round(3 * 2.4 * 90), 9 * 90)
+    assert plot_twins(built["measured"], variants, "mini2", tmp_path / "mini.png", spec_cfg=SPEC) is None
+    assert mpimg.imread(tmp_path / "mini.png").shape[:2] == (2 * 80, 4 * 80)

@@ -3,6 +3,8 @@ model: motor dynamics, clutter, phase noise, sideband asymmetry on one flight)."
 
 from __future__ import annotations
 
+import pytest
+
 from microdoppler import emulator
 from microdoppler.datasets import calibration, speeds
 from microdoppler.datasets.split import TWIN_MODELS
@@ -10,6 +12,7 @@ from microdoppler.io.inventory import ingest_flight_logs
 from microdoppler.spectra.spectrogram import SpectrogramConfig
 
 
+@pytest.mark.slow
 def test_emulated_twins_match_their_flights(tmp_path):
     specs = [s for s in emulator.plan_world("test", 5) if s.drone_model in TWIN_MODELS]
     assert specs

@@ -17,6 +17,8 @@ from microdoppler.io.inventory import ingest_flight_logs
 from test_datasets_world import make_world
 
 REPO = Path(__file__).resolve().parents[1]
+#: two Snakemake runs of the dataset rules (one flight batch, two): the whole suite only
+pytestmark = pytest.mark.slow
 #: the dataset stages of the real workflow (top-level Snakefile, common.smk, rules)
 TARGETS = ["results/splits/flights.csv", "results/reports/table_iii.csv", "results/reports/table_iv.csv",
            "results/tiles/real.zarr", "results/tiles/sub_cpi.zarr", "results/tiles/fixed_speeds.zarr",

@@ -545,6 +545,7 @@ def test_motor_stats_detect_spread(rng):
     assert abs(motor_stats(t, spread)["spread_rel"] - np.std([0.9, 1.0, 1.05, 1.05]) / 1.0) < 0.01
 
 
+@pytest.mark.slow
 def test_class_mean_snr_matches_table_iii():
     """Per-class mean SNR of the paper profile within 3 dB of Table III: the SNR model's
     nominal value over every planned flight minus the nominal-to-measured loss measured

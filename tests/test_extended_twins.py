@@ -188,6 +188,7 @@ def test_unreadable_yaml_and_bad_report(tmp_path):
 SETTINGS = {"per_cpi": 8, "window_pulses_min": 1500, "window_pulses_max": 3000}
 
 
+@pytest.mark.slow
 def test_twin_without_cause_equals_sub_cpi_twin(tmp_path):
     """Through the speeds and twin stages: ins1 (no cause) gives the sub_cpi twin's
     iq byte for byte; mat1 (its own asymmetry) differs from its sub_cpi twin and

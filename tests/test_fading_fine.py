@@ -9,6 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from conftest import fast_loop
 from microdoppler.diagnosis import hypotheses as C
 from microdoppler.diagnosis.measure import sideband_power_fine
 from test_fidelity import ou_db  # the tests' own OU process (not the emulator's)
@@ -71,7 +72,8 @@ def _estimate(iq):
     return C.fading_estimate_fine(M, ok, m, 0.0, np.zeros(n_t)), F
 
 
-@pytest.mark.parametrize("kind,seed", [("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)])
+@pytest.mark.parametrize("kind,seed", fast_loop([("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)],
+                                                lambda v: v == ("ou", 1)))
 def test_fine_sideband_fading_timescale(kind, seed):
     est, F = _estimate(_flight(seed, kind))
     assert est is not None
@@ -82,6 +84,7 @@ def test_fine_sideband_fading_timescale(kind, seed):
     assert est["sigma_db"] == pytest.approx(4.0, rel=0.2)
 
 
+@pytest.mark.slow
 def test_fine_sideband_no_fading_is_small():
     """Without a gain the beats and the noise are taken out: no fading of size."""
     rng_flight = _flight(5, "ou", std_db=0.0)
@@ -89,6 +92,7 @@ def test_fine_sideband_no_fading_is_small():
     assert est is None or est["sigma_db"] < 1.0
 
 
+@pytest.mark.slow
 def test_gain_process_ml_unbiased_on_window_averaged_ou():
     """The exact likelihood (``hypotheses.fit_gain_process_ml``) on an OU dB gain
     power-averaged through 0.3 s Blackman-Harris windows every 0.16 s, plus white
@@ -127,6 +131,7 @@ def test_gain_process_ml_unbiased_on_window_averaged_ou():
     assert np.exp(np.mean(np.log(ss))) == pytest.approx(4.0, rel=0.05)
 
 
+@pytest.mark.slow
 def test_beating_rotors_do_not_shorten_the_ou_timescale():
     """Four rotors 1-3 % apart beat inside a short window, and the part of the beats
     common to the harmonics is white but not in the harmonics' differences: with it

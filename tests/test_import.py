@@ -683,6 +683,7 @@ def test_motor_log_and_background_bad_input(tmp_path, capsys, flight, case, fiel
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path, capsys):
     """A campaign of SigMF recordings (two Inspire flights, one with its motor-log CSV,
     one without; their background recordings and tracks; a bird) imported with
@@ -698,9 +699,9 @@ def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path,
     repo = Path(__file__).resolve().parents[1]
     rec = tmp_path / "recordings"
     rec.mkdir()
-    specs = [FlightSpec("c1", "drone", drone_model="inspire2", duration_s=14.0, snr_db=44.0, mean_range_m=1000.0,
+    specs = [FlightSpec("c1", "drone", drone_model="inspire2", duration_s=8.0, snr_db=44.0, mean_range_m=1000.0,
                         seed=21, radar_id="radar1"),
-             FlightSpec("c2", "drone", drone_model="inspire2", duration_s=14.0, snr_db=44.0, mean_range_m=1300.0,
+             FlightSpec("c2", "drone", drone_model="inspire2", duration_s=8.0, snr_db=44.0, mean_range_m=1300.0,
                         seed=22, radar_id="radar2"),
              FlightSpec("c3", "bird", bird_kind="single", duration_s=8.0, seed=23, radar_id="radar1")]
     rows = []

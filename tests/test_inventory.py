@@ -66,6 +66,7 @@ def test_empty_directory_is_an_error(tmp_path):
         list_flights(tmp_path / "m")
 
 
+@pytest.mark.slow
 def test_ingest_estimates_missing_logs_from_the_radar(tmp_path):
     """estimate_missing: a drone without a log gets the radar's rotor speeds (status
     estimated, motors_source radar, a log the diagnosis recognises); a Mini (no

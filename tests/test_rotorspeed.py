@@ -111,9 +111,10 @@ def crowded_z_scores(seed, n_flights, draw_kwargs, select):
 
 def test_constant_speeds_of_fig2b_give_each_rotor_and_the_herm_spacing():
     """Four rotors at 85, 90, 95, 100 rev/s (Fig. 2b): four separate lines, each rotor to
-    better than 0.05 %, and a line spacing of B times the rotation rate."""
+    better than 0.05 %, and a line spacing of B times the rotation rate (a steady signal:
+    4 s, 13 CPIs, each asserted)."""
     speeds = np.array([85.0, 90.0, 95.0, 100.0])
-    fl = synthetic_flight(np.tile(speeds, (int(8 * PRF), 1)), seed=11)
+    fl = synthetic_flight(np.tile(speeds, (int(4 * PRF), 1)), seed=11)
     est = estimate_rotor_speeds(fl)
     assert est.ok, est.reason
     assert est.valid.all() and est.separated.all()
@@ -126,9 +127,11 @@ def test_constant_speeds_of_fig2b_give_each_rotor_and_the_herm_spacing():
     np.testing.assert_allclose(est.body_hz, 2 * 5.0 / LAM, atol=1.0)
 
 
+@pytest.mark.slow
 def test_blade_count_sets_the_spacing_and_equal_rotors_share_one_line():
-    """Three-blade rotors all at 60 rev/s: lines every 180 Hz, one line for all four rotors."""
-    fl = synthetic_flight(np.full((int(8 * PRF), 4), 60.0), n_blades=3, blade_length_m=0.15, seed=12)
+    """Three-blade rotors all at 60 rev/s: lines every 180 Hz, one line for all four rotors
+    (a steady signal: 4 s, 13 CPIs, each asserted)."""
+    fl = synthetic_flight(np.full((int(4 * PRF), 4), 60.0), n_blades=3, blade_length_m=0.15, seed=12)
     est = estimate_rotor_speeds(fl)
     assert est.ok, est.reason
     assert est.valid.all()
@@ -141,6 +144,7 @@ def test_blade_count_sets_the_spacing_and_equal_rotors_share_one_line():
     np.testing.assert_allclose(np.nanmedian(est2.common_rev_s), 90.0, rtol=1e-3)
 
 
+@pytest.mark.slow
 def test_ramping_speeds_of_close_rotors():
     """Rotors 2 % apart, all ramping 60 -> 80 rev/s over 8 s (they merge at the first
     harmonic and separate at higher ones)."""
@@ -158,6 +162,7 @@ def test_ramping_speeds_of_close_rotors():
     assert np.median(rotor_err[sel]) < 0.005
 
 
+@pytest.mark.slow
 def test_steady_rotors_a_bin_apart_are_within_one_percent_in_every_cpi():
     """The condition under which the 1 % target holds (benchmarks/README.md): speeds
     steady within the CPI (here a 1 % wobble over 3 s) and the closest two rotors at
@@ -204,6 +209,7 @@ def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
         FitConfig(min_power=1.5)
 
 
+@pytest.mark.slow
 def test_the_iq_fit_counts_every_rotor_where_lines_merge():
     """The same flight with step 9, the least-squares fit of every rotor's harmonic
     chirp on the I/Q (microdoppler.rotors.fit): each rotor is fitted, so the count per
@@ -232,6 +238,7 @@ def test_the_iq_fit_counts_every_rotor_where_lines_merge():
     assert np.mean(z[sel] <= 3) >= 0.85
 
 
+@pytest.mark.slow
 def test_a_rotor_on_lines_of_its_own_is_never_taken_for_a_spare():
     """Two rotors within 0.05-0.3 bin of each other and two on lines of their own
     (1.5-4 and 6-15 bins away), steady: the fit's two models on the near-coincident
@@ -259,6 +266,7 @@ def test_a_rotor_on_lines_of_its_own_is_never_taken_for_a_spare():
                 assert np.all(np.min(np.abs(est.speeds_rev_s[sel] - r), axis=1) < 0.5 * b), (offs / b, r)
 
 
+@pytest.mark.slow
 def test_a_rotor_the_lines_missed_is_found_by_the_fit():
     """One CPI's fit given the lines a periodogram shows when one rotor's line is split
     in two and another rotor, 7-14 % of the speed from the rest, shows no line (a
@@ -288,6 +296,7 @@ def test_a_rotor_the_lines_missed_is_found_by_the_fit():
         assert np.min(np.abs(fit.speeds_rev_s - true[3])) < 0.5 * b, (far / b, fit.start)
 
 
+@pytest.mark.slow
 def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
     """Rotors within a bin or two of each other (speeds 0.8 % apart, rms) whose speeds
     wobble by 0.5-3 % over 0.5-2 s, so lines cross and smear within a CPI: the fitted
@@ -310,6 +319,7 @@ def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
     np.testing.assert_allclose(est.common_rev_s[est.valid], 60.275, rtol=1e-3)
 
 
+@pytest.mark.slow
 def test_one_visible_pair_reports_the_uncertainty_of_its_errors():
     """Crowded, wobbling rotors (as above) whose blades drop 8-16 dB half-way, with a
     steeper alpha, so that many CPIs show one sideband pair only: their lines come from
@@ -329,14 +339,15 @@ def test_one_visible_pair_reports_the_uncertainty_of_its_errors():
 
 
 def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
-    """Blades visible for 4 s of 8 s: estimates there, NaN after (never a guess), and the
+    """Blades visible for 3 s of 6 s: estimates there, NaN after (never a guess), and the
     motor log holds only the CPIs with an estimate."""
-    fl = synthetic_flight(np.tile([78.0, 80.0, 83.0, 86.0], (int(8 * PRF), 1)), blades_until_s=4.0, seed=15)
+    fl = synthetic_flight(np.tile([78.0, 80.0, 83.0, 86.0], (int(6 * PRF), 1)), blades_until_s=3.0, seed=15)
     est = estimate_rotor_speeds(fl)
     assert est.ok, est.reason
     half = N_FFT / 2 / PRF
-    before = est.time_s + half < 4.0   # CPI wholly before the blades fall silent
-    after = est.time_s - half >= 4.0   # wholly after
+    before = est.time_s + half < 3.0   # CPI wholly before the blades fall silent
+    after = est.time_s - half >= 3.0   # wholly after
+    assert before.sum() >= 5 and after.sum() >= 5
     assert est.valid[before].all() and not est.valid[after].any()
     assert (est.n_pairs[after] == 0).all() and np.isnan(est.speeds_rev_s[after]).all()
     np.testing.assert_allclose(est.common_rev_s[before], 81.75, rtol=1e-3)
@@ -347,6 +358,7 @@ def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
 # ---------------------------------------------------------------- emulated flights
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model, seed", [("inspire2", 101), ("matrice300", 202)])
 def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
     """The issue's target: within 1 % wherever two or more sideband pairs are visible.
@@ -424,7 +436,7 @@ def test_short_flight_and_bad_arguments():
 
 
 def test_motor_log_and_flight_store_round_trip(tmp_path):
-    t = np.arange(int(6 * PRF)) / PRF
+    t = np.arange(int(3 * PRF)) / PRF
     rev = np.outer(70.0 + 5.0 * t / t[-1], [0.94, 0.98, 1.02, 1.06])
     fl = synthetic_flight(rev, seed=14)
     est = estimate_rotor_speeds(fl)
@@ -477,6 +489,7 @@ def test_motor_log_rows_are_instants_whose_cpi_means_are_the_estimates():
     assert np.abs(cpi_means_of_spline(t, means, t, n_fft, prf) - means)[inner].max() > 0.15
 
 
+@pytest.mark.slow
 def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(tmp_path, capsys):
     """A drone recording without a log: `import --estimate-motors` stores the radar's
     rotor speeds (motors_source radar); the diagnosis runs on them and reports the
@@ -486,7 +499,9 @@ def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(t
     from microdoppler.emulator.world import FlightSpec, emulate_flight
     from microdoppler.io.flightzarr import read_flight
 
-    f, _ = emulate_flight(FlightSpec("est1", "drone", drone_model="inspire2", duration_s=20.0, snr_db=44.0,
+    # 12 s: 41 CPIs, enough for the diagnosis's two held-out folds (>= 20 CPIs); the
+    # median speed 0.1 % from the truth (9 s: 1.5 %, too near the 2 % asked)
+    f, _ = emulate_flight(FlightSpec("est1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0,
                                      mean_range_m=1000.0, seed=101))
     np.save(tmp_path / "est1.npy", f.iq)
     np.save(tmp_path / "est1_bg.npy", f.background_iq)
