@@ -270,3 +270,23 @@ def test_extended_twin_carries_the_flights_blade_imbalance(tmp_path):
     assert abs(ext_db - m_db) < 1.5, (ext_db, m_db)
     assert got["sub_cpi"][1] < -25.0
     assert attrs["extensions"] == {"effects": {"blade_imbalance": {"imbalance_db": x}}, "source": "own"}
+
+
+def test_unexplained_and_imbalance_in_the_report():
+    """``unexplained`` names no extension: the twins' map and the one-set aggregate
+    leave it out; ``blade_imbalance`` is carried like every catalog cause (per flight
+    and in the population draw)."""
+    from microdoppler.diagnosis.aggregate import aggregate
+
+    rep = _report()
+    rep["flights"][1]["causes"] = rep["flights"][1]["causes"] + [
+        _cause("blade_imbalance", imbalance_db=6.5),
+        {"cause": "unexplained", "params": {"excess_db": 4.0, "band_hz": [100.0, 200.0]}}]
+    ext = aggregate_twins(rep, MODELS)
+    assert ext.flights["i2"]["extensions"] == {"sideband_asymmetry": {"asymmetry_db": 4.4},
+                                               "blade_imbalance": {"imbalance_db": 6.5}}
+    assert ext.population["inspire2"]["causes"]["blade_imbalance"]["samples"] == [{"imbalance_db": 6.5}]
+    one = ext.for_flight("i2", "inspire2", seed=0)
+    amps = one.blade_amplitudes(2)
+    assert abs(amps.sum() - 2) < 1e-12 and abs(20 * np.log10(amps[0] / amps[1]) + 6.5) < 1e-9
+    assert "unexplained" not in aggregate(rep, min_fraction=0.0).effects
