@@ -1,6 +1,7 @@
 """Profiles (``test``, ``default``, ``paper``) and writing a whole world.
 
-- ``test``: 6 flights of 30-40 s (CI; seconds to emulate).
+- ``test``: 6 flights of 30-40 s (CI; seconds to emulate); the first Inspire's
+  airframe has a 6 dB weak blade, the second a 4 dB sideband asymmetry.
 - ``default``: 48 flights: 24 birds (10 single, 6 pairs, 5 small and 3 large flocks) of
   30-45 s, 9 Inspire, 8 Matrice, 7 Mini flights of 40-60 s (about 35 min of
   flight), both radars.
@@ -236,7 +237,9 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
             fid = f"t{i:02d}_{what}"
             if tg == "drone":
                 eff = {"sideband_asymmetry": {"asymmetry_db": 4.0}} if i == 2 else {}
-                specs.append(_drone_spec(fid, what, rng, nxt(), dur, rid, eff))
+                if i == 0:  # an airframe with a weak blade (the rest of the flight as before)
+                    eff = {"blade_imbalance": {"imbalance_db": 6.0}}
+                specs.append(replace(_drone_spec(fid, what, rng, nxt(), dur, rid, eff), airframe=f"{what}-A"))
             else:
                 specs.append(_bird_spec(fid, what, rng, nxt(), dur, rid))
         return [replace(s, site_seed=int(seed)) for s in specs]
