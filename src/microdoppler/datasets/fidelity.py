@@ -36,8 +36,10 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
   ``diagnosis.hypotheses.non_multiple_observations``), where both blade-passing
   lines stand 3 noise std above the floor. The flight statistic ``nonmultiple_db``
   is 10 log10 of their ratio over the scored CPIs: for two blades of amplitudes a and
-  1, 20 log10 |1 - a| / (1 + a); eq. (1)'s identical blades give none (the statistic
-  is floored at ``nonmultiple_floor_db``; NaN where no blade-passing lines are seen).
+  1, 20 log10 |1 - a| / (1 + a); eq. (1)'s identical blades give none: a ratio below
+  ``nonmultiple_z`` times its noise standard deviation (the lines' noise variance,
+  ``diagnosis.measure.noise_power_factor``) reads ``nonmultiple_floor_db``, as does
+  any level below that floor; NaN where no blade-passing lines are seen.
 
 Per flight and feature one distance between twin and flight (:func:`distances`): the
 mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
@@ -114,6 +116,9 @@ class FidelityConfig:
     dilation_range : float
         The CPI's line dilation (:func:`line_dilation`) is searched within
         1 +- dilation_range.
+    nonmultiple_z : float
+        The non-multiple lines count as seen when their summed power exceeds this many
+        noise standard deviations; else ``nonmultiple_db`` is the floor.
     """
 
     visible_db: float = 10.0
@@ -124,6 +129,7 @@ class FidelityConfig:
     rotation_orders: int = 8
     nonmultiple_floor_db: float = -30.0
     dilation_range: float = 0.15
+    nonmultiple_z: float = 3.0
 
     def __post_init__(self):
         if not self.search_hz > 0:
@@ -157,10 +163,11 @@ class CpiFeatures:
         [dB]; NaN where not measurable.
     hop_s : float
         Time between CPIs [s].
-    nonmultiple_pow, nonmultiple_ref : ndarray [n_t], optional
+    nonmultiple_pow, nonmultiple_ref, nonmultiple_var : ndarray [n_t], optional
         Per CPI, the summed power of the rotation-rate lines at non-multiples of the
-        blade count and their blade-passing reference (:func:`rotation_line_sums`;
-        0 where none is measured); None when per-motor rates were not given.
+        blade count, their blade-passing reference and the summed power's noise
+        variance (:func:`rotation_line_sums`; 0 where none is measured); None when
+        per-motor rates were not given.
     """
 
     time_s: np.ndarray
@@ -175,6 +182,7 @@ class CpiFeatures:
     hop_s: float
     nonmultiple_pow: np.ndarray | None = None
     nonmultiple_ref: np.ndarray | None = None
+    nonmultiple_var: np.ndarray | None = None
 
 
 def _finite(x) -> np.ndarray:
@@ -239,14 +247,14 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     has = near.any(axis=1)
     floor[has] = np.nanmedian(np.where(near, spec.power_db, np.nan)[has], axis=1)
     hop_s = float(np.median(np.diff(spec.time_s))) if len(spec.time_s) > 1 else float("nan")
-    nm_pow = nm_ref = None
+    nm = (None, None, None)
     if motor_rev_s is not None and line_power is not None and window is not None:
         st_w = Stft(st.p, st.t_s, st.f_hz, np.asarray(window, float))
-        nm_pow, nm_ref = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
-                                            highpass_hz=highpass_hz, cfg=cfg)
+        nm = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
+                                highpass_hz=highpass_hz, cfg=cfg)
     return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - lines.body_db),
                        _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(lines.body_db),
-                       floor - noise_floor_db(spec), hop_s, nm_pow, nm_ref)
+                       floor - noise_floor_db(spec), hop_s, *nm)
 
 
 #: dilation grid step of :func:`line_dilation` and the CPIs of its running median
@@ -295,10 +303,11 @@ def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max
 
 
 def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_power, highpass_hz: float,
-                       cfg: FidelityConfig = FidelityConfig()) -> tuple[np.ndarray, np.ndarray]:
+                       cfg: FidelityConfig = FidelityConfig()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per CPI, the summed power of the rotation-rate lines at non-multiples of the
-    blade count and of their blade-passing reference (module doc): float [n_t] each, 0
-    where nothing is measured. ``st`` is the spectrogram as a power periodogram with its
+    blade count, of their blade-passing reference (module doc) and the summed power's
+    noise variance (kappa (n_b fl^2 + 2 P fl) per line, ``rotation_line_powers``):
+    float [n_t] each, 0 where nothing is measured. ``st`` is the spectrogram as a power periodogram with its
     analysis window; ``f_body_hz`` [n_t] the body line; ``motor_rev_s`` [n_t, n_motors]
     each motor's rate; ``line_power`` [cfg.rotation_orders + 1] one blade's own line
     power per order."""
@@ -313,9 +322,11 @@ def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_
     s = line_dilation(st, f_body_hz, rev, valid, n_blades=n_blades, max_rel=cfg.dilation_range)
     P, V, W, R = rotation_line_powers(st, f_body_hz, rev * s[:, None], valid, n_blades, cfg.rotation_orders, floor,
                                       clutter_guard_hz=highpass_hz, raised_floor_db=RAISED_FLOOR_DB)
-    x, _, _, ref, idx = non_multiple_observations(P, V, W, R, np.asarray(line_power, float), n_blades, n_m,
-                                                  min_z=NONMULTIPLE_MIN_Z)
-    return np.bincount(idx, x, minlength=n_t), np.bincount(idx, ref, minlength=n_t)
+    x, v0, w, ref, idx = non_multiple_observations(P, V, W, R, np.asarray(line_power, float), n_blades, n_m,
+                                                   min_z=NONMULTIPLE_MIN_Z)
+    var = v0 + w * np.clip(x, 0, None)
+    return (np.bincount(idx, x, minlength=n_t), np.bincount(idx, ref, minlength=n_t),
+            np.bincount(idx, var, minlength=n_t))
 
 
 #: blade-passing lines used as the reference of the non-multiple lines stand this many
@@ -326,15 +337,19 @@ NONMULTIPLE_MIN_Z = 3.0
 def nonmultiple_db(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> float:
     """``nonmultiple_db`` over the CPIs in ``mask``: 10 log10(sum of the non-multiple
     lines' power / sum of their blade-passing reference), floored at
-    ``cfg.nonmultiple_floor_db``; NaN without a reference."""
+    ``cfg.nonmultiple_floor_db``, and the floor where the summed power is below
+    ``cfg.nonmultiple_z`` times its noise standard deviation; NaN without a reference."""
     if f.nonmultiple_pow is None:
         return float("nan")
     mask = np.asarray(mask, bool)
     ref = float(np.sum(f.nonmultiple_ref[mask]))
     if not ref > 0:
         return float("nan")
-    r = float(np.sum(f.nonmultiple_pow[mask])) / ref
-    return float(max(10 * np.log10(max(r, 1e-300)), cfg.nonmultiple_floor_db))
+    x = float(np.sum(f.nonmultiple_pow[mask]))
+    sd = float(np.sqrt(np.sum(f.nonmultiple_var[mask]))) if f.nonmultiple_var is not None else 0.0
+    if not x > cfg.nonmultiple_z * sd:
+        return float(cfg.nonmultiple_floor_db)
+    return float(max(10 * np.log10(x / ref), cfg.nonmultiple_floor_db))
 
 
 def flight_features(flight, iq, motor_log, *, spec_cfg: SpectrogramConfig,
