@@ -291,7 +291,7 @@ def evaluate_flight(p: dict) -> dict:
     try:
         e = diagnose_flight(flight, config={"figures": False})   # sees the flight only
         named = [c["cause"] for c in e["causes"]]
-        fits = {c["cause"]: c["extension"]["params"] for c in e["causes"]}
+        fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
     except Undiagnosable as exc:
         named, fits, reason = [], {}, f"skipped: {exc.reason}"
     except Exception as exc:  # noqa: BLE001 (an evaluation records a crash and goes on)

@@ -277,6 +277,9 @@ def test_effects_validated_against_catalog():
         validate_effects({"motor_log_lag": {"lag": 1.0}})
     with pytest.raises(ValueError, match="missing"):
         validate_effects({"phase_noise": {}})
+    assert validate_effects({"blade_imbalance": {"imbalance_db": 6}}) == {"blade_imbalance": {"imbalance_db": 6.0}}
+    with pytest.raises(ValueError, match="imbalance_db"):
+        validate_effects({"blade_imbalance": {"imbalance_db": -3.0}})
 
 
 def test_sideband_asymmetry_sign_and_size(rng):
@@ -441,8 +444,13 @@ def test_plans_are_deterministic_and_sized():
         assert abs(tiles - n_img) <= 0.02 * n_img
 
 
-def _effects_by_model(plan):
-    return {m: [s.effects for s in plan if s.drone_model == m] for m in ("inspire2", "matrice300", "mini2")}
+def _effects_by_model(plan, airframes=True):
+    """Per drone model, its flights' effects (without the airframes' ``blade_imbalance``
+    unless ``airframes``)."""
+    def eff(s):
+        return dict(s.effects) if airframes else {c: p for c, p in dict(s.effects).items() if c != "blade_imbalance"}
+
+    return {m: [eff(s) for s in plan if s.drone_model == m] for m in ("inspire2", "matrice300", "mini2")}
 
 
 @pytest.mark.parametrize("profile", ["default", "paper"])
@@ -458,8 +466,8 @@ def test_world_effects_have_a_population_structure(profile):
         plan = plan_world(profile, seed)
         assert plan == plan_world(profile, seed)
         pop = world_population(seed)
-        by = _effects_by_model(plan)
-        assert all(e == {} for e in by["mini2"])
+        by = _effects_by_model(plan, airframes=False)  # the airframes' imbalance: test_world_airframes
+        assert all(e == {} for e in _effects_by_model(plan)["mini2"])
         for model in ("inspire2", "matrice300"):
             eff = by[model]
             a0 = pop[model]["asymmetry_db"]
@@ -499,18 +507,131 @@ def test_world_key_records_effects_and_population(tmp_path):
     effects, which of them are systematic, and the per-model systematic values."""
     from microdoppler.emulator.profiles import world_population
 
+    from microdoppler.emulator.profiles import world_airframes
+
     plan = plan_world("default", 11)
-    two = [s for s in plan if s.drone_model == "inspire2" and len(s.effects) == 2][:1]
+    two = [s for s in plan if s.drone_model == "inspire2" and len(s.effects) == 2
+           and "blade_imbalance" not in s.effects][:1]
     two += [s for s in plan if s.drone_model == "matrice300" and not s.effects][:1]
+    two += [s for s in plan if "blade_imbalance" in s.effects][:1]  # an imbalanced airframe's flight
+    assert len(two) == 3
     two = [replace(s, duration_s=2.0) for s in two]
     key = tmp_path / "key.json"
     emulate_world("default", 11, tmp_path / "w", key_path=key, progress=False, workers=1, specs=two)
     k = json.loads(key.read_text())
     assert k["population"]["systematic"] == json.loads(json.dumps(world_population(11)))
+    assert k["population"]["airframes"] == json.loads(json.dumps(world_airframes(11)))
     for s in two:
         entry = k["flights"][s.flight_id]
         assert set(entry["effects"]) == set(s.effects)
         assert entry["systematic"] == (["sideband_asymmetry"] if "sideband_asymmetry" in s.effects else [])
+        assert entry["airframe"] == s.airframe and s.airframe.startswith(s.drone_model + "-")
+        frame = k["population"]["airframes"][s.drone_model][s.airframe]
+        assert entry["airframe_effects"] == list(frame)
+        if "blade_imbalance" in s.effects:  # eval_diagnosis-style scoring reads effects.{cause}.{param}
+            x = entry["effects"]["blade_imbalance"]["imbalance_db"]
+            assert x == frame["blade_imbalance"]["imbalance_db"] and 3.0 <= x <= 10.0
+            amps = entry["truth"]["blade_amplitudes"]
+            assert len(amps) == 2 and abs(sum(amps) - 2) < 1e-9
+            assert abs(20 * np.log10(min(amps) / max(amps)) + x) < 1e-9
+        else:
+            assert entry["truth"]["blade_amplitudes"] is None
+
+
+@pytest.mark.parametrize("profile", ["default", "paper"])
+def test_world_airframes(profile):
+    """Every drone flight is flown by one of its model's airframes, each airframe flies
+    about as many flights; of each large model's airframes about a third (at least one)
+    carry one unequal blade, 3-10 dB, on every flight they fly and on no other; Minis
+    never. The airframes leave the other effects and every other draw as they were."""
+    from microdoppler.emulator.profiles import (AIRFRAMES_PER_MODEL, EFFECT_MODELS, IMBALANCE_DB, plan_effects,
+                                                world_airframes)
+
+    for seed in (11, 20261121, 5):
+        plan = plan_world(profile, seed)
+        frames = world_airframes(seed)
+        assert frames == world_airframes(seed)
+        for model, fr in frames.items():
+            assert len(fr) == AIRFRAMES_PER_MODEL
+            flights = [s for s in plan if s.drone_model == model]
+            counts = [sum(s.airframe == a for s in flights) for a in fr]
+            assert sum(counts) == len(flights) and max(counts) - min(counts) <= 1
+            imbalanced = [a for a, e in fr.items() if "blade_imbalance" in e]
+            if model in EFFECT_MODELS:
+                assert len(imbalanced) == 1
+                for a in imbalanced:
+                    assert IMBALANCE_DB[0] <= fr[a]["blade_imbalance"]["imbalance_db"] <= IMBALANCE_DB[1]
+            else:
+                assert not imbalanced
+            for s in flights:
+                assert s.effects.get("blade_imbalance") == fr[s.airframe].get("blade_imbalance")
+        assert all(s.airframe == "" and "blade_imbalance" not in s.effects for s in plan if s.target == "bird")
+        # the flights' own effects are plan_effects' (airframes come from streams of their own)
+        own = plan_effects([s.drone_model if s.target == "drone" else "" for s in plan], seed)
+        assert [{c: p for c, p in s.effects.items() if c != "blade_imbalance"} for s in plan] == own
+    # the default world has imbalanced flights of both large models; values differ by seed
+    plan = plan_world(profile, 20261121)
+    for model in EFFECT_MODELS:
+        assert any("blade_imbalance" in s.effects for s in plan if s.drone_model == model)
+    assert world_airframes(11) != world_airframes(12)
+
+
+def _taper_line_power(blade_length_m, wavelength_m, k_max):
+    """One tapered blade's own power per rotation harmonic (the emulator's nested
+    wires, BLADE_TAPER), from its pattern over one revolution."""
+    from microdoppler.emulator.world import BLADE_TAPER
+    from microdoppler.synthesis.model import BladeModel
+
+    n = 1 << 14
+    g = sum(BladeModel(1, blade_length_m * fr, wavelength_m, table_size=n).table().astype(np.complex128)
+            for fr in BLADE_TAPER)
+    return np.abs(np.fft.fft(g) / n)[: k_max + 1] ** 2
+
+
+def _nonmultiple_db(flight, line_power=None):
+    """The non-multiple rotation lines relative to the blade-passing ones (Table VI's
+    nonmultiple_db) over the whole flight, with the flight's own log; ``line_power``
+    one blade's own line powers (default the thin wire of eq. 1)."""
+    from scipy.signal.windows import blackmanharris
+
+    from microdoppler.datasets.fidelity import FidelityConfig, cpi_features, nonmultiple_db
+    from microdoppler.diagnosis.measure import thin_wire_line_power
+
+    cfg, sc = FidelityConfig(), SpectrogramConfig()
+    sp = spectrogram(flight.iq, flight.prf_hz, sc)
+    body = _body_doppler(flight, sp)
+    rev = np.column_stack([np.interp(sp.time_s, flight.motors_time_s, flight.motors_rpm[:, m])
+                           for m in range(flight.motors_rpm.shape[1])]) / 60.0
+    L, lam = float(flight.attrs["blade_length_m"]), flight.wavelength_m
+    lp = line_power(L, lam, cfg.rotation_orders) if line_power else thin_wire_line_power(L, lam, cfg.rotation_orders)
+    f = cpi_features(sp, body, rev.mean(1), n_blades=int(flight.attrs["n_blades"]), highpass_hz=sc.highpass_hz,
+                     cfg=cfg, motor_rev_s=rev, line_power=lp, window=blackmanharris(sc.n_fft, sym=False))
+    return nonmultiple_db(f, np.ones(len(sp.time_s), bool), cfg)
+
+
+def test_imbalanced_airframes_make_odd_rotation_lines(rng):
+    """An imbalanced airframe of the default world (one blade of every rotor
+    10^(-x/20) of the other): the odd rotation-rate lines stand ((1 - a) / (1 + a))^2
+    below the even (blade-passing) ones, relative to the tapered blade's own line
+    powers; the same flight with equal blades has none (below -25 dB), and the
+    blade-passing lines keep their level (amplitudes sum to the blade count)."""
+    from microdoppler.emulator.profiles import world_airframes
+
+    frames = world_airframes(20261121)
+    for model in ("inspire2", "matrice300"):
+        x = [e["blade_imbalance"]["imbalance_db"] for e in frames[model].values() if e][0]
+        spec = _drone(rng, model, duration_s=16.0, snr_db=50.0, path="straight", first_sideband_db=8.0,
+                      harmonic_falloff_db=5.0, effects={"blade_imbalance": {"imbalance_db": x}})
+        f, tr = emulate_flight(spec)
+        a = 10 ** (-x / 20)
+        want = 20 * np.log10((1 - a) / (1 + a))
+        got = _nonmultiple_db(f, _taper_line_power)
+        assert abs(got - want) < 1.0, (model, x, got, want)
+        f0, _ = emulate_flight(replace(spec, effects={}))
+        assert _nonmultiple_db(f0, _taper_line_power) < -25.0
+        body0, sb0, _ = _sideband_levels(f0, tr, n_harm=1)
+        body1, sb1, _ = _sideband_levels(f, tr, n_harm=1)
+        assert abs(np.median(sb1[0] - body1) - np.median(sb0[0] - body0)) < 1.0
 
 
 def test_motor_model_calibrated_against_real_log(capsys, ulog_path):

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.signal.windows import blackmanharris
 
 from microdoppler.datasets import fidelity
 from microdoppler.datasets import calibration
@@ -53,11 +54,15 @@ def tones(duration_s, rng, *, asym_db=6.0, fade_db=None, n_noise=0.2):
     return (body + side + noise).astype(np.complex64)
 
 
-def features(iq, cfg=fidelity.FidelityConfig()):
-    spec = spectrogram(iq, PRF_HZ, SPEC)
+def features(iq, cfg=fidelity.FidelityConfig(), spec_cfg=SPEC, log_rev_s=REV_S):
+    """Features of ``iq`` with four motors logged at ``log_rev_s`` and wire-neutral
+    line powers (every rotation harmonic of one blade equally strong)."""
+    spec = spectrogram(iq, PRF_HZ, spec_cfg)
     n_t = len(spec.time_s)
-    return fidelity.cpi_features(spec, np.full(n_t, BODY_HZ), np.full(n_t, REV_S), n_blades=N_BLADES,
-                                 highpass_hz=SPEC.highpass_hz, cfg=cfg)
+    return fidelity.cpi_features(spec, np.full(n_t, BODY_HZ), np.full(n_t, log_rev_s), n_blades=N_BLADES,
+                                 highpass_hz=spec_cfg.highpass_hz, cfg=cfg, motor_rev_s=np.full((n_t, 4), log_rev_s),
+                                 line_power=np.ones(cfg.rotation_orders + 1),
+                                 window=blackmanharris(spec_cfg.n_fft, sym=False))
 
 
 def test_features_of_known_lines(rng):
@@ -75,6 +80,43 @@ def test_features_of_known_lines(rng):
     # median floor of 480 bins), well below a fading of dB
     assert s["blade_std_db"] < 0.6 and s["body_std_db"] < 0.6
     assert s["n_pairs"] == 2.0 and abs(s["asymmetry_db"] - 6.0) < 0.3
+
+
+def rotation_lines(duration_s, rng, *, odd_rel, n_noise=0.05):
+    """Body at 60 Hz and rotation harmonics k = 1..8 of REV_S = 50 rev/s on both
+    sides: the blade-passing (even) lines fall off as exp(-0.15 k) in amplitude, the odd
+    lines stand ``odd_rel`` (amplitude) times the geometric mean of the even lines beside
+    them (k = 1: times its upper neighbour's), so their power ratio is odd_rel^2."""
+    n = int(duration_s * PRF_HZ)
+    t = np.arange(n) / PRF_HZ
+    x = np.exp(2j * np.pi * BODY_HZ * t)
+    for k in range(1, 9):
+        amp = np.exp(-0.15 * k) * (odd_rel if k % 2 else 1.0)
+        for sgn in (1, -1):
+            x = x + amp * np.exp(2j * np.pi * (BODY_HZ + sgn * k * REV_S) * t + 1j * rng.uniform(0, 2 * np.pi))
+    x = x + n_noise * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)
+    return x.astype(np.complex64)
+
+
+@pytest.mark.parametrize("odd_rel,log_scale", [(0.3, 1.0), (0.1, 1.0), (0.3, 1.08), (0.0, 0.93)])
+def test_nonmultiple_lines_level(rng, odd_rel, log_scale):
+    """nonmultiple_db reads the odd lines' power relative to the even lines beside
+    them, 20 log10 odd_rel, also when the log's rates are off by a scale (the line
+    dilation finds the lines); without odd lines it sits at the floor."""
+    full = SpectrogramConfig(n_bins=0)
+    cfg = fidelity.FidelityConfig()
+    f = features(rotation_lines(12.0, rng, odd_rel=odd_rel), cfg, spec_cfg=full, log_rev_s=REV_S / log_scale)
+    got = fidelity.nonmultiple_db(f, np.ones(len(f.time_s), bool), cfg)
+    if odd_rel == 0:
+        assert got == cfg.nonmultiple_floor_db
+    else:
+        assert abs(got - 20 * np.log10(odd_rel)) < 0.5, got
+    assert (f.nonmultiple_ref > 0).mean() > 0.9  # the reference lines are seen in (nearly) every CPI
+    # no per-motor rates: not measured
+    spec = spectrogram(rotation_lines(3.0, rng, odd_rel=odd_rel), PRF_HZ, full)
+    n_t = len(spec.time_s)
+    g = fidelity.cpi_features(spec, np.full(n_t, BODY_HZ), np.full(n_t, REV_S), n_blades=N_BLADES, cfg=cfg)
+    assert g.nonmultiple_pow is None and np.isnan(fidelity.nonmultiple_db(g, np.ones(n_t, bool), cfg))
 
 
 def test_asymmetry_sign_and_size(rng):

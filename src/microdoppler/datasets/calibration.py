@@ -434,7 +434,7 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
              cfg: CalibrationConfig = CalibrationConfig(), seed: int = 0,
              extensions: Callable[[int], ModelExtensions] | None = None,
              post: Callable[[np.ndarray], np.ndarray] | None = None,
-             fit_mask: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+             fit_mask: np.ndarray | None = None, blade_amplitudes=None) -> tuple[np.ndarray, dict]:
     """Synthesise and calibrate the twin of one measured drone flight.
 
     Parameters
@@ -458,6 +458,10 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         ``cfg.fit_mask`` (fold A of ``cfg.holdout_block_cpis``; every CPI when 0).
         The other CPIs are never seen by the fit (held-out fidelity scoring). The
         search reads ``cfg.search_cpis`` of them (at most ``cfg.max_fit_cpis``).
+    blade_amplitudes : array-like, float [n_blades] or [n_motors, n_blades], optional
+        Each blade's scattering amplitude (``BladeModel.blade_amplitudes``; the
+        ``blade_imbalance`` extension, ``ExtensionSet.blade_amplitudes``); default
+        eq. (1)'s equal blades.
 
     Returns
     -------
@@ -490,7 +494,8 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
     win = meter.windows(cpis, t_rate, t_spread_flight)
     body_win = meter.windows(cpis, None, 0)
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
-    blades = BladeModel(int(flight.attrs["n_blades"]), float(flight.attrs["blade_length_m"]), flight.wavelength_m)
+    blades = BladeModel(int(flight.attrs["n_blades"]), float(flight.attrs["blade_length_m"]), flight.wavelength_m,
+                        blade_amplitudes=blade_amplitudes)
 
     n_motors = rev_s.shape[1]
     blade_mean = complex(blades.table().mean())
@@ -662,6 +667,8 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
                 kw["extensions"] = lambda s, n=len(flight.iq), prf=flight.prf_hz, e=ext: e.model_extensions(
                     prf_hz=prf, n_pulses=n, seed=s)
                 post = lambda x, prf=flight.prf_hz, s=fseed, e=ext: e.post(x, prf_hz=prf, seed=s)
+                if hasattr(ext, "blade_amplitudes"):
+                    kw["blade_amplitudes"] = ext.blade_amplitudes(int(flight.attrs["n_blades"]))
             iq, res = fit_twin(flight, read_rev_s(g, f"{speeds_zarr}/{fid}"), ml, spec_cfg=spec_cfg, cfg=cfg,
                                seed=fseed, post=post, **kw)
             h = root.require_group(fid)

@@ -25,7 +25,21 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
 - ``body_db``: body-line SNR [dB] (its std over time);
 - ``floor_db``: median power of the bins next to the clutter line, from the
   high-pass edge to ``clutter_span_hz`` beyond it (lines excluded), over the CPI's
-  median floor [dB].
+  median floor [dB];
+- the rotation-rate lines (:func:`rotation_line_sums`): every rotor's lines of order
+  k = 1..``rotation_orders`` of its own logged rate (times the CPI's line dilation,
+  :func:`line_dilation`, which absorbs a log's scale or lag), noise-subtracted
+  (``diagnosis.measure.rotation_line_powers``); per CPI the summed power of the lines
+  at non-multiples of the blade count and the summed reference of the blade-passing
+  lines beside them (geometric mean, each over one thin wire's own line power times
+  order k's: the envelope and the wire's pattern cancel;
+  ``diagnosis.hypotheses.non_multiple_observations``), where both blade-passing
+  lines stand 3 noise std above the floor. The flight statistic ``nonmultiple_db``
+  is 10 log10 of their ratio over the scored CPIs: for two blades of amplitudes a and
+  1, 20 log10 |1 - a| / (1 + a); eq. (1)'s identical blades give none: a ratio below
+  ``nonmultiple_z`` times its noise standard deviation (the lines' noise variance,
+  ``diagnosis.measure.noise_power_factor``) reads ``nonmultiple_floor_db``, as does
+  any level below that floor; NaN where no blade-passing lines are seen.
 
 Per flight and feature one distance between twin and flight (:func:`distances`): the
 mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
@@ -42,13 +56,15 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.signal.windows import blackmanharris
 
 from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .stores import flight_ids, open_store
-from ..diagnosis.hypotheses import folds
-from ..diagnosis.measure import Stft, refine_peak
+from ..diagnosis.config import RAISED_FLOOR_DB
+from ..diagnosis.hypotheses import folds, non_multiple_observations
+from ..diagnosis.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
 from ..errors import InputError
 from ..io.flightzarr import read_flight
 from ..io.inventory import read_ingested_log
@@ -58,7 +74,8 @@ from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 
 #: distances of Table VI (name: unit), in column order
 DISTANCES = {"line_hz": "Hz", "n_pairs": "pairs", "first_pair_db": "dB", "asymmetry_db": "dB",
-             "blade_std_db": "dB", "blade_timescale_s": "s", "body_std_db": "dB", "floor_db": "dB"}
+             "blade_std_db": "dB", "blade_timescale_s": "s", "body_std_db": "dB", "floor_db": "dB",
+             "nonmultiple_db": "dB"}
 #: the paper's ordering of the sampling variants (sub-CPI > per-CPI ~ single-motor >
 #: fixed-speeds, as Table V's; classifier.reports is not imported: it needs torch)
 ORDER = ("sub_cpi", "per_cpi", "single_motor", "fixed_speeds")
@@ -91,6 +108,17 @@ class FidelityConfig:
     max_lag_cpis : int
         Longest lag of the blade-power autocorrelation [CPIs]; a timescale that is
         not reached is reported as this lag (censored).
+    rotation_orders : int
+        Rotation harmonics k = 1..rotation_orders measured per rotor (``nonmultiple_db``).
+    nonmultiple_floor_db : float
+        Floor of ``nonmultiple_db`` [dB]: lines below it count as absent (a 3 dB
+        imbalance of two blades puts them at -15.3 dB).
+    dilation_range : float
+        The CPI's line dilation (:func:`line_dilation`) is searched within
+        1 +- dilation_range.
+    nonmultiple_z : float
+        The non-multiple lines count as seen when their summed power exceeds this many
+        noise standard deviations; else ``nonmultiple_db`` is the floor.
     """
 
     visible_db: float = 10.0
@@ -98,6 +126,10 @@ class FidelityConfig:
     n_harmonics: int = 6
     clutter_span_hz: float = 30.0
     max_lag_cpis: int = 16
+    rotation_orders: int = 8
+    nonmultiple_floor_db: float = -30.0
+    dilation_range: float = 0.15
+    nonmultiple_z: float = 3.0
 
     def __post_init__(self):
         if not self.search_hz > 0:
@@ -108,6 +140,10 @@ class FidelityConfig:
             raise ValueError(f"clutter_span_hz={self.clutter_span_hz} must be > 0")
         if self.max_lag_cpis < 1:
             raise ValueError(f"max_lag_cpis={self.max_lag_cpis} must be >= 1")
+        if self.rotation_orders < 1:
+            raise ValueError(f"rotation_orders={self.rotation_orders} must be >= 1")
+        if not 0 <= self.dilation_range < 1:
+            raise ValueError(f"dilation_range={self.dilation_range} must be in [0, 1)")
 
 
 @dataclass
@@ -127,6 +163,11 @@ class CpiFeatures:
         [dB]; NaN where not measurable.
     hop_s : float
         Time between CPIs [s].
+    nonmultiple_pow, nonmultiple_ref, nonmultiple_var : ndarray [n_t], optional
+        Per CPI, the summed power of the rotation-rate lines at non-multiples of the
+        blade count, their blade-passing reference and the summed power's noise
+        variance (:func:`rotation_line_sums`; 0 where none is measured); None when
+        per-motor rates were not given.
     """
 
     time_s: np.ndarray
@@ -139,6 +180,9 @@ class CpiFeatures:
     body_db: np.ndarray
     floor_db: np.ndarray
     hop_s: float
+    nonmultiple_pow: np.ndarray | None = None
+    nonmultiple_ref: np.ndarray | None = None
+    nonmultiple_var: np.ndarray | None = None
 
 
 def _finite(x) -> np.ndarray:
@@ -147,7 +191,8 @@ def _finite(x) -> np.ndarray:
 
 
 def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half_spread_rev_s: float = 0.0,
-                 highpass_hz: float = 15.0, cfg: FidelityConfig = FidelityConfig()) -> CpiFeatures:
+                 highpass_hz: float = 15.0, cfg: FidelityConfig = FidelityConfig(), motor_rev_s=None,
+                 line_power=None, window=None) -> CpiFeatures:
     """Per-CPI features of a spectrogram.
 
     Parameters
@@ -162,6 +207,14 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
         Half-spread of the motors' rates [rev/s] (widens the sideband windows).
     highpass_hz : float
         The spectrogram's high-pass edge [Hz]; the clutter floor is read beyond it.
+    motor_rev_s : ndarray [n_t, n_motors], optional
+        Each motor's rate [rev/s]; with ``line_power`` and ``window``, the
+        rotation-rate lines are measured (:func:`rotation_line_sums`).
+    line_power : ndarray [rotation_orders + 1], optional
+        One blade's own line power per rotation harmonic
+        (``diagnosis.measure.thin_wire_line_power``).
+    window : ndarray [n_fft], optional
+        The spectrogram's analysis window.
     """
     body_hz = np.asarray(body_hz, float)
     h_hz = n_blades * np.asarray(rotor_rev_s, float)
@@ -194,9 +247,109 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     has = near.any(axis=1)
     floor[has] = np.nanmedian(np.where(near, spec.power_db, np.nan)[has], axis=1)
     hop_s = float(np.median(np.diff(spec.time_s))) if len(spec.time_s) > 1 else float("nan")
+    nm = (None, None, None)
+    if motor_rev_s is not None and line_power is not None and window is not None:
+        st_w = Stft(st.p, st.t_s, st.f_hz, np.asarray(window, float))
+        nm = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
+                                highpass_hz=highpass_hz, cfg=cfg)
     return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - lines.body_db),
                        _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(lines.body_db),
-                       floor - noise_floor_db(spec), hop_s)
+                       floor - noise_floor_db(spec), hop_s, *nm)
+
+
+#: dilation grid step of :func:`line_dilation` and the CPIs of its running median
+DILATION_STEP = 0.0025
+DILATION_SMOOTH_CPIS = 9
+
+
+def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max_rel: float,
+                  smooth_cpis: int = DILATION_SMOOTH_CPIS) -> np.ndarray:
+    """Per CPI the factor s (within 1 +- ``max_rel``) by which the rotors' lines sit
+    off their given rates: the s whose blade-passing lines (orders B and 2B of every
+    rotor, both sides, +-1 bin) hold the most power, then a running median over
+    ``smooth_cpis`` CPIs of those where the lines stand above the floor (others get
+    the median of the flight; 1 when there is none). A log's scale error or lag moves
+    every rotor's lines by about the same factor."""
+    n_t = len(st.t_s)
+    out = np.full(n_t, np.nan)
+    if max_rel <= 0:
+        return np.ones(n_t)
+    grid = np.arange(1 - max_rel, 1 + max_rel + DILATION_STEP / 2, DILATION_STEP)
+    orders = n_blades * np.array([1.0, 2.0])
+    n_bins = st.p.shape[1]
+    for i in np.flatnonzero(valid):
+        fr = np.asarray(motor_rev_s[i], float)
+        if not np.all(np.isfinite(fr)) or np.any(fr <= 0):
+            continue
+        f = (f_body_hz[i] + np.array([1.0, -1.0])[None, :, None, None] * grid[:, None, None, None]
+             * orders[None, None, :, None] * fr[None, None, None, :])  # [n_s, side, order, motor]
+        b = np.rint(st.at(f)).astype(int)
+        inside = (b >= 1) & (b < n_bins - 1)
+        bc = np.clip(b, 1, n_bins - 2)
+        pw = (st.p[i, bc - 1] + st.p[i, bc] + st.p[i, bc + 1]) * inside
+        score = pw.reshape(len(grid), -1).sum(axis=1)
+        floor = float(np.median(st.p[i])) / np.log(2.0)
+        n_cells = 3 * max(int(inside.reshape(len(grid), -1).sum(axis=1).max()), 1)
+        if score.max() > 2.0 * n_cells * floor:  # the lines hold at least the noise's power again
+            out[i] = grid[int(np.argmax(score))]
+    ok = np.isfinite(out)
+    if not ok.any():
+        return np.ones(n_t)
+    fill = float(np.median(out[ok]))
+    h = max(int(smooth_cpis) // 2, 0)
+    sm = np.array([np.nanmedian(out[max(0, i - h):i + h + 1]) if np.isfinite(out[max(0, i - h):i + h + 1]).any()
+                   else fill for i in range(n_t)])
+    return sm
+
+
+def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_power, highpass_hz: float,
+                       cfg: FidelityConfig = FidelityConfig()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per CPI, the summed power of the rotation-rate lines at non-multiples of the
+    blade count, of their blade-passing reference (module doc) and the summed power's
+    noise variance (kappa (n_b fl^2 + 2 P fl) per line, ``rotation_line_powers``):
+    float [n_t] each, 0 where nothing is measured. ``st`` is the spectrogram as a power periodogram with its
+    analysis window; ``f_body_hz`` [n_t] the body line; ``motor_rev_s`` [n_t, n_motors]
+    each motor's rate; ``line_power`` [cfg.rotation_orders + 1] one blade's own line
+    power per order."""
+    rev = np.asarray(motor_rev_s, float)
+    n_t, n_m = rev.shape
+    if len(line_power) < cfg.rotation_orders + 1:
+        raise ValueError(f"line_power has {len(line_power)} orders, expected {cfg.rotation_orders + 1}")
+    f_body_hz = np.asarray(f_body_hz, float)
+    valid = (np.isfinite(f_body_hz) & np.all(np.isfinite(rev), axis=1) & np.all(rev > 0, axis=1)
+             & (np.abs(f_body_hz) > highpass_hz + cfg.search_hz))
+    floor = np.median(st.p, axis=1) / np.log(2.0)
+    s = line_dilation(st, f_body_hz, rev, valid, n_blades=n_blades, max_rel=cfg.dilation_range)
+    P, V, W, R = rotation_line_powers(st, f_body_hz, rev * s[:, None], valid, n_blades, cfg.rotation_orders, floor,
+                                      clutter_guard_hz=highpass_hz, raised_floor_db=RAISED_FLOOR_DB)
+    x, v0, w, ref, idx = non_multiple_observations(P, V, W, R, np.asarray(line_power, float), n_blades, n_m,
+                                                   min_z=NONMULTIPLE_MIN_Z)
+    var = v0 + w * np.clip(x, 0, None)
+    return (np.bincount(idx, x, minlength=n_t), np.bincount(idx, ref, minlength=n_t),
+            np.bincount(idx, var, minlength=n_t))
+
+
+#: blade-passing lines used as the reference of the non-multiple lines stand this many
+#: noise standard deviations above the floor
+NONMULTIPLE_MIN_Z = 3.0
+
+
+def nonmultiple_db(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> float:
+    """``nonmultiple_db`` over the CPIs in ``mask``: 10 log10(sum of the non-multiple
+    lines' power / sum of their blade-passing reference), floored at
+    ``cfg.nonmultiple_floor_db``, and the floor where the summed power is below
+    ``cfg.nonmultiple_z`` times its noise standard deviation; NaN without a reference."""
+    if f.nonmultiple_pow is None:
+        return float("nan")
+    mask = np.asarray(mask, bool)
+    ref = float(np.sum(f.nonmultiple_ref[mask]))
+    if not ref > 0:
+        return float("nan")
+    x = float(np.sum(f.nonmultiple_pow[mask]))
+    sd = float(np.sqrt(np.sum(f.nonmultiple_var[mask]))) if f.nonmultiple_var is not None else 0.0
+    if not x > cfg.nonmultiple_z * sd:
+        return float(cfg.nonmultiple_floor_db)
+    return float(max(10 * np.log10(x / ref), cfg.nonmultiple_floor_db))
 
 
 def flight_features(flight, iq, motor_log, *, spec_cfg: SpectrogramConfig,
@@ -206,8 +359,13 @@ def flight_features(flight, iq, motor_log, *, spec_cfg: SpectrogramConfig,
     spec = spectrogram(iq, flight.prf_hz, spec_cfg)
     body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
     rate, spread = log_rate_at(motor_log.time_s, motor_log.rev_s, spec.time_s)
+    t = np.asarray(spec.time_s, float)
+    motors = np.column_stack([np.interp(t, motor_log.time_s, motor_log.rev_s[:, m])
+                              for m in range(motor_log.rev_s.shape[1])])
+    wire = thin_wire_line_power(float(flight.attrs["blade_length_m"]), flight.wavelength_m, cfg.rotation_orders)
     return cpi_features(spec, body, rate, n_blades=int(flight.attrs["n_blades"]),
-                        half_spread_rev_s=float(np.percentile(spread, 90)), highpass_hz=spec_cfg.highpass_hz, cfg=cfg)
+                        half_spread_rev_s=float(np.percentile(spread, 90)), highpass_hz=spec_cfg.highpass_hz, cfg=cfg,
+                        motor_rev_s=motors, line_power=wire, window=blackmanharris(spec_cfg.n_fft, sym=False))
 
 
 def correlation_timescale_s(x, mask, hop_s: float, max_lag: int) -> float:
@@ -251,12 +409,13 @@ def _std(x, mask) -> float:
 def summarise(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> dict:
     """Flight-level statistics over the CPIs in ``mask`` (bool [n_t]): mean visible
     pairs, first-pair level, asymmetry and floor, std of blade and body SNR, the
-    blade fading timescale [s]."""
+    blade fading timescale [s], the non-multiple rotation lines' level (:func:`nonmultiple_db`)."""
     mask = np.asarray(mask, bool)
     return {"n_pairs": _mean(f.n_pairs, mask), "first_pair_db": _mean(f.first_pair_db, mask),
             "asymmetry_db": _mean(f.asymmetry_db, mask), "blade_std_db": _std(f.blade_db, mask),
             "blade_timescale_s": correlation_timescale_s(f.blade_db, mask, f.hop_s, cfg.max_lag_cpis),
-            "body_std_db": _std(f.body_db, mask), "floor_db": _mean(f.floor_db, mask)}
+            "body_std_db": _std(f.body_db, mask), "floor_db": _mean(f.floor_db, mask),
+            "nonmultiple_db": nonmultiple_db(f, mask, cfg)}
 
 
 def distances(measured: CpiFeatures, twin: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> dict:
@@ -405,7 +564,8 @@ def plot_fidelity(table: pd.DataFrame, path) -> None:
     import matplotlib.pyplot as plt
 
     t = table[~table["variant"].str.contains(" - ")]
-    fig, axes = plt.subplots(2, 4, figsize=(13, 5.5), squeeze=False)
+    n_col = int(np.ceil(len(DISTANCES) / 2))
+    fig, axes = plt.subplots(2, n_col, figsize=(3.25 * n_col, 5.5), squeeze=False)
     x = np.arange(len(t))
     for ax, (m, unit) in zip(axes.ravel(), DISTANCES.items()):
         mean = t[f"{m}_mean"].to_numpy(float)
@@ -415,6 +575,8 @@ def plot_fidelity(table: pd.DataFrame, path) -> None:
         ax.set_xlim(-0.5, len(t) - 0.5)
         ax.set_title(f"|Δ {m}| [{unit}]", fontsize=9)
         ax.grid(axis="y", alpha=0.3)
+    for ax in axes.ravel()[len(DISTANCES):]:
+        ax.set_visible(False)
     fig.suptitle("Twin vs measured flight on held-out CPIs: mean distance over flights, 95 % flight bootstrap")
     fig.tight_layout()
     with atomic_file(path) as tmp:

@@ -12,15 +12,16 @@ from typing import Mapping
 
 import numpy as np
 
-from ..synthesis.catalog import CAUSES
+from ..synthesis.catalog import CAUSES, UNEXPLAINED
 from ..synthesis.extensions import ExtensionSet
 
 
 def flight_causes(entry: dict) -> list[dict]:
-    """The ``causes`` of a report entry: report 2's list, or report 1's single
+    """The ``causes`` of a report entry that name a catalog cause (an extension):
+    report 2's list without ``unexplained`` (which names none), or report 1's single
     ``cause``/``extension`` as a list of 0 or 1 entries."""
     if "causes" in entry:
-        return list(entry["causes"] or [])
+        return [c for c in entry["causes"] or [] if c.get("cause") != UNEXPLAINED]
     cause = entry.get("cause")
     if cause in (None, "none", "skipped"):
         return []

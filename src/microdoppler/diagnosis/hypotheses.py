@@ -232,10 +232,17 @@ def imbalance_observations(M):
     wire's line power and the pair multiplied by order k's (:func:`.measure.thin_wire_line_power`),
     so the envelope exp(-alpha |f|) and the wire's own line powers cancel, scaled by
     the share of rotors whose line of order k is clear. Returns flat arrays and each
-    observation's CPI index."""
-    B = M.info["n_blades"]
-    P, V, W, R, c2 = M.rot_pow, M.rot_var, M.rot_cross, M.rot_n, M.rot_wire
-    n_m = M.log.n_motors
+    observation's CPI index (:func:`non_multiple_observations` of ``M``'s rotation lines)."""
+    return non_multiple_observations(M.rot_pow, M.rot_var, M.rot_cross, M.rot_n, M.rot_wire,
+                                     M.info["n_blades"], M.log.n_motors)
+
+
+def non_multiple_observations(P, V, W, R, c2, n_blades: int, n_motors: int, *, min_z: float = 0.0):
+    """:func:`imbalance_observations` from the arrays of
+    :func:`.measure.rotation_line_powers` (``P``, ``V``, ``W``, ``R``: [n_t, K, 2]) and one
+    wire's line powers ``c2`` [K + 1]; with ``min_z`` > 0 only where both blade-passing
+    lines stand ``min_z`` noise standard deviations above the floor."""
+    B = int(n_blades)
     out = [[], [], [], [], []]
     for k in range(1, P.shape[1] + 1):
         n1 = (k // B) * B
@@ -246,10 +253,11 @@ def imbalance_observations(M):
             a, b = P[:, n1 - 1, s], P[:, n2 - 1, s]
             with np.errstate(invalid="ignore", divide="ignore"):
                 ref = (np.sqrt(np.clip(a, 0, None) * np.clip(b, 0, None)) * c2[k] / np.sqrt(c2[n1] * c2[n2])
-                       * R[:, k - 1, s] / n_m)
+                       * R[:, k - 1, s] / n_motors)
+                seen = (a > min_z * np.sqrt(V[:, n1 - 1, s])) & (b > min_z * np.sqrt(V[:, n2 - 1, s]))
             x = P[:, k - 1, s]
-            ok = (np.isfinite(x) & np.isfinite(ref) & (ref > 0) & (R[:, n1 - 1, s] == n_m)
-                  & (R[:, n2 - 1, s] == n_m))
+            ok = (np.isfinite(x) & np.isfinite(ref) & (ref > 0) & (R[:, n1 - 1, s] == n_motors)
+                  & (R[:, n2 - 1, s] == n_motors) & seen)
             i = np.flatnonzero(ok)
             for lst, arr in zip(out, (x[i], V[i, k - 1, s], W[i, k - 1, s], ref[i], i)):
                 lst.append(arr)

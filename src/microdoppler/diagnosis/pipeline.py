@@ -140,7 +140,7 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
             e = skipped_entry(f.flight_id, exc.reason)
             log(f"{f.flight_id}: skipped: {exc.reason}")
         else:
-            named = "; ".join(f"{c['cause']} {(c.get('extension') or c)['params']}" for c in e["causes"]) or "none"
+            named = "; ".join(f"{c['cause']} {(c.get('extension') or c).get('params')}" for c in e["causes"]) or "none"
             log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
     report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}

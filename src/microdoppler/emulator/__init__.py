@@ -33,6 +33,9 @@ Conventions
 - Knobs follow :mod:`microdoppler.synthesis.catalog` exactly. The ``phase_noise`` knob is an
   episode of the flight recording: ``iq`` carries it, ``background/iq`` (another time)
   does not. The radars' own (weaker, Lorentzian) phase noise is in both.
+- Drones of the ``default`` and ``paper`` worlds are flown by a few airframes per model
+  (``FlightSpec.airframe``); about one in three large-model airframes carries an unequal
+  blade (``blade_imbalance``, 3-10 dB) on every flight it flies (:mod:`.profiles`).
 - Mini flights have no motor log (the paper's Mini had none); Inspire logs at 30 Hz,
   Matrice at 20 Hz, jittered stamps, 1 % dropped rows, 1 rpm quantisation.
 """

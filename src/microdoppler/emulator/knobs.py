@@ -26,6 +26,14 @@ on per flight with the catalog's parameter names, units and signs:
     both (given both, they must agree within 0.1 dB). It is an
     episode of the flight recording: the target-free ``background/iq`` (recorded at
     another time) does not carry it.
+``blade_imbalance``     {imbalance_db}
+    One blade of every rotor scatters 10^(-imbalance_db/20) of the others
+    (:func:`imbalance_amplitudes`: amplitudes scaled to sum to the blade count, so the
+    blade-passing lines keep the flight's drawn level), passed to the synthesis of each
+    nested wire of the tapered blade: lines appear at the multiples of the rotation
+    rate that are not multiples of the blade count (two blades: the odd ones, at
+    ((1 - a) / (1 + a))^2 of the blade's own line power relative to the even ones).
+    The worlds carry it as a property of an airframe (:mod:`.profiles`).
 """
 
 from __future__ import annotations
@@ -84,6 +92,8 @@ def validate_effects(effects: Mapping | None) -> dict:
             raise ValueError(f"motor_speed_scale: scale={full['scale']} must be > 0")
         if cause == "phase_noise" and not full["rms_rad"] >= 0:
             raise ValueError(f"phase_noise: rms_rad={full['rms_rad']} must be >= 0")
+        if cause == "blade_imbalance" and not 0 <= full["imbalance_db"] <= 60:
+            raise ValueError(f"blade_imbalance: imbalance_db={full['imbalance_db']} must be in [0, 60] dB")
         if cause == "motor_log_lag" and not abs(full["lag_s"]) < 10:
             raise ValueError(f"motor_log_lag: lag_s={full['lag_s']} must be within +-10 s")
         out[cause] = {k: full[k] for k in names}  # the catalog's order
@@ -154,6 +164,18 @@ def band_limited_phase(n: int, prf_hz: float, rms_rad: float, rng: np.random.Gen
     th = sfft.irfft(spec, m, workers=1)[:n]
     s = th.std()
     return th * (rms_rad / s) if s > 0 else th
+
+
+def imbalance_amplitudes(imbalance_db: float, n_blades: int, weak_blade: int = 0) -> tuple:
+    """Per-blade scattering amplitudes of a rotor with one weak blade: blade
+    ``weak_blade`` at 10^(-imbalance_db/20) of the others, all scaled to sum to
+    ``n_blades`` (float tuple [n_blades]). For two blades a weak blade is the same as a
+    strong one (only the amplitude ratio shows)."""
+    if n_blades < 1 or not 0 <= weak_blade < n_blades:
+        raise ValueError(f"weak_blade={weak_blade} must index one of n_blades={n_blades} blades")
+    amps = np.ones(int(n_blades))
+    amps[weak_blade] = 10.0 ** (-float(imbalance_db) / 20.0)
+    return tuple(float(a) for a in amps * n_blades / amps.sum())
 
 
 def asymmetry_envelope(asymmetry_db: float):

@@ -1,6 +1,7 @@
 """Profiles (``test``, ``default``, ``paper``) and writing a whole world.
 
-- ``test``: 6 flights of 30-40 s (CI; seconds to emulate).
+- ``test``: 6 flights of 30-40 s (CI; seconds to emulate); the first Inspire's
+  airframe has a 6 dB weak blade, the second a 4 dB sideband asymmetry.
 - ``default``: 48 flights: 24 birds (10 single, 6 pairs, 5 small and 3 large flocks) of
   30-45 s, 9 Inspire, 8 Matrice, 7 Mini flights of 40-60 s (about 35 min of
   flight), both radars.
@@ -13,8 +14,15 @@ population structure: each Inspire/Matrice model has a systematic sideband asymm
 (blade geometry; sign and size drawn once per world, |a| 3.5-5.5 dB, +-0.5 dB per
 flight) that most of its flights show; per-flight effects (sideband fading, body
 fluctuation, motor-log lag, motor-speed scale) come on top; >= 35 % of a model's
-flights carry two effects and >= 15 % none. The key file records every flight's
-effects and the world's per-model systematic values (``population``).
+flights carry two effects and >= 15 % none. Every drone flight is flown by one of
+:data:`AIRFRAMES_PER_MODEL` airframes of its model (:func:`plan_airframes`); a share
+of each large model's airframes (:data:`IMBALANCED_SHARE`, at least one) carries an
+unequal blade (``blade_imbalance``, imbalance_db uniform in :data:`IMBALANCE_DB`,
+drawn once per airframe, :func:`world_airframes`) on every flight it flies, on top of
+the flight's other effects. The key file records every flight's effects and airframe,
+and the world's per-model systematic values and airframes (``population``).
+Airframes come from streams of their own: the flights, their other effects and every
+draw of a flight without an imbalance are those of a world without airframes.
 """
 
 from __future__ import annotations
@@ -35,6 +43,7 @@ from ..synthesis.catalog import CAUSES
 from ..io.flightzarr import write_flight
 from ..io.outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
 from ..spectra.spectrogram import SpectrogramConfig
+from .drone import DYNAMICS
 from .world import WEAK_BLADE_SHARE, FlightSpec, emulate_flight, measured_snr_db
 
 PROFILES = ("test", "default", "paper")
@@ -103,6 +112,55 @@ def world_population(seed: int) -> dict:
         a = float(rng.choice([-1.0, 1.0]) * rng.uniform(*SYSTEMATIC_RANGE_DB))
         pop[model] = {"cause": "sideband_asymmetry", "asymmetry_db": round(a, 3), "jitter_db": SYSTEMATIC_JITTER_DB}
     return pop
+
+
+#: airframes per drone model in a world (each drone flight is flown by one of them)
+AIRFRAMES_PER_MODEL = 3
+#: share of a large model's airframes (:data:`EFFECT_MODELS`) with an unequal blade
+#: (rounded, at least one), and the range of its imbalance_db [dB] (uniform, drawn once
+#: per airframe: a chipped, bent, repaired or differently pitched blade stays)
+IMBALANCED_SHARE = 1.0 / 3.0
+IMBALANCE_DB = (3.0, 10.0)
+
+
+def world_airframes(seed: int) -> dict:
+    """The airframes of a world and what each carries, deterministic in ``seed``.
+
+    Returns ``{model: {airframe: effects}}`` for every drone model, airframes named
+    ``{model}-A``, ``{model}-B``, ...; ``effects`` is ``{}`` or, for
+    max(1, round(:data:`IMBALANCED_SHARE` n)) airframes of each model of
+    :data:`EFFECT_MODELS` chosen at random, ``{"blade_imbalance": {"imbalance_db": x}}``
+    with x uniform in :data:`IMBALANCE_DB`.
+    """
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1004])
+    out = {}
+    for model in DYNAMICS:
+        names = [f"{model}-{chr(ord('A') + k)}" for k in range(AIRFRAMES_PER_MODEL)]
+        frames: dict = {n: {} for n in names}
+        if model in EFFECT_MODELS:
+            n_imb = max(1, int(round(IMBALANCED_SHARE * len(names))))
+            for j in sorted(rng.choice(len(names), size=n_imb, replace=False)):
+                frames[names[j]] = {"blade_imbalance": {"imbalance_db": round(float(rng.uniform(*IMBALANCE_DB)), 3)}}
+        out[model] = frames
+    return out
+
+
+def plan_airframes(models: list[str], seed: int) -> list[str]:
+    """The airframe of each entry of ``models`` (drone model, or "" for a bird: "").
+
+    Per drone model, its flights are dealt over the model's airframes
+    (:func:`world_airframes` names) in a seeded random order, so every airframe flies
+    floor(n / k) or ceil(n / k) of the model's n flights (each one at least one when
+    n >= k)."""
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1005])
+    names = {m: list(f) for m, f in world_airframes(seed).items()}
+    out = [""] * len(models)
+    for model, frames in names.items():
+        idx = [i for i, m in enumerate(models) if m == model]
+        deal = rng.permutation(np.arange(len(idx)) % len(frames))
+        for i, j in zip(idx, deal):
+            out[i] = frames[int(j)]
+    return out
 
 
 def _per_flight_effect(rng, cause: str) -> dict:
@@ -179,7 +237,9 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
             fid = f"t{i:02d}_{what}"
             if tg == "drone":
                 eff = {"sideband_asymmetry": {"asymmetry_db": 4.0}} if i == 2 else {}
-                specs.append(_drone_spec(fid, what, rng, nxt(), dur, rid, eff))
+                if i == 0:  # an airframe with a weak blade (the rest of the flight as before)
+                    eff = {"blade_imbalance": {"imbalance_db": 6.0}}
+                specs.append(replace(_drone_spec(fid, what, rng, nxt(), dur, rid, eff), airframe=f"{what}-A"))
             else:
                 specs.append(_bird_spec(fid, what, rng, nxt(), dur, rid))
         return [replace(s, site_seed=int(seed)) for s in specs]
@@ -218,18 +278,26 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
 
 
 def _with_effects(specs: list[FlightSpec], seed: int) -> list[FlightSpec]:
-    """``specs`` with the world's site seed, the effects of :func:`plan_effects` and
-    weak blades on :data:`~.world.WEAK_BLADE_SHARE` of the large drones (own stream)."""
-    effects = plan_effects([s.drone_model if s.target == "drone" else "" for s in specs], seed)
+    """``specs`` with the world's site seed, the effects of :func:`plan_effects`, weak
+    blades on :data:`~.world.WEAK_BLADE_SHARE` of the large drones (own stream) and
+    each drone's airframe (:func:`plan_airframes`) with what it carries
+    (:func:`world_airframes`, after the flight's own effects)."""
+    models = [s.drone_model if s.target == "drone" else "" for s in specs]
+    effects = plan_effects(models, seed)
     weak = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1003]).uniform(size=len(specs)) < WEAK_BLADE_SHARE
-    return [replace(s, site_seed=int(seed), effects=e, weak_blades=bool(w and s.drone_model in EFFECT_MODELS))
-            for s, e, w in zip(specs, effects, weak)]
+    frames = world_airframes(seed)
+    flown = plan_airframes(models, seed)
+    return [replace(s, site_seed=int(seed), effects={**e, **(frames[m][a] if a else {})},
+                    weak_blades=bool(w and s.drone_model in EFFECT_MODELS), airframe=a)
+            for s, e, w, m, a in zip(specs, effects, weak, models, flown)]
 
 
 def population_key(seed: int) -> dict:
     """The ``population`` section of the key: per-model systematic effects
     (:func:`world_population`), the per-flight effects' ranges and the quotas."""
-    return {"systematic": world_population(seed),
+    return {"systematic": world_population(seed), "airframes": world_airframes(seed),
+            "airframes_per_model": AIRFRAMES_PER_MODEL, "imbalanced_share": IMBALANCED_SHARE,
+            "imbalance_db_range": list(IMBALANCE_DB),
             "per_flight": {c: {k: list(r) for k, r in p.items()} for c, p in PER_FLIGHT.items()},
             "signed": {"motor_log_lag": "lag_s = +-U(range)", "motor_speed_scale": "scale = 1 +- U(range)"},
             "two_effects_share_min": TWO_SHARE, "clean_share_min": CLEAN_SHARE,
@@ -240,6 +308,12 @@ def _systematic(spec: FlightSpec, pop: dict) -> list[str]:
     """The flight's effects that are its model's systematic ones."""
     sys_ = pop.get("systematic", {}).get(spec.drone_model) if spec.target == "drone" else None
     return [sys_["cause"]] if sys_ and sys_["cause"] in dict(spec.effects) else []
+
+
+def _airframe_effects(spec: FlightSpec, pop: dict) -> list[str]:
+    """The flight's effects that its airframe carries (``blade_imbalance``)."""
+    frame = pop.get("airframes", {}).get(spec.drone_model, {}).get(spec.airframe, {})
+    return [c for c in frame if c in dict(spec.effects)]
 
 
 def _spec_json(spec: FlightSpec) -> dict:
@@ -296,6 +370,8 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
                "population": pop,
                "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"],
                                                  "systematic": _systematic(r["spec"], pop),
+                                                 "airframe": r["spec"].airframe,
+                                                 "airframe_effects": _airframe_effects(r["spec"], pop),
                                                  "spec": _spec_json(r["spec"]),
                                                  "truth": r["truth"], "measured_snr_db": r["snr_mean"],
                                                  "measured_snr_std_db": r["snr_std"]} for r in results}}

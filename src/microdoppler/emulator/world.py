@@ -20,7 +20,7 @@ from ..spectra.snr import flight_body_snr_db
 from . import background as bg
 from .bird import KINDS, plan_group, render
 from .drone import DYNAMICS, loop_path, motor_speeds, write_log
-from .knobs import SlowGain, asymmetry_envelope, ou_process, validate_effects
+from .knobs import SlowGain, asymmetry_envelope, imbalance_amplitudes, ou_process, validate_effects
 from .radars import radar_site
 
 TARGETS = ("drone", "bird")
@@ -101,6 +101,10 @@ class FlightSpec:
         Large drones: the blades echo weakly, the first sideband
         :data:`WEAK_BLADE_DB` below the body (drawn) instead of 7-10 dB; the worlds
         draw it for :data:`WEAK_BLADE_SHARE` of their large-drone flights.
+    airframe : str
+        Drones: the airframe that flies the flight (worlds: one of a few per model,
+        :func:`~.profiles.plan_airframes`); a label for the key, what the airframe
+        carries (``blade_imbalance``) is in ``effects``.
     """
 
     flight_id: str
@@ -124,6 +128,7 @@ class FlightSpec:
     site_seed: int = 0
     path: str = "loop"
     weak_blades: bool = False
+    airframe: str = ""
 
     def __post_init__(self):
         if self.path not in ("loop", "straight"):
@@ -288,13 +293,18 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
             x *= g
 
         start = r_bl.uniform(0, 1, model.n_motors)  # rotor angles at t = 0 [rev]
+        # unequal blades (blade_imbalance): one weak blade on every rotor, the same
+        # amplitudes for each nested wire of the tapered blade; no draw (flights
+        # without it are unchanged)
+        imb = effects.get("blade_imbalance")
+        amps = imbalance_amplitudes(imb["imbalance_db"], B) if imb else None
         target = None
         hooks = synthesis.ModelExtensions(envelope_gain=envelope, blade_hook=blade_hook, body_hook=body_hook)
         for k, fr in enumerate(BLADE_TAPER):
             cfg = synthesis.SynthesisConfig.of(prf_hz=prf, wavelength_m=lam, n_blades=B,
                                                blade_length_m=model.blade_length_m * fr,
                                                scaling=synthesis.Scaling(a_body if k == 0 else 0.0, s_blade, alpha_s),
-                                               extensions=hooks)
+                                               blade_amplitudes=amps, extensions=hooks)
             part = synthesis.synthesize(cfg, track, rev, initial_cycles=start)
             target = part if target is None else target.__iadd__(part)
         target *= _straddle_gain(track.range_at(t))
@@ -312,6 +322,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
                       "blade_taper": list(BLADE_TAPER), "natural_falloff_db": natural,
                       "hover_rev_s": float(f_rot),
                       "weak_blades": bool(weak_blades and spec.first_sideband_db is None),
+                      "airframe": spec.airframe, "blade_amplitudes": list(amps) if amps else None,
                       "wander_m": wander_m if dyn.hand_flown else 0.0, "body_scint_db": scint_db,
                       "motors": {"mean_rev_s": rv.mean(0).tolist(), "std_rev_s": rv.std(0).tolist(),
                                  "min_rev_s": rv.min(0).tolist(), "max_rev_s": rv.max(0).tolist(),
