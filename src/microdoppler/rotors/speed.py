@@ -61,12 +61,11 @@ Method (arrays per CPI):
    7; a rotor whose lines coincide with another's (too weak to be its own) turns
    with the strongest line and its ambiguity adds to the uncertainty. Where no fit
    stays near the lines, the periodogram's estimate stands.
-
-10. Order (``order=True``, :mod:`microdoppler.rotors.order`): which comb the lines are
-   (blade-passing or rotation-rate family, folded Doppler, sub- and super-harmonics),
-   judged by a line likelihood and physics (the blade flash's Doppler extent against
-   ``blade_length_m``, tip speed); alternatives and their doubt go into
-   ``info["order"]``, the uncertainties and the store.
+10. Order (``order=True``, :mod:`microdoppler.rotors.order`): which comb the lines
+    are (blade-passing or rotation-rate family, folded Doppler, sub- and
+    super-harmonics), judged by a line likelihood and physics (the blade flash's
+    Doppler extent against ``blade_length_m``, tip speed); alternatives and their
+    doubt go into ``info["order"]``, the uncertainties and the store.
 
 A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a lone
 mirror pair can be clutter or birds); otherwise there is no estimate and ``reason``
