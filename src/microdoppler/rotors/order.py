@@ -304,8 +304,7 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
         x = np.asarray(flight.iq[i * hop:i * hop + n], np.complex128) * w
         p = np.abs(np.fft.fft(x)) ** 2 / (w ** 2).sum()
         pdb = np.fft.fftshift(10 * np.log10(p + 1e-30))
-        fl = local_floor_db(pdb[None, :], window_bins=scfg.floor_window_bins, step_bins=scfg.floor_step_bins,
-                            percentile=scfg.floor_percentile)[0]
+        fl = local_floor_db(pdb[None, :])[0]
         z = np.fft.ifftshift(pdb - fl)
         body = float(est.body_hz[i])
         rel = (f - body + prf / 2) % prf - prf / 2
