@@ -199,7 +199,7 @@ class OrderConfig:
     rescue_tries: int = 3
     coverage_free: float = 0.5
     min_evidence: float = 0.05
-    prior_lines: float = 1.0
+    prior_lines: float = 4.0
     snap_rel: float = 0.08
 
     def __post_init__(self):
