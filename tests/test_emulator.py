@@ -597,7 +597,7 @@ def _nonmultiple_db(flight, line_power=None):
     from microdoppler.datasets.fidelity import FidelityConfig, cpi_features, nonmultiple_db
     from microdoppler.diagnosis.measure import thin_wire_line_power
 
-    cfg, sc = FidelityConfig(), SpectrogramConfig()
+    cfg, sc = FidelityConfig(nonmultiple_min_cpis=4), SpectrogramConfig()  # a 16 s flight: ~56 CPIs in all
     sp = spectrogram(flight.iq, flight.prf_hz, sc)
     body = _body_doppler(flight, sp)
     rev = np.column_stack([np.interp(sp.time_s, flight.motors_time_s, flight.motors_rpm[:, m])

@@ -237,7 +237,7 @@ def test_extended_twin_carries_the_flights_blade_imbalance(tmp_path):
 
     x = 7.0
     spec = FlightSpec(flight_id="imb_inspire2", target="drone", drone_model="inspire2", radar_id="radar1",
-                      duration_s=16.0, mean_range_m=1200.0, height_m=80.0, speed_mps=6.0, seed=3, snr_db=50.0,
+                      duration_s=24.0, mean_range_m=1200.0, height_m=80.0, speed_mps=6.0, seed=3, snr_db=50.0,
                       wind_mps=2.0, path="straight", first_sideband_db=8.0, harmonic_falloff_db=5.0,
                       effects={"blade_imbalance": {"imbalance_db": x}}, airframe="inspire2-A")
     measured = tmp_path / "measured"

@@ -112,6 +112,9 @@ def test_nonmultiple_lines_level(rng, odd_rel, log_scale):
     else:
         assert abs(got - 20 * np.log10(odd_rel)) < 0.5, got
     assert (f.nonmultiple_ref > 0).mean() > 0.9  # the reference lines are seen in (nearly) every CPI
+    few = np.zeros(len(f.time_s), bool)
+    few[: cfg.nonmultiple_min_cpis - 1] = True  # too few CPIs: not measured
+    assert np.isnan(fidelity.nonmultiple_db(f, few, cfg))
     # no per-motor rates: not measured
     spec = spectrogram(rotation_lines(3.0, rng, odd_rel=odd_rel), PRF_HZ, full)
     n_t = len(spec.time_s)
@@ -167,12 +170,12 @@ def test_clutter_floor_sees_a_raised_skirt(rng):
 
 def test_distances_zero_for_identical_and_positive_for_a_wrong_twin(rng):
     cfg = fidelity.FidelityConfig(n_harmonics=3)
-    a = features(tones(10.0, rng), cfg)
+    a = features(tones(16.0, rng), cfg)  # >= nonmultiple_min_cpis scored CPIs
     mask = folds(len(a.time_s), 4) == 1
     d0 = fidelity.distances(a, a, mask, cfg)
     assert list(d0) == list(fidelity.DISTANCES)
     assert all(v == 0.0 for v in d0.values()), d0
-    b = features(tones(10.0, rng, asym_db=0.0), cfg)
+    b = features(tones(16.0, rng, asym_db=0.0), cfg)
     d1 = fidelity.distances(a, b, mask, cfg)
     assert abs(d1["asymmetry_db"] - 6.0) < 0.5 and d1["line_hz"] < 0.2
 

@@ -39,7 +39,8 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
   1, 20 log10 |1 - a| / (1 + a); eq. (1)'s identical blades give none: a ratio below
   ``nonmultiple_z`` times its noise standard deviation (the lines' noise variance,
   ``diagnosis.measure.noise_power_factor``) reads ``nonmultiple_floor_db``, as does
-  any level below that floor; NaN where no blade-passing lines are seen.
+  any level below that floor; NaN where the blade-passing lines are seen in fewer
+  than ``nonmultiple_min_cpis`` of the scored CPIs (weak blades).
 
 Per flight and feature one distance between twin and flight (:func:`distances`): the
 mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
@@ -119,6 +120,9 @@ class FidelityConfig:
     nonmultiple_z : float
         The non-multiple lines count as seen when their summed power exceeds this many
         noise standard deviations; else ``nonmultiple_db`` is the floor.
+    nonmultiple_min_cpis : int
+        ``nonmultiple_db`` needs the blade-passing reference in at least this many
+        scored CPIs (else NaN: not measured).
     """
 
     visible_db: float = 10.0
@@ -130,6 +134,7 @@ class FidelityConfig:
     nonmultiple_floor_db: float = -30.0
     dilation_range: float = 0.15
     nonmultiple_z: float = 3.0
+    nonmultiple_min_cpis: int = 10
 
     def __post_init__(self):
         if not self.search_hz > 0:
@@ -338,12 +343,13 @@ def nonmultiple_db(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig())
     """``nonmultiple_db`` over the CPIs in ``mask``: 10 log10(sum of the non-multiple
     lines' power / sum of their blade-passing reference), floored at
     ``cfg.nonmultiple_floor_db``, and the floor where the summed power is below
-    ``cfg.nonmultiple_z`` times its noise standard deviation; NaN without a reference."""
+    ``cfg.nonmultiple_z`` times its noise standard deviation; NaN with the reference
+    in fewer than ``cfg.nonmultiple_min_cpis`` CPIs."""
     if f.nonmultiple_pow is None:
         return float("nan")
     mask = np.asarray(mask, bool)
     ref = float(np.sum(f.nonmultiple_ref[mask]))
-    if not ref > 0:
+    if not ref > 0 or int(np.sum(f.nonmultiple_ref[mask] > 0)) < cfg.nonmultiple_min_cpis:
         return float("nan")
     x = float(np.sum(f.nonmultiple_pow[mask]))
     sd = float(np.sqrt(np.sum(f.nonmultiple_var[mask]))) if f.nonmultiple_var is not None else 0.0
