@@ -133,7 +133,7 @@ def check_params(cause: str, truth: dict, fit: dict) -> None:
 def _check_case(case: GenCase):
     effects, entry = run(case)
     named = [c["cause"] for c in entry["causes"]]
-    fits = {c["cause"]: c["extension"]["params"] for c in entry["causes"]}
+    fits = {c["cause"]: (c.get("extension") or c)["params"] for c in entry["causes"]}
     print(f"{case.flight_id}: truth {effects} named {named} fit {fits}")
     detail = json.dumps({c: {k: t.get(k) for k in ("log_evalue", "relevant", "params")}
                          for c, t in entry["evidence"]["tests"].items()})
@@ -179,7 +179,8 @@ def test_cases_cover_the_catalog_both_radars_and_signs():
     from microdoppler.synthesis.catalog import CATALOG
 
     causes = {c for case in ONE for c in case.effects}
-    assert causes == set(CATALOG) - {"none"}
+    # "unexplained" is no effect; blade_imbalance is hidden in tests/test_diagnosis_blades.py
+    assert causes == set(CATALOG) - {"none", "unexplained", "blade_imbalance"}
     for cause in causes:
         assert {case.radar for case in ONE if cause in case.effects} == {"gen_l", "gen_s"}, cause
     signs = {(c, np.sign(p.get("asymmetry_db", p.get("lag_s", p.get("scale", 1) - 1))))

@@ -40,7 +40,7 @@ def test_paper_radar_defaults_resolve_to_4096_and_480():
 def test_schema_defaults_without_bins_resolve_to_4096_and_480():
     """config.yaml without n_fft/n_bins, validated (defaults filled in) as the pipeline does."""
     config = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
-    for key in ("n_fft", "n_bins"):
+    for key in ("n_fft", "n_bins", "window_s", "doppler_span_mps"):
         config["spectrogram"].pop(key, None)
     validate(config, schema=str(SCHEMA))
     assert config["spectrogram"]["window_s"] is None and config["spectrogram"]["doppler_span_mps"] is None

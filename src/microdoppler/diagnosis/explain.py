@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.fft as sfft
-from scipy.stats import norm
+from scipy.stats import t as student_t
 
 from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ
 from ..synthesis.extensions import ExtensionSet
@@ -91,11 +91,11 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     calibration; with a fluctuating body named, the bands beside it too) and the
     clutter line's skirt (twice the clutter notch, three times without a background
     recording, twice the phase-noise band when phase noise is named, and then the
-    edge of the body's skirt too, 75-150 Hz from it) are left out. Per band, the residual is
+    edge of the body's skirt too, 75-450 Hz from it: a 1/f-like skirt reaches that far) are left out. Per band, the residual is
     10 log10 of measured over model mean power, averaged over blocks of
     ``block_cpis`` CPIs; its standard error comes from the blocks' scatter (fading and
     noise included). A band is ``excess`` when ``|residual| >= margin_excess_db``,
-    ``|residual| / se`` beats the two-sided Bonferroni level ``alpha / n_bands``, and
+    ``|residual| / se`` beats Student's t (blocks - 1 degrees of freedom) at the two-sided Bonferroni level ``alpha / n_bands``, and
     each fold's mean has the same sign and at least half the margin.
 
     Returns a dict: ``excess`` (bool), ``excess_db`` and ``band_hz`` (the worst band,
@@ -125,7 +125,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     if ext is not None and "phase_noise" in ext.effects:
         guard = max(guard, 2 * PN_OUTER_HZ)
         # the edge of the body's skirt, whose shape the catalog's flat process does not know
-        skirt_edge = (0.75 * PHASE_NOISE_BANDWIDTH_HZ, 1.5 * PHASE_NOISE_BANDWIDTH_HZ)
+        skirt_edge = (0.75 * PHASE_NOISE_BANDWIDTH_HZ, 4.5 * PHASE_NOISE_BANDWIDTH_HZ)
     # the body's band (its level is S_body's calibration); with a fluctuating body
     # named, its neighbours too (the fluctuation's skirt scales with the body line,
     # which the model draws with the blades' mean return added)
@@ -158,7 +158,10 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
             nb = np.sum(np.isfinite(Db), axis=0)
             se = np.nanstd(Db, axis=0, ddof=1) / np.sqrt(np.maximum(nb, 1))
             mf = [np.nanmean(Db[fb == k], axis=0) for k in (0, 1)]
-    z_crit = float(norm.isf(cfg.alpha / (2 * n_bands)))
+    # the blocks' own scatter is the yardstick: Student's t with (blocks - 1) degrees
+    # of freedom per band, two-sided, Bonferroni over the bands
+    level = cfg.alpha / (2 * n_bands)
+    z_crit = float(student_t.isf(level, df=max(int(np.median(nb[nb > 1])) - 1, 1))) if np.any(nb > 1) else np.inf
     centres = (np.arange(n_bands) - n_side) * bw
     flagged = []
     for j in range(n_bands):
@@ -166,7 +169,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
             continue
         same = all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2
                    for m in mf)
-        if abs(mu[j]) >= cfg.margin_excess_db and abs(mu[j]) / se[j] > z_crit and same:
+        if abs(mu[j]) >= cfg.margin_excess_db and abs(mu[j]) / se[j] > student_t.isf(level, df=nb[j] - 1) and same:
             flagged.append({"band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
                             "excess_db": round(float(mu[j]), 2), "z": round(float(mu[j] / se[j]), 1)})
     fin = np.isfinite(mu)

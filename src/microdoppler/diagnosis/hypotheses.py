@@ -355,12 +355,13 @@ def common_gain_correlation(M, e: np.ndarray, m: np.ndarray) -> float | None:
     """Correlation of the detrended common sideband power ``e`` (the fading test's
     series, on CPIs ``m``) with the detrended body power [dB] on the same CPIs; None
     when the body line is not measurable (in the clutter notch) or too few CPIs hold it."""
-    if M.info.get("body_in_notch"):
+    body_pow = getattr(M, "body_pow", None)
+    if body_pow is None or M.info.get("body_in_notch"):
         return None
-    ok = M.body_pow[m] > 0
+    ok = body_pow[m] > 0
     if ok.sum() < 8:
         return None
-    y = DB * np.log(np.maximum(M.body_pow[m][ok], 1e-30))
+    y = DB * np.log(np.maximum(body_pow[m][ok], 1e-30))
     yb = _detrend(y, M.t_s[m][ok], M.range_m[m][ok])
     x = e[ok]
     if np.std(x) <= 0 or np.std(yb) <= 0:
