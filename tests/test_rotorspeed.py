@@ -1,8 +1,7 @@
 """Rotor speeds from the radar (microdoppler.rotors.speed): HERM line spacing per CPI.
 
-Truth per CPI is the true speed averaged over the CPI with the window's power profile
-(what a periodogram line measures: the first moment of a spectrogram line is the
-window^2-weighted mean of its instantaneous frequency).
+The flights and their truth per CPI: tests/rotor_flights.py (eq. (1), no emulator);
+the I/Q fit's own tests: test_rotorfit.py.
 """
 
 from __future__ import annotations
@@ -12,101 +11,13 @@ import pandas as pd
 import pytest
 from scipy.signal.windows import blackmanharris
 
-from microdoppler.synthesis import model as synthesis
-from microdoppler.diagnosis.measure import cpi_average
 from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.flightzarr import Flight, read_flight, write_flight
 from microdoppler.io.motorlog import read_motor_store
-from microdoppler.rotors.fit import FitConfig, refine_cpi
+from microdoppler.rotors.fit import FitConfig
 from microdoppler.rotors.speed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
                                      instants_from_cpi_means)
-
-PRF = 7300.0
-CARRIER = 1.35e9
-LAM = 299_792_458.0 / CARRIER
-N_FFT = 4096
-
-
-def cpi_truth(rev_t_s, rev_s, cpi_t_s):
-    """Window^2-weighted mean of each motor's speed over each CPI [rev/s]."""
-    w = blackmanharris(N_FFT, sym=False)
-    return np.column_stack([cpi_average(rev_t_s, rev_s[:, m], cpi_t_s, w, PRF) for m in range(rev_s.shape[1])])
-
-
-def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_db=8.0, snr_db=45.0,
-                     radial_velocity_mps=-5.0, alpha_s=0.002, seed=0, blades_until_s=None,
-                     blades_drop=None) -> Flight:
-    """A drone flight made with the paper's eq. (1)/(2) directly (no emulator): body on
-    a constant-velocity track, blades ``first_sideband_db`` below it (before the alpha
-    envelope), white noise for a body-line SNR of ``snr_db`` in the 4096-point
-    Blackman-Harris periodogram; ``blades_until_s``: the blades fall silent then;
-    ``blades_drop`` = (time [s], dB): the blades are that much weaker from then on."""
-    n = rev_s.shape[0]
-    dur = n / PRF
-    track = synthesis.Track.constant_velocity(1500.0, radial_velocity_mps, dur)
-    table = synthesis.BladeModel(n_blades, blade_length_m, LAM).table().astype(complex)
-    c_b = np.abs(np.fft.fft(table))[n_blades] / synthesis.TABLE_SIZE
-
-    def blade_gain(i0, i1, t_s, x):
-        if blades_until_s is not None:
-            x[t_s >= blades_until_s] = 0
-        if blades_drop is not None:
-            x[t_s >= blades_drop[0]] *= 10 ** (-blades_drop[1] / 20)
-
-    hooked = blades_until_s is not None or blades_drop is not None
-    config = synthesis.SynthesisConfig.of(
-        prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades, blade_length_m=blade_length_m,
-        scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s),
-        extensions=synthesis.ModelExtensions(blade_hook=blade_gain if hooked else None))
-    iq = synthesis.synthesize(config, track, rev_s, seed=seed)
-    w = blackmanharris(N_FFT, sym=False)
-    noise = w.sum() ** 2 / (w ** 2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
-    synthesis.add_noise(iq, noise, seed + 1)
-    tt = np.linspace(0.0, dur, 40)
-    attrs = dict(schema="flight-zarr/1", flight_id="synthetic", target="drone", radar_id="synthetic",
-                 prf_hz=PRF, carrier_hz=CARRIER, drone_model="test_quad", n_motors=int(rev_s.shape[1]),
-                 n_blades=int(n_blades), blade_length_m=float(blade_length_m))
-    return Flight(attrs, iq, tt, 1500.0 + radial_velocity_mps * tt, np.full(len(tt), radial_velocity_mps))
-
-
-def rel_errors(est, truth):
-    """|mean speed / true mean - 1| and |ranked speeds / sorted truth - 1| per CPI."""
-    mean_err = np.abs(est.common_rev_s / truth.mean(axis=1) - 1)
-    rotor_err = np.abs(est.speeds_rev_s / np.sort(truth, axis=1) - 1)
-    return mean_err, rotor_err
-
-
-# ---------------------------------------------------------------- signals made without the emulator
-
-
-def crowded_rotors(rng, t):
-    """Four rotors within a bin or two of each other (speeds 0.8 % apart, rms) whose
-    speeds wobble by 0.5-3 % over 0.5-2 s: [len(t), 4] rev/s."""
-    base = rng.uniform(60.0, 95.0)
-    off = np.sort(rng.normal(0.0, 0.008, 4))
-    wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
-                                               + rng.uniform(0, 2 * np.pi, 4))
-    return base * (1 + off + wobble)
-
-
-def crowded_z_scores(seed, n_flights, draw_kwargs, select):
-    """6 s flights of :func:`crowded_rotors` (each flight's :func:`synthetic_flight`
-    arguments from ``draw_kwargs(rng)``): |error| / sigma of the mean and of each ranked
-    rotor in the CPIs ``select(est)``, and each flight's share of selected CPIs."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(int(6 * PRF)) / PRF
-    z_mean, z_rotor, shares = [], [], []
-    for _ in range(n_flights):
-        rev = crowded_rotors(rng, t)
-        fl = synthetic_flight(rev, seed=int(rng.integers(1000)), **draw_kwargs(rng))
-        est = estimate_rotor_speeds(fl)
-        assert est.ok, est.reason
-        truth = cpi_truth(t, rev, est.time_s)
-        sel = select(est)
-        shares.append(float(sel.mean()))
-        z_mean += list(np.abs(est.common_rev_s - truth.mean(axis=1))[sel] / est.common_std_rev_s[sel])
-        z_rotor += list((np.abs(est.speeds_rev_s - np.sort(truth, axis=1)) / est.speeds_std_rev_s)[sel].ravel())
-    return z_mean, z_rotor, shares
+from rotor_flights import CARRIER, LAM, N_FFT, PRF, cpi_truth, rel_errors, synthetic_flight
 
 
 def test_constant_speeds_of_fig2b_give_each_rotor_and_the_herm_spacing():
@@ -207,135 +118,6 @@ def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
         RotorSpeedConfig(max_step_rel=0.0)
     with pytest.raises(ValueError, match="min_power"):
         FitConfig(min_power=1.5)
-
-
-@pytest.mark.slow
-def test_the_iq_fit_counts_every_rotor_where_lines_merge():
-    """The same flight with step 9, the least-squares fit of every rotor's harmonic
-    chirp on the I/Q (microdoppler.rotors.fit): each rotor is fitted, so the count per
-    line is not a choice. The mean speed is within 1 % in >= 90 % of the CPIs (the
-    periodogram alone: ~59 %), the median error under 0.05 %, the ranked rotors'
-    median under 0.5 % (the two 0.1 rev/s apart are one line to any method), and the
-    uncertainty covers the error at 3 sigma in >= 85 %."""
-    t = np.arange(int(10 * PRF)) / PRF
-    rev = np.outer(1 + 0.01 * np.sin(2 * np.pi * t / 3.0), [81.1, 82.7, 88.0, 88.1])
-    fl = synthetic_flight(rev, seed=21)
-    calls = []
-    est = estimate_rotor_speeds(fl, progress=lambda done, total: calls.append((done, total)))
-    assert est.ok, est.reason
-    assert est.info["method"] == "herm-pairs+iq-fit/2"
-    # the long step reports its progress, ending at every CPI with an estimate
-    assert calls and calls[-1][0] == calls[-1][1] >= est.valid.sum()
-    assert [c[0] for c in calls] == sorted(c[0] for c in calls)
-    sel = est.valid & (est.n_pairs >= 2)
-    assert est.info["n_cpi_refined"] >= sel.sum() - 1
-    truth = cpi_truth(t, rev, est.time_s)
-    mean_err, rotor_err = rel_errors(est, truth)
-    assert np.mean(mean_err[sel] <= 0.01) >= 0.9
-    assert np.median(mean_err[sel]) < 5e-4
-    assert np.median(rotor_err[sel]) < 5e-3
-    z = np.abs(est.common_rev_s - truth.mean(axis=1)) / est.common_std_rev_s
-    assert np.mean(z[sel] <= 3) >= 0.85
-
-
-@pytest.mark.slow
-def test_a_rotor_on_lines_of_its_own_is_never_taken_for_a_spare():
-    """Two rotors within 0.05-0.3 bin of each other and two on lines of their own
-    (1.5-4 and 6-15 bins away), steady: the fit's two models on the near-coincident
-    line trade large opposite amplitudes, and beside their powers a separate rotor
-    looked weak, was called a spare and moved onto another line (3 of 120 CPIs here,
-    the mean then 1-5 % off). A spare must also be weak in what the fit loses without
-    it, so every separate rotor is found within half a bin wherever two pairs show."""
-    rng = np.random.default_rng(5)
-    t = np.arange(int(6 * PRF)) / PRF
-    b = PRF / N_FFT / 2
-    for _ in range(6):
-        base = rng.uniform(60, 90)
-        gap = rng.uniform(0.05, 0.3)
-        far = rng.uniform(6, 15)
-        offs = np.array([0.0, gap, gap + rng.choice([-1, 1]) * rng.uniform(1.5, 4), rng.choice([-1, 1]) * far]) * b
-        fl = synthetic_flight(np.tile(base + offs, (len(t), 1)), seed=int(rng.integers(1000)),
-                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
-        est = estimate_rotor_speeds(fl)
-        assert est.ok, est.reason
-        sel = est.valid & (est.n_pairs >= 2)
-        assert sel.sum() >= 15
-        true = np.sort(base + offs)
-        for r in true:
-            if np.min(np.abs(true[true != r] - r)) > b:
-                assert np.all(np.min(np.abs(est.speeds_rev_s[sel] - r), axis=1) < 0.5 * b), (offs / b, r)
-
-
-@pytest.mark.slow
-def test_a_rotor_the_lines_missed_is_found_by_the_fit():
-    """One CPI's fit given the lines a periodogram shows when one rotor's line is split
-    in two and another rotor, 7-14 % of the speed from the rest, shows no line (a
-    manoeuvring quadcopter's rotors differ by that much: the PX4 log in ../shared has a
-    9.9 % per-motor spread). Every start puts a rotor on each line; without a spare
-    the fit used to stop there, and a re-seeded spare searched only 12 % around the
-    lines: the mean was 3.2-4.0 % off in 4 of these 12 CPIs (the missed rotor 12-14 %
-    away). The residual's strongest harmonic comb, tried in place of the weakest
-    rotors, finds the missed rotor in every one (eq. (1) signals, no emulator; draws
-    from this test's own seed)."""
-    rng = np.random.default_rng(20261126)
-    b = PRF / N_FFT / 2
-    t = np.arange(int(1.2 * PRF)) / PRF
-    i0 = 1000
-    for _ in range(12):
-        base = rng.uniform(60, 90)
-        far = rng.choice([-1, 1]) * rng.uniform(0.07, 0.14) * base
-        true = base + np.array([0.0, rng.uniform(1.5, 3.0) * b, -rng.uniform(1.5, 3.0) * b, far])
-        fl = synthetic_flight(np.tile(true, (len(t), 1)), seed=int(rng.integers(1000)),
-                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
-        split = rng.uniform(0.3, 0.6) * b
-        lines = [true[0], true[1] - split, true[1] + split, true[2]]
-        fit = refine_cpi(np.asarray(fl.iq[i0:i0 + N_FFT]), PRF, 2, 4, body_hz=-2 * fl.track_radial_velocity_mps[0] / LAM,
-                         body_rate_hz_s=0.0, lines_rev_s=lines, rate_rev_s2=0.0, n_pairs=3)
-        assert fit is not None
-        assert abs(fit.speeds_rev_s.mean() / true.mean() - 1) <= 0.01, (far / b, fit.start)
-        assert np.min(np.abs(fit.speeds_rev_s - true[3])) < 0.5 * b, (far / b, fit.start)
-
-
-@pytest.mark.slow
-def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
-    """Rotors within a bin or two of each other (speeds 0.8 % apart, rms) whose speeds
-    wobble by 0.5-3 % over 0.5-2 s, so lines cross and smear within a CPI: the fitted
-    composition is sometimes wrong, and the Gauss-Newton sigma alone then covers the
-    mean's error within 2 sigma in ~72 % of CPIs and the ranked rotors' in ~66 %. With
-    the composition's ambiguity (the fit's power balance; rotorfit's docstring) >= 90 %
-    of both lie within 2 sigma. Where the rotors are steady and a bin apart, the fit is
-    balanced and the mean's sigma stays at its floor (under 0.1 %). The draws come from
-    this test's own seed; the ambiguity's constants were calibrated on emulated flights."""
-    z_mean, z_rotor, shares = crowded_z_scores(
-        20261125, 3, lambda rng: {"snr_db": float(rng.uniform(38, 50)), "first_sideband_db": float(rng.uniform(4, 10))},
-        lambda est: est.valid & (est.n_pairs >= 2))
-    assert min(shares) > 0.8
-    assert np.mean(np.array(z_mean) <= 2) >= 0.9
-    assert np.mean(np.array(z_rotor) <= 2) >= 0.9
-    steady = synthetic_flight(np.tile([58.0, 59.0, 61.5, 62.6], (int(6 * PRF), 1)), seed=22)
-    est = estimate_rotor_speeds(steady)
-    assert est.ok, est.reason
-    assert np.nanmedian(est.common_std_rev_s / est.common_rev_s) < 1e-3
-    np.testing.assert_allclose(est.common_rev_s[est.valid], 60.275, rtol=1e-3)
-
-
-@pytest.mark.slow
-def test_one_visible_pair_reports_the_uncertainty_of_its_errors():
-    """Crowded, wobbling rotors (as above) whose blades drop 8-16 dB half-way, with a
-    steeper alpha, so that many CPIs show one sideband pair only: their lines come from
-    one harmonic and the composition is often wrong by a bin or more (60 % of 47
-    one-pair CPIs within 1 % here, 59-81 % on emulated flights). The one-pair term
-    (rotorfit's docstring; calibrated on emulated flights, not on these) must make the
-    reported sigma cover them: without it 87 % of the means and of the ranked rotors lay
-    within 2 sigma (this test's draws), with it all; the test asks >= 90 %."""
-    z_mean, z_rotor, _ = crowded_z_scores(
-        20261126, 4, lambda rng: {"snr_db": float(rng.uniform(34, 42)), "first_sideband_db": float(rng.uniform(4, 10)),
-                                  "alpha_s": float(rng.uniform(0.004, 0.008)),
-                                  "blades_drop": (3.0, float(rng.uniform(8, 16)))},
-        lambda est: est.valid & (est.n_pairs == 1))
-    assert len(z_mean) >= 20
-    assert np.mean(np.array(z_mean) <= 2) >= 0.9
-    assert np.mean(np.array(z_rotor) <= 2) >= 0.9
 
 
 def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():

@@ -87,6 +87,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal.windows import blackmanharris
+from scipy.linalg import cho_solve, cholesky
+from scipy.linalg.blas import zherk
 
 
 # Fixed settings of the fit (module constants: search effort and calibrated terms, not
@@ -203,6 +205,16 @@ class CpiFit:
     balance: float
 
 
+def gram(A: np.ndarray) -> np.ndarray:
+    """A^H A of a tall complex matrix (Hermitian, both triangles filled)."""
+    # zherk on A^T (Fortran order, no copy) gives A^T conj(A) = conj(A^H A) in its upper triangle
+    C = zherk(1.0, A.T, trans=0, lower=0)
+    G = np.triu(C).conj()
+    iu = np.triu_indices(len(G), 1)
+    G[(iu[1], iu[0])] = G[iu].conj()
+    return G
+
+
 class _Model:
     """The harmonic-chirp model of one CPI (``x``: complex samples, ``prf``)."""
 
@@ -224,24 +236,26 @@ class _Model:
         K = 2 * N
         A = np.empty((len(tt), 1 + M * K + 3), complex)
         A[:, 0] = eb
+        pw = np.empty((len(tt), N), complex)
         for r in range(M):
             e1 = np.exp(2j * np.pi * B * (p[2 + r] * tt + 0.5 * p[2 + M + r] * tt ** 2))
-            pw = np.empty((len(tt), N), complex)
             pw[:, 0] = e1
             for k in range(1, N):
-                pw[:, k] = pw[:, k - 1] * e1
+                np.multiply(pw[:, k - 1], e1, out=pw[:, k])
             base = 1 + r * K
-            A[:, base:base + N] = (eb[:, None] * pw.conj())[:, ::-1]  # n = -N .. -1
-            A[:, base + N:base + K] = eb[:, None] * pw  # n = 1 .. N
+            np.multiply(eb[:, None], pw[:, ::-1].conj(), out=A[:, base:base + N])  # n = -N .. -1
+            np.multiply(eb[:, None], pw, out=A[:, base + N:base + K])  # n = 1 .. N
         A[:, -3:] = self.clutter
         return A
 
     def solve(self, A: np.ndarray):
-        Ah = A.conj().T
-        G = Ah @ A
+        """Least squares of ``y`` on the columns of ``A`` by the normal equations (the
+        Gram matrix from BLAS's Hermitian rank-k update, half a general product's work):
+        (Cholesky factor, amplitudes, residual, residual power)."""
+        G = gram(A)
         G[np.diag_indices_from(G)] += 1e-9 * np.trace(G).real / len(G)
-        L = np.linalg.cholesky(G)
-        c = np.linalg.solve(L.conj().T, np.linalg.solve(L, Ah @ self.y))
+        L = cholesky(G, lower=True, check_finite=False)
+        c = cho_solve((L, True), (self.y.conj() @ A).conj(), check_finite=False)  # A^H y
         r = self.y - A @ c
         return L, c, r, float(np.vdot(r, r).real)
 
@@ -262,7 +276,7 @@ class _Model:
             s = A[:, sl] @ (ns * c[sl])
             D[:, 2 + q] = 2j * np.pi * B * tt * s
             D[:, 2 + M + q] = 1j * np.pi * B * tt ** 2 * s
-        J = -(D - A @ np.linalg.solve(L.conj().T, np.linalg.solve(L, A.conj().T @ D)))
+        J = -(D - A @ cho_solve((L, True), (D.conj().T @ A).conj().T, check_finite=False))  # A^H D
         return np.vstack([J.real, J.imag])
 
     def fit(self, p: np.ndarray, N: int, iterations: int | None = None):

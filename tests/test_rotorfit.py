@@ -1,0 +1,100 @@
+"""Rotor speeds from the least-squares fit of every rotor's harmonic chirp on the I/Q
+(microdoppler.rotors.fit) where the periodogram's lines merge, split or hide a rotor.
+The flights: tests/rotor_flights.py (eq. (1), no emulator); the uncertainty the fit
+reports: test_rotorfit_uncertainty.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from microdoppler.rotors.fit import refine_cpi
+from microdoppler.rotors.speed import estimate_rotor_speeds
+from rotor_flights import LAM, N_FFT, PRF, cpi_truth, rel_errors, synthetic_flight
+
+
+@pytest.mark.slow
+def test_the_iq_fit_counts_every_rotor_where_lines_merge():
+    """The same flight with step 9, the least-squares fit of every rotor's harmonic
+    chirp on the I/Q (microdoppler.rotors.fit): each rotor is fitted, so the count per
+    line is not a choice. The mean speed is within 1 % in >= 90 % of the CPIs (the
+    periodogram alone: ~59 %), the median error under 0.05 %, the ranked rotors'
+    median under 0.5 % (the two 0.1 rev/s apart are one line to any method), and the
+    uncertainty covers the error at 3 sigma in >= 85 %."""
+    t = np.arange(int(10 * PRF)) / PRF
+    rev = np.outer(1 + 0.01 * np.sin(2 * np.pi * t / 3.0), [81.1, 82.7, 88.0, 88.1])
+    fl = synthetic_flight(rev, seed=21)
+    calls = []
+    est = estimate_rotor_speeds(fl, progress=lambda done, total: calls.append((done, total)))
+    assert est.ok, est.reason
+    assert est.info["method"] == "herm-pairs+iq-fit/2"
+    # the long step reports its progress, ending at every CPI with an estimate
+    assert calls and calls[-1][0] == calls[-1][1] >= est.valid.sum()
+    assert [c[0] for c in calls] == sorted(c[0] for c in calls)
+    sel = est.valid & (est.n_pairs >= 2)
+    assert est.info["n_cpi_refined"] >= sel.sum() - 1
+    truth = cpi_truth(t, rev, est.time_s)
+    mean_err, rotor_err = rel_errors(est, truth)
+    assert np.mean(mean_err[sel] <= 0.01) >= 0.9
+    assert np.median(mean_err[sel]) < 5e-4
+    assert np.median(rotor_err[sel]) < 5e-3
+    z = np.abs(est.common_rev_s - truth.mean(axis=1)) / est.common_std_rev_s
+    assert np.mean(z[sel] <= 3) >= 0.85
+
+
+@pytest.mark.slow
+def test_a_rotor_on_lines_of_its_own_is_never_taken_for_a_spare():
+    """Two rotors within 0.05-0.3 bin of each other and two on lines of their own
+    (1.5-4 and 6-15 bins away), steady: the fit's two models on the near-coincident
+    line trade large opposite amplitudes, and beside their powers a separate rotor
+    looked weak, was called a spare and moved onto another line (3 of 120 CPIs here,
+    the mean then 1-5 % off). A spare must also be weak in what the fit loses without
+    it, so every separate rotor is found within half a bin wherever two pairs show."""
+    rng = np.random.default_rng(5)
+    t = np.arange(int(6 * PRF)) / PRF
+    b = PRF / N_FFT / 2
+    for _ in range(6):
+        base = rng.uniform(60, 90)
+        gap = rng.uniform(0.05, 0.3)
+        far = rng.uniform(6, 15)
+        offs = np.array([0.0, gap, gap + rng.choice([-1, 1]) * rng.uniform(1.5, 4), rng.choice([-1, 1]) * far]) * b
+        fl = synthetic_flight(np.tile(base + offs, (len(t), 1)), seed=int(rng.integers(1000)),
+                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
+        est = estimate_rotor_speeds(fl)
+        assert est.ok, est.reason
+        sel = est.valid & (est.n_pairs >= 2)
+        assert sel.sum() >= 15
+        true = np.sort(base + offs)
+        for r in true:
+            if np.min(np.abs(true[true != r] - r)) > b:
+                assert np.all(np.min(np.abs(est.speeds_rev_s[sel] - r), axis=1) < 0.5 * b), (offs / b, r)
+
+
+@pytest.mark.slow
+def test_a_rotor_the_lines_missed_is_found_by_the_fit():
+    """One CPI's fit given the lines a periodogram shows when one rotor's line is split
+    in two and another rotor, 7-14 % of the speed from the rest, shows no line (a
+    manoeuvring quadcopter's rotors differ by that much: the PX4 log in ../shared has a
+    9.9 % per-motor spread). Every start puts a rotor on each line; without a spare
+    the fit used to stop there, and a re-seeded spare searched only 12 % around the
+    lines: the mean was 3.2-4.0 % off in 4 of these 12 CPIs (the missed rotor 12-14 %
+    away). The residual's strongest harmonic comb, tried in place of the weakest
+    rotors, finds the missed rotor in every one (eq. (1) signals, no emulator; draws
+    from this test's own seed)."""
+    rng = np.random.default_rng(20261126)
+    b = PRF / N_FFT / 2
+    t = np.arange(int(1.2 * PRF)) / PRF
+    i0 = 1000
+    for _ in range(12):
+        base = rng.uniform(60, 90)
+        far = rng.choice([-1, 1]) * rng.uniform(0.07, 0.14) * base
+        true = base + np.array([0.0, rng.uniform(1.5, 3.0) * b, -rng.uniform(1.5, 3.0) * b, far])
+        fl = synthetic_flight(np.tile(true, (len(t), 1)), seed=int(rng.integers(1000)),
+                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
+        split = rng.uniform(0.3, 0.6) * b
+        lines = [true[0], true[1] - split, true[1] + split, true[2]]
+        fit = refine_cpi(np.asarray(fl.iq[i0:i0 + N_FFT]), PRF, 2, 4, body_hz=-2 * fl.track_radial_velocity_mps[0] / LAM,
+                         body_rate_hz_s=0.0, lines_rev_s=lines, rate_rev_s2=0.0, n_pairs=3)
+        assert fit is not None
+        assert abs(fit.speeds_rev_s.mean() / true.mean() - 1) <= 0.01, (far / b, fit.start)
+        assert np.min(np.abs(fit.speeds_rev_s - true[3])) < 0.5 * b, (far / b, fit.start)
