@@ -767,8 +767,8 @@ def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
     and one too weak over it is not usable (:func:`usable_pairs`). With
     ``clear_side`` (for a statistic of the pair's summed power, the fading's), a
     harmonic whose one side lies on the skirt and the other clear is read on the
-    clear side alone (twice its power and noise std), in the CPIs where that side is
-    clear, whatever the other's floor."""
+    clear side alone (the sum twice its power, with twice its noise std), in the CPIs
+    where that side is clear, whatever the other's floor."""
     if M.side_floor is None or M.pair_ok_any_floor is None:
         return M
     expected = M.floor[:, None, None] + skirt_floor(M, q_flat, q_slope, bandwidth_hz, offset_hz)
@@ -800,6 +800,9 @@ def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
                 ok[:, k] = M.pair_ok_any_floor[:, k] & ~hi[:, k, 1 - j]
                 for arrs in ({"up": up, "lo": lo, "up_sd": up_sd, "lo_sd": lo_sd}, fine):
                     if arrs is not None:
+                        # the sum is twice the clear side, its noise std twice that
+                        # side's (both halves the same noise): sqrt(2) x each
+                        arrs[b + "_sd"][:, k] *= np.sqrt(2.0)
                         arrs[a][:, k], arrs[a + "_sd"][:, k] = arrs[b][:, k], arrs[b + "_sd"][:, k]
                 break
         M = replace(M, side_fine=fine if fine is not None else M.side_fine)
