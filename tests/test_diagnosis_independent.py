@@ -78,6 +78,15 @@ TWO = [
     GenCase("as_lag", 225, "gen_l", {AS: {"asymmetry_db": -4.0}, LG: {"lag_s": 0.6}}),
     GenCase("sc_bf", 226, "gen_s", {SC: {"scale": 0.94}, BF: {"body_std_db": 4.5, "timescale_s": 0.5}}),
 ]
+#: Phase noise with a sideband cause (issue 34): a 1/f-like skirt (to 400 Hz) lifts the
+#: floor under the sidebands near the clutter line by up to ~20 dB, where the
+#: raised-floor guard drops them, so that against the paper's model alone the fading
+#: is not testable; with the named skirt in the floor's model it is judged on the pairs
+#: the skirt leaves (``hypotheses.tests_given_skirt``). Before that, such flights were
+#: reported as phase noise alone.
+SKIRT = [GenCase("pn_fd_skirt", 242, "gen_s", {FD: {"fading_std_db": 4.0, "timescale_s": 1.5},
+                                              PN: {"skirt_dbc_hz": -64.0, "shape": "flicker"}},
+                 snr_db=52.0, speed_mps=16.0)]
 CLEAN = [GenCase("clean_l", 231, "gen_l"), GenCase("clean_s", 232, "gen_s"), GenCase("clean_l2", 233, "gen_l")]
 #: Known limit, kept as a strict xfail. pn_slow: at gen_l a body at ~80 Hz and its
 #: first sidebands cover the whole 35-95 Hz band on both sides of the clutter line:
@@ -160,6 +169,29 @@ def test_two_causes_are_both_named_and_nothing_else(case):
     for c in entry["causes"]:
         others = sorted(set(case.effects) - {c["cause"]})
         assert c["evidence"]["other_causes_in_both_models"] == others
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", SKIRT, ids=lambda c: c.flight_id)
+def test_sideband_cause_is_named_under_a_phase_noise_skirt(case):
+    """Both causes named, with their parameters; the fading judged with the phase
+    noise in both models (its pairs lie on the skirt: against the paper's model alone
+    it is not testable). A 1/f-like skirt leaves an ``unexplained`` excess beside the
+    body (the goodness of fit's skirt guard covers 75-450 Hz from it; a known limit of
+    the flicker shape, phase noise alone shows it too), so that one is allowed here."""
+    effects, entry = run(case)
+    named = [c["cause"] for c in entry["causes"] if c["cause"] != "unexplained"]
+    assert set(named) == set(effects), (named, json.dumps(entry["evidence"]["steps"]))
+    assert not entry["evidence"]["tests"][FD]["testable"]
+    for c in entry["causes"]:
+        if c["cause"] == "unexplained":
+            continue
+        check_params(c["cause"], effects[c["cause"]], c["extension"]["params"])
+        assert c["gain"]["held_out"] is True and c["gain"]["extended"] < c["gain"]["baseline"], c
+    fd = next(c for c in entry["causes"] if c["cause"] == FD)
+    assert fd["evidence"]["other_causes_in_both_models"] == [PN]
+    assert fd["evidence"]["phase_noise_skirt_in_floor_model"] is True
+    assert FD not in entry["not_testable"]
 
 
 @pytest.mark.parametrize("case", fast_loop(CLEAN, lambda c: False), ids=lambda c: c.flight_id)

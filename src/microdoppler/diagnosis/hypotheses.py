@@ -75,7 +75,7 @@ from scipy.optimize import minimize_scalar
 
 from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .config import BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ, DiagnosisConfig
-from .measure import DB, Measurements, Undiagnosable
+from .measure import DB, Measurements, Undiagnosable, given_skirt
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -97,6 +97,7 @@ class CauseTest:
     statistic: str = ""
     evidence: dict = field(default_factory=dict)
     series: dict = field(default_factory=dict)   # per-CPI series for the figure
+    fit: dict = field(default_factory=dict)      # fitted model other tests condition on (phase noise: its skirt)
 
 
 def folds(n_t: int, block: int) -> np.ndarray:
@@ -910,6 +911,7 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     # the skirt's density at 50 Hz relative to its line [1/Hz] (first order in q)
     skirt = float(DB * np.log(max(q, 1e-30) / (2 * bw)))
     res.params = {"rms_rad": rms, "skirt_dbc_hz": skirt}
+    res.fit = {"q_flat": q_flat, "q_slope": q_slope, "bandwidth_hz": float(bw), "offset_hz": float(SKIRT_OFFSET_HZ)}
     res.effect = rise_model
     res.relevant = rise_model >= cfg.margin_floor_rise_db
     res.evidence = {"floor_rise_db_vs_background": round(rise_meas, 2), "model_floor_rise_db": round(rise_model, 2),
@@ -937,7 +939,15 @@ ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor
 #: envelope's speed tilt is taken out at the measured speed); the body
 #: statistic reads the body line only; the phase-noise likelihood keeps the body's
 #: own skirt (a fluctuating body) and the wind-blown clutter in both models.
-COUPLED = {"motor_log_lag": {"motor_speed_scale"}, "motor_speed_scale": {"motor_log_lag"}}
+#: The sideband tests depend on phase noise the other way: its skirt raises the floor
+#: under the sidebands near the clutter line, where the raised-floor guard drops them;
+#: with phase noise named, they are read with its fitted skirt in the floor's model
+#: (:func:`.measure.given_skirt`, both models), so the sideband causes are judged on
+#: what the skirt leaves (issue 34). Phase noise's own test reads the floor off the
+#: target's lines and does not change with a sideband cause.
+LOG_COUPLED = {"motor_log_lag": {"motor_speed_scale"}, "motor_speed_scale": {"motor_log_lag"}}
+SKIRT_COUPLED = {"sideband_asymmetry": {"phase_noise"}, "sideband_fading": {"phase_noise"}}
+COUPLED = {**LOG_COUPLED, **SKIRT_COUPLED}
 
 
 @dataclass(frozen=True)
@@ -1010,14 +1020,43 @@ def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
                                               "recording's HERM lines, so lag and scale are not testable"}
     check_testable(M, tests, cfg)
     conditional = {}
-    for cause, partners in COUPLED.items():
+    for cause, partners in LOG_COUPLED.items():
         if not tests[cause].testable:
             continue
         for r in range(1, len(partners) + 1):
             for g in combinations(sorted(partners), r):
                 lag_g, sc_g = test_log(M, cfg, fold, frozenset(g))
                 conditional[(cause, frozenset(g))] = {"motor_log_lag": lag_g, "motor_speed_scale": sc_g}[cause]
+    conditional.update(tests_given_skirt(M, cfg, fold, tests))
     return TestResults(tests, conditional)
+
+
+def tests_given_skirt(M: Measurements, cfg: DiagnosisConfig, fold, tests: dict) -> dict:
+    """The sideband tests (:data:`SKIRT_COUPLED`) with the phase-noise skirt fitted
+    by ``tests["phase_noise"]`` in the model of the floor under the sidebands
+    (:func:`.measure.given_skirt`), keyed ``(cause, frozenset({"phase_noise"}))`` as
+    :attr:`TestResults.conditional`; empty when phase noise is not testable or its
+    skirt is nil. A test whose pairs the skirt does not change is the same object."""
+    pn = tests.get("phase_noise")
+    if pn is None or not pn.testable or not pn.fit or pn.fit["q_flat"] + pn.fit["q_slope"] <= 0:
+        return {}
+    q = (pn.fit["q_flat"], pn.fit["q_slope"], pn.fit["bandwidth_hz"], pn.fit["offset_hz"])
+    # the asymmetry reads both sides of a pair; the fading the pair's sum, which one
+    # side clear of the skirt stands for (given_skirt's clear_side)
+    run = {"sideband_asymmetry": (test_asymmetry, given_skirt(M, *q)),
+           "sideband_fading": (test_fading, given_skirt(M, *q, clear_side=True))}
+    out = {}
+    for cause in SKIRT_COUPLED:
+        test, Ms = run[cause]
+        changed = not (np.array_equal(Ms.pair_ok, M.pair_ok) and np.array_equal(Ms.up, M.up)
+                       and np.array_equal(Ms.lo, M.lo))
+        t = test(Ms, cfg, fold) if changed else tests[cause]
+        if changed and t.testable:
+            n_new = int((Ms.pair_ok & ~M.pair_ok & M.valid[:, None]).sum())
+            t.evidence = {**t.evidence, "phase_noise_skirt_in_floor_model": True,
+                          "pairs_kept_on_the_skirt": n_new}
+        out[(cause, frozenset({"phase_noise"}))] = t
+    return out
 
 
 # ---------------------------------------------------------------- sizes and correlation times

@@ -359,6 +359,9 @@ class Measurements:
     rot_wire: np.ndarray | None = None  # [K + 1] one thin-wire blade's line power per rotation harmonic
     calib: Calibration | None = None          # the paper's model calibrated (calibrate)
     floor_ordinates: FloorOrdinates | None = None  # None without a background recording
+    side_floor: np.ndarray | None = None        # [n_t, N, 2] local floor per bin at the upper/lower sideband
+    side_f_hz: np.ndarray | None = None         # [n_t, N, 2] their Doppler [Hz]
+    pair_ok_any_floor: np.ndarray | None = None  # [n_t, N] bool: pair_ok but for the raised-floor guard
 
 
 def _dilation(st: Stft, sim: Stft, f_body, h0, n_harm, s_grid, floor, clutter_hz):
@@ -720,6 +723,94 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
                           clutter_pow=np.asarray(cs, float), f_hz=tuple(fs), power=tuple(ps), background=tuple(ss))
 
 
+def clutter_line_power(M: Measurements) -> np.ndarray:
+    """The clutter line's power per CPI [n_t] (periodogram units): the bins within
+    :data:`.config.PN_CLUTTER_LINE_HZ` of 0 Hz, noise-subtracted, >= 0 (as in
+    :func:`floor_ordinates`)."""
+    st = M.stft
+    clutter = np.abs(st.f_hz) <= PN_CLUTTER_LINE_HZ
+    return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
+
+
+def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
+                offset_hz: float) -> np.ndarray:
+    """The floor per bin [n_t, N, 2] that a phase-noise skirt adds at each sideband
+    (``M.side_f_hz``): the phase-noise test's model (:func:`.hypotheses.test_phase_noise`),
+    (bin / 2 bandwidth) x line power x (q_flat [|f| < bandwidth] + q_slope (offset /
+    max(|f|, 20 Hz))^2) around the clutter line (its power, :func:`clutter_line_power`)
+    and around the body line (f relative to each)."""
+    df = M.stft.bin_hz
+    C = clutter_line_power(M)[:, None, None]
+    Bt = np.maximum(M.body_pow, 0.0)[:, None, None]
+    fc = M.side_f_hz
+    out = np.zeros(fc.shape)
+    for line, f in ((C, np.abs(fc)), (Bt, np.abs(fc - M.f_body_hz[:, None, None]))):
+        with np.errstate(invalid="ignore"):
+            shape = q_flat * (f < bandwidth_hz) + q_slope * (offset_hz / np.maximum(f, 20.0)) ** 2
+        out = out + df / (2 * bandwidth_hz) * line * np.nan_to_num(shape)
+    return out
+
+
+def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
+                offset_hz: float, *, clear_side: bool = False) -> Measurements:
+    """``M`` with a named phase-noise skirt in the model of the floor under the
+    sidebands: a sideband whose local floor is raised over the far floor is kept when
+    the far floor plus the skirt (:func:`skirt_floor`) accounts for it to within
+    :data:`.config.RAISED_FLOOR_DB` (its power is read over its local floor, its noise
+    std from that floor, as always); ``pair_ok``, ``usable_pairs`` and
+    ``usable_pair_sums`` follow. A skirt of a radar's oscillator lifts the floor
+    around the clutter line by up to ~20 dB over 35-400 Hz, where the sidebands of a
+    slow body lie; without this, the raised-floor guard drops them and the sideband
+    causes cannot be tested (issue 34).
+
+    The skirt's own noise stays: a sideband on it is read with a larger noise std,
+    and one too weak over it is not usable (:func:`usable_pairs`). With
+    ``clear_side`` (for a statistic of the pair's summed power, the fading's), a
+    harmonic whose one side lies on the skirt and the other clear is read on the
+    clear side alone (the sum twice its power, with twice its noise std), in the CPIs
+    where that side is clear, whatever the other's floor."""
+    if M.side_floor is None or M.pair_ok_any_floor is None:
+        return M
+    expected = M.floor[:, None, None] + skirt_floor(M, q_flat, q_slope, bandwidth_hz, offset_hz)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fits = np.all(M.side_floor <= expected * 10 ** (RAISED_FLOOR_DB / 10), axis=2)
+    ok = M.pair_ok | (M.pair_ok_any_floor & fits)
+    up, lo, up_sd, lo_sd = M.up, M.lo, M.up_sd, M.lo_sd
+    if clear_side:
+        # a harmonic whose one side lies on a raised floor (over the far floor) and the
+        # other clear in most valid CPIs is read on the clear side alone, in every CPI
+        # where that side is clear (never mixing sides: a constant asymmetry then
+        # cancels against the harmonic's median; a common gain moves both sides)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rise = DB * np.log(M.side_floor / M.floor[:, None, None])
+        hi = ~(rise <= RAISED_FLOOR_DB)                       # raised (or no floor)
+        up, lo, up_sd, lo_sd = up.copy(), lo.copy(), up_sd.copy(), lo_sd.copy()
+        ok = ok.copy()
+        fine = dict(M.side_fine) if M.side_fine else None
+        if fine is not None:
+            fine.update({key: np.array(fine[key], copy=True) for key in ("up", "lo", "up_sd", "lo_sd")})
+        base = M.pair_ok_any_floor & M.valid[:, None]
+        for k in range(up.shape[1]):
+            n = base[:, k].sum()
+            if n == 0:
+                continue
+            for j, (a, b) in enumerate((("up", "lo"), ("lo", "up"))):   # side a on the skirt, b clear
+                if (base[:, k] & hi[:, k, j] & ~hi[:, k, 1 - j]).sum() < 0.5 * n:
+                    continue
+                ok[:, k] = M.pair_ok_any_floor[:, k] & ~hi[:, k, 1 - j]
+                for arrs in ({"up": up, "lo": lo, "up_sd": up_sd, "lo_sd": lo_sd}, fine):
+                    if arrs is not None:
+                        # the sum is twice the clear side, its noise std twice that
+                        # side's (both halves the same noise): sqrt(2) x each
+                        arrs[b + "_sd"][:, k] *= np.sqrt(2.0)
+                        arrs[a][:, k], arrs[a + "_sd"][:, k] = arrs[b][:, k], arrs[b + "_sd"][:, k]
+                break
+        M = replace(M, side_fine=fine if fine is not None else M.side_fine)
+    return replace(M, up=up, lo=lo, up_sd=up_sd, lo_sd=lo_sd, pair_ok=ok,
+                   usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
+                   usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True))
+
+
 # ---------------------------------------------------------------- the measurement
 
 #: the lines at non-multiples of the blade count are "visible" when their median power
@@ -883,6 +974,10 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     up = np.zeros((n_t, N)); lo = np.zeros((n_t, N))
     up_sd = np.zeros((n_t, N)); lo_sd = np.zeros((n_t, N))
     ok = np.zeros((n_t, N), bool)
+    # each side's local floor and Doppler, and the pairs good but for a raised floor
+    # (given_skirt: a floor raised by a named phase-noise skirt)
+    side_fl = np.full((n_t, N, 2), np.nan); side_fc = np.full((n_t, N, 2), np.nan)
+    ok_any_floor = np.zeros((n_t, N), bool)
     model_h = np.zeros((n_t, N))
     nyq = st.f_hz[-1]
     for i in range(n_t):
@@ -906,17 +1001,21 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
             if any(x is None for x in sides):
                 continue
             good = True
+            raised = False
             for j, (s, nb, fl, fc) in enumerate(sides):
-                if not np.isfinite(fl) or DB * np.log(fl / floor[i]) > RAISED_FLOOR_DB \
-                        or abs(fc) < cfg.clutter_guard_hz + w:
+                if not np.isfinite(fl) or abs(fc) < cfg.clutter_guard_hz + w:
                     good = False
+                elif DB * np.log(fl / floor[i]) > RAISED_FLOOR_DB:
+                    raised = True
+                side_fl[i, k, j], side_fc[i, k, j] = fl, fc
                 pw = s - nb * fl
                 sd = np.sqrt(2 * max(pw, 0) * fl + nb * fl ** 2)
                 if j == 0:
                     up[i, k], up_sd[i, k] = pw, sd
                 else:
                     lo[i, k], lo_sd[i, k] = pw, sd
-            ok[i, k] = good and not art[i]
+            ok_any_floor[i, k] = good and not art[i]
+            ok[i, k] = ok_any_floor[i, k] and not raised
     bg = stft_power(flight.background_iq, prf, n_fft) if flight.background_iq is not None else None
     rng_m = np.interp(st.t_s, flight.track_time_s, flight.track_range_m)
     # CPIs outside the motor log's span: the log's speeds there are unknown
@@ -951,7 +1050,8 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
               "match_q": float(np.nanmedian(q)),
               "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B),
               "body_in_notch": body_in_notch},
-        rot_pow=rot[0], rot_var=rot[1], rot_cross=rot[2], rot_n=rot[3], rot_wire=rot_wire)
+        rot_pow=rot[0], rot_var=rot[1], rot_cross=rot[2], rot_n=rot[3], rot_wire=rot_wire,
+        side_floor=side_fl, side_f_hz=side_fc, pair_ok_any_floor=ok_any_floor)
     # the model calibrated on the measurement, then the floor off the calibrated lines
     M = replace(M, calib=calibrate(M))
     return replace(M, floor_ordinates=floor_ordinates(M, cfg))

@@ -28,7 +28,7 @@ from ..synthesis.catalog import CATALOG, UNEXPLAINED
 from ..synthesis.extensions import save_extensions
 from .aggregate import aggregate, aggregate_twins
 from .config import DiagnosisConfig, unknown_key_error
-from .decide import decide_flight, skipped_entry
+from .decide import decide_flight, skipped_entry, tests_given
 from .explain import goodness_of_fit, plot_diagnosis
 from .hypotheses import run_tests
 from .measure import Undiagnosable, measure
@@ -105,7 +105,10 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
                                     "log_evalue": fading.log_e}})
     out["causes"] = causes
     out["cause"] = causes[0]["cause"] if causes else "none"
-    out["not_testable"] = {c: str(t.evidence.get("reason", "not testable")) for c, t in T.tests.items()
+    # with the named causes in both models (a sideband cause may be testable only
+    # with a named phase-noise skirt in the floor's model)
+    given = tests_given(T, [c["cause"] for c in entry["causes"]])
+    out["not_testable"] = {c: str(t.evidence.get("reason", "not testable")) for c, t in given.items()
                            if not t.testable}
     out["evidence"] = {**out["evidence"], "goodness_of_fit": {k: v for k, v in gof.items() if not k.startswith("_")}}
     return out
