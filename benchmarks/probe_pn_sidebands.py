@@ -7,7 +7,7 @@ flight: the causes named and the sideband tests' statistics (testable, log e-val
 against the step-1 threshold, relevant, usable pairs), so that one sees whether the
 sideband cause is lost to the test or to the decision.
 
-    python benchmarks/probe_pn_sidebands.py --seed 1 --n 2 --snr-db 30,40 --json /tmp/probe.json
+    python benchmarks/probe_pn_sidebands.py --seed 1 --n 2 --snr-db 30,40 --json probe.json
 """
 
 from __future__ import annotations
