@@ -75,7 +75,7 @@ from scipy.optimize import minimize_scalar
 
 from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .config import BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ, DiagnosisConfig
-from .measure import DB, Measurements, Undiagnosable, given_skirt
+from .measure import DB, Measurements, Undiagnosable, given_skirt, skirt_shape
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -855,9 +855,9 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
         # line and the body both; a mix of the two follows a flat, a Gaussian or a
         # 1/f-like phase-noise spectrum between PN_INNER_HZ and PN_OUTER_HZ
         db_ = np.abs(fc - fb)
-        slope_c = (SKIRT_OFFSET_HZ / np.maximum(af, 20.0)) ** 2
-        slope_b = (SKIRT_OFFSET_HZ / np.maximum(db_, 20.0)) ** 2
-        kern = np.column_stack([unit * (af < bw) + Bt * (db_ < bw), unit * slope_c + Bt * slope_b]
+        flat_c, slope_c = skirt_shape(af, bw, SKIRT_OFFSET_HZ)
+        flat_b, slope_b = skirt_shape(db_, bw, SKIRT_OFFSET_HZ)
+        kern = np.column_stack([unit * flat_c + Bt * flat_b, unit * slope_c + Bt * slope_b]
                                + [unit * np.exp(-af / d) for d in PN_CLUTTER_DECAYS_HZ]
                                + [Bt * g2 / ((fc - fb) ** 2 + g2)])
         P.append(O.power[j]); S.append(O.background[j]); K.append(kern); F.append(np.full(len(fc), fold[i]))

@@ -732,6 +732,15 @@ def clutter_line_power(M: Measurements) -> np.ndarray:
     return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
 
 
+def skirt_shape(f_hz: np.ndarray, bandwidth_hz: float, offset_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The phase-noise skirt's two shapes at offsets ``f_hz`` [Hz] from its line: flat
+    (1 within ``bandwidth_hz``) and sloped ((``offset_hz`` / max(|f|, 20 Hz))^2); the
+    phase-noise test fits their mix (:func:`.hypotheses.test_phase_noise`) and
+    :func:`skirt_floor` evaluates the fit."""
+    with np.errstate(invalid="ignore"):
+        return f_hz < bandwidth_hz, (offset_hz / np.maximum(f_hz, 20.0)) ** 2
+
+
 def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
                 offset_hz: float) -> np.ndarray:
     """The floor per bin [n_t, N, 2] that a phase-noise skirt adds at each sideband
@@ -745,8 +754,9 @@ def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
     fc = M.side_f_hz
     out = np.zeros(fc.shape)
     for line, f in ((C, np.abs(fc)), (Bt, np.abs(fc - M.f_body_hz[:, None, None]))):
+        flat, slope = skirt_shape(f, bandwidth_hz, offset_hz)
         with np.errstate(invalid="ignore"):
-            shape = q_flat * (f < bandwidth_hz) + q_slope * (offset_hz / np.maximum(f, 20.0)) ** 2
+            shape = q_flat * flat + q_slope * slope
         out = out + df / (2 * bandwidth_hz) * line * np.nan_to_num(shape)
     return out
 
