@@ -206,10 +206,10 @@ class CpiFit:
 
 
 def gram(A: np.ndarray) -> np.ndarray:
-    """A^H A of a tall complex matrix (Hermitian, both triangles filled)."""
-    # zherk on A^T (Fortran order, no copy) gives A^T conj(A) = conj(A^H A) in its upper triangle
-    C = zherk(1.0, A.T, trans=0, lower=0)
-    G = np.triu(C).conj()
+    """A^H A of a tall complex matrix (Hermitian, both triangles filled); fastest on a
+    Fortran-ordered ``A`` (what :meth:`_Model.build` returns: no copy)."""
+    C = zherk(1.0, A, trans=2, lower=0)  # BLAS's Hermitian rank-k update: A^H A, upper triangle
+    G = np.triu(C)
     iu = np.triu_indices(len(G), 1)
     G[(iu[1], iu[0])] = G[iu].conj()
     return G
@@ -231,22 +231,24 @@ class _Model:
         self.power = np.ones(M)
 
     def build(self, p: np.ndarray, N: int) -> np.ndarray:
+        """The model's columns at ``p`` with ``N`` harmonics [n, 1 + M 2N + 3], in
+        Fortran order (each column contiguous: filled row by row of its transpose)."""
         tt, B, M = self.tt, self.B, self.M
         eb = self.w * np.exp(2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt ** 2))
         K = 2 * N
-        A = np.empty((len(tt), 1 + M * K + 3), complex)
-        A[:, 0] = eb
-        pw = np.empty((len(tt), N), complex)
+        AT = np.empty((1 + M * K + 3, len(tt)), complex)
+        AT[0] = eb
+        pw = np.empty((N, len(tt)), complex)
         for r in range(M):
             e1 = np.exp(2j * np.pi * B * (p[2 + r] * tt + 0.5 * p[2 + M + r] * tt ** 2))
-            pw[:, 0] = e1
+            pw[0] = e1
             for k in range(1, N):
-                np.multiply(pw[:, k - 1], e1, out=pw[:, k])
+                np.multiply(pw[k - 1], e1, out=pw[k])
             base = 1 + r * K
-            np.multiply(eb[:, None], pw[:, ::-1].conj(), out=A[:, base:base + N])  # n = -N .. -1
-            np.multiply(eb[:, None], pw, out=A[:, base + N:base + K])  # n = 1 .. N
-        A[:, -3:] = self.clutter
-        return A
+            np.multiply(eb, pw[::-1].conj(), out=AT[base:base + N])  # n = -N .. -1
+            np.multiply(eb, pw, out=AT[base + N:base + K])  # n = 1 .. N
+        AT[-3:] = self.clutter.T
+        return AT.T
 
     def solve(self, A: np.ndarray):
         """Least squares of ``y`` on the columns of ``A`` by the normal equations (the
