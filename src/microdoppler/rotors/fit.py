@@ -205,16 +205,6 @@ class CpiFit:
     balance: float
 
 
-def gram(A: np.ndarray) -> np.ndarray:
-    """A^H A of a tall complex matrix (Hermitian, both triangles filled); fastest on a
-    Fortran-ordered ``A`` (what :meth:`_Model.build` returns: no copy)."""
-    C = zherk(1.0, A, trans=2, lower=0)  # BLAS's Hermitian rank-k update: A^H A, upper triangle
-    G = np.triu(C)
-    iu = np.triu_indices(len(G), 1)
-    G[(iu[1], iu[0])] = G[iu].conj()
-    return G
-
-
 class _Model:
     """The harmonic-chirp model of one CPI (``x``: complex samples, ``prf``)."""
 
@@ -223,6 +213,10 @@ class _Model:
         self.tt = (np.arange(n) - n / 2) / prf
         self.w = blackmanharris(n, sym=False)
         self.y = np.asarray(x, np.complex128) * self.w
+        self.yc = self.y.conj()
+        # d(phase)/d(f_b, a_b, f_r, g_r) factors of the Jacobian's columns
+        tt = self.tt
+        self._dphase = (2j * np.pi * tt, 1j * np.pi * tt ** 2, 2j * np.pi * B * tt, 1j * np.pi * B * tt ** 2)
         self.B, self.M, self.cfg = B, M, cfg
         s = self.tt / self.tt.max()
         self.clutter = self.w[:, None] * np.column_stack([np.ones(n), s, s * s])
@@ -253,13 +247,15 @@ class _Model:
     def solve(self, A: np.ndarray):
         """Least squares of ``y`` on the columns of ``A`` by the normal equations (the
         Gram matrix from BLAS's Hermitian rank-k update, half a general product's work):
-        (Cholesky factor, amplitudes, residual, residual power)."""
-        G = gram(A)
+        (Cholesky factor as cho_solve takes it, amplitudes, residual, residual power)."""
+        # A^H A's upper triangle (the lower is never read: Cholesky from the upper);
+        # fastest on a Fortran-ordered A (what build returns: no copy)
+        G = zherk(1.0, A, trans=2, lower=0)
         G[np.diag_indices_from(G)] += 1e-9 * np.trace(G).real / len(G)
-        L = cholesky(G, lower=True, check_finite=False)
-        c = cho_solve((L, True), (self.y.conj() @ A).conj(), check_finite=False)  # A^H y
+        U = (cholesky(G, lower=False, check_finite=False), False)
+        c = cho_solve(U, (self.yc @ A).conj(), check_finite=False)  # A^H y
         r = self.y - A @ c
-        return L, c, r, float(np.vdot(r, r).real)
+        return U, c, r, float(np.vdot(r, r).real)
 
     def prior(self, p: np.ndarray) -> float:
         d = (p[2 + self.M:] - self.g0) / self.cfg.chirp_sd_rev_s2
@@ -270,15 +266,16 @@ class _Model:
         M, B, tt = self.M, self.B, self.tt
         K = len(ns)
         mb = A[:, :1 + M * K] @ c[:1 + M * K]
-        D = np.empty((len(tt), 2 + 2 * M), complex)
-        D[:, 0] = 2j * np.pi * tt * mb
-        D[:, 1] = 1j * np.pi * tt ** 2 * mb
+        D = np.empty((len(tt), 2 + 2 * M), complex, order="F")
+        d = self._dphase
+        np.multiply(d[0], mb, out=D[:, 0])
+        np.multiply(d[1], mb, out=D[:, 1])
         for q in range(M):
             sl = slice(1 + q * K, 1 + (q + 1) * K)
             s = A[:, sl] @ (ns * c[sl])
-            D[:, 2 + q] = 2j * np.pi * B * tt * s
-            D[:, 2 + M + q] = 1j * np.pi * B * tt ** 2 * s
-        J = -(D - A @ cho_solve((L, True), (D.conj().T @ A).conj().T, check_finite=False))  # A^H D
+            np.multiply(d[2], s, out=D[:, 2 + q])
+            np.multiply(d[3], s, out=D[:, 2 + M + q])
+        J = -(D - A @ cho_solve(L, (D.conj().T @ A).conj().T, check_finite=False))  # A^H D
         return np.vstack([J.real, J.imag])
 
     def fit(self, p: np.ndarray, N: int, iterations: int | None = None):
