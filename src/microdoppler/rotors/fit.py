@@ -88,7 +88,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal.windows import blackmanharris
 from scipy.linalg import cho_solve, cholesky
-from scipy.linalg.blas import zherk
+from scipy.linalg.blas import zgemm, zgemv, zherk
 
 
 # Fixed settings of the fit (module constants: search effort and calibrated terms, not
@@ -213,7 +213,6 @@ class _Model:
         self.tt = (np.arange(n) - n / 2) / prf
         self.w = blackmanharris(n, sym=False)
         self.y = np.asarray(x, np.complex128) * self.w
-        self.yc = self.y.conj()
         # d(phase)/d(f_b, a_b, f_r, g_r) factors of the Jacobian's columns
         tt = self.tt
         self._dphase = (2j * np.pi * tt, 1j * np.pi * tt ** 2, 2j * np.pi * B * tt, 1j * np.pi * B * tt ** 2)
@@ -253,7 +252,7 @@ class _Model:
         G = zherk(1.0, A, trans=2, lower=0)
         G[np.diag_indices_from(G)] += 1e-9 * np.trace(G).real / len(G)
         U = (cholesky(G, lower=False, check_finite=False), False)
-        c = cho_solve(U, (self.yc @ A).conj(), check_finite=False)  # A^H y
+        c = cho_solve(U, zgemv(1.0, A, self.y, trans=2), check_finite=False)  # A^H y
         r = self.y - A @ c
         return U, c, r, float(np.vdot(r, r).real)
 
@@ -275,7 +274,7 @@ class _Model:
             s = A[:, sl] @ (ns * c[sl])
             np.multiply(d[2], s, out=D[:, 2 + q])
             np.multiply(d[3], s, out=D[:, 2 + M + q])
-        J = -(D - A @ cho_solve(L, (D.conj().T @ A).conj().T, check_finite=False))  # A^H D
+        J = -(D - A @ cho_solve(L, zgemm(1.0, A, D, trans_a=2), check_finite=False))  # A^H D
         return np.vstack([J.real, J.imag])
 
     def fit(self, p: np.ndarray, N: int, iterations: int | None = None):
