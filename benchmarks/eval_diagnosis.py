@@ -3,10 +3,20 @@
 Issue 12 section 5. A plan of flights is drawn from ``--seed`` (which the diagnosis
 never sees; each flight gets a neutral id ``fNNNN`` in a shuffled order):
 
-- ``--flights-per-cause`` flights with one cause, for every catalog cause;
-- ``--two-cause`` flights with two causes at once (the 15 pairs in turn, in a random
+- ``--flights-per-cause`` flights with one cause, for every catalog cause (the
+  catalog's model extensions, ``blade_imbalance`` included; ``unexplained`` is a
+  goodness of fit, not a cause one can plant);
+- ``--two-cause`` flights with two causes at once (the 21 pairs in turn, in a random
   order, then again);
-- ``--clean`` flights without an effect.
+- ``--clean`` flights without an effect;
+- ``--outside`` flights with one effect no catalog cause describes (issue 34): from
+  the independent generator a second scatterer on the airframe (offset +-U(20, 60) Hz
+  from the body, U(-18, -8) dB, wandering U(0, 4) Hz), a wrong declared blade count
+  (3 blades, 2 declared) or a range-cell straddle (U(4, 8) dB over U(8, 16) s), in
+  turn; from the emulator flights altered here (:func:`_emulate_outside`): the same
+  second scatterer added to the measured I/Q on the body's own carrier phase, the
+  store's declared blade count set to 3 (the blades are 2), or the same slow straddle
+  applied to the target's echo (before clutter and noise), in turn.
 
 Half of each group (alternating) comes from the project's emulator
 (``microdoppler.emulator``, radars ``radar1``/``radar2`` in turn, Inspire 2 or
@@ -19,7 +29,9 @@ Effect parameters are drawn in the catalog's detectable ranges: asymmetry_db
 +-U(3, 6); fading_std_db U(3, 6) with timescale_s U(1, 2); body_std_db U(3, 6) with
 timescale_s log-uniform in 0.05-3 s; lag_s +-U(0.3, 1.0); scale 1 +- U(0.05, 0.12);
 skirt_dbc_hz U(-72, -60) (the emulator's flat process of that skirt; the independent
-generator's Gaussian or 1/f-like shape at random).
+generator's Gaussian or 1/f-like shape at random); imbalance_db U(3, 10) (one blade of
+every rotor weaker: the emulator's ``blade_imbalance``, as its worlds' airframes carry
+it, and the independent generator's weak blade 0).
 
 Body SNR: a target measured SNR is drawn per flight, U(36, 48) dB for a share
 ``--high-snr-share`` of the flights, else U(20, 36) dB; the flight is made at a
@@ -42,10 +54,25 @@ unit, resampled within its design group: clean / one cause per cause / two cause
   (20 %; 1 dB; 0.1 s);
 - recall per cause in SNR bins (the detectable range below 36 dB) and, for
   phase noise, by the rise of the floor 35-95 Hz from the clutter line over the
-  target-free background.
+  target-free background;
+- issue 34's rates (:func:`summarise_issue34`): ``blade_imbalance`` named on flights
+  with a weak blade, ``imbalance_db`` within 1.5 dB, spurious ``blade_imbalance`` on
+  balanced flights, ``unexplained`` on outside flights (and ``none`` there) and on
+  flights holding only catalog causes. ``unexplained`` is left out of the spurious
+  causes and false alarms above (it is reported on its own).
+
+Paired before/after (``--before-src DIR``, the ``src/`` of an older checkout): every
+flight holding only catalog causes other than ``blade_imbalance`` (one-cause, two-cause
+and clean) is written once as a flight-zarr store (``--stores``, default a temporary
+folder), diagnosed from that store by this code and, after the loop, by the older code
+(``benchmarks/diagnose_stores.py`` in a subprocess with ``PYTHONPATH=DIR``): recall per
+cause before and after with the paired difference, and spurious catalog causes, each
+with a flight-bootstrap CI (:func:`summarise_paired`).
 
     python benchmarks/eval_diagnosis.py --seed 1 --json results/diagnosis/eval.json --workers 2
     python benchmarks/eval_diagnosis.py --flights-per-cause 2 --two-cause 2 --clean 2 --duration-s 20  # quick
+    python benchmarks/eval_diagnosis.py --seed 34 --flights-per-cause 4 --two-cause 12 --clean 4 --outside 12 \
+        --duration-s 20 --before-src ../eval34_before/src --json eval.json   # issue 34, with before/after
 """
 
 from __future__ import annotations
@@ -58,23 +85,36 @@ import argparse  # noqa: E402
 import itertools  # noqa: E402
 import json  # noqa: E402
 import secrets  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
+from dataclasses import replace  # noqa: E402
+from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates  # noqa: E402
-from microdoppler.synthesis.catalog import CATALOG  # noqa: E402
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved  # noqa: E402
+from microdoppler.synthesis.catalog import CATALOG, UNEXPLAINED  # noqa: E402
 from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
+from microdoppler.emulator import world as emu_world  # noqa: E402
 from microdoppler.emulator.world import FlightSpec, emulate_flight  # noqa: E402
+from microdoppler.io.flightzarr import read_flight, write_flight  # noqa: E402
 from microdoppler.io.outputs import atomic_file  # noqa: E402
 from microdoppler.spectra.snr import flight_body_snr_db  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from independent_generator import GenCase, make_flight  # noqa: E402
 
-CAUSE_LIST = [c for c in CATALOG if c != "none"]
+#: the causes one can plant: the catalog's model extensions (not "none", not "unexplained")
+CAUSE_LIST = [c for c in CATALOG if c not in ("none", UNEXPLAINED)]
+#: causes the code before issue 34 could name (the paired before/after comparison)
+OLD_CAUSES = [c for c in CAUSE_LIST if c != "blade_imbalance"]
+#: out-of-catalog effects per generator, in turn (module docstring)
+OUTSIDE = {"independent": ["second_scatterer", "true_n_blades", "range_straddle"],
+           "emulator": ["second_scatterer", "declared_n_blades", "range_straddle"]}
+REPO = Path(__file__).resolve().parents[1]
 HIGH_SNR_DB = 36.0
 #: bins of measured body SNR for the detectable range [dB]
 SNR_BINS_DB = (20.0, 24.0, 28.0, 32.0, 36.0, 40.0, np.inf)
@@ -88,12 +128,14 @@ PARAMS = {
     "motor_log_lag": {"lag_s": "abs"},
     "motor_speed_scale": {"scale": "rel_m1"},
     "phase_noise": {"skirt_dbc_hz": "rel_db"},
+    "blade_imbalance": {"imbalance_db": "abs"},
 }
-TOL = {"asymmetry_db": 1.0, "lag_s": 0.1}
+TOL = {"asymmetry_db": 1.0, "lag_s": 0.1, "imbalance_db": 1.5}
 REL_TOL = 0.2
 #: rough cost model for the printed estimate [s]: per second of flight emulated,
-#: emulations per flight, diagnosis per flight (measured on the 2-core machine, loaded)
-EMU_S_PER_FLIGHT_S, EMULATIONS_PER_FLIGHT, DIAG_S = 0.02, 1.5, 1.5
+#: emulations per flight, diagnosis per second of flight, and the earlier code's
+#: diagnosis of a stored flight per second of flight (one core, 2026-11-26)
+EMU_S_PER_FLIGHT_S, EMULATIONS_PER_FLIGHT, DIAG_S, DIAG_BEFORE_S = 0.02, 1.5, 0.06, 0.02
 
 
 # ----------------------------------------------------------------------------- plan
@@ -112,12 +154,26 @@ def draw_params(cause: str, rng: np.random.Generator) -> dict:
         return {"scale": 1 + sign * rng.uniform(0.05, 0.12)}
     if cause == "phase_noise":
         return {"skirt_dbc_hz": rng.uniform(-72, -60)}
+    if cause == "blade_imbalance":
+        return {"imbalance_db": rng.uniform(3, 10)}
     raise ValueError(cause)
+
+
+def draw_outside(kind: str, rng: np.random.Generator) -> dict:
+    """One out-of-catalog effect (as ``benchmarks/eval_unexplained.py`` draws it)."""
+    if kind == "second_scatterer":
+        return {kind: {"offset_hz": float(rng.choice([-1, 1]) * rng.uniform(20, 60)),
+                       "level_db": float(rng.uniform(-18, -8)), "wander_hz": float(rng.uniform(0, 4))}}
+    if kind in ("true_n_blades", "declared_n_blades"):
+        return {kind: 3}
+    if kind == "range_straddle":
+        return {kind: {"depth_db": float(rng.uniform(4, 8)), "period_s": float(rng.uniform(8, 16))}}
+    raise ValueError(kind)
 
 
 def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s: float,
               high_share: float, causes: list[str] | None = None, falloff_db: tuple | None = None,
-              generators: str = "both") -> list[dict]:
+              generators: str = "both", outside: int = 0) -> list[dict]:
     """The flights to make, drawn from ``seed``: one dict per flight (JSON-able).
 
     ``causes``: restrict the one-cause flights and the two-cause pairs to these
@@ -126,9 +182,12 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
     harmonic]: the emulator flights' sideband fall-off is drawn log-uniformly in it
     (default: the emulator's own draw, ``world.FALLOFF_DB``), from a generator of its
     own (the rest of the plan is the same). ``generators``: ``both`` (alternating),
-    ``emulator`` or ``independent`` only."""
+    ``emulator`` or ``independent`` only. ``outside``: flights with an out-of-catalog
+    effect (:data:`OUTSIDE`, in turn per generator), drawn after the others, their
+    effects from a generator of their own."""
     rng = np.random.default_rng(seed)
     rng_falloff = np.random.default_rng([seed, 0xFA11])
+    rng_odd = np.random.default_rng([seed, 0x0DD])
     cause_list = list(CAUSE_LIST) if not causes else [c for c in CAUSE_LIST if c in causes]
     groups: list[tuple[str, list[str]]] = []
     for c in cause_list:
@@ -139,6 +198,7 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
         order += [pairs[i] for i in rng.permutation(len(pairs))]
     groups += [("two", list(p)) for p in order[:two_cause]]
     groups += [("clean", [])] * clean
+    groups += [("outside", [])] * outside
     plan = []
     count: dict = {}
     for kind, causes in groups:
@@ -165,6 +225,9 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
             p.update(drone_model="gen_quad", speed_mps=float(rng.uniform(5, 20)))
             if "phase_noise" in p["effects"]:
                 p["pn_shape"] = str(rng.choice(["gauss", "flicker"]))
+        if kind == "outside":
+            o = count[f"outside:{gen}"] = count.get(f"outside:{gen}", -1) + 1
+            p["oddities"] = draw_outside(OUTSIDE[gen][o % len(OUTSIDE[gen])], rng_odd)
         plan.append(p)
     for i, j in enumerate(rng.permutation(len(plan))):  # neutral ids, in a shuffled order
         plan[j]["flight_id"] = f"f{i:04d}"
@@ -172,20 +235,76 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
 
 
 # ----------------------------------------------------------------------------- one flight
+def _emulate_outside(spec: FlightSpec, oddities: dict, seed: int):
+    """Emulate ``spec`` and alter it with one out-of-catalog effect (module docstring).
+
+    ``second_scatterer`` and ``range_straddle`` need the target's true range per
+    pulse: the emulator's range-cell gain (``world._straddle_gain``, applied to the
+    target's echo before clutter, phase noise and thermal noise are added) is wrapped
+    for the call; the straddle multiplies its gain by a raised cosine of ``depth_db``
+    over ``period_s``, the second scatterer is added afterwards to the measured I/Q:
+    the body's amplitude times 10^(level_db/20), the body's carrier phase
+    exp(-j 4 pi R / lambda) and the range-cell gain, and its own Doppler
+    ``offset_hz`` + ``wander_hz`` sin(2 pi t / U(4, 8) s). ``declared_n_blades``: the
+    store declares that many blades (the emulated ones have 2)."""
+    rng = np.random.default_rng([seed, 0x0DD])
+    prf = emu_world.radar_site(spec.radar_id).radar.prf_hz
+    orig = emu_world._straddle_gain
+    seen: dict = {}
+
+    def gain(range_m):
+        g = orig(range_m)
+        seen["range_m"], seen["gain"] = np.asarray(range_m, np.float64), g
+        if "range_straddle" in oddities:
+            q = oddities["range_straddle"]
+            t = np.arange(len(range_m)) / prf
+            drift_db = -q["depth_db"] * 0.5 * (1 - np.cos(2 * np.pi * t / q["period_s"] + rng.uniform(0, 2 * np.pi)))
+            g = (g * 10 ** (drift_db / 20)).astype(np.float32)
+        return g
+
+    emu_world._straddle_gain = gain
+    try:
+        flight, truth = emulate_flight(spec)
+    finally:
+        emu_world._straddle_gain = orig
+    if "second_scatterer" in oddities:
+        q = oddities["second_scatterer"]
+        n = len(flight.iq)
+        t = np.arange(n) / prf
+        lam = 299792458.0 / flight.attrs["carrier_hz"]
+        wander = q["wander_hz"] * np.sin(2 * np.pi * t / rng.uniform(4.0, 8.0) + rng.uniform(0, 2 * np.pi))
+        ph = 2 * np.pi * np.cumsum(q["offset_hz"] + wander) / prf - 4 * np.pi * seen["range_m"][:n] / lam
+        extra = truth["s_body"] * 10 ** (q["level_db"] / 20) * seen["gain"][:n] * np.exp(1j * ph)
+        flight = replace(flight, iq=(flight.iq + extra).astype(np.complex64))
+    if "declared_n_blades" in oddities:
+        flight = replace(flight, attrs={**flight.attrs, "n_blades": int(oddities["declared_n_blades"])})
+    return flight
+
+
 def _make(p: dict, nominal_snr_db: float):
+    odd = p.get("oddities", {})
     if p["generator"] == "emulator":
         spec = FlightSpec(p["flight_id"], "drone", drone_model=p["drone_model"], radar_id=p["radar"],
                           duration_s=p["duration_s"], mean_range_m=p["mean_range_m"], height_m=p["height_m"],
                           speed_mps=p["speed_mps"], direction=p["direction"], snr_db=nominal_snr_db,
-                          effects=p["effects"], seed=p["seed"], harmonic_falloff_db=p.get("harmonic_falloff_db"))
+                          effects=p["effects"], seed=p["seed"], harmonic_falloff_db=p.get("harmonic_falloff_db"),
+                          airframe=f"{p['drone_model']}-weak" if "blade_imbalance" in p["effects"] else "")
+        if odd:
+            return _emulate_outside(spec, odd, p["seed"])
         flight, _ = emulate_flight(spec)
         return flight
     eff = {c: dict(v) for c, v in p["effects"].items()}
     if "phase_noise" in eff:
         eff["phase_noise"]["shape"] = p["pn_shape"]
     case = GenCase(p["flight_id"], p["seed"], p["radar"], eff, duration_s=p["duration_s"], snr_db=nominal_snr_db,
-                   speed_mps=p["speed_mps"])
+                   speed_mps=p["speed_mps"], oddities=odd)
     return make_flight(case)[0]
+
+
+def is_paired(p: dict) -> bool:
+    """Whether the flight enters the before/after comparison: only catalog causes the
+    code before issue 34 knew (no ``blade_imbalance``, no out-of-catalog effect)."""
+    return p["kind"] != "outside" and "blade_imbalance" not in p["effects"]
 
 
 def _snr_db(flight) -> float:
@@ -272,8 +391,12 @@ def add_ideal(errors: dict, p: dict) -> None:
                     errors[f"{c}.{key}"]["ideal"] = v
 
 
-def evaluate_flight(p: dict) -> dict:
-    """Make the planned flight at its target SNR, diagnose it, compare with its truth."""
+def evaluate_flight(p: dict, store_dir: str | None = None) -> dict:
+    """Make the planned flight at its target SNR, diagnose it, compare with its truth.
+
+    ``store_dir``: write the flight there as ``{flight_id}.zarr`` if it enters the
+    paired comparison (:func:`is_paired`), and diagnose the store as read back (the
+    bytes the older code will see)."""
     t0 = time.perf_counter()
     target = p["target_snr_db"]
     nominal = target + (3.0 if p["generator"] == "emulator" else 1.0)
@@ -286,6 +409,11 @@ def evaluate_flight(p: dict) -> dict:
             break
         nominal += target - snr + (0.5 if target >= HIGH_SNR_DB else -0.5)
     rise = _floor_rise_db(flight) if "phase_noise" in p["effects"] else None
+    stored = bool(store_dir and is_paired(p))
+    if stored:
+        path = Path(store_dir) / f"{p['flight_id']}.zarr"
+        write_flight(path, flight)
+        flight = read_flight(path)
     t1 = time.perf_counter()
     reason = None
     try:
@@ -309,6 +437,7 @@ def evaluate_flight(p: dict) -> dict:
             errors[f"{c}.{k}"] = {"error": err, "ok": ok, "truth": truth[k], "fit": fits[c][k]}
     add_ideal(errors, p)
     return {**{k: p[k] for k in ("flight_id", "kind", "generator", "radar", "drone_model", "effects", "duration_s")},
+            "oddities": p.get("oddities", {}), "stored": stored,
             "harmonic_falloff_db": p.get("harmonic_falloff_db"),
             "true": sorted(p["effects"]), "named": named, "fits": fits, "reason": reason,
             "snr_db": round(snr, 2), "target_snr_db": round(target, 2), "snr_tries": tries,
@@ -362,8 +491,15 @@ def band_of(r) -> str:
     return "≥36" if r["snr_db"] >= HIGH_SNR_DB else "<36"
 
 
+def _catalog_named(r) -> set:
+    """The catalog causes a row names (``unexplained`` left out)."""
+    return {c for c in r["named"] if c != UNEXPLAINED}
+
+
 def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]:
-    """Markdown tables and a JSON-able summary of the rows."""
+    """Markdown tables and a JSON-able summary of the rows (catalog-cause and clean
+    flights; ``unexplained`` is not counted as a spurious cause here)."""
+    rows = [r for r in rows if r["kind"] != "outside"]
     S = Summary(rows, boot_seed, n_boot)
     band = np.array([band_of(r) for r in rows])
     gen = np.array([r["generator"] for r in rows])
@@ -376,9 +512,9 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
 
     n_true = np.array([len(r["true"]) for r in rows])
     n_hit = np.array([len(set(r["true"]) & set(r["named"])) for r in rows])
-    spur = np.array([bool(set(r["named"]) - set(r["true"])) for r in rows])
-    n_spur = np.array([len(set(r["named"]) - set(r["true"])) for r in rows])
-    n_named = np.array([len(r["named"]) for r in rows])
+    spur = np.array([bool(_catalog_named(r) - set(r["true"])) for r in rows])
+    n_spur = np.array([len(_catalog_named(r) - set(r["true"])) for r in rows])
+    n_named = np.array([len(_catalog_named(r)) for r in rows])
     skipped = np.array([r["reason"] is not None for r in rows])
     out: dict = {"overall": {}, "per_cause": {}, "params": {}, "snr_bins": {}}
     lines = ["### Detection (95 % flight-bootstrap CIs)", "",
@@ -550,6 +686,263 @@ def targets(out: dict) -> str:
     return "\n".join(lines)
 
 
+def _cell(v, k=None) -> str:
+    """``x % [lo, hi] (k/n)`` of a :meth:`Summary.ratio` result."""
+    if v[3] == 0:
+        return "– (0)"
+    kk = f"{k}/{v[3]}" if k is not None else f"n={v[3]}"
+    return f"{_fmt(*v[:3])} ({kk})"
+
+
+def _diff_cell(v) -> str:
+    if v[3] == 0 or not np.isfinite(v[0]):
+        return "–"
+    res = " resolved" if resolved(v[1], v[2]) else ""
+    return f"{100 * v[0]:+.0f} [{100 * v[1]:+.0f}, {100 * v[2]:+.0f}] points{res}"
+
+
+def issue34_flags(rows: list[dict]) -> dict:
+    """Per-row boolean arrays of issue 34's rates."""
+    kind = np.array([r["kind"] for r in rows])
+    err = [r["errors"].get("blade_imbalance.imbalance_db") for r in rows]
+    f = {
+        "has_imb": np.array(["blade_imbalance" in r["true"] for r in rows]),
+        "named_imb": np.array(["blade_imbalance" in r["named"] for r in rows]),
+        "imb_ok": np.array([bool(e and e["ok"]) for e in err]),
+        "unexpl": np.array([UNEXPLAINED in r["named"] for r in rows]),
+        "skipped": np.array([r["reason"] is not None for r in rows]),
+        "outside": kind == "outside",
+        "catalog_only": np.isin(kind, ("one", "two", "clean")),
+        "with_cause": np.isin(kind, ("one", "two")),
+        "clean": kind == "clean",
+    }
+    f["none"] = np.array([r["reason"] is None and not r["named"] for r in rows])
+    f["all_named"] = np.array([r["reason"] is None and set(r["true"]) <= set(r["named"]) for r in rows])
+    f["balanced"] = f["catalog_only"] & ~f["has_imb"]
+    return f
+
+
+#: issue 34's rates: (key, label, numerator, denominator) over :func:`issue34_flags`
+ISSUE34_RATES = [
+    ("imb_named", "blade_imbalance named, flights with a blade 3-10 dB weaker (target ≥ 90 %)",
+     lambda f: f["named_imb"] & f["has_imb"], lambda f: f["has_imb"]),
+    ("imb_db_within", "imbalance_db within 1.5 dB, of those named",
+     lambda f: f["imb_ok"] & f["named_imb"] & f["has_imb"], lambda f: f["named_imb"] & f["has_imb"]),
+    ("imb_spurious", "spurious blade_imbalance, balanced flights incl. other causes (target ≤ 5 %)",
+     lambda f: f["named_imb"] & f["balanced"], lambda f: f["balanced"]),
+    ("unexpl_outside", "unexplained, out-of-catalog flights (target ≥ 90 %)",
+     lambda f: f["unexpl"] & f["outside"], lambda f: f["outside"]),
+    ("none_outside", "none, out-of-catalog flights (must be 0)",
+     lambda f: f["none"] & f["outside"], lambda f: f["outside"]),
+    ("skipped_outside", "skipped (undiagnosable), out-of-catalog flights",
+     lambda f: f["skipped"] & f["outside"], lambda f: f["outside"]),
+    ("unexpl_catalog", "unexplained, flights holding only catalog causes (target ≤ 5 %)",
+     lambda f: f["unexpl"] & f["catalog_only"], lambda f: f["catalog_only"]),
+    ("unexpl_with_cause", "unexplained, of those: one- and two-cause flights",
+     lambda f: f["unexpl"] & f["with_cause"], lambda f: f["with_cause"]),
+    ("unexpl_clean", "unexplained, of those: clean flights",
+     lambda f: f["unexpl"] & f["clean"], lambda f: f["clean"]),
+    ("unexpl_all_named", "unexplained, of those: every true cause named (a missed cause left out)",
+     lambda f: f["unexpl"] & f["catalog_only"] & f["all_named"], lambda f: f["catalog_only"] & f["all_named"]),
+]
+
+
+def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]:
+    """Issue 34's rates (:data:`ISSUE34_RATES`) per SNR band and generator, the
+    out-of-catalog flights per effect, and the targets at body SNR >= 36 dB."""
+    if not rows:
+        return "", {}
+    S = Summary(rows, boot_seed, n_boot)
+    f = issue34_flags(rows)
+    band = np.array([band_of(r) for r in rows])
+    gen = np.array([r["generator"] for r in rows])
+    cols = [("≥36", "all"), ("≥36", "emulator"), ("≥36", "independent"), ("<36", "all"), ("all", "all")]
+    out: dict = {"rates": {}, "outside": {}, "imbalance_db_errors": {}}
+    lines = ["### Issue 34: blade_imbalance and unexplained (95 % flight-bootstrap CIs)", "",
+             "| rate | " + " | ".join(f"{b} dB {g}" if b != "all" else "all SNR" for b, g in cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for key, label, num_f, den_f in ISSUE34_RATES:
+        num, den = num_f(f), den_f(f)
+        cells = []
+        for b, g in cols:
+            m = ((band == b) if b != "all" else True) & ((gen == g) if g != "all" else True)
+            v = S.ratio(num & m, den & m)
+            out["rates"][f"{key} {b} {g}"] = v
+            cells.append(_cell(v, int((num & m).sum())))
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    # imbalance_db errors of the named
+    err = np.array([r["errors"]["blade_imbalance.imbalance_db"]["error"]
+                    if "blade_imbalance.imbalance_db" in r["errors"]
+                    and r["errors"]["blade_imbalance.imbalance_db"]["error"] is not None else np.nan for r in rows])
+    for b in ("≥36", "<36"):
+        m = (band == b) & np.isfinite(err)
+        if m.any():
+            out["imbalance_db_errors"][b] = {"n": int(m.sum()), "median_abs_db": float(np.median(np.abs(err[m]))),
+                                             "max_abs_db": float(np.max(np.abs(err[m]))),
+                                             "median_signed_db": float(np.median(err[m]))}
+            lines.append(f"\nimbalance_db error (fit − truth) at {b} dB: n={int(m.sum())}, median |error| "
+                         f"{np.median(np.abs(err[m])):.2f} dB, largest {np.max(np.abs(err[m])):.2f} dB, "
+                         f"median signed {np.median(err[m]):+.2f} dB")
+    # the out-of-catalog flights per effect
+    lines += ["", "#### Out-of-catalog flights per effect (all SNR; ≥ 36 dB in brackets)", "",
+              "| effect | generator | flights | unexplained | none | skipped | catalog causes named |",
+              "|---|---|---|---|---|---|---|"]
+    for g in ("independent", "emulator"):
+        for eff in OUTSIDE[g]:
+            sub = [r for r in rows if r["kind"] == "outside" and r["generator"] == g and eff in r["oddities"]]
+            if not sub:
+                continue
+            hi = [r for r in sub if band_of(r) == "≥36"]
+
+            def cnt(cond, rs):
+                return sum(1 for r in rs if cond(r))
+
+            conds = {"unexplained": lambda r: UNEXPLAINED in r["named"],
+                     "none": lambda r: r["reason"] is None and not r["named"],
+                     "skipped": lambda r: r["reason"] is not None}
+            named: dict = {}
+            for r in sub:
+                for c in _catalog_named(r):
+                    named[c] = named.get(c, 0) + 1
+            out["outside"][f"{eff} {g}"] = {"n": len(sub), "n_high": len(hi),
+                                            **{k: [cnt(c, sub), cnt(c, hi)] for k, c in conds.items()},
+                                            "catalog_named": named}
+            lines.append(f"| {eff} | {g} | {len(sub)} ({len(hi)}) | "
+                         + " | ".join(f"{cnt(c, sub)} ({cnt(c, hi)})" for c in conds.values())
+                         + f" | {', '.join(f'{k} {v}' for k, v in sorted(named.items())) or '–'} |")
+    # targets at >= 36 dB
+    lines += ["", "#### Issue 34's targets at body SNR ≥ 36 dB (pass/fail on the point estimate)", "",
+              "| target | value [95 % CI] (k/n) | pass |", "|---|---|---|"]
+    for key, label, test in [("imb_named", "blade_imbalance named ≥ 90 %", lambda v: v >= 0.9),
+                             ("imb_db_within", "imbalance_db within 1.5 dB (share of those named; "
+                                               "no threshold given, 90 % used)", lambda v: v >= 0.9),
+                             ("imb_spurious", "spurious blade_imbalance ≤ 5 %", lambda v: v <= 0.05),
+                             ("unexpl_outside", "unexplained on outside flights ≥ 90 %", lambda v: v >= 0.9),
+                             ("none_outside", "none on outside flights = 0", lambda v: v == 0),
+                             ("unexpl_catalog", "unexplained on catalog-only flights ≤ 5 %", lambda v: v <= 0.05)]:
+        v = out["rates"][f"{key} ≥36 all"]
+        num = int(round(v[0] * v[3])) if v[3] else 0
+        ok = "–" if v[3] == 0 else ("PASS" if test(v[0]) else "FAIL")
+        out["rates"][f"{key} ≥36 all"] = v
+        lines.append(f"| {label} | {_cell(v, num)} | {ok} |")
+    return "\n".join(lines), out
+
+
+def summarise_paired(rows: list[dict], before: dict, boot_seed: int, n_boot: int) -> tuple[str, dict]:
+    """Before/after on the same stores (:func:`is_paired` flights diagnosed by both
+    codes): recall per cause, all true causes, spurious catalog causes and skipped
+    flights, before, after and after − before with flight-bootstrap CIs (flights drawn
+    within their design group)."""
+    P = [r for r in rows if r.get("stored") and r["flight_id"] in before]
+    if not P:
+        return "", {}
+    S = Summary(P, boot_seed, n_boot)
+    band = np.array([band_of(r) for r in P])
+    B = [before[r["flight_id"]] for r in P]
+    kind = np.array([r["kind"] for r in P])
+    out: dict = {"flights": len(P), "per_cause": {}, "overall": {}}
+    bands = [("≥36", band == "≥36"), ("<36", band == "<36"), ("all", np.ones(len(P), bool))]
+    lines = ["### Before/after on the same stores (existing causes; 95 % flight-bootstrap CIs)", "",
+             f"{len(P)} flights holding only catalog causes other than blade_imbalance (one-cause, two-cause, "
+             "clean), each written once as a flight-zarr store and diagnosed by both codes. Resolved: the CI of "
+             "after − before excludes 0.", "",
+             "| cause | SNR | flights with it | recall before | recall after | after − before |",
+             "|---|---|---|---|---|---|"]
+    for c in OLD_CAUSES:
+        has = np.array([c in r["true"] for r in P])
+        hit_a = np.array([c in r["named"] for r in P]) & has
+        hit_b = np.array([c in b["named"] for b in B]) & has
+        for bn, m in bands:
+            if not (has & m).any():
+                continue
+            vb, va = S.ratio(hit_b & m, has & m), S.ratio(hit_a & m, has & m)
+            d = S.ratio((hit_a.astype(float) - hit_b) * m, has & m)
+            out["per_cause"][f"{c} {bn}"] = {"before": vb, "after": va, "diff": d}
+            lines.append(f"| {c} | {bn} | {int((has & m).sum())} | {_cell(vb, int((hit_b & m).sum()))} | "
+                         f"{_cell(va, int((hit_a & m).sum()))} | {_diff_cell(d)} |")
+    n_true = np.array([len(r["true"]) for r in P])
+    n_hit_a = np.array([len(set(r["true"]) & set(r["named"])) for r in P])
+    n_hit_b = np.array([len(set(r["true"]) & set(b["named"])) for r, b in zip(P, B)])
+    old = set(OLD_CAUSES)
+    spur_b = np.array([bool((set(b["named"]) & old) - set(r["true"])) for r, b in zip(P, B)])
+    spur_a = np.array([bool((_catalog_named(r) & old) - set(r["true"])) for r in P])
+    spur_a_imb = np.array([bool(_catalog_named(r) - set(r["true"])) for r in P])
+    skip_b = np.array([b["reason"] is not None for b in B])
+    skip_a = np.array([r["reason"] is not None for r in P])
+    unex_a = np.array([UNEXPLAINED in r["named"] for r in P])
+    lines += ["", "| measure | SNR | n | before | after | after − before |", "|---|---|---|---|---|---|"]
+    for label, key, nb, na, den in [
+            ("true causes named (recall over all true causes)", "recall", n_hit_b, n_hit_a, n_true),
+            ("flights naming a catalog cause they lack (the six earlier causes)", "spurious", spur_b, spur_a,
+             np.ones(len(P))),
+            ("… of those: two-cause flights", "spurious_two", spur_b * (kind == "two"), spur_a * (kind == "two"),
+             kind == "two"),
+            ("… of those: clean flights (false alarms)", "false_alarm", spur_b * (kind == "clean"),
+             spur_a * (kind == "clean"), kind == "clean"),
+            ("flights naming a catalog cause they lack, blade_imbalance counted (after only)", "spurious_any",
+             spur_b, spur_a_imb, np.ones(len(P))),
+            ("skipped (undiagnosable)", "skipped", skip_b, skip_a, np.ones(len(P))),
+            ("unexplained (after only)", "unexplained", np.zeros(len(P)), unex_a, np.ones(len(P)))]:
+        for bn, m in bands:
+            vb = S.ratio(np.asarray(nb, float) * m, np.asarray(den, float) * m)
+            va = S.ratio(np.asarray(na, float) * m, np.asarray(den, float) * m)
+            d = S.ratio((np.asarray(na, float) - np.asarray(nb, float)) * m, np.asarray(den, float) * m)
+            out["overall"][f"{key} {bn}"] = {"before": vb, "after": va, "diff": d}
+            lines.append(f"| {label} | {bn} | {vb[3]} | {_cell(vb, int(round(np.sum(np.asarray(nb) * m))))} | "
+                         f"{_cell(va, int(round(np.sum(np.asarray(na) * m))))} | {_diff_cell(d)} |")
+    # issue 34's known hole: phase noise with a sideband cause
+    side = ("sideband_fading", "sideband_asymmetry")
+    pn = [(r, b) for r, b in zip(P, B) if "phase_noise" in r["true"] and any(c in r["true"] for c in side)]
+    if pn:
+        sb = sum(any(c in b["named"] for c in side if c in r["true"]) for r, b in pn)
+        sa = sum(any(c in r["named"] for c in side if c in r["true"]) for r, b in pn)
+        out["pn_sideband"] = {"n": len(pn), "before": sb, "after": sa}
+        lines.append(f"\nPhase noise with a sideband cause: the sideband cause named on {sb}/{len(pn)} flights "
+                     f"before, {sa}/{len(pn)} after.")
+    return "\n".join(lines), out
+
+
+def report(rows: list[dict], seed: int, n_boot: int, before: dict | None = None) -> tuple[str, dict]:
+    """Every table: issue 34's rates and targets, the paired before/after (where
+    ``before`` is given), then the earlier targets and tables."""
+    text, out = summarise(rows, boot_seed=seed ^ 0x5EED, n_boot=n_boot)
+    t34, out["issue34"] = summarise_issue34(rows, boot_seed=seed ^ 0x3434, n_boot=n_boot)
+    parts = [t34]
+    if before:
+        tp, out["paired"] = summarise_paired(rows, before, boot_seed=seed ^ 0xBEF0, n_boot=n_boot)
+        parts.append(tp)
+    parts += [targets(out), text]
+    return "\n\n".join(p for p in parts if p), out
+
+
+def _rel(path) -> str:
+    """A path as recorded: relative to the repository root where inside it, else
+    its name (no paths of this machine in the records)."""
+    if not path:
+        return path
+    p = Path(path).resolve()
+    try:
+        return str(p.relative_to(REPO))
+    except ValueError:
+        return p.name
+
+
+def run_before(store_dir: str, before_src: str) -> tuple[dict, dict]:
+    """Diagnose the stores with the code in ``before_src`` (a ``src/`` folder) in a
+    subprocess; returns ({flight_id: result}, {"commit", "cpu_s", "wall_s"})."""
+    out = Path(store_dir) / "_before.json"
+    env = {**os.environ, "PYTHONPATH": str(Path(before_src).resolve()), "OMP_NUM_THREADS": "1"}
+    t0, c0 = time.time(), os.times()
+    subprocess.run([sys.executable, str(Path(__file__).with_name("diagnose_stores.py")), store_dir,
+                    "--out", str(out)], env=env, check=True)
+    c1 = os.times()
+    commit = subprocess.run(["git", "-C", str(Path(before_src).resolve()), "rev-parse", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()
+    info = {"commit": commit or None, "wall_s": round(time.time() - t0, 1),
+            "cpu_s": round((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system), 1)}
+    return json.loads(out.read_text()), info
+
+
 # ----------------------------------------------------------------------------- main
 def resummarise(a) -> int:
     """Tables from an earlier run's rows (``--summarise``), adding the ideal-observer
@@ -560,14 +953,19 @@ def resummarise(a) -> int:
                                                   data["args"]["clean"], data["args"]["duration_s"],
                                                   data["args"]["high_snr_share"], data["args"].get("causes"),
                                                   data["args"].get("falloff_db"),
-                                                  data["args"].get("generators", "both"))}
+                                                  data["args"].get("generators", "both"),
+                                                  data["args"].get("outside", 0))}
     for r in rows:
         p = plan[r["flight_id"]]
         r.setdefault("duration_s", p["duration_s"])
+        r.setdefault("oddities", {})
         add_ideal(r["errors"], p)
-    text, out = summarise(rows, boot_seed=seed ^ 0x5EED, n_boot=a.n_boot)
-    text = targets(out) + "\n\n" + text
+    before = {r["flight_id"]: r["before"] for r in rows if r.get("before")}
+    text, out = report(rows, seed, a.n_boot, before)
     print(text, flush=True)
+    if a.json:  # the same record with this code's summary
+        with atomic_file(a.json) as tmp:
+            tmp.write_text(json.dumps({**data, "rows": rows, "summary": out}, indent=1, default=float))
     if a.markdown:
         with atomic_file(a.markdown) as tmp:
             tmp.write_text(text + "\n")
@@ -579,6 +977,9 @@ def main(argv=None) -> int:
     ap.add_argument("--flights-per-cause", type=int, default=10, help="one-cause flights per cause (default 10)")
     ap.add_argument("--two-cause", type=int, default=20, help="flights with two causes at once (default 20)")
     ap.add_argument("--clean", type=int, default=10, help="flights without an effect (default 10)")
+    ap.add_argument("--outside", type=int, default=0,
+                    help="flights with an out-of-catalog effect, half emulated and altered, half from the "
+                         "independent generator (default 0)")
     ap.add_argument("--seed", type=int, default=None, help="seed of the plan (default: fresh random, printed)")
     ap.add_argument("--duration-s", type=float, default=40.0, help="flight duration [s] (default 40)")
     ap.add_argument("--high-snr-share", type=float, default=0.6,
@@ -591,16 +992,27 @@ def main(argv=None) -> int:
                                           "in LO-HI dB (default: the emulator's own draw, 4-16 dB); e.g. 10,16")
     ap.add_argument("--generators", choices=("both", "emulator", "independent"), default="both",
                     help="which generator makes the flights (default both, alternating)")
-    ap.add_argument("--json", default="", help="write the per-flight rows and the summary here")
+    ap.add_argument("--json", default="", help="write the per-flight rows and the summary here (with --summarise: "
+                                               "the earlier record with this code's summary)")
     ap.add_argument("--markdown", default="", help="write the tables here")
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     ap.add_argument("--n-boot", type=int, default=2000, help="bootstrap replicates (default 2000)")
     ap.add_argument("--summarise", default="", metavar="JSON",
                     help="summarise the rows of an earlier run's --json file again (no flights are made)")
+    ap.add_argument("--before-src", default="", metavar="DIR",
+                    help="the src/ folder of an older checkout: diagnose the catalog-cause flights' stores with it "
+                         "too, after the loop, and compare before/after on the same flights")
+    ap.add_argument("--stores", default="", metavar="DIR",
+                    help="where the paired flights' flight-zarr stores go (default: a temporary folder, removed "
+                         "at the end); only with --before-src")
     a = ap.parse_args(argv)
     if a.summarise:
         return resummarise(a)
-    for name in ("flights_per_cause", "two_cause", "clean"):
+    if a.stores and not a.before_src:
+        ap.error("--stores needs --before-src")
+    if a.before_src and not (Path(a.before_src) / "microdoppler" / "diagnosis").is_dir():
+        ap.error(f"--before-src={a.before_src}: no microdoppler/diagnosis package there")
+    for name in ("flights_per_cause", "two_cause", "clean", "outside"):
         if getattr(a, name) < 0:
             ap.error(f"--{name.replace('_', '-')}={getattr(a, name)} must be >= 0")
     if not a.duration_s >= 10:
@@ -617,23 +1029,37 @@ def main(argv=None) -> int:
     seed = a.seed if a.seed is not None else secrets.randbits(32)
     print(f"seed {seed} (rerun: --seed {seed})", flush=True)
     plan = make_plan(seed, a.flights_per_cause, a.two_cause, a.clean, a.duration_s, a.high_snr_share, a.causes,
-                     a.falloff_db, a.generators)
+                     a.falloff_db, a.generators, a.outside)
     n = len(plan)
     if n == 0:
         ap.error("no flights planned")
-    est = n * (EMU_S_PER_FLIGHT_S * a.duration_s * EMULATIONS_PER_FLIGHT + DIAG_S) / a.workers
+    n_paired = sum(is_paired(p) for p in plan) if a.before_src else 0
+    est = (n * (EMU_S_PER_FLIGHT_S * a.duration_s * EMULATIONS_PER_FLIGHT + DIAG_S * a.duration_s)
+           + n_paired * DIAG_BEFORE_S * a.duration_s) / a.workers
     n_causes = len(a.causes) if a.causes else len(CAUSE_LIST)
     print(f"{n} flights ({a.flights_per_cause} per cause x {n_causes}, {a.two_cause} two-cause, "
-          f"{a.clean} clean), {a.duration_s:g} s each, {a.workers} worker(s): estimated {est / 60:.1f} min", flush=True)
+          f"{a.clean} clean, {a.outside} outside; {n_paired} also diagnosed by the earlier code), "
+          f"{a.duration_s:g} s each, {a.workers} worker(s): estimated {est / 60:.1f} min", flush=True)
+    tmp_stores = None
+    store_dir = None
+    if a.before_src:
+        if a.stores:
+            store_dir = a.stores
+            Path(store_dir).mkdir(parents=True, exist_ok=True)
+        else:
+            tmp_stores = tempfile.TemporaryDirectory(prefix="eval_diagnosis_stores_")
+            store_dir = tmp_stores.name
     t0 = time.time()
+    c0 = os.times()
     rows = []
+    work = partial(evaluate_flight, store_dir=store_dir)
     if a.workers == 1:
-        it = map(evaluate_flight, plan)
+        it = map(work, plan)
     else:
         import multiprocessing as mp
 
         pool = mp.get_context("fork").Pool(a.workers)
-        it = pool.imap_unordered(evaluate_flight, plan)
+        it = pool.imap_unordered(work, plan)
     for r in it:
         rows.append(r)
         el = time.time() - t0
@@ -645,12 +1071,30 @@ def main(argv=None) -> int:
         pool.join()
     rows.sort(key=lambda r: r["flight_id"])
     wall = time.time() - t0
-    text, out = summarise(rows, boot_seed=seed ^ 0x5EED, n_boot=a.n_boot)
-    text = targets(out) + "\n\n" + text
+    c1 = os.times()
+    cpu = (c1.user - c0.user) + (c1.system - c0.system) + (c1.children_user - c0.children_user) + (
+        c1.children_system - c0.children_system)
+    before, before_info = {}, None
+    if a.before_src:
+        print(f"diagnosing {sum(r['stored'] for r in rows)} stores with the code in {a.before_src}", flush=True)
+        before, before_info = run_before(store_dir, a.before_src)
+        for r in rows:
+            if r["flight_id"] in before:
+                r["before"] = before[r["flight_id"]]
+        if tmp_stores is not None:
+            tmp_stores.cleanup()
+    args = {**vars(a), **{k: _rel(getattr(a, k)) for k in ("json", "markdown", "stores", "before_src")}}
+    if a.json:  # the rows first: a summary that fails loses nothing (--summarise rebuilds it)
+        with atomic_file(a.json) as tmp:
+            tmp.write_text(json.dumps({"seed": seed, "args": args, "rows": rows}, indent=1, default=float))
+    text, out = report(rows, seed, a.n_boot, before)
     per = np.mean([r["seconds_make"] + r["seconds_diagnose"] for r in rows])
-    footer = (f"\n{n} flights, seed {seed}, {a.duration_s:g} s each; wall {wall:.0f} s with {a.workers} worker(s) "
-              f"({per:.1f} s per flight: make {np.mean([r['seconds_make'] for r in rows]):.1f} s, diagnose "
-              f"{np.mean([r['seconds_diagnose'] for r in rows]):.1f} s)")
+    footer = (f"\n{n} flights, seed {seed}, {a.duration_s:g} s each; wall {wall:.0f} s, CPU {cpu:.0f} s with "
+              f"{a.workers} worker(s) ({per:.1f} s per flight: make {np.mean([r['seconds_make'] for r in rows]):.1f} s, "
+              f"diagnose {np.mean([r['seconds_diagnose'] for r in rows]):.1f} s)")
+    if before_info:
+        footer += (f"; the earlier code ({before_info['commit']}) on {len(before)} stores: wall "
+                   f"{before_info['wall_s']:.0f} s, CPU {before_info['cpu_s']:.0f} s")
     reasons: dict = {}
     for r in rows:
         if r["reason"]:
@@ -660,8 +1104,9 @@ def main(argv=None) -> int:
     print("\n" + text + "\n" + footer, flush=True)
     if a.json:
         with atomic_file(a.json) as tmp:
-            tmp.write_text(json.dumps({"seed": seed, "args": vars(a), "rows": rows, "summary": out}, indent=1,
-                                      default=float))
+            tmp.write_text(json.dumps({"seed": seed, "args": args, "rows": rows, "summary": out,
+                                       "before": before_info, "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)},
+                                      indent=1, default=float))
     if a.markdown:
         with atomic_file(a.markdown) as tmp:
             tmp.write_text(text + "\n" + footer + "\n")

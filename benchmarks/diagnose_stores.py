@@ -1,0 +1,63 @@
+"""Diagnose flight-zarr stores with whichever ``microdoppler`` is on ``PYTHONPATH`` (not run in CI).
+
+For paired before/after comparisons: ``eval_diagnosis.py --before-src DIR`` writes its
+catalog-cause flights as stores and runs this script with ``PYTHONPATH=DIR`` (the
+``src/`` of an older checkout), so that the same bytes are diagnosed by both codes.
+It imports only :func:`microdoppler.io.flightzarr.read_flight` and
+:func:`microdoppler.diagnosis.diagnose_flight`, which every version since the
+flight-zarr format has, and writes per flight: the causes named, their canonical
+parameters and the reason a flight was skipped.
+
+    PYTHONPATH=../old/src python benchmarks/diagnose_stores.py STORES_DIR --out before.json
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+
+def diagnose_store(path: Path) -> dict:
+    """One store: ``{"named", "fits", "reason", "seconds_diagnose"}``."""
+    from microdoppler.diagnosis import Undiagnosable, diagnose_flight
+    from microdoppler.io.flightzarr import read_flight
+
+    flight = read_flight(path)
+    t0 = time.perf_counter()
+    reason = None
+    try:
+        e = diagnose_flight(flight, config={"figures": False})
+        named = [c["cause"] for c in e["causes"]]
+        fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
+    except Undiagnosable as exc:
+        named, fits, reason = [], {}, f"skipped: {exc.reason}"
+    except Exception as exc:  # noqa: BLE001 (an evaluation records a crash and goes on)
+        named, fits, reason = [], {}, f"error: {type(exc).__name__}: {exc}"
+    return {"flight_id": flight.flight_id, "named": named, "fits": fits, "reason": reason,
+            "seconds_diagnose": round(time.perf_counter() - t0, 2)}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("stores", help="folder of *.zarr flight stores")
+    ap.add_argument("--out", required=True, help="JSON file: {flight_id: result}")
+    a = ap.parse_args(argv)
+    stores = sorted(Path(a.stores).glob("*.zarr"))
+    out = {}
+    for i, s in enumerate(stores, 1):
+        r = diagnose_store(s)
+        out[r["flight_id"]] = r
+        print(f"[{i}/{len(stores)}] {r['flight_id']} named={r['named']} {r['reason'] or ''} "
+              f"({r['seconds_diagnose']:.1f} s)", flush=True)
+    Path(a.out).write_text(json.dumps(out, indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
