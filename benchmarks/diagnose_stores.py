@@ -23,22 +23,30 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 
+def diagnose(flight) -> tuple[list, dict, str | None]:
+    """One flight through the diagnosis (no figures): (named causes, each cause's
+    parameters, reason or None); a skip or a crash is recorded, not raised (an
+    evaluation goes on). Also used by eval_diagnosis.py."""
+    from microdoppler.diagnosis import Undiagnosable, diagnose_flight
+
+    try:
+        e = diagnose_flight(flight, config={"figures": False})   # sees the flight only
+        named = [c["cause"] for c in e["causes"]]
+        fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
+        return named, fits, None
+    except Undiagnosable as exc:
+        return [], {}, f"skipped: {exc.reason}"
+    except Exception as exc:  # noqa: BLE001 (an evaluation records a crash and goes on)
+        return [], {}, f"error: {type(exc).__name__}: {exc}"
+
+
 def diagnose_store(path: Path) -> dict:
     """One store: ``{"named", "fits", "reason", "seconds_diagnose"}``."""
-    from microdoppler.diagnosis import Undiagnosable, diagnose_flight
     from microdoppler.io.flightzarr import read_flight
 
     flight = read_flight(path)
     t0 = time.perf_counter()
-    reason = None
-    try:
-        e = diagnose_flight(flight, config={"figures": False})
-        named = [c["cause"] for c in e["causes"]]
-        fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
-    except Undiagnosable as exc:
-        named, fits, reason = [], {}, f"skipped: {exc.reason}"
-    except Exception as exc:  # noqa: BLE001 (an evaluation records a crash and goes on)
-        named, fits, reason = [], {}, f"error: {type(exc).__name__}: {exc}"
+    named, fits, reason = diagnose(flight)
     return {"flight_id": flight.flight_id, "named": named, "fits": fits, "reason": reason,
             "seconds_diagnose": round(time.perf_counter() - t0, 2)}
 

@@ -97,7 +97,7 @@ import numpy as np  # noqa: E402
 
 from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved  # noqa: E402
 from microdoppler.synthesis.catalog import CATALOG, UNEXPLAINED  # noqa: E402
-from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
+from diagnose_stores import diagnose  # noqa: E402  (this folder: the script's own)
 from microdoppler.emulator import world as emu_world  # noqa: E402
 from microdoppler.emulator.world import FlightSpec, emulate_flight  # noqa: E402
 from microdoppler.io.flightzarr import read_flight, write_flight  # noqa: E402
@@ -415,15 +415,7 @@ def evaluate_flight(p: dict, store_dir: str | None = None) -> dict:
         write_flight(path, flight)
         flight = read_flight(path)
     t1 = time.perf_counter()
-    reason = None
-    try:
-        e = diagnose_flight(flight, config={"figures": False})   # sees the flight only
-        named = [c["cause"] for c in e["causes"]]
-        fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
-    except Undiagnosable as exc:
-        named, fits, reason = [], {}, f"skipped: {exc.reason}"
-    except Exception as exc:  # noqa: BLE001 (an evaluation records a crash and goes on)
-        named, fits, reason = [], {}, f"error: {type(exc).__name__}: {exc}"
+    named, fits, reason = diagnose(flight)   # sees the flight only
     t2 = time.perf_counter()
     errors = {}
     for c, truth in p["effects"].items():
