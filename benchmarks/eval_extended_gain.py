@@ -51,6 +51,7 @@ from microdoppler.diagnosis.measure import flight_log  # noqa: E402
 from microdoppler.synthesis.extensions import ExtensionSet  # noqa: E402
 from microdoppler.datasets.fidelity import DISTANCES, distances, flight_features, scoring_mask  # noqa: E402
 from microdoppler.io.outputs import atomic_file  # noqa: E402
+from microdoppler.synthesis.catalog import UNEXPLAINED  # noqa: E402
 from microdoppler.spectra.spectrogram import SpectrogramConfig  # noqa: E402
 
 #: the Table VI features each cause should move (the "features of the diagnosed cause")
@@ -61,6 +62,7 @@ CAUSE_FEATURES = {
     "motor_log_lag": ["line_hz"],
     "motor_speed_scale": ["line_hz"],
     "phase_noise": ["floor_db"],
+    "blade_imbalance": ["nonmultiple_db"],
 }
 #: the pipeline's sub_cpi settings (config/config.yaml: sampling.per_variant.sub_cpi)
 SUB_CPI = {"per_cpi": 8, "window_pulses_min": 1500, "window_pulses_max": 3000}
@@ -81,7 +83,7 @@ def evaluate_flight(p: dict) -> dict:
     try:
         e = diagnose_flight(flight, config={"figures": False})
         named = {c["cause"]: catalog_params(c["cause"], (c.get("extension") or {}).get("params"))
-                 for c in e["causes"]}
+                 for c in e["causes"] if c["cause"] != UNEXPLAINED}   # a goodness of fit: no extension
     except Undiagnosable as exc:
         row.update(named=[], reason=f"skipped: {exc.reason}")
         return row
@@ -100,8 +102,11 @@ def evaluate_flight(p: dict) -> dict:
                                  n_fft=spec_cfg.n_fft, seed=seed)
         kw = {}
         if use.effects:
+            # as the pipeline's extended twins (datasets.calibration): the synthesis's
+            # extensions, the post-processing and each blade's amplitude (blade_imbalance)
             kw = dict(extensions=lambda s: use.model_extensions(prf_hz=prf, n_pulses=n, seed=s),
-                      post=lambda x: use.post(x, prf_hz=prf, seed=seed))
+                      post=lambda x: use.post(x, prf_hz=prf, seed=seed),
+                      blade_amplitudes=use.blade_amplitudes(int(flight.attrs["n_blades"])))
         iq, res = fit_twin(flight, rev, use.transform_log(ml), spec_cfg=spec_cfg, cfg=cfg, seed=seed, **kw)
         injected = inject(iq, flight.background_iq, effects=dict(use.effects), prf_hz=prf, seed=seed)
         twin = flight_features(flight, injected, ml, spec_cfg=spec_cfg)
