@@ -657,6 +657,15 @@ def lag_curves(log: MotorLog, t_s: np.ndarray, window: np.ndarray, prf_hz: float
     return out
 
 
+def clutter_line_power(M: Measurements) -> np.ndarray:
+    """The clutter line's power per CPI [n_t] (periodogram units): the bins within
+    :data:`.config.PN_CLUTTER_LINE_HZ` of 0 Hz, noise-subtracted, >= 0 (read by
+    :func:`floor_ordinates` and :func:`skirt_floor`)."""
+    st = M.stft
+    clutter = np.abs(st.f_hz) <= PN_CLUTTER_LINE_HZ
+    return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
+
+
 def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | None:
     """The phase-noise test's data (:class:`FloorOrdinates`; None without a background
     recording): on every second valid CPI (non-overlapping), the periodogram bins
@@ -683,7 +692,7 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
     region = (np.abs(f) >= PN_INNER_HZ) & (np.abs(f) <= PN_OUTER_HZ)
     cols = np.flatnonzero(region)[::PN_BIN_STEP]
     rows = np.flatnonzero(M.valid)[::2]  # non-overlapping CPIs
-    clutter = (np.abs(f) <= PN_CLUTTER_LINE_HZ)
+    clutter_pow = clutter_line_power(M)
     calib = M.calib
     kept, fs, ps, ss, cs = [], [], [], [], []
     for i in rows:
@@ -714,22 +723,13 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
         if len(cc) < 5:
             continue
         kept.append(i)
-        cs.append(max(float(st.p[i, clutter].sum() - clutter.sum() * M.floor[i]), 0.0))
+        cs.append(float(clutter_pow[i]))
         fs.append(f[cc])
         ps.append(st.p[i, cc])
         ss.append(s_bg_t[min(i, len(s_bg_t) - 1), cc])
     kept = np.asarray(kept, int)
     return FloorOrdinates(bin_hz=st.bin_hz, cpi=kept, f_body_hz=M.f_body_hz[kept], body_pow=M.body_pow[kept],
                           clutter_pow=np.asarray(cs, float), f_hz=tuple(fs), power=tuple(ps), background=tuple(ss))
-
-
-def clutter_line_power(M: Measurements) -> np.ndarray:
-    """The clutter line's power per CPI [n_t] (periodogram units): the bins within
-    :data:`.config.PN_CLUTTER_LINE_HZ` of 0 Hz, noise-subtracted, >= 0 (as in
-    :func:`floor_ordinates`)."""
-    st = M.stft
-    clutter = np.abs(st.f_hz) <= PN_CLUTTER_LINE_HZ
-    return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
 
 
 def skirt_shape(f_hz: np.ndarray, bandwidth_hz: float, offset_hz: float) -> tuple[np.ndarray, np.ndarray]:
