@@ -12,14 +12,23 @@ fast loop's parameter split (:func:`fast_loop`); how runs use the cores.
   run in one. ``--dist loadscope``: a module's tests run on one worker, so a module-scoped
   fixture (a workflow run, a built world) is built once; the longest modules start
   first (:data:`LONGEST_FIRST`, ``--no-loadscope-reorder``), so that none of them is
-  left to run alone at the end."""
+  left to run alone at the end.
+- One BLAS/OpenMP thread per process (set here, before NumPy loads, unless the caller
+  set it): the workers already use every core, and the I/Q fit's small products ran
+  3.7x slower on two threads than on one (README command 2 without
+  ``OMP_NUM_THREADS=1`` did not finish in 12 min). Subprocesses (workflow runs) inherit it."""
 
 from __future__ import annotations
 
-from pathlib import Path
+import os
 
-import numpy as np
-import pytest
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 #: the real PX4 log, referenced relative to the repository root
