@@ -89,6 +89,7 @@ import numpy as np
 from scipy.signal.windows import blackmanharris
 from scipy.linalg import cho_solve, cholesky
 from scipy.linalg.blas import zgemm, zgemv, zherk
+from threadpoolctl import threadpool_limits
 
 
 # Fixed settings of the fit (module constants: search effort and calibrated terms, not
@@ -358,7 +359,16 @@ def _compositions(M: int, k: int):
         yield [b[i + 1] - b[i] for i in range(k)]
 
 
-def refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_hz: float, body_rate_hz_s: float,
+def refine_cpi(*args, **kwargs) -> CpiFit | None:
+    """Fit the harmonic-chirp model to one CPI's samples (:func:`_refine_cpi`, same
+    arguments) on one BLAS thread: the fit's products are tall and thin (4096 x ~44),
+    where BLAS's threads cost more than they give (3.7x slower on two threads than on
+    one, whatever ``OMP_NUM_THREADS`` the caller left)."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _refine_cpi(*args, **kwargs)
+
+
+def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_hz: float, body_rate_hz_s: float,
                lines_rev_s, rate_rev_s2: float, n_pairs: int | None = None,
                config: FitConfig | None = None) -> CpiFit | None:
     """Fit the harmonic-chirp model to one CPI's samples ``x``.
