@@ -29,6 +29,15 @@ from ..errors import ConfigError
 #: CPI's floor (clutter, another line's skirt) is not read. Two fields of the first
 #: version (``artifact_floor_db``, ``raised_floor_db``), both 3 dB: twice the power.
 RAISED_FLOOR_DB = 3.0
+#: the same guard for the rotation-rate lines (the blade-imbalance test's observations,
+#: :func:`.measure.rotation_line_powers`): their local floor lies between lines of the
+#: target itself (a rotor's lines of neighbouring orders, the other rotors' lines of the
+#: same order, each smeared by the speed's change within a CPI), which lift it by 5-30 dB
+#: on emulated Matrice/Inspire flights while it is still the floor under the line; at
+#: 3 dB no order of an emulated weak-blade flight was read (f0295: 0 of 102 CPIs at the
+#: blade-passing order). The floor is subtracted as measured, the noise variance taken
+#: from it; only a floor this far up (no line could be read over it) is refused.
+ROTATION_RAISED_FLOOR_DB = 30.0
 #: the body line is the strongest bin within this [Hz] of the tracker's Doppler
 #: (``body_search_hz``): a radial-speed error of the track up to 1.1 m/s at 1.35 GHz.
 #: First version.

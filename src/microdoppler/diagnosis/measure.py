@@ -50,6 +50,7 @@ from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, 
 from .config import (BODY_SEARCH_HZ, LAG_STEP_S, LINE_GUARD_FRAC, LINE_HALF_BINS, MIN_MATCH, MIN_PAIR_SNR,
                      N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_CLUTTER_LINE_HZ,
                      PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
+                     ROTATION_RAISED_FLOOR_DB,
                      SCALE_MAX, SCALE_MIN, SCALE_STEP, DiagnosisConfig)
 
 DB = 10.0 / np.log(10.0)
@@ -1046,7 +1047,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
                       for m in range(rev.shape[1])], axis=1) * dil_f[:, None]
     k_max = B * N_HARMONICS
     rot = rotation_line_powers(st, f_body, rev_m, in_log & ~art, B, k_max, floor,
-                               clutter_guard_hz=cfg.clutter_guard_hz, raised_floor_db=RAISED_FLOOR_DB)
+                               clutter_guard_hz=cfg.clutter_guard_hz, raised_floor_db=ROTATION_RAISED_FLOOR_DB)
     rot_wire = thin_wire_line_power(float(a["blade_length_m"]), flight.wavelength_m, k_max)
     M = Measurements(
         flight.flight_id, st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
