@@ -27,17 +27,28 @@ def diagnose(flight) -> tuple[list, dict, str | None]:
     """One flight through the diagnosis (no figures): (named causes, each cause's
     parameters, reason or None); a skip or a crash is recorded, not raised (an
     evaluation goes on). Also used by eval_diagnosis.py."""
+    return diagnose_with_fit(flight)[:3]
+
+
+#: the goodness of fit's numbers a benchmark row keeps
+GOF_KEYS = ("largest_significant_db", "max_abs_residual_db", "excess_db", "band_hz", "margin_db")
+
+
+def diagnose_with_fit(flight) -> tuple[list, dict, str | None, dict]:
+    """:func:`diagnose` and the goodness of fit's numbers (:data:`GOF_KEYS`, those the
+    diagnosis reports; empty for a skipped flight)."""
     from microdoppler.diagnosis import Undiagnosable, diagnose_flight
 
     try:
         e = diagnose_flight(flight, config={"figures": False})   # sees the flight only
         named = [c["cause"] for c in e["causes"]]
         fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
-        return named, fits, None
+        gof = e.get("evidence", {}).get("goodness_of_fit", {})
+        return named, fits, None, {k: gof[k] for k in GOF_KEYS if k in gof}
     except Undiagnosable as exc:
-        return [], {}, f"skipped: {exc.reason}"
+        return [], {}, f"skipped: {exc.reason}", {}
     except Exception as exc:  # noqa: BLE001 (an evaluation records a crash and goes on)
-        return [], {}, f"error: {type(exc).__name__}: {exc}"
+        return [], {}, f"error: {type(exc).__name__}: {exc}", {}
 
 
 def diagnose_store(path: Path) -> dict:

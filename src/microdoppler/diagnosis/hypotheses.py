@@ -75,7 +75,7 @@ from scipy.optimize import minimize_scalar
 
 from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .config import BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ, DiagnosisConfig
-from .measure import DB, Measurements, Undiagnosable, given_skirt, skirt_shape
+from .measure import DB, Measurements, Undiagnosable, given_imbalance, given_skirt, skirt_shape
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -945,8 +945,12 @@ ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor
 #: (:func:`.measure.given_skirt`, both models), so the sideband causes are judged on
 #: what the skirt leaves (issue 34). Phase noise's own test reads the floor off the
 #: target's lines and does not change with a sideband cause.
+#: Likewise a named blade imbalance: its rotation-rate lines lie between the
+#: blade-passing lines and lift the sidebands' local floor (:func:`.measure.given_imbalance`);
+#: the imbalance's own test reads the rotation lines and does not change with them.
 LOG_COUPLED = {"motor_log_lag": {"motor_speed_scale"}, "motor_speed_scale": {"motor_log_lag"}}
-SKIRT_COUPLED = {"sideband_asymmetry": {"phase_noise"}, "sideband_fading": {"phase_noise"}}
+FLOOR_PARTNERS = frozenset({"phase_noise", "blade_imbalance"})
+SKIRT_COUPLED = {"sideband_asymmetry": set(FLOOR_PARTNERS), "sideband_fading": set(FLOOR_PARTNERS)}
 COUPLED = {**LOG_COUPLED, **SKIRT_COUPLED}
 
 
@@ -1032,30 +1036,48 @@ def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
 
 
 def tests_given_skirt(M: Measurements, cfg: DiagnosisConfig, fold, tests: dict) -> dict:
-    """The sideband tests (:data:`SKIRT_COUPLED`) with the phase-noise skirt fitted
-    by ``tests["phase_noise"]`` in the model of the floor under the sidebands
-    (:func:`.measure.given_skirt`), keyed ``(cause, frozenset({"phase_noise"}))`` as
-    :attr:`TestResults.conditional`; empty when phase noise is not testable or its
-    skirt is nil. A test whose pairs the skirt does not change is the same object."""
+    """The sideband tests (:data:`SKIRT_COUPLED`) with what lifts the floor under the
+    sidebands in its model, keyed ``(cause, partners)`` as
+    :attr:`TestResults.conditional`, for every non-empty set of the available
+    partners: the phase-noise skirt fitted by ``tests["phase_noise"]``
+    (:func:`.measure.given_skirt`; available when phase noise is testable and its
+    skirt not nil) and a blade imbalance's rotation lines
+    (:func:`.measure.given_imbalance`; available when the imbalance test is testable
+    and favours the imbalance on held-out data). Empty when neither is. A test whose
+    pairs the partners do not change is the same object."""
+    available = []
     pn = tests.get("phase_noise")
-    if pn is None or not pn.testable or not pn.fit or pn.fit["q_flat"] + pn.fit["q_slope"] <= 0:
-        return {}
-    q = (pn.fit["q_flat"], pn.fit["q_slope"], pn.fit["bandwidth_hz"], pn.fit["offset_hz"])
-    # the asymmetry reads both sides of a pair; the fading the pair's sum, which one
-    # side clear of the skirt stands for (given_skirt's clear_side)
-    run = {"sideband_asymmetry": (test_asymmetry, given_skirt(M, *q)),
-           "sideband_fading": (test_fading, given_skirt(M, *q, clear_side=True))}
+    if pn is not None and pn.testable and pn.fit and pn.fit["q_flat"] + pn.fit["q_slope"] > 0:
+        q = (pn.fit["q_flat"], pn.fit["q_slope"], pn.fit["bandwidth_hz"], pn.fit["offset_hz"])
+        available.append("phase_noise")
+    imb = tests.get("blade_imbalance")
+    if imb is not None and imb.testable and imb.log_e > 0:
+        available.append("blade_imbalance")
     out = {}
-    for cause in SKIRT_COUPLED:
-        test, Ms = run[cause]
-        changed = not (np.array_equal(Ms.pair_ok, M.pair_ok) and np.array_equal(Ms.up, M.up)
-                       and np.array_equal(Ms.lo, M.lo))
-        t = test(Ms, cfg, fold) if changed else tests[cause]
-        if changed and t.testable:
-            n_new = int((Ms.pair_ok & ~M.pair_ok & M.valid[:, None]).sum())
-            t.evidence = {**t.evidence, "phase_noise_skirt_in_floor_model": True,
-                          "pairs_kept_on_the_skirt": n_new}
-        out[(cause, frozenset({"phase_noise"}))] = t
+    for r in range(1, len(available) + 1):
+        for g in combinations(available, r):
+            base = given_imbalance(M) if "blade_imbalance" in g else M
+            # the asymmetry reads both sides of a pair; the fading the pair's sum, which
+            # one side clear of the skirt stands for (given_skirt's clear_side)
+            if "phase_noise" in g:
+                run = {"sideband_asymmetry": (test_asymmetry, given_skirt(base, *q)),
+                       "sideband_fading": (test_fading, given_skirt(base, *q, clear_side=True))}
+            else:
+                run = {"sideband_asymmetry": (test_asymmetry, base), "sideband_fading": (test_fading, base)}
+            for cause in SKIRT_COUPLED:
+                test, Ms = run[cause]
+                changed = not (np.array_equal(Ms.pair_ok, M.pair_ok) and np.array_equal(Ms.up, M.up)
+                               and np.array_equal(Ms.lo, M.lo))
+                t = test(Ms, cfg, fold) if changed else tests[cause]
+                if changed and t.testable:
+                    n_new = int((Ms.pair_ok & ~M.pair_ok & M.valid[:, None]).sum())
+                    if "phase_noise" in g:
+                        t.evidence = {**t.evidence, "phase_noise_skirt_in_floor_model": True,
+                                      "pairs_kept_on_the_skirt": n_new}
+                    if "blade_imbalance" in g:
+                        t.evidence = {**t.evidence, "rotation_lines_in_floor_model": True,
+                                      "pairs_kept_beside_rotation_lines": n_new}
+                out[(cause, frozenset(g))] = t
     return out
 
 

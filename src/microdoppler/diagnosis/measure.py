@@ -762,6 +762,33 @@ def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
     return out
 
 
+def given_imbalance(M: Measurements) -> Measurements:
+    """``M`` with a named ``blade_imbalance`` in the model of the floor under the
+    sidebands: unequal blades put a line at every multiple of the rotation rate, so
+    between the blade-passing lines (for two blades, half a spacing from each, at the
+    edge of a sideband's local floor) the floor is the target's own rotation lines,
+    each smeared by the speed's change within a CPI. A sideband whose local floor is
+    raised over the far floor by up to :data:`.config.ROTATION_RAISED_FLOOR_DB` (the
+    rotation lines' own guard) is then kept: its power is read over that local floor
+    and its noise std taken from it, as always. ``pair_ok``, ``usable_pairs``,
+    ``usable_pair_sums`` and the calibration (:func:`calibrate`) follow.
+
+    Without it a weak blade of 3-10 dB leaves no usable pair on emulated Matrice and
+    Inspire flights (f0295 of eval_diagnosis seed 20261126: none of 5 harmonics), the
+    paper's model is calibrated on nothing (S_blade 30-45 dB low) and the sideband
+    causes beside the imbalance are not testable."""
+    if M.side_floor is None or M.pair_ok_any_floor is None:
+        return M
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rise = DB * np.log(M.side_floor / M.floor[:, None, None])
+    ok = M.pair_ok | (M.pair_ok_any_floor & np.all(rise <= ROTATION_RAISED_FLOOR_DB, axis=2))
+    if np.array_equal(ok, M.pair_ok):
+        return M
+    M = replace(M, pair_ok=ok, usable_pairs=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok),
+                usable_pair_sums=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok, summed=True))
+    return replace(M, calib=calibrate(M))
+
+
 def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
                 offset_hz: float, *, clear_side: bool = False) -> Measurements:
     """``M`` with a named phase-noise skirt in the model of the floor under the
