@@ -770,7 +770,26 @@ def margin_table(rows: list[dict], f: dict, S, out: dict) -> list[str]:
             out["margin"][f"{mdb} {g}"] = v
             cells.append(_cell(v, int(((big >= mdb) & m).sum())))
         lines.append(f"| {mdb} | " + " | ".join(cells) + " |")
+    # the other path to unexplained: a sideband gain that follows the body's
+    common = np.array([_common_gain_db(r) for r in rows], dtype=float)
+    straddle = np.array([r["kind"] == "outside" and "range_straddle" in r["oddities"] for r in rows])
+    lines += ["", "Unexplained for a sideband gain that follows the body's (a gain on the whole target; "
+              "std [dB], ≥ 36 dB):", ""]
+    for g, m in [("catalog-only flights", f["catalog_only"] & hi), ("out-of-catalog range straddles", straddle & hi),
+                 ("other out-of-catalog flights", f["outside"] & ~straddle & hi)]:
+        v = common[m & np.isfinite(common)]
+        rng_txt = f", std {v.min():.2f}-{v.max():.2f} dB" if len(v) else ""
+        out["margin"][f"common {g}"] = [int(len(v)), int(m.sum())]
+        lines.append(f"- {g}: {len(v)} of {int(m.sum())}{rng_txt}")
     return lines
+
+
+def _common_gain_db(r: dict) -> float:
+    """The std [dB] of the common gain that made row ``r`` unexplained (the report's
+    ``excess_db`` over the whole analysed span), NaN otherwise."""
+    u = r["fits"].get(UNEXPLAINED) or {}
+    b = u.get("band_hz")
+    return float(u["excess_db"]) if b and abs(b[0] + b[1]) < 1e-6 and u.get("excess_db") is not None else np.nan
 
 
 def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]:

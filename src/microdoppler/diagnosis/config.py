@@ -213,6 +213,7 @@ _RULES = {
     "margin_scale": ("float", 0, None, False, False),
     "margin_imbalance_db": ("float", 0, None, False, False),
     "margin_excess_db": ("float", 0, None, False, False),
+    "margin_common_gain_db": ("float", 0, None, False, False),
     "margin_floor_rise_db": ("float", 0, None, False, False),
     "min_blade_wavelengths": ("float", 0, None, False, False),
     "min_log_coverage": ("float", 0, 1, True, False),
@@ -291,6 +292,16 @@ class DiagnosisConfig:
         which at most 2.5 % of explained flights read ``unexplained``. Every
         out-of-catalog flight there with a band residual reached 13 dB or more (the
         summary's margin table).
+    margin_common_gain_db : float
+        Goodness of fit: the smallest std [dB] of a significant sideband power
+        fluctuation that follows the body's (correlation above
+        :data:`.hypotheses.COMMON_GAIN_CORR`) for ``unexplained`` (a gain on the
+        whole target: a range-cell straddle, an aspect change; no catalog cause is
+        one). 1 dB, half the fading's ``margin_std_db`` (2 dB, the margin until this
+        version, which left slow straddles of 1.8-1.95 dB std ``none``). On the
+        calibration plan of ``benchmarks/eval_diagnosis.py`` (seed 515) with no
+        margin, the 8 out-of-catalog straddles at >= 36 dB read 1.6-3.0 dB and no
+        catalog-only flight read a correlated gain below 3.2 dB.
     min_blade_wavelengths : float
         Blades shorter than this many wavelengths (below the thin wire's half-wave
         resonance) have rotor lines below the noise: such drones (the Mini 2's
@@ -320,6 +331,7 @@ class DiagnosisConfig:
     margin_floor_rise_db: float = 3.0
     margin_imbalance_db: float = 1.5
     margin_excess_db: float = 7.0
+    margin_common_gain_db: float = 1.0
     min_blade_wavelengths: float = 0.5
     min_log_coverage: float = 0.5
 

@@ -451,9 +451,10 @@ def test_fading(M, cfg, fold) -> CauseTest:
     # named by the CPI grid's size (the naming as before the short windows)
     res.relevant = cpi_sd >= cfg.margin_std_db
     body_corr = common_gain_correlation(M, e, m)
-    if res.relevant and body_corr is not None and body_corr > COMMON_GAIN_CORR:
+    if body_corr is not None and body_corr > COMMON_GAIN_CORR and cpi_sd >= cfg.margin_common_gain_db and cpi_sd > 0:
         # the sidebands follow the body: one gain on the whole target (a range-cell
         # straddle, an aspect change), not a blade fading independent of the body
+        # (its own margin: no catalog cause is named for it)
         res.relevant = False
         res.evidence["common_gain_db"] = round(cpi_sd, 2)
         res.evidence["reason"] = (f"the common sideband power follows the body's (correlation {body_corr:.2f} > "
