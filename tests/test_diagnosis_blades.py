@@ -105,3 +105,22 @@ def test_hovering_target_is_diagnosed_on_its_rotor_lines():
         assert "clutter notch" in entry["not_testable"][cause]
     asym = next(c for c in entry["causes"] if c["cause"] == "sideband_asymmetry")
     assert asym["extension"]["params"]["asymmetry_db"] == pytest.approx(-4.0, abs=1.0)
+
+
+#: a shallow range-cell straddle (3.5-4.5 dB deep: a std of ~1.2-1.6 dB, between the
+#: two margins), drawn from a seed the diagnosis never sees
+_STRADDLE_DRAW = np.random.default_rng(34_2028)
+STRADDLE = {"depth_db": float(_STRADDLE_DRAW.uniform(3.5, 4.5)), "period_s": float(_STRADDLE_DRAW.uniform(8.0, 12.0))}
+
+
+def test_shallow_range_straddle_is_unexplained():
+    """A slow gain on the whole target (body and blades together) is no catalog cause:
+    ``unexplained`` from a 1 dB std (``margin_common_gain_db``); with the fading's 2 dB
+    margin this one came out ``none`` (checked by setting it back)."""
+    flight, _ = make_flight(GenCase("straddle", 407, "gen_l", {}, duration_s=30.0,
+                                    oddities={"range_straddle": STRADDLE}))
+    entry = diagnose_flight(flight, config={"figures": False})
+    assert _named(entry) == ["unexplained"], (entry["causes"], STRADDLE)
+    un = entry["causes"][-1]
+    assert un["evidence"].get("kind") == "a power fluctuation common to the body and the blades", un
+    assert un["evidence"]["body_correlation"] > 0.7
