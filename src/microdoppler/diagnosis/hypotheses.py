@@ -1055,9 +1055,10 @@ def tests_given_skirt(M: Measurements, cfg: DiagnosisConfig, fold, tests: dict) 
     if imb is not None and imb.testable and imb.log_e > 0:
         available.append("blade_imbalance")
     out = {}
+    m_imb = given_imbalance(M) if "blade_imbalance" in available else M   # once for both sets holding it
     for r in range(1, len(available) + 1):
         for g in combinations(available, r):
-            base = given_imbalance(M) if "blade_imbalance" in g else M
+            base = m_imb if "blade_imbalance" in g else M
             # the asymmetry reads both sides of a pair; the fading the pair's sum, which
             # one side clear of the skirt stands for (given_skirt's clear_side)
             if "phase_noise" in g:
