@@ -79,6 +79,17 @@ LAG_STEP_S = 0.01
 #: ("Recall per cause in bins of measured body SNR").
 PN_INNER_HZ = 35.0
 PN_OUTER_HZ = 95.0
+#: the measured skirt profile (:func:`.measure.skirt_profile`, the phase-noise
+#: extension's shape): bands of offset from PN_PROFILE_INNER_HZ, sqrt(2) apart, up to
+#: PN_PROFILE_OUTER_HZ (or 0.4 x PRF). A real skirt need not be flat to 100 Hz: a
+#: 1/f-like one reaches a few hundred Hz (issue 34).
+PN_PROFILE_INNER_HZ = PN_INNER_HZ
+PN_PROFILE_OUTER_HZ = 1200.0
+#: a phase noise is relevant only where the profile's median-based level at 50 Hz is
+#: within this many dB below the phase-noise test's fit [dB]: on the evaluation plan
+#: (seed 20261126) a true skirt agrees to ~1 dB, a fit lifted by the target's own lines
+#: (a wrong blade count, a log lag) lies 45-280 dB above the medians (issue 34)
+PN_PROFILE_AGREE_DB = 10.0
 #: every PN_BIN_STEP-th bin of the band (``pn_bin_step``): the Whittle likelihood
 #: takes its ordinates as independent; the noise of neighbouring Blackman-Harris bins
 #: is correlated 0.82, of every second bin 0.44 (4096 pulses). First version.

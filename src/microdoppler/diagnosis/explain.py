@@ -30,7 +30,8 @@ from .measure import DB, Measurements, body_doppler, given_imbalance, refine_pea
 
 def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
     """The paper's model of ``flight`` (calibrated), optionally extended, plus the
-    flight's background recording (or white noise at its floor).
+    flight's background recording (or white noise at its floor); a named phase noise
+    acts on the background too, as in the twins (:func:`..datasets.injection.inject`).
 
     The blades are simulated relative to the body and their mean return (every
     component within half the rotation rate of the body Doppler, with whatever slow
@@ -65,7 +66,11 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     if ext is not None:
         iq = ext.post(iq.astype(np.complex64), prf_hz=prf, seed=seed)
     if flight.background_iq is not None:
-        iq = iq + flight.background_iq
+        # as the twins are injected: a named phase noise acts on the clutter too
+        from ..datasets.injection import inject
+
+        iq = inject(iq, flight.background_iq, effects=ext.effects if ext is not None else None, prf_hz=prf,
+                    seed=seed)
     else:
         floor = float(np.median(M.floor)) / w2
         iq = add_noise(iq.astype(np.complex64), floor, seed + 1)

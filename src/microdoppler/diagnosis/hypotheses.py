@@ -74,8 +74,9 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
-from .config import BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ, DiagnosisConfig
-from .measure import DB, Measurements, Undiagnosable, given_imbalance, given_skirt, skirt_shape
+from .config import (BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ,
+                     PN_PROFILE_AGREE_DB, DiagnosisConfig)
+from .measure import DB, Measurements, Undiagnosable, given_imbalance, given_skirt, skirt_profile, skirt_shape
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -912,10 +913,25 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     # the skirt's density at 50 Hz relative to its line [1/Hz] (first order in q)
     skirt = float(DB * np.log(max(q, 1e-30) / (2 * bw)))
     res.params = {"rms_rad": rms, "skirt_dbc_hz": skirt}
+    # the skirt's shape as measured (wider than this test's band), for the extension
+    profile = skirt_profile(M, cfg)
+    if profile is not None:
+        res.params["skirt_profile"] = profile
     res.fit = {"q_flat": q_flat, "q_slope": q_slope, "bandwidth_hz": float(bw), "offset_hz": float(SKIRT_OFFSET_HZ)}
     res.effect = rise_model
     res.relevant = rise_model >= cfg.margin_floor_rise_db
+    # the profile is read by medians: the target's lines among the ordinates (where
+    # the model misplaces them: a wrong blade count, a speed scale) lift this test's
+    # mean-based fit, not the medians. A skirt the medians put more than
+    # PN_PROFILE_AGREE_DB below this fit is no skirt: not relevant.
+    at_offset = None
+    if profile is not None:
+        e = np.asarray(profile["band_edges_hz"])
+        jb = int(np.clip(np.searchsorted(e, SKIRT_OFFSET_HZ, side="right") - 1, 0, len(profile["dbc_hz"]) - 1))
+        at_offset = float(profile["dbc_hz"][jb])
+        res.relevant = res.relevant and at_offset >= skirt - PN_PROFILE_AGREE_DB
     res.evidence = {"floor_rise_db_vs_background": round(rise_meas, 2), "model_floor_rise_db": round(rise_model, 2),
+                    "skirt_profile_dbc_hz_at_offset": None if at_offset is None else round(at_offset, 2),
                     "rms_rad": round(rms, 4), "skirt_dbc_hz": round(skirt, 2),
                     "n_ordinates": int(len(P)),
                     "skirt_flat_and_sloped": [round(q_flat, 6), round(q_slope, 6)],

@@ -48,8 +48,9 @@ from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 from .config import (BODY_SEARCH_HZ, LAG_STEP_S, LINE_GUARD_FRAC, LINE_HALF_BINS, MIN_MATCH, MIN_PAIR_SNR,
-                     N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_CLUTTER_LINE_HZ,
-                     PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
+                     N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_BODY_SKIRT_HZ,
+                     PN_CLUTTER_LINE_HZ, PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_PROFILE_INNER_HZ,
+                     PN_PROFILE_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
                      ROTATION_RAISED_FLOOR_DB,
                      SCALE_MAX, SCALE_MIN, SCALE_STEP, DiagnosisConfig)
 
@@ -667,10 +668,12 @@ def clutter_line_power(M: Measurements) -> np.ndarray:
     return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
 
 
-def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | None:
+def floor_ordinates(M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = PN_INNER_HZ,
+                    outer_hz: float = PN_OUTER_HZ) -> FloorOrdinates | None:
     """The phase-noise test's data (:class:`FloorOrdinates`; None without a background
     recording): on every second valid CPI (non-overlapping), the periodogram bins
-    :data:`.config.PN_INNER_HZ` to :data:`.config.PN_OUTER_HZ` from the clutter line
+    ``inner_hz`` to ``outer_hz`` (default :data:`.config.PN_INNER_HZ` to
+    :data:`.config.PN_OUTER_HZ`) from the clutter line
     (every :data:`.config.PN_BIN_STEP`-th), off the target: farther than
     ``body_half_hz +`` :data:`.config.PN_BODY_GUARD_HZ` from the body, than
     :data:`.config.LINE_GUARD_FRAC` x the HERM spacing from its first 15 lines, and
@@ -690,7 +693,7 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig) -> FloorOrdinates | N
     # +-PN_SMOOTH_CPIS CPIs and +-k bins around each CPI (time-aligned)
     s_bg_t = uniform_filter(bg.p, size=(2 * PN_SMOOTH_CPIS + 1, 2 * k + 1), mode="nearest")
     f = st.f_hz
-    region = (np.abs(f) >= PN_INNER_HZ) & (np.abs(f) <= PN_OUTER_HZ)
+    region = (np.abs(f) >= inner_hz) & (np.abs(f) <= outer_hz)
     cols = np.flatnonzero(region)[::PN_BIN_STEP]
     rows = np.flatnonzero(M.valid)[::2]  # non-overlapping CPIs
     clutter_pow = clutter_line_power(M)
@@ -760,6 +763,94 @@ def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
             shape = q_flat * flat + q_slope * slope
         out = out + df / (2 * bandwidth_hz) * line * np.nan_to_num(shape)
     return out
+
+
+
+def skirt_profile(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
+    """The phase-noise skirt's measured profile L(f) [dBc/Hz], piecewise constant in
+    bands of offset (edges :data:`.config.PN_PROFILE_INNER_HZ` x sqrt(2)^k up to
+    :data:`.config.PN_PROFILE_OUTER_HZ` or 0.4 x PRF): what a phase-noise analyser
+    would plot, read off the target's lines (:func:`floor_ordinates` over the wider
+    band). Each ordinate's power is the background recording's PSD plus, per band,
+    L x bin width x (the clutter line's power [band of |f|] + the body line's power
+    [band of |f - f_body|]); per band the level (>= 0) at which the ordinates' median
+    ratio to that sum is ln 2 (robust to the target's own lines among them), not
+    rising with offset. Bands
+    with fewer than 20 ordinates take the log-interpolated level of their neighbours
+    (none beyond the last measured band). None without a background recording or
+    with fewer than 2 measured bands.
+
+    Returns ``{"band_edges_hz": [...], "dbc_hz": [...], "n_ordinates": [...]}``
+    (levels of a band fitted to 0 are -300 dBc/Hz): the phase-noise extension's
+    ``skirt_profile`` (:func:`microdoppler.synthesis.extensions.profile_phase_noise`),
+    so the model carries the measured shape, not only its level at 50 Hz."""
+    outer = min(PN_PROFILE_OUTER_HZ, 0.4 * float(M.info["prf_hz"]))
+    edges = [PN_PROFILE_INNER_HZ]
+    while edges[-1] * np.sqrt(2) <= outer:
+        edges.append(edges[-1] * np.sqrt(2))
+    edges = np.asarray(edges)
+    nb = len(edges) - 1
+    if nb < 2:
+        return None
+    O = floor_ordinates(M, cfg, inner_hz=edges[0], outer_hz=edges[-1])
+    if O is None or len(O.cpi) < 4:
+        return None
+    df = O.bin_hz
+    P, S, A, JC, JB = [], [], [], [], []
+    for j in range(len(O.cpi)):
+        fc, fb = O.f_hz[j], O.f_body_hz[j]
+        C, Bt = float(O.clutter_pow[j]), max(float(O.body_pow[j]), 0.0)
+        P.append(O.power[j]); S.append(O.background[j])
+        JC.append(np.searchsorted(edges, np.abs(fc), side="right") - 1)
+        JB.append(np.searchsorted(edges, np.abs(fc - fb), side="right") - 1)
+        A.append(np.column_stack([np.full(len(fc), df * C), np.full(len(fc), df * Bt)]))
+    P, S, A, JC, JB = map(np.concatenate, (P, S, A, JC, JB))
+    counts = np.bincount(JC[(JC >= 0) & (JC < nb)], minlength=nb)
+    fitted = counts >= 20
+    if fitted.sum() < 2:
+        return None
+    # robust to the target's own lines among the ordinates (a model that misplaces
+    # them: a speed scale, a log lag, a wrong blade count): per band, the level at
+    # which the median of P / (S + skirt) is ln 2, the median of an exponential
+    # ordinate over its mean (lines in under half of a band's ordinates do not move
+    # it); the body's skirt (the same L at |f - f_body|) with the other bands' levels,
+    # three sweeps. A skirt falls with offset: levels do not rise outwards.
+    lev = np.zeros(nb)
+
+    def skirt(L):
+        Lx = np.r_[L, 0.0]
+        return (A[:, 0] * Lx[np.where((JC >= 0) & (JC < nb), JC, nb)]
+                + A[:, 1] * Lx[np.where((JB >= 0) & (JB < nb), JB, nb)])
+
+    for _ in range(3):
+        for b in np.flatnonzero(fitted):
+            sel = JC == b
+            rest = skirt(np.where(np.arange(nb) == b, 0.0, lev))[sel]
+            a = A[sel, 0] + A[sel, 1] * (JB[sel] == b)
+            base = S[sel] + rest
+
+            def excess(L, p=P[sel], base=base, a=a):
+                return float(np.median(p / (base + a * L))) - np.log(2)
+
+            if excess(0.0) <= 0:
+                lev[b] = 0.0
+                continue
+            hi = 1e-14
+            while excess(hi) > 0 and hi < 1.0:
+                hi *= 10
+            lo = hi / 10
+            for _ in range(30):  # on a log scale, to 0.1 %
+                mid = np.sqrt(lo * hi)
+                lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
+            lev[b] = hi
+    lev = np.where(fitted, lev, np.nan)
+    meas = np.flatnonzero(fitted)
+    run_min = np.minimum.accumulate(lev[meas])
+    db = np.where(run_min > 0, 10 * np.log10(np.maximum(run_min, 1e-300)), -300.0)
+    last = meas[-1]
+    db = np.interp(np.arange(nb), meas, db)[: last + 1]
+    return {"band_edges_hz": [round(float(e), 3) for e in edges[: last + 2]],
+            "dbc_hz": [round(float(v), 2) for v in db], "n_ordinates": [int(c) for c in counts[: last + 1]]}
 
 
 def given_imbalance(M: Measurements) -> Measurements:

@@ -31,7 +31,9 @@ parameter names, units and signs:
     single-sideband density at 50 Hz [dBc/Hz]) is derived from ``rms_rad`` when not
     given (:func:`microdoppler.synthesis.catalog.flat_skirt_dbc_hz`) and vice versa; when both
     are given (a diagnosis of a non-flat skirt) both are kept and ``rms_rad`` drives
-    the synthesis.
+    the synthesis. Optional ``skirt_profile`` (a diagnosis's measured skirt,
+    ``{band_edges_hz, dbc_hz}``, :func:`profile_phase_noise`) drives it instead where
+    given; it is not a catalog parameter (twins built from a population leave it out).
 
 Stochastic extensions (fading, body fluctuation, phase noise) draw their processes
 from the ``seed`` given to :meth:`~ExtensionSet.model_extensions` / :meth:`~ExtensionSet.post`;
@@ -79,6 +81,7 @@ def check_params(cause: str, params: Mapping | None, *, source="extensions") -> 
                          f"one of {[c for c in CAUSES if c != 'none']}")
     params = dict(params or {})
     names = [p.name for p in CAUSES[cause].params]
+    profile = params.pop("skirt_profile", None) if cause == "phase_noise" else None
     for k in params:
         if k not in names:
             raise InputError(source, f"extensions.{cause}.{k}", "unknown parameter", f"one of {names}")
@@ -111,6 +114,30 @@ def check_params(cause: str, params: Mapping | None, *, source="extensions") -> 
         if c == cause and is_bad:
             raise InputError(source, f"extensions.{cause}.{k}", f"is {out[k]}",
                              "> 0" if k in ("timescale_s", "scale") else ">= 0")
+    if profile is not None:
+        out["skirt_profile"] = check_skirt_profile(profile, source)
+    return out
+
+
+def check_skirt_profile(profile, source="extensions") -> dict:
+    """Validate a phase-noise ``skirt_profile`` (``{"band_edges_hz": [n + 1],
+    "dbc_hz": [n]}``: the measured skirt, piecewise constant per band of offset;
+    :func:`microdoppler.diagnosis.measure.skirt_profile`); returns it as floats."""
+    key = "extensions.phase_noise.skirt_profile"
+    want = "{band_edges_hz: [n + 1 increasing offsets > 0 Hz], dbc_hz: [n levels, dBc/Hz]}"
+    if not isinstance(profile, Mapping) or "band_edges_hz" not in profile or "dbc_hz" not in profile:
+        raise InputError(source, key, f"is {profile!r}", want)
+    try:
+        e = np.asarray(profile["band_edges_hz"], float)
+        v = np.asarray(profile["dbc_hz"], float)
+    except (TypeError, ValueError):
+        raise InputError(source, key, "holds values that are not numbers", want) from None
+    if (e.ndim != 1 or v.ndim != 1 or len(e) != len(v) + 1 or len(v) < 1 or not np.all(np.isfinite(e))
+            or not np.all(np.isfinite(v)) or e[0] <= 0 or np.any(np.diff(e) <= 0) or np.any(v > 0)):
+        raise InputError(source, key, f"has {len(e)} edges and {len(v)} levels", want + ", levels finite and <= 0")
+    out = {"band_edges_hz": [float(x) for x in e], "dbc_hz": [float(x) for x in v]}
+    if "n_ordinates" in profile:
+        out["n_ordinates"] = [int(x) for x in profile["n_ordinates"]]
     return out
 
 
@@ -137,6 +164,26 @@ def flat_phase_noise(n: int, prf_hz: float, rms_rad: float, rng: np.random.Gener
     th = sfft.irfft(spec, m, workers=1)[:n]
     s = th.std()
     return th * (rms_rad / s) if s > 0 else th
+
+
+def profile_phase_noise(n: int, prf_hz: float, band_edges_hz, dbc_hz, rng: np.random.Generator) -> np.ndarray:
+    """Gaussian phase error theta: float64 [n] [rad] whose two-sided spectrum is the
+    measured skirt (first order, L(f) = S_theta(f)): 10^(dbc/10) [rad^2/Hz] in each
+    band of |f| (``band_edges_hz``), the first band's level below its lower edge (the
+    skirt within the clutter notch is not measured; flat there as the catalog's
+    process), none beyond the last edge."""
+    if n == 0:
+        return np.zeros(n)
+    m = sfft.next_fast_len(n, real=True)
+    f = sfft.rfftfreq(m, 1.0 / prf_hz)
+    e = np.asarray(band_edges_hz, float)
+    lev = 10 ** (np.asarray(dbc_hz, float) / 10)
+    j = np.clip(np.searchsorted(e, f, side="right") - 1, 0, len(lev) - 1)
+    S = np.where(f < e[-1], lev[j], 0.0)
+    S[0] = 0.0
+    # rfft coefficients of a real series with two-sided PSD S: variance S prf m / 2 per part
+    spec = (rng.standard_normal(len(f)) + 1j * rng.standard_normal(len(f))) * np.sqrt(S * prf_hz * m / 2)
+    return sfft.irfft(spec, m, workers=1)[:n]
 
 
 def asymmetry_envelope(asymmetry_db: float):
@@ -242,7 +289,12 @@ class ExtensionSet:
         if "phase_noise" not in self.effects:
             return iq
         rng = np.random.default_rng([int(seed), _STREAM["phase_noise"]])
-        th = flat_phase_noise(len(iq), prf_hz, self.effects["phase_noise"]["rms_rad"], rng)
+        p = self.effects["phase_noise"]
+        if "skirt_profile" in p:
+            th = profile_phase_noise(len(iq), prf_hz, p["skirt_profile"]["band_edges_hz"],
+                                     p["skirt_profile"]["dbc_hz"], rng)
+        else:
+            th = flat_phase_noise(len(iq), prf_hz, p["rms_rad"], rng)
         return (iq * np.exp(1j * th)).astype(np.complex64)
 
     def to_dict(self) -> dict:
