@@ -90,6 +90,15 @@ PN_PROFILE_OUTER_HZ = 1200.0
 #: (seed 20261126) a true skirt agrees to ~1 dB, a fit lifted by the target's own lines
 #: (a wrong blade count, a log lag) lies 45-280 dB above the medians (issue 34)
 PN_PROFILE_AGREE_DB = 10.0
+#: the wide-band phase-noise reading (:func:`.hypotheses.profile_skirt_test`) uses
+#: ordinates at least this far from the body [Hz]: a fluctuating body beside the
+#: clutter line spreads on both sides of it (emulated flights, issue 34)
+PN_PROFILE_BODY_GUARD_HZ = 100.0
+#: ... and only where its levels fall by at least this much [dB] from the innermost
+#: band measured on both sides to the outermost: a skirt falls with offset (flat,
+#: Gaussian, 1/f-like), the target's own spread (a blade flash over the whole band)
+#: does not
+PN_PROFILE_FALL_DB = 10.0
 #: every PN_BIN_STEP-th bin of the band (``pn_bin_step``): the Whittle likelihood
 #: takes its ordinates as independent; the noise of neighbouring Blackman-Harris bins
 #: is correlated 0.82, of every second bin 0.44 (4096 pulses). First version.

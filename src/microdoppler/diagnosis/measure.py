@@ -766,24 +766,16 @@ def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
 
 
 
-def skirt_profile(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
-    """The phase-noise skirt's measured profile L(f) [dBc/Hz], piecewise constant in
-    bands of offset (edges :data:`.config.PN_PROFILE_INNER_HZ` x sqrt(2)^k up to
-    :data:`.config.PN_PROFILE_OUTER_HZ` or 0.4 x PRF): what a phase-noise analyser
-    would plot, read off the target's lines (:func:`floor_ordinates` over the wider
-    band). Each ordinate's power is the background recording's PSD plus, per band,
-    L x bin width x (the clutter line's power [band of |f|] + the body line's power
-    [band of |f - f_body|]); per band the level (>= 0) at which the ordinates' median
-    ratio to that sum is ln 2 (robust to the target's own lines among them), not
-    rising with offset. Bands
-    with fewer than 20 ordinates take the log-interpolated level of their neighbours
-    (none beyond the last measured band). None without a background recording or
-    with fewer than 2 measured bands.
-
-    Returns ``{"band_edges_hz": [...], "dbc_hz": [...], "n_ordinates": [...]}``
-    (levels of a band fitted to 0 are -300 dBc/Hz): the phase-noise extension's
-    ``skirt_profile`` (:func:`microdoppler.synthesis.extensions.profile_phase_noise`),
-    so the model carries the measured shape, not only its level at 50 Hz."""
+def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
+    """The skirt profile's data (:func:`skirt_profile`): the floor ordinates over the
+    wide band (:func:`floor_ordinates`, edges :data:`.config.PN_PROFILE_INNER_HZ` x
+    sqrt(2)^k up to :data:`.config.PN_PROFILE_OUTER_HZ` or 0.4 x PRF). Per ordinate
+    its power ``P``, the background's ``S``, the bin width times the clutter and body
+    lines' powers ``A`` [n, 2], their bands of offset ``jc``/``jb`` (``nb``
+    outside), its CPI ``cpi``, side of the clutter line ``pos`` and offset from the
+    body ``f_rel_body_hz``; ``edges``, ``counts`` (ordinates per clutter band)
+    and ``fitted`` (bands with >= 20). None without a background recording or with
+    fewer than 2 such bands."""
     outer = min(PN_PROFILE_OUTER_HZ, 0.4 * float(M.info["prf_hz"]))
     edges = [PN_PROFILE_INNER_HZ]
     while edges[-1] * np.sqrt(2) <= outer:
@@ -796,61 +788,113 @@ def skirt_profile(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
     if O is None or len(O.cpi) < 4:
         return None
     df = O.bin_hz
-    P, S, A, JC, JB = [], [], [], [], []
+    P, S, A, JC, JB, CP = [], [], [], [], [], []
     for j in range(len(O.cpi)):
         fc, fb = O.f_hz[j], O.f_body_hz[j]
         C, Bt = float(O.clutter_pow[j]), max(float(O.body_pow[j]), 0.0)
-        P.append(O.power[j]); S.append(O.background[j])
+        P.append(O.power[j]); S.append(O.background[j]); CP.append(np.full(len(fc), O.cpi[j]))
         JC.append(np.searchsorted(edges, np.abs(fc), side="right") - 1)
         JB.append(np.searchsorted(edges, np.abs(fc - fb), side="right") - 1)
         A.append(np.column_stack([np.full(len(fc), df * C), np.full(len(fc), df * Bt)]))
-    P, S, A, JC, JB = map(np.concatenate, (P, S, A, JC, JB))
-    counts = np.bincount(JC[(JC >= 0) & (JC < nb)], minlength=nb)
+    P, S, A, JC, JB, CP = map(np.concatenate, (P, S, A, JC, JB, CP))
+    JC = np.where((JC >= 0) & (JC < nb), JC, nb)
+    JB = np.where((JB >= 0) & (JB < nb), JB, nb)
+    counts = np.bincount(JC[JC < nb], minlength=nb)
     fitted = counts >= 20
     if fitted.sum() < 2:
         return None
-    # robust to the target's own lines among the ordinates (a model that misplaces
-    # them: a speed scale, a log lag, a wrong blade count): per band, the level at
-    # which the median of P / (S + skirt) is ln 2, the median of an exponential
-    # ordinate over its mean (lines in under half of a band's ordinates do not move
-    # it); the body's skirt (the same L at |f - f_body|) with the other bands' levels,
-    # three sweeps. A skirt falls with offset: levels do not rise outwards.
-    lev = np.zeros(nb)
+    F = np.concatenate(O.f_hz)
+    FB = np.concatenate([np.full(len(f), fb) for f, fb in zip(O.f_hz, O.f_body_hz)])
+    return {"P": P, "S": S, "A": A, "jc": JC, "jb": JB, "cpi": CP, "pos": F > 0, "f_rel_body_hz": F - FB,
+            "edges": edges, "nb": nb, "counts": counts, "fitted": fitted}
 
-    def skirt(L):
-        Lx = np.r_[L, 0.0]
-        return (A[:, 0] * Lx[np.where((JC >= 0) & (JC < nb), JC, nb)]
-                + A[:, 1] * Lx[np.where((JB >= 0) & (JB < nb), JB, nb)])
 
-    for _ in range(3):
-        for b in np.flatnonzero(fitted):
-            sel = JC == b
-            rest = skirt(np.where(np.arange(nb) == b, 0.0, lev))[sel]
-            a = A[sel, 0] + A[sel, 1] * (JB[sel] == b)
-            base = S[sel] + rest
+def skirt_power(d: dict, levels: np.ndarray, sel=slice(None)) -> np.ndarray:
+    """The skirt's power at the ordinates ``sel`` of ``d`` (:func:`skirt_ordinates`)
+    for band ``levels`` [nb] (1/Hz): around the clutter line and the body line."""
+    Lx = np.r_[np.nan_to_num(levels), 0.0]
+    return d["A"][sel, 0] * Lx[d["jc"][sel]] + d["A"][sel, 1] * Lx[d["jb"][sel]]
 
-            def excess(L, p=P[sel], base=base, a=a):
-                return float(np.median(p / (base + a * L))) - np.log(2)
 
-            if excess(0.0) <= 0:
-                lev[b] = 0.0
-                continue
-            hi = 1e-14
-            while excess(hi) > 0 and hi < 1.0:
-                hi *= 10
-            lo = hi / 10
-            for _ in range(30):  # on a log scale, to 0.1 %
-                mid = np.sqrt(lo * hi)
-                lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
-            lev[b] = hi
-    lev = np.where(fitted, lev, np.nan)
-    meas = np.flatnonzero(fitted)
-    run_min = np.minimum.accumulate(lev[meas])
-    db = np.where(run_min > 0, 10 * np.log10(np.maximum(run_min, 1e-300)), -300.0)
+def robust_skirt_levels(d: dict, sel: np.ndarray | None = None, *, both_sides: bool = False) -> np.ndarray:
+    """Band levels [nb] (1/Hz; NaN where a band has < 20 ordinates on both sides of
+    the clutter line, or with ``both_sides`` on either side) of the skirt in the ordinates ``sel`` of ``d``
+    (:func:`skirt_ordinates`; default all), robust to the target's own lines and
+    spread among them (a model that misplaces its lines: a speed scale, a log lag, a
+    wrong blade count; a fluctuating body's spread):
+
+    - per band and side of the clutter line, the level at which the median of P / (S
+      + skirt) is ln 2, the median of an exponential ordinate over its mean (lines in
+      under half of a band's ordinates do not move it); the body's skirt (the same L
+      at |f - f_body|) with the other bands' levels, three sweeps;
+    - the smaller of the two sides (where both have >= 20 ordinates; with
+      ``both_sides``, only there): the radar's skirt lies on both sides of the
+      clutter line, the target's lines and spread are not symmetric about it;
+    - a skirt falls with offset: levels do not rise outwards (a running minimum from
+      the inside)."""
+    nb = d["nb"]
+    sel = np.ones(len(d["P"]), bool) if sel is None else sel
+    sides = []
+    for side in (d["pos"], ~d["pos"]):
+        ss = sel & side
+        fitted = np.bincount(d["jc"][ss][d["jc"][ss] < nb], minlength=nb) >= 20
+        lev = np.zeros(nb)
+        for _ in range(3):
+            for b in np.flatnonzero(fitted):
+                s = ss & (d["jc"] == b)
+                rest = skirt_power(d, np.where(np.arange(nb) == b, 0.0, lev), s)
+                a = d["A"][s, 0] + d["A"][s, 1] * (d["jb"][s] == b)
+                base = d["S"][s] + rest
+                p = d["P"][s]
+                if np.median(p / base) <= np.log(2):
+                    lev[b] = 0.0
+                    continue
+                hi = 1e-14
+                while np.median(p / (base + a * hi)) > np.log(2) and hi < 1.0:
+                    hi *= 10
+                lo = hi / 10
+                for _ in range(30):  # on a log scale, to 0.1 %
+                    mid = np.sqrt(lo * hi)
+                    lo, hi = (mid, hi) if np.median(p / (base + a * mid)) > np.log(2) else (lo, mid)
+                lev[b] = hi
+        sides.append(np.where(fitted, lev, np.nan))
+    both = np.fmin(sides[0], sides[1])  # the smaller side; the one side where only one is fitted
+    if both_sides:
+        both = np.where(np.isfinite(sides[0]) & np.isfinite(sides[1]), both, np.nan)
+    out = np.full(nb, np.nan)
+    meas = np.flatnonzero(np.isfinite(both))
+    if len(meas):
+        out[meas] = np.minimum.accumulate(both[meas])
+    return out
+
+
+def skirt_profile(M: Measurements, cfg: DiagnosisConfig, d: dict | None = None) -> dict | None:
+    """The phase-noise skirt's measured profile L(f) [dBc/Hz], piecewise constant in
+    bands of offset (:func:`skirt_ordinates`; ``d`` if already read): what a
+    phase-noise analyser would plot, read off the target's lines. Each ordinate's
+    power is the background recording's PSD plus, per band, L x bin width x (the
+    clutter line's power [band of |f|] + the body line's power [band of |f -
+    f_body|]); the levels by medians (:func:`robust_skirt_levels`). Bands with fewer
+    than 20 ordinates take the log-interpolated level of their neighbours (none
+    beyond the last measured band). None without a background recording or with
+    fewer than 2 measured bands.
+
+    Returns ``{"band_edges_hz": [...], "dbc_hz": [...], "n_ordinates": [...]}``
+    (levels of a band fitted to 0 are -300 dBc/Hz): the phase-noise extension's
+    ``skirt_profile`` (:func:`microdoppler.synthesis.extensions.profile_phase_noise`),
+    so the model carries the measured shape, not only its level at 50 Hz."""
+    d = skirt_ordinates(M, cfg) if d is None else d
+    if d is None:
+        return None
+    lev = robust_skirt_levels(d)
+    meas = np.flatnonzero(np.isfinite(lev))
+    if len(meas) < 2:
+        return None
+    db = np.where(lev[meas] > 0, 10 * np.log10(np.maximum(lev[meas], 1e-300)), -300.0)
     last = meas[-1]
-    db = np.interp(np.arange(nb), meas, db)[: last + 1]
-    return {"band_edges_hz": [round(float(e), 3) for e in edges[: last + 2]],
-            "dbc_hz": [round(float(v), 2) for v in db], "n_ordinates": [int(c) for c in counts[: last + 1]]}
+    db = np.interp(np.arange(d["nb"]), meas, db)[: last + 1]
+    return {"band_edges_hz": [round(float(e), 3) for e in d["edges"][: last + 2]],
+            "dbc_hz": [round(float(v), 2) for v in db], "n_ordinates": [int(c) for c in d["counts"][: last + 1]]}
 
 
 def given_imbalance(M: Measurements) -> Measurements:
