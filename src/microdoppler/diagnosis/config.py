@@ -87,8 +87,9 @@ PN_PROFILE_INNER_HZ = PN_INNER_HZ
 PN_PROFILE_OUTER_HZ = 1200.0
 #: a phase noise is relevant only where the profile's median-based level at 50 Hz is
 #: within this many dB below the phase-noise test's fit [dB]: on the evaluation plan
-#: (seed 20261126) a true skirt agrees to ~1 dB, a fit lifted by the target's own lines
-#: (a wrong blade count, a log lag) lies 45-280 dB above the medians (issue 34)
+#: (seed 20261126) a true skirt agrees to ~2 dB (f0127 -61.1 / -61.2, f0077 -67.3 /
+#: -67.5 dBc/Hz); where the target's own lines lifted the fit (a wrong blade count, a
+#: log lag: f0137, f0227, f0329) the medians find no skirt at all (issue 34)
 PN_PROFILE_AGREE_DB = 10.0
 #: the wide-band phase-noise reading (:func:`.hypotheses.profile_skirt_test`) uses
 #: ordinates at least this far from the body [Hz]: a fluctuating body beside the
