@@ -112,7 +112,8 @@ def cause_entry(t, thr: float, given=(), step: int = 1) -> dict:
     with the other named causes (``given``) in both models; ``thr`` the threshold of
     the greedy step (``step``) that named it."""
     return {"cause": t.cause,
-            "extension": {"name": t.cause, "params": {k: v if isinstance(v, dict) else float(v) for k, v in t.params.items()}},
+            "extension": {"name": t.cause,
+                          "params": {k: v if isinstance(v, dict) else float(v) for k, v in t.params.items()}},
             "gain": gain(t),
             "evidence": {"log_evalue": t.log_e, "log_evalue_threshold": thr, "n_heldout_obs": t.n_obs,
                          "effect": t.effect, "named_at_step": int(step), "other_causes_in_both_models": list(given),

@@ -48,8 +48,8 @@ from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 from .config import (BODY_SEARCH_HZ, LAG_STEP_S, LINE_GUARD_FRAC, LINE_HALF_BINS, MIN_MATCH, MIN_PAIR_SNR,
-                     N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_BODY_SKIRT_HZ,
-                     PN_CLUTTER_LINE_HZ, PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_PROFILE_INNER_HZ,
+                     N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_CLUTTER_LINE_HZ,
+                     PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_PROFILE_INNER_HZ,
                      PN_PROFILE_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
                      ROTATION_RAISED_FLOOR_DB,
                      SCALE_MAX, SCALE_MIN, SCALE_STEP, DiagnosisConfig)
@@ -765,7 +765,6 @@ def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
     return out
 
 
-
 def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
     """The skirt profile's data (:func:`skirt_profile`): the floor ordinates over the
     wide band (:func:`floor_ordinates`, edges :data:`.config.PN_PROFILE_INNER_HZ` x
@@ -818,8 +817,9 @@ def skirt_power(d: dict, levels: np.ndarray, sel=slice(None)) -> np.ndarray:
 
 def robust_skirt_levels(d: dict, sel: np.ndarray | None = None, *, both_sides: bool = False) -> np.ndarray:
     """Band levels [nb] (1/Hz; NaN where a band has < 20 ordinates on both sides of
-    the clutter line, or with ``both_sides`` on either side) of the skirt in the ordinates ``sel`` of ``d``
-    (:func:`skirt_ordinates`; default all), robust to the target's own lines and
+    the clutter line, or with ``both_sides`` on either side) of the skirt in the
+    ordinates ``sel`` of ``d`` (:func:`skirt_ordinates`; default all), robust to the
+    target's own lines and
     spread among them (a model that misplaces its lines: a speed scale, a log lag, a
     wrong blade count; a fluctuating body's spread):
 
