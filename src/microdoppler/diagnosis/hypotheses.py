@@ -77,8 +77,8 @@ from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ
 from .config import (BODY_SMOOTH_CPIS, LAG_STEP_S, MIN_PAIR_SNR, PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ,
                      PN_PROFILE_AGREE_DB, PN_PROFILE_BODY_GUARD_HZ, PN_PROFILE_FALL_DB,
                      DiagnosisConfig)
-from .measure import (DB, Measurements, Undiagnosable, given_imbalance, given_skirt, robust_skirt_levels,
-                      skirt_ordinates, skirt_power, skirt_profile, skirt_shape)
+from .measure import (DB, Measurements, Undiagnosable, given_imbalance, given_skirt, ordinate_subset,
+                      robust_skirt_levels, skirt_ordinates, skirt_power, skirt_profile, skirt_shape)
 
 LOG2PI = np.log(2 * np.pi)
 
@@ -856,8 +856,7 @@ def profile_skirt_test(d: dict, fold, body_spread: float = 0.0,
         g2 = PN_BODY_SKIRT_HZ ** 2
         line = d["A"][:, 1] / (2 * PHASE_NOISE_BANDWIDTH_HZ)  # that test's column unit: bin x body power / 2 B
         d = {**d, "S": d["S"] + body_spread * line * g2 / (d["f_rel_body_hz"] ** 2 + g2)}
-    far = np.abs(d["f_rel_body_hz"]) >= body_guard_hz
-    d = {k: (v[far] if isinstance(v, np.ndarray) and v.shape[:1] == far.shape else v) for k, v in d.items()}
+    d = ordinate_subset(d, np.abs(d["f_rel_body_hz"]) >= body_guard_hz)
     F = np.asarray(fold)[d["cpi"]]
     cap = np.log(100.0)
 

@@ -772,9 +772,9 @@ def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
     its power ``P``, the background's ``S``, the bin width times the clutter and body
     lines' powers ``A`` [n, 2], their bands of offset ``jc``/``jb`` (``nb``
     outside), its CPI ``cpi``, side of the clutter line ``pos`` and offset from the
-    body ``f_rel_body_hz``; ``edges``, ``counts`` (ordinates per clutter band)
-    and ``fitted`` (bands with >= 20). None without a background recording or with
-    fewer than 2 such bands."""
+    body ``f_rel_body_hz`` (:data:`ORDINATE_KEYS`); ``edges``, ``nb`` and ``counts``
+    (ordinates per clutter band). None without a background recording or with fewer
+    than 2 bands of >= 20 ordinates."""
     outer = min(PN_PROFILE_OUTER_HZ, 0.4 * float(M.info["prf_hz"]))
     edges = [PN_PROFILE_INNER_HZ]
     while edges[-1] * np.sqrt(2) <= outer:
@@ -799,13 +799,21 @@ def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
     JC = np.where((JC >= 0) & (JC < nb), JC, nb)
     JB = np.where((JB >= 0) & (JB < nb), JB, nb)
     counts = np.bincount(JC[JC < nb], minlength=nb)
-    fitted = counts >= 20
-    if fitted.sum() < 2:
+    if np.sum(counts >= 20) < 2:
         return None
     F = np.concatenate(O.f_hz)
     FB = np.concatenate([np.full(len(f), fb) for f, fb in zip(O.f_hz, O.f_body_hz)])
     return {"P": P, "S": S, "A": A, "jc": JC, "jb": JB, "cpi": CP, "pos": F > 0, "f_rel_body_hz": F - FB,
-            "edges": edges, "nb": nb, "counts": counts, "fitted": fitted}
+            "edges": edges, "nb": nb, "counts": counts}
+
+
+#: the per-ordinate arrays of :func:`skirt_ordinates` (the rest describe the bands)
+ORDINATE_KEYS = ("P", "S", "A", "jc", "jb", "cpi", "pos", "f_rel_body_hz")
+
+
+def ordinate_subset(d: dict, mask: np.ndarray) -> dict:
+    """``d`` (:func:`skirt_ordinates`) with only the ordinates where ``mask``."""
+    return {k: (v[mask] if k in ORDINATE_KEYS else v) for k, v in d.items()}
 
 
 def skirt_power(d: dict, levels: np.ndarray, sel=slice(None)) -> np.ndarray:
