@@ -89,6 +89,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+import warnings  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -391,6 +392,47 @@ def add_ideal(errors: dict, p: dict) -> None:
                     errors[f"{c}.{key}"]["ideal"] = v
 
 
+def oddity_rise_db(p: dict, flight, nominal_snr_db: float) -> dict | None:
+    """What a second scatterer leaves for the goodness of fit to see: the flight
+    remade without it (same plan, same nominal SNR; the emulator's is the same
+    realisation, the independent generator's draws its noise anew), both read in the
+    goodness of fit's own bands (:func:`microdoppler.diagnosis.explain.band_power`,
+    the diagnosis's body Doppler, guards and band width), mean power over the usable
+    CPIs. Returns ``{"rise_db", "band_hz"}``: the largest rise [dB] over the bands
+    the test reads and its body-relative band [Hz]. None for other effects or an
+    undiagnosable flight.
+
+    An effect that raises no band by the test's margin cannot be flagged without
+    flagging explained flights whose model misfits by as much (the margin table)."""
+    if "second_scatterer" not in p.get("oddities", {}):
+        return None
+    from microdoppler.diagnosis import Undiagnosable
+    from microdoppler.diagnosis import pipeline as dp
+    from microdoppler.diagnosis.config import DiagnosisConfig
+    from microdoppler.diagnosis.explain import band_power
+    from microdoppler.diagnosis.measure import stft_power
+
+    cfg = DiagnosisConfig.from_dict({"figures": False})
+    try:
+        M = dp.measure(flight, None, cfg)
+        T = dp.run_tests(M, cfg)
+        g = dp.goodness_of_fit(flight, M, dp.decide_flight(M, T, cfg, started=0.0), cfg)
+    except Undiagnosable:
+        return None
+    twin = _make({**p, "oddities": {}}, nominal_snr_db)
+    other = stft_power(twin.iq, twin.prf_hz, cfg.n_fft)
+    use = np.flatnonzero(M.valid)
+    a = g["_band_args"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)   # bands the guards empty
+        pw = np.nanmean([band_power(M.stft, i, M.f_body_hz[i], **a) for i in use], axis=0)
+        po = np.nanmean([band_power(other, i, M.f_body_hz[i], **a) for i in use], axis=0)
+    rise = 10 * np.log10(pw / po)
+    j = int(np.nanargmax(rise))
+    c = (j - a["n_side"]) * a["bw"]
+    return {"rise_db": round(float(rise[j]), 2), "band_hz": [round(c - a["bw"] / 2, 1), round(c + a["bw"] / 2, 1)]}
+
+
 def evaluate_flight(p: dict, store_dir: str | None = None) -> dict:
     """Make the planned flight at its target SNR, diagnose it, compare with its truth.
 
@@ -428,12 +470,13 @@ def evaluate_flight(p: dict, store_dir: str | None = None) -> dict:
             err, ok = param_error(k, kind, truth[k], fits[c][k])
             errors[f"{c}.{k}"] = {"error": err, "ok": ok, "truth": truth[k], "fit": fits[c][k]}
     add_ideal(errors, p)
+    odd_rise = oddity_rise_db(p, flight, tries[-1][0]) if p["kind"] == "outside" else None
     return {**{k: p[k] for k in ("flight_id", "kind", "generator", "radar", "drone_model", "effects", "duration_s")},
             "oddities": p.get("oddities", {}), "stored": stored,
             "harmonic_falloff_db": p.get("harmonic_falloff_db"),
             "true": sorted(p["effects"]), "named": named, "fits": fits, "reason": reason, "gof": gof,
             "snr_db": round(snr, 2), "target_snr_db": round(target, 2), "snr_tries": tries,
-            "pn_floor_rise_db": None if rise is None else round(rise, 2), "errors": errors,
+            "pn_floor_rise_db": None if rise is None else round(rise, 2), "oddity_rise": odd_rise, "errors": errors,
             "seconds_make": round(t1 - t0, 2), "seconds_diagnose": round(t2 - t1, 2)}
 
 
@@ -711,6 +754,11 @@ def issue34_flags(rows: list[dict]) -> dict:
     f["none"] = np.array([r["reason"] is None and not r["named"] for r in rows])
     f["all_named"] = np.array([r["reason"] is None and set(r["true"]) <= set(r["named"]) for r in rows])
     f["balanced"] = f["catalog_only"] & ~f["has_imb"]
+    # an effect the goodness of fit can resolve: every out-of-catalog effect but a
+    # second scatterer that raises no band the test reads by its margin (oddity_rise_db)
+    f["resolvable"] = f["outside"] & np.array([not r.get("oddity_rise")
+                                               or r["oddity_rise"]["rise_db"] >= r["gof"].get("margin_db", 7.0)
+                                               for r in rows])
     return f
 
 
@@ -726,6 +774,9 @@ ISSUE34_RATES = [
      lambda f: f["unexpl"] & f["outside"], lambda f: f["outside"]),
     ("none_outside", "none, out-of-catalog flights (must be 0)",
      lambda f: f["none"] & f["outside"], lambda f: f["outside"]),
+    ("none_outside_resolvable", "none, out-of-catalog flights whose effect raises a band the goodness of fit "
+     "reads by ≥ its margin",
+     lambda f: f["none"] & f["resolvable"], lambda f: f["resolvable"]),
     ("skipped_outside", "skipped (undiagnosable), out-of-catalog flights",
      lambda f: f["skipped"] & f["outside"], lambda f: f["outside"]),
     ("unexpl_catalog", "unexplained, flights holding only catalog causes (target ≤ 5 %)",
@@ -781,6 +832,37 @@ def margin_table(rows: list[dict], f: dict, S, out: dict) -> list[str]:
         rng_txt = f", std {v.min():.2f}-{v.max():.2f} dB" if len(v) else ""
         out["margin"][f"common {g}"] = [int(len(v)), int(m.sum())]
         lines.append(f"- {g}: {len(v)} of {int(m.sum())}{rng_txt}")
+    return lines
+
+
+def below_margin(rows: list[dict], f: dict, out: dict) -> list[str]:
+    """Markdown lines: the out-of-catalog flights (body SNR >= 36 dB) whose second
+    scatterer raises no band the goodness of fit reads by its margin
+    (:func:`oddity_rise_db`), each with the bound: the share of flights holding only
+    catalog causes, every true cause named (>= 36 dB), whose largest significant band
+    residual is at least that rise, i.e. the explained flights a margin low enough to
+    flag it would call ``unexplained`` too."""
+    hi = np.array([band_of(r) == "≥36" for r in rows])
+    expl = np.array([r["gof"].get("largest_significant_db", np.nan) if r.get("gof") else np.nan for r in rows])
+    base = f["catalog_only"] & f["all_named"] & hi & np.isfinite(expl)
+    sub = [r for r, m in zip(rows, f["outside"] & ~f["resolvable"] & hi) if m]
+    out["below_margin"] = []
+    if not sub:
+        return []
+    lines = ["", "#### Out-of-catalog flights below the goodness of fit's reach (≥ 36 dB)", "",
+             "The effect's largest rise over the same flight without it, in the bands the test reads; "
+             "explained flights whose model misfits by at least as much (what a margin that low would "
+             "also flag):", ""]
+    for r in sub:
+        q = r["oddity_rise"]
+        k = int(np.sum(base & (expl >= q["rise_db"])))
+        n = int(base.sum())
+        out["below_margin"].append({"flight_id": r["flight_id"], **q, "named": r["named"],
+                                    "explained_at_least": [k, n]})
+        lines.append(f"- {r['flight_id']} ({r['generator']}, {r['radar']}): +{q['rise_db']:.1f} dB in "
+                     f"{q['band_hz'][0]:+.0f}..{q['band_hz'][1]:+.0f} Hz from the body (margin "
+                     f"{r['gof'].get('margin_db', 7.0):.0f} dB); named {', '.join(r['named']) or 'none'}; "
+                     f"explained flights misfit by ≥ that: {k} of {n} ({100 * k / max(n, 1):.0f} %)")
     return lines
 
 
@@ -856,6 +938,7 @@ def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[st
                          + " | ".join(f"{cnt(c, sub)} ({cnt(c, hi)})" for c in conds.values())
                          + f" | {', '.join(f'{k} {v}' for k, v in sorted(named.items())) or '–'} |")
     lines += margin_table(rows, f, S, out)
+    lines += below_margin(rows, f, out)
     # targets at >= 36 dB
     lines += ["", "#### Issue 34's targets at body SNR ≥ 36 dB (pass/fail on the point estimate)", "",
               "| target | value [95 % CI] (k/n) | pass |", "|---|---|---|"]
@@ -865,6 +948,8 @@ def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[st
                              ("imb_spurious", "spurious blade_imbalance ≤ 5 %", lambda v: v <= 0.05),
                              ("unexpl_outside", "unexplained on outside flights ≥ 90 %", lambda v: v >= 0.9),
                              ("none_outside", "none on outside flights = 0", lambda v: v == 0),
+                             ("none_outside_resolvable", "none on outside flights = 0, of those whose effect "
+                                                         "reaches the margin", lambda v: v == 0),
                              ("unexpl_catalog", "unexplained on catalog-only flights ≤ 5 %", lambda v: v <= 0.05)]:
         v = out["rates"][f"{key} ≥36 all"]
         num = int(round(v[0] * v[3])) if v[3] else 0
@@ -992,7 +1077,8 @@ def run_before(store_dir: str, before_src: str) -> tuple[dict, dict]:
 # ----------------------------------------------------------------------------- main
 def resummarise(a) -> int:
     """Tables from an earlier run's rows (``--summarise``), adding the ideal-observer
-    shares where the rows predate them."""
+    shares and the out-of-catalog effects' rise (:func:`oddity_rise_db`, the flight
+    remade at its last nominal SNR) where the rows predate them."""
     data = json.loads(Path(a.summarise).read_text())
     rows, seed = data["rows"], data["seed"]
     plan = {p["flight_id"]: p for p in make_plan(seed, data["args"]["flights_per_cause"], data["args"]["two_cause"],
@@ -1006,6 +1092,9 @@ def resummarise(a) -> int:
         r.setdefault("duration_s", p["duration_s"])
         r.setdefault("oddities", {})
         add_ideal(r["errors"], p)
+        if r["kind"] == "outside" and "oddity_rise" not in r:
+            nominal = r["snr_tries"][-1][0]
+            r["oddity_rise"] = oddity_rise_db(p, _make(p, nominal), nominal)
     before = {r["flight_id"]: r["before"] for r in rows if r.get("before")}
     text, out = report(rows, seed, a.n_boot, before)
     print(text, flush=True)

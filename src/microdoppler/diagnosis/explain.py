@@ -85,6 +85,25 @@ def named_extensions(D: Decision) -> ExtensionSet | None:
     return ExtensionSet({c["extension"]["name"]: c["extension"]["params"] for c in causes})
 
 
+def band_power(spec, i: int, f_body_hz: float, bw: float, n_side: int, guard: float, body_half: float,
+               skirt_edge: tuple | None = None) -> np.ndarray:
+    """The goodness of fit's bands of CPI ``i`` of ``spec`` (an STFT power): the mean
+    power per band of width ``bw`` centred on multiples of ``bw`` from the body
+    Doppler ``f_body_hz`` (``2 n_side + 1`` bands), leaving out the clutter line's
+    ``|f| <= guard``, the body's ``|f - f_body| <= body_half`` and, when given, the
+    skirt's edge ``skirt_edge[0] <= |f - f_body| <= skirt_edge[1]`` [Hz]; NaN where
+    fewer than 3 bins remain."""
+    n_bands = 2 * n_side + 1
+    rel = spec.f_hz - f_body_hz
+    b = np.rint(rel / bw).astype(int) + n_side
+    ok = (b >= 0) & (b < n_bands) & (np.abs(spec.f_hz) > guard) & (np.abs(rel) > body_half)
+    if skirt_edge is not None:
+        ok &= (np.abs(rel) < skirt_edge[0]) | (np.abs(rel) > skirt_edge[1])
+    s = np.bincount(b[ok], spec.p[i, ok], minlength=n_bands)
+    c = np.bincount(b[ok], minlength=n_bands)
+    return np.where(c >= 3, s / np.maximum(c, 1), np.nan)
+
+
 def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) -> dict:
     """Held-out residual of the measured spectrogram against the model with every
     named cause's extension (:func:`simulate_flight`, with the flight's background).
@@ -145,17 +164,8 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     use = np.flatnonzero(M.valid)
     d = np.full((len(st.t_s), n_bands), np.nan)
     for i in use:
-        vals = []
-        for spec, fb in ((st, M.f_body_hz[i]), (sim, f_sim[i])):
-            rel = spec.f_hz - fb
-            b = np.rint(rel / bw).astype(int) + n_side
-            ok = (b >= 0) & (b < n_bands) & (np.abs(spec.f_hz) > guard) & (np.abs(rel) > body_half)
-            if skirt_edge is not None:
-                ok &= (np.abs(rel) < skirt_edge[0]) | (np.abs(rel) > skirt_edge[1])
-            s = np.bincount(b[ok], spec.p[i, ok], minlength=n_bands)
-            c = np.bincount(b[ok], minlength=n_bands)
-            vals.append(np.where(c >= 3, s / np.maximum(c, 1), np.nan))
-        d[i] = DB * np.log(vals[0] / vals[1])
+        d[i] = DB * np.log(band_power(st, i, M.f_body_hz[i], bw, n_side, guard, body_half, skirt_edge)
+                           / band_power(sim, i, f_sim[i], bw, n_side, guard, body_half, skirt_edge))
     fold = folds(len(st.t_s), cfg.block_cpis)
     block = np.arange(len(st.t_s)) // cfg.block_cpis
     blocks = np.unique(block[use])
@@ -197,7 +207,9 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
             "largest_significant_db": round(largest_sig, 2), "margin_db": float(cfg.margin_excess_db),
             "analysed_band_hz": [round(float(centres[0] - bw / 2), 2), round(float(centres[-1] + bw / 2), 2)],
             "model": sorted(ext.effects) if ext is not None else [],
-            "_residual_db": mu, "_band_centres_hz": centres}
+            "_residual_db": mu, "_band_centres_hz": centres,
+            "_band_args": {"bw": bw, "n_side": n_side, "guard": guard, "body_half": body_half,
+                           "skirt_edge": skirt_edge}}
 
 
 def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisConfig, *, gof: dict | None = None) -> Path:
