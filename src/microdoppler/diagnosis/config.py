@@ -316,7 +316,8 @@ class DiagnosisConfig:
     margin_common_gain_db : float
         Goodness of fit: the smallest std [dB] of a significant sideband power
         fluctuation that follows the body's (correlation above
-        :data:`.hypotheses.COMMON_GAIN_CORR`) for ``unexplained`` (a gain on the
+        :data:`.hypotheses.COMMON_GAIN_CORR`, the body moving at least
+        :data:`.hypotheses.COMMON_GAIN_BODY_SHARE` as many dB) for ``unexplained`` (a gain on the
         whole target: a range-cell straddle, an aspect change; no catalog cause is
         one). 1 dB, half the fading's ``margin_std_db`` (2 dB, the margin until this
         version, which left slow straddles of 1.8-1.95 dB std ``none``). On the

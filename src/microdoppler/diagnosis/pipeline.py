@@ -102,6 +102,7 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
                        "evidence": {"kind": "a power fluctuation common to the body and the blades",
                                     "std_db": fading.evidence["common_gain_db"],
                                     "body_correlation": fading.evidence.get("body_correlation"),
+                                    "body_share": fading.evidence.get("body_share"),
                                     "log_evalue": fading.log_e}})
     out["causes"] = causes
     out["cause"] = causes[0]["cause"] if causes else "none"
