@@ -34,9 +34,10 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     acts on the background too, as in the twins (:func:`..datasets.injection.inject`).
 
     The blades are simulated relative to the body and their mean return (every
-    component within half the rotation rate of the body Doppler, with whatever slow
-    gain the extensions put on it) is taken out, as part of the body's RCS: the body
-    line is S_body as measured, and a fading blade gain does not spread it."""
+    component within half the rotation rate of the body Doppler) is taken out, as
+    part of the body's RCS, before the extensions' slow blade gain (a fading) acts on
+    them: the body line is S_body as measured, and a fading blade gain does not spread
+    it."""
     prf = flight.prf_hz
     n = len(flight.iq)
     w2 = float((M.stft.window ** 2).sum())
@@ -52,13 +53,19 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
     common = dict(wavelength_m=flight.wavelength_m, n_blades=n_blades, blade_length_m=float(a["blade_length_m"]),
                   n_fft=n_fft, seed=seed)
-    blades, rev = simulate_blades(lg, n, prf, **common, extensions=replace(extensions, body_hook=None),
+    blades, rev = simulate_blades(lg, n, prf, **common,
+                                  extensions=replace(extensions, body_hook=None, blade_hook=None),
                                   alpha_s=alpha, s_blade=amp * s_blade, s_body=0.0,
                                   blade_amplitudes=ext.blade_amplitudes(n_blades) if ext is not None else None)
     f_rot = float(np.median(rev)) if rev.size else 0.0
     spec = sfft.fft(blades.astype(np.complex128))
     spec[np.abs(sfft.fftfreq(n, 1.0 / prf)) < f_rot / 2] = 0.0
     blades = sfft.ifft(spec)
+    if extensions.blade_hook is not None:
+        # the blades' slow gain (a fading) on the blades without their mean return:
+        # on it, the gain would spread a line 20 dB above the sidebands into a
+        # skirt beyond half the rotation rate that the measured body line does not have
+        extensions.blade_hook(0, n, np.arange(n, dtype=np.float64) / prf, blades)
     body, _ = simulate_blades(lg, n, prf, **common, extensions=ModelExtensions(body_hook=extensions.body_hook),
                               s_blade=0.0, s_body=amp, track=track)
     body = body.astype(np.complex128)
