@@ -59,7 +59,10 @@ unit, resampled within its design group: clean / one cause per cause / two cause
   with a weak blade, ``imbalance_db`` within 1.5 dB, spurious ``blade_imbalance`` on
   balanced flights, ``unexplained`` on outside flights (and ``none`` there) and on
   flights holding only catalog causes. ``unexplained`` is left out of the spurious
-  causes and false alarms above (it is reported on its own).
+  causes and false alarms above (it is reported on its own);
+- per out-of-catalog second scatterer, its largest rise over the same flight without
+  it in the goodness of fit's bands (:func:`oddity_rise_db`), and for those below the
+  test's margin the share of explained flights that misfit by as much (the bound).
 
 Paired before/after (``--before-src DIR``, the ``src/`` of an older checkout): every
 flight holding only catalog causes other than ``blade_imbalance`` (one-cause, two-cause
