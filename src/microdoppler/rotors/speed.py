@@ -68,8 +68,10 @@ Method (arrays per CPI):
     doubt go into ``info["order"]``, the uncertainties and the store.
 
 A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a lone
-mirror pair can be clutter or birds); otherwise there is no estimate and ``reason``
-says why. CPIs without a visible pair are NaN; speeds outside ``min_rev_s`` to
+mirror pair can be clutter or birds), unless the blades' physics shows one order only
+(:func:`one_order_visible`: the second blade-passing harmonic beyond the blade
+flash's Doppler extent; ``info["lone_pair"]`` says so, and ``min_cpis`` CPIs with the
+pair are needed); otherwise there is no estimate and ``reason`` says why. CPIs without a visible pair are NaN; speeds outside ``min_rev_s`` to
 ``max_rev_s`` are dropped.
 
 Accuracy (``benchmarks/eval_rotorspeed.py``, 24 emulated Inspire/Matrice flights
@@ -539,9 +541,12 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         return int(np.isfinite(common).sum()), int((np.isfinite(common) & (n_pairs >= 2)).sum())
 
     n_ok, n_comb = plausible()
+    # a lone pair is an estimate only where the blades' physics shows no more: the
+    # second blade-passing harmonic beyond the blade flash's Doppler extent
+    lone = n_comb < cfg.min_cpis and n_ok >= cfg.min_cpis and one_order_visible(flight, B)
     n_refined = 0
     balance = None
-    if cfg.refine and n_ok > 0 and n_comb >= cfg.min_cpis:  # step 9 only where there is an estimate
+    if cfg.refine and n_ok > 0 and (n_comb >= cfg.min_cpis or lone):  # step 9 only where there is an estimate
         balance = np.full(n_cpi, np.nan)
         n_refined = _refine(flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M, n_pairs,
                             progress, balance)
@@ -550,12 +555,17 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     info.update({"method": METHOD if cfg.refine else METHOD_LINES, "n_cpi_refined": int(n_refined),
                  "n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
                  "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum())})
+    if lone:
+        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+                             f"orders: the blade flash's Doppler extent (blade_length_m "
+                             f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) holds one "
+                             f"blade-passing harmonic only")
     reason = None
     if n_ok == 0:
         reason = (f"no sideband pair above the noise: 0 of {n_cpi} CPIs show a pair (both lines >= "
                   f"{cfg.pair_snr_db:g} dB over the local floor at rotor speeds "
                   f"{cfg.min_rev_s:g}-{cfg.max_rev_s:g} rev/s)")
-    elif n_comb < cfg.min_cpis:
+    elif n_comb < cfg.min_cpis and not lone:
         reason = (f"no HERM comb: {n_ok} of {n_cpi} CPIs show a sideband pair but {n_comb} show two or more "
                   f"harmonic orders (an estimate needs >= {cfg.min_cpis}; a lone mirror pair may be clutter "
                   f"or birds)")
@@ -570,6 +580,23 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         est = resolve_order(flight, est, cfg, rerun=lambda c, n_blades=B: estimate_rotor_speeds(
             flight, n_fft=n_fft, n_motors=M, n_blades=n_blades, config=c, progress=progress, order=False))
     return est
+
+
+def one_order_visible(flight, n_blades: int) -> bool:
+    """Whether the blades' physics lets one harmonic order of the blade-passing comb
+    show, so that a lone sideband pair is the comb: the blade flash's Doppler extent
+    kappa_max beta f (beta = 4 pi L / lambda, the tips' Doppler over the rotation
+    rate f; kappa_max the upper end of :class:`.order.OrderConfig`'s ``extent_range``)
+    ends short of the second harmonic 2 B f. Short blades at a long wavelength (a small
+    drone in L band: beta ~3, two or three blades); False without ``blade_length_m``.
+    Which order the pair is stays the order check's (:func:`.order.resolve_order`)."""
+    from .order import OrderConfig
+
+    L = flight.attrs.get("blade_length_m")
+    if L is None or not np.isfinite(float(L)) or float(L) <= 0:
+        return False
+    beta = 4 * np.pi * float(L) / float(flight.wavelength_m)
+    return bool(OrderConfig().extent_range[1] * beta < 2 * int(n_blades))
 
 
 def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,
