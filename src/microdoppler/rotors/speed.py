@@ -383,13 +383,16 @@ class RotorEstimate:
         return replace(flight, attrs=attrs, motors_time_s=log.time_s, motors_rpm=log.rpm)
 
     def summary(self) -> str:
-        """One line: CPIs with an estimate, mean speed, pairs, or the reason."""
+        """One line: CPIs with an estimate, mean speed, pairs (and why a lone pair was
+        read as the comb), or the reason."""
         if not self.ok:
             return f"{self.flight_id}: no estimate: {self.reason}"
         v = self.valid
+        lone = self.info.get("lone_pair")
         return (f"{self.flight_id}: {int(v.sum())} of {len(v)} CPIs, mean rotor speed "
                 f"{np.nanmean(self.common_rev_s):.1f} rev/s, median {np.median(self.n_pairs[v]):.0f} pairs, "
-                f"{int(self.separated.sum())} CPIs with every rotor separated")
+                f"{int(self.separated.sum())} CPIs with every rotor separated"
+                + (f"; a lone pair read as the comb: {lone}" if lone else ""))
 
 
 def _order_attrs(est) -> dict:
