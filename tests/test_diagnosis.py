@@ -234,7 +234,8 @@ def test_emulated_weak_blade_is_named(model, imb, seed):
 
 #: a strong blade fading, drawn from a seed the diagnosis never sees
 _FADE_DRAW = np.random.default_rng(34_2031)
-STRONG_FADING = {"fading_std_db": float(_FADE_DRAW.uniform(5.0, 6.5)), "timescale_s": float(_FADE_DRAW.uniform(1.2, 2.0))}
+STRONG_FADING = {"fading_std_db": float(_FADE_DRAW.uniform(5.0, 6.5)),
+                 "timescale_s": float(_FADE_DRAW.uniform(1.2, 2.0))}
 
 
 def _strong_fading_entry(seed: int) -> dict:

@@ -71,8 +71,9 @@ A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a
 mirror pair can be clutter or birds), unless the blades' physics shows one order only
 (:func:`one_order_visible`: the second blade-passing harmonic beyond the blade
 flash's Doppler extent; ``info["lone_pair"]`` says so, and ``min_cpis`` CPIs with the
-pair are needed); otherwise there is no estimate and ``reason`` says why. CPIs without a visible pair are NaN; speeds outside ``min_rev_s`` to
-``max_rev_s`` are dropped.
+pair are needed); otherwise there is no estimate and ``reason`` says why. CPIs
+without a visible pair are NaN; speeds outside ``min_rev_s`` to ``max_rev_s`` are
+dropped.
 
 Accuracy (``benchmarks/eval_rotorspeed.py``, 24 emulated Inspire/Matrice flights
 per seed, both radars, 500-3000 m; ``benchmarks/README.md``, "The I/Q fit"): in CPIs
