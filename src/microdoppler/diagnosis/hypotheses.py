@@ -285,10 +285,10 @@ def test_imbalance(M, cfg, fold) -> CauseTest:
     x, v0, w, ref, idx = imbalance_observations(M)
     f = fold[idx] if len(idx) else np.zeros(0, int)
     n_cpi = len(np.unique(idx))
-    if n_cpi < 2 * cfg.block_cpis or len(np.unique(f)) < 2:
+    if n_cpi < cfg.block_cpis or len(np.unique(f)) < 2:
         res.testable = False
         res.evidence = {"reason": f"blade-passing lines on both sides of a non-multiple order, clear of "
-                                  f"other lines, in {n_cpi} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"}
+                                  f"other lines, in {n_cpi} CPIs (expected >= {cfg.block_cpis}, two folds)"}
         return res
     z = x / ref
     vz0 = v0 / ref ** 2
