@@ -157,13 +157,19 @@ def flat_phase_noise(n: int, prf_hz: float, rms_rad: float, rng: np.random.Gener
     ``bandwidth_hz``, standard deviation ``rms_rad``."""
     if n == 0 or rms_rad == 0:
         return np.zeros(n)
-    m = sfft.next_fast_len(n, real=True)
-    f = sfft.rfftfreq(m, 1.0 / prf_hz)
-    shape = ((f > 0) & (f < bandwidth_hz)).astype(np.float64)
-    spec = (rng.standard_normal(len(f)) + 1j * rng.standard_normal(len(f))) * shape
-    th = sfft.irfft(spec, m, workers=1)[:n]
+    th = _gaussian_series(n, prf_hz, lambda f: ((f > 0) & (f < bandwidth_hz)).astype(np.float64), rng)
     s = th.std()
     return th * (rms_rad / s) if s > 0 else th
+
+
+def _gaussian_series(n: int, prf_hz: float, amplitude, rng: np.random.Generator) -> np.ndarray:
+    """A real Gaussian series [n] drawn in the frequency domain over the whole record:
+    complex white noise times ``amplitude(f)`` on the real FFT's frequencies [Hz]
+    (of the next fast length), transformed back."""
+    m = sfft.next_fast_len(n, real=True)
+    f = sfft.rfftfreq(m, 1.0 / prf_hz)
+    spec = (rng.standard_normal(len(f)) + 1j * rng.standard_normal(len(f))) * amplitude(f)
+    return sfft.irfft(spec, m, workers=1)[:n]
 
 
 def profile_phase_noise(n: int, prf_hz: float, band_edges_hz, dbc_hz, rng: np.random.Generator) -> np.ndarray:
@@ -175,15 +181,17 @@ def profile_phase_noise(n: int, prf_hz: float, band_edges_hz, dbc_hz, rng: np.ra
     if n == 0:
         return np.zeros(n)
     m = sfft.next_fast_len(n, real=True)
-    f = sfft.rfftfreq(m, 1.0 / prf_hz)
     e = np.asarray(band_edges_hz, float)
     lev = 10 ** (np.asarray(dbc_hz, float) / 10)
-    j = np.clip(np.searchsorted(e, f, side="right") - 1, 0, len(lev) - 1)
-    S = np.where(f < e[-1], lev[j], 0.0)
-    S[0] = 0.0
-    # rfft coefficients of a real series with two-sided PSD S: variance S prf m / 2 per part
-    spec = (rng.standard_normal(len(f)) + 1j * rng.standard_normal(len(f))) * np.sqrt(S * prf_hz * m / 2)
-    return sfft.irfft(spec, m, workers=1)[:n]
+
+    def amplitude(f):
+        j = np.clip(np.searchsorted(e, f, side="right") - 1, 0, len(lev) - 1)
+        S = np.where(f < e[-1], lev[j], 0.0)
+        S[0] = 0.0
+        # rfft coefficients of a real series with two-sided PSD S: variance S prf m / 2 per part
+        return np.sqrt(S * prf_hz * m / 2)
+
+    return _gaussian_series(n, prf_hz, amplitude, rng)
 
 
 def asymmetry_envelope(asymmetry_db: float):
