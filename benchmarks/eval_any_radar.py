@@ -61,7 +61,8 @@ def evaluate(case) -> dict:
            "seconds": dt, "ok": est.ok, "reason": est.reason, "ambiguous": bool(o.get("ambiguous", False)),
            "alternatives_rev_s": o.get("alternatives_rev_s", []),
            "relative_likelihood": o.get("relative_likelihood", []), "ratio_to_lines": o.get("ratio_to_lines"),
-           "remeasured": o.get("remeasured"), "coverage": o.get("coverage")}
+           "remeasured": o.get("remeasured"), "coverage": o.get("coverage"),
+           "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0}
     if not est.ok:
         row.update({"error": None, "true_rev_s": float(np.mean(truth["rev_s"])), "n_cpi": 0, "n_2sigma": 0})
         return row

@@ -15,8 +15,8 @@ from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.flightzarr import Flight, read_flight, write_flight
 from microdoppler.io.motorlog import read_motor_store
 from microdoppler.rotors.fit import FitConfig
-from microdoppler.rotors.speed import (RotorSpeedConfig, cpi_means_of_spline, estimate_rotor_speeds,
-                                     instants_from_cpi_means)
+from microdoppler.rotors.speed import (RotorEstimate, RotorSpeedConfig, cpi_means_of_spline, departure_sigma,
+                                     estimate_rotor_speeds, instants_from_cpi_means)
 from rotor_flights import CARRIER, LAM, N_FFT, PRF, cpi_truth, rel_errors, synthetic_flight
 
 
@@ -307,3 +307,30 @@ def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(t
     for name in ("motor_log_lag", "motor_speed_scale"):
         t = e["evidence"]["tests"][name]
         assert not t["testable"] and "motors_source is radar" in t["reason"]
+
+
+def test_a_cpi_that_departs_from_both_neighbours_carries_the_departure_in_its_sigma():
+    """Step 11: the rotor group's speed changes by at most ``max_step_rel`` per hop, so a
+    CPI whose mean departs from the median of its neighbours on both sides by more than
+    ``smear_rel`` read a comb they did not (here 5/4 of theirs, as on eval_any_radar's
+    any1041); its sigma then covers the departure. A steady ramp of 5 % per hop, the
+    first and last CPIs (one side only) and a CPI beside a gap keep their sigma."""
+    cfg = RotorSpeedConfig()
+    n, M = 12, 4
+    t = np.arange(n) * 0.3
+    common = 100.0 * 1.05 ** np.arange(n)  # steady: 5 % per hop (< max_step_rel)
+    truth = common.copy()
+    common[5] *= 1.25  # a 5/4 comb in one CPI
+    common[9] = np.nan  # a CPI without an estimate
+    sd = 0.004 * common
+    speeds = np.repeat(common[:, None], M, axis=1)
+    est = RotorEstimate("f", t, speeds.copy(), np.repeat(sd[:, None], M, axis=1), common.copy(), sd.copy(),
+                        np.full(n, 3), np.full(n, M), np.zeros(n), M, 2, 4096, None, {})
+    assert departure_sigma(est, cfg.smear_rel) == 1
+    assert est.info["n_cpi_departing"] == 1
+    assert "1 CPIs depart from both neighbours by over 12 %" in est.summary()
+    z = np.abs(est.common_rev_s - truth) / est.common_std_rev_s
+    assert z[5] <= 2 < abs(common[5] - truth[5]) / sd[5]  # covered now, not before
+    keep = np.isfinite(common) & (np.arange(n) != 5)
+    np.testing.assert_array_equal(est.common_std_rev_s[keep], sd[keep])
+    assert np.all(est.speeds_std_rev_s[5] >= 0.2 * truth[5])
