@@ -75,8 +75,11 @@ Method (arrays per CPI):
 A flight needs ``min_cpis`` CPIs whose comb shows two or more harmonic orders (a lone
 mirror pair can be clutter or birds), unless the blades' physics shows one order only
 (:func:`one_order_visible`: the second blade-passing harmonic beyond the blade
-flash's Doppler extent; ``info["lone_pair"]`` says so, and ``min_cpis`` CPIs with the
-pair are needed); otherwise there is no estimate and ``reason`` says why. CPIs
+flash's Doppler extent) or the band can hold one order's mirror pair only
+(:func:`second_order_folds`: the second order's far line beyond 0.49 PRF);
+``info["lone_pair"]`` says which, and the pair is needed in ``min_cpis`` CPIs and in
+half of them at least;
+otherwise there is no estimate and ``reason`` says why. CPIs
 without a visible pair are NaN; speeds outside ``min_rev_s`` to ``max_rev_s`` are
 dropped.
 
@@ -554,8 +557,18 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
 
     n_ok, n_comb = plausible()
     # a lone pair is an estimate only where the blades' physics shows no more: the
-    # second blade-passing harmonic beyond the blade flash's Doppler extent
-    lone = n_comb < cfg.min_cpis and n_ok >= cfg.min_cpis and one_order_visible(flight, B)
+    # second blade-passing harmonic beyond the blade flash's Doppler extent, or folded
+    # (the band holds one order's mirror pair only)
+    # and a lone pair must persist: in half the CPIs at least (a rotor's first pair
+    # stands in most CPIs; an emulated Mini's intermittent pair at the speed range's
+    # floor, 14 of 70 CPIs, is not its comb)
+    few = n_comb < cfg.min_cpis and n_ok >= max(cfg.min_cpis, 0.5 * n_cpi)
+    lone_why = None
+    if few and one_order_visible(flight, B):
+        lone_why = "extent"
+    elif few and second_order_folds(common, body, B, prf):
+        lone_why = "folded"
+    lone = lone_why is not None
     n_refined = 0
     balance = None
     if cfg.refine and n_ok > 0 and (n_comb >= cfg.min_cpis or lone):  # step 9 only where there is an estimate
@@ -567,11 +580,15 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
     info.update({"method": METHOD if cfg.refine else METHOD_LINES, "n_cpi_refined": int(n_refined),
                  "n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
                  "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum())})
-    if lone:
+    if lone_why == "extent":
         info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
                              f"orders: the blade flash's Doppler extent (blade_length_m "
                              f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) holds one "
                              f"blade-passing harmonic only")
+    elif lone_why == "folded":
+        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+                             f"orders: the second order's pair lies beyond +-{0.49 * prf:.0f} Hz (PRF {prf:.0f} Hz) "
+                             f"and folds, so the band holds one mirror pair only")
     reason = None
     if n_ok == 0:
         reason = (f"no sideband pair above the noise: 0 of {n_cpi} CPIs show a pair (both lines >= "
@@ -628,6 +645,21 @@ def departure_sigma(est: RotorEstimate, rel: float) -> int:
     est.info["n_cpi_departing"] = n
     est.info["departure_rel"] = float(rel)
     return n
+
+
+def second_order_folds(common_rev_s: np.ndarray, body_hz: np.ndarray, n_blades: int, prf_hz: float) -> bool:
+    """Whether the comb's second blade-passing order cannot show as a mirror pair inside
+    the band: on the median CPI with an estimate, |body| + 2 B f passes 0.49 PRF (the
+    pair search's limit), so one line of that pair folds to the other side of the
+    spectrum. A lone pair is then all the band can show of the comb as a mirror pair
+    (a 5.8 GHz recording at 2.9 kHz PRF: body +440 Hz, pair at +-672 Hz, the second
+    order's upper line at +1784 Hz folds to -1162 Hz); which order it is stays the
+    order check's, whose line model folds."""
+    ok = np.isfinite(common_rev_s) & np.isfinite(body_hz)
+    if not ok.any():
+        return False
+    reach = np.abs(body_hz[ok]) + 2 * int(n_blades) * common_rev_s[ok]
+    return bool(np.median(reach) > 0.49 * float(prf_hz))
 
 
 def one_order_visible(flight, n_blades: int) -> bool:
