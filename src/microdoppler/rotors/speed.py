@@ -78,8 +78,7 @@ mirror pair can be clutter or birds), unless the blades' physics shows one order
 flash's Doppler extent) or the band can hold one order's mirror pair only
 (:func:`second_order_folds`: the second order's far line beyond 0.49 PRF);
 ``info["lone_pair"]`` says which, and the pair is needed in ``min_cpis`` CPIs and in
-half of them at least;
-otherwise there is no estimate and ``reason`` says why. CPIs
+half of them at least; otherwise there is no estimate and ``reason`` says why. CPIs
 without a visible pair are NaN; speeds outside ``min_rev_s`` to ``max_rev_s`` are
 dropped.
 
@@ -556,12 +555,11 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int = 4096, n_motors: int | 
         return int(np.isfinite(common).sum()), int((np.isfinite(common) & (n_pairs >= 2)).sum())
 
     n_ok, n_comb = plausible()
-    # a lone pair is an estimate only where the blades' physics shows no more: the
-    # second blade-passing harmonic beyond the blade flash's Doppler extent, or folded
-    # (the band holds one order's mirror pair only)
-    # and a lone pair must persist: in half the CPIs at least (a rotor's first pair
-    # stands in most CPIs; an emulated Mini's intermittent pair at the speed range's
-    # floor, 14 of 70 CPIs, is not its comb)
+    # a lone pair is an estimate only where the blades' physics shows no more (the
+    # second blade-passing harmonic beyond the blade flash's Doppler extent) or the band
+    # cannot (its mirror pair folded), and only where it persists, in half the CPIs at
+    # least (a rotor's first pair stands in most CPIs; an emulated Mini's intermittent
+    # pair at the speed range's floor, 14 of 70 CPIs, is not its comb)
     few = n_comb < cfg.min_cpis and n_ok >= max(cfg.min_cpis, 0.5 * n_cpi)
     lone_why = None
     if few and one_order_visible(flight, B):
