@@ -167,6 +167,11 @@ class OrderConfig:
     snap_rel : float
         A screen maximum within this (relative) of a simple ratio of the lines' comb is
         that ratio (the lines measure the spacing; a nearby maximum is no other order).
+    rotor_spread_max : float
+        The rotors of one drone turn within this (relative) of their median rotor (a
+        quadcopter's differ by up to ~15 % in a manoeuvre). Where the order's speeds are
+        the lines' estimate scaled, a rotor beyond it sat on another order's line: it is
+        put at the median rotor and the change enters the uncertainty.
     """
 
     min_rev_s: float = 20.0
@@ -201,6 +206,7 @@ class OrderConfig:
     min_evidence: float = 0.05
     prior_lines: float = 4.0
     snap_rel: float = 0.08
+    rotor_spread_max: float = 0.25
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -838,10 +844,31 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
         if new.ok and abs(np.log(float(np.nanmedian(new.common_rev_s[new.valid])) / want)) <= 0.03:
             return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
     out = replace(lines)
-    out.speeds_rev_s = lines.speeds_rev_s * ratio
-    out.speeds_std_rev_s = lines.speeds_std_rev_s * ratio
-    out.common_rev_s = lines.common_rev_s * ratio
-    out.common_std_rev_s = lines.common_std_rev_s * ratio
+    speeds = lines.speeds_rev_s * ratio
+    sds = lines.speeds_std_rev_s * ratio
+    common = lines.common_rev_s * ratio
+    common_sd = lines.common_std_rev_s * ratio
+    # a rotor far from the others sat on a line of another order (read at the lines'
+    # rate, it was placed at 3/2 or 2/1 of its neighbours): its speed is not measured
+    # at the chosen order; it goes to the median rotor, the change into sigma. The
+    # median is taken over the rotors of the CPI and its neighbours (+-2): in a CPI
+    # where half the rotors sat on another order's lines its own median is neither.
+    for i in np.flatnonzero(v):
+        near = v[max(0, i - 2):i + 3]
+        pool = speeds[max(0, i - 2):i + 3][near]
+        pool = pool[np.isfinite(pool)]
+        if len(pool) == 0:
+            continue
+        med = float(np.median(pool))
+        off = np.isfinite(speeds[i]) & (np.abs(speeds[i] / med - 1) > ocfg.rotor_spread_max)
+        if off.any():
+            sds[i, off] = np.hypot(sds[i, off], speeds[i, off] - med)
+            speeds[i, off] = med
+            mean = float(np.nanmean(speeds[i]))
+            common_sd[i] = np.hypot(common_sd[i], common[i] - mean)
+            common[i] = mean
+    out.speeds_rev_s, out.speeds_std_rev_s = speeds, sds
+    out.common_rev_s, out.common_std_rev_s = common, common_sd
     return out, "the lines' estimate scaled (a re-measurement did not find the comb)"
 
 
