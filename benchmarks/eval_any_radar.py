@@ -16,7 +16,13 @@ averaged over each CPI with the window's power profile:
 * ``2 sigma``: the share of the CPIs (pooled, with the recording as the bootstrap
   unit) whose error lies within twice the reported uncertainty;
 * ``visible``: the generator's rule: the first blade-passing pair lies unfolded inside
-  +-PRF/2, away from 0 Hz, and stands 10 dB over the noise per bin.
+  +-PRF/2, away from 0 Hz, and stands 10 dB over the noise per bin (the pair alone:
+  each rotor's Fourier coefficients at +-B of its rotation rate; before 15e7046 the
+  whole blade signal's peak near +-B f, which at 9.4-24 GHz was a folded higher order
+  or another rotor's line on 4 of seeds 1000-1071 and 2 of 5000-5071).
+
+Seeds 1000-1071 are the benchmark the estimator was worked on (issue 33); seeds
+5000-5071 were first run after that work, as a hold-out.
 
 Targets (issue 33): within 2 % on >= 95 % of the visible recordings; never off by more
 than 10 % unless ambiguous; >= 95 % of errors within 2 sigma. Prints a table by carrier,
