@@ -461,7 +461,10 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
         kHz. A fixed 4096 pulses gave 0.2-0.3 s at 14-19 kHz, bins of 4 % of a
         2-blade rotor's first line at 44 rev/s, and the mean 2.3-2.4 % off on two drawn
         recordings (0.01 % at 8192); shorter CPIs at low PRF (2048 at 5 kHz) read an
-        unequal blade's comb 12.6 % off.
+        unequal blade's comb 12.6 % off. Where the longer default CPI gives no
+        estimate (rotor speeds changing within it smear the lines: a flying drone at
+        1.3 GHz and 19 kHz), the estimate is made at 4096 pulses and ``info["cpi"]``
+        says so.
     n_motors, n_blades : int, optional
         Rotor count and blades per rotor; default the flight's ``n_motors`` and
         ``n_blades`` attributes.
@@ -488,6 +491,19 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
     B = n_blades if n_blades is not None else attrs.get("n_blades")
     if n_fft is None:
         n_fft = max(N_FFT_MIN, nearest_power_of_two(PAPER_WINDOW_S * prf))
+        if n_fft > N_FFT_MIN:
+            # a longer CPI resolves slow rotors' lines; where their speeds change within
+            # it the lines smear below the pair threshold: then the paper's 4096 pulses
+            kw = dict(n_motors=n_motors, n_blades=n_blades, config=config, progress=progress, order=order)
+            est = estimate_rotor_speeds(flight, n_fft=n_fft, **kw)
+            if est.ok:
+                return est
+            short = estimate_rotor_speeds(flight, n_fft=N_FFT_MIN, **kw)
+            if not short.ok:
+                return est
+            short.info["cpi"] = (f"{N_FFT_MIN} pulses: the default CPI of {n_fft} ({n_fft / prf:.2f} s) gave no "
+                                 f"estimate ({est.reason})")
+            return short
     if n_fft < 64 or n_fft % 2:
         raise ValueError(f"n_fft={n_fft} must be an even integer >= 64")
     if M < 1:
