@@ -160,7 +160,7 @@ def test_default_cpi_falls_back_to_4096_pulses_where_the_lines_smear():
     flight, truth = make_recording(draw_case(62, duration_s=6.0, **geometry))
     assert not estimate_rotor_speeds(flight, n_fft=8192).ok
     est = estimate_rotor_speeds(flight)
-    assert est.n_fft == 4096 and "8192" in est.info["cpi"]
+    assert est.n_fft == 4096 and "8192" in est.info["cpi"] and "CPI 4096 pulses" in est.summary()
     err, amb = assert_honest(est, truth, flight)
     assert abs(err) <= 0.02 and not amb
 

@@ -5,10 +5,11 @@ a rotor of B equal blades turning at f_m [rev/s] puts lines at the body Doppler 
 and minus n B f_m, n = 1, 2, ... (the paper's HERM lines, §II; Fig. 2b: four rotors
 give four lines in each harmonic group). :func:`estimate_rotor_speeds` measures them
 on the paper's STFT (:func:`microdoppler.spectra.spectrogram.spectrogram`: ``n_fft``-point
-Blackman-Harris, 50 % overlap, by default the paper's CPI of ~0.56 s, at least 4096 pulses; without
-the high-pass, the clutter band is masked instead) and returns a :class:`RotorEstimate`: per CPI the rotor speeds, their mean,
-one-sigma uncertainties, the number of visible sideband pairs, or a ``reason`` when
-the flight shows no HERM lines.
+Blackman-Harris, 50 % overlap, by default the paper's CPI of ~0.56 s and at least 4096
+pulses; without the high-pass, the clutter band is masked instead) and returns a
+:class:`RotorEstimate`: per CPI the rotor speeds, their mean, one-sigma uncertainties,
+the number of visible sideband pairs, or a ``reason`` when the flight shows no HERM
+lines.
 
 Method (arrays per CPI):
 
@@ -395,7 +396,8 @@ class RotorEstimate:
 
     def summary(self) -> str:
         """One line: CPIs with an estimate, mean speed, pairs (and why a lone pair was
-        read as the comb; how many CPIs depart from their neighbours), or the reason."""
+        read as the comb; how many CPIs depart from their neighbours; the CPI where the
+        default's gave no estimate), or the reason."""
         if not self.ok:
             return f"{self.flight_id}: no estimate: {self.reason}"
         v = self.valid
@@ -406,7 +408,8 @@ class RotorEstimate:
                 f"{int(self.separated.sum())} CPIs with every rotor separated"
                 + (f"; a lone pair read as the comb: {lone}" if lone else "")
                 + (f"; {dep} CPIs depart from both neighbours by over "
-                   f"{100 * self.info.get('departure_rel', 0):.0f} % (their rpm_std includes it)" if dep else ""))
+                   f"{100 * self.info.get('departure_rel', 0):.0f} % (their rpm_std includes it)" if dep else "")
+                + (f"; CPI {self.info['cpi']}" if "cpi" in self.info else ""))
 
 
 def _order_attrs(est) -> dict:
