@@ -156,7 +156,7 @@ def make_recording(case: Case, *, with_parts: bool = False):
     mean periodogram of the pair alone: each rotor's Fourier coefficients at orders +-B
     of its rotation rate, on its own phase; the whole blade signal's periodogram near
     +-B f also holds folded higher orders and other rotors' lines, which at 9.4-24 GHz
-    stood 10-15 dB over a first pair at -3 to +9 dB). ``with_parts`` adds the
+    stood 7-20 dB over the first pair itself). ``with_parts`` adds the
     noise-free blade signal (``truth["blades"]``)."""
     rng = np.random.default_rng([case.seed, 34])
     prf, lam = case.prf_hz, case.wavelength_m
