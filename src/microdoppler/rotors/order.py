@@ -51,7 +51,8 @@ rates remain plausible says so.
    order). A peak inside a window of a line has the density (1 - fade) N(y; mu,
    ``line_sd_db``) / width; a window without a peak 1 - (1 - fade) Phi((mu -
    ``line_db``) / ``line_sd_db``); a peak no line explains is spurious,
-   ``spurious_per_cpi`` per CPI spread over the band and over ``spurious_range_db``.
+   ``spurious_per_cpi`` per CPI spread over the analysed band (+-its edge: no peak
+   beyond it is observed) and over ``spurious_range_db``.
    The data are the same for every candidate (every peak is explained or spurious), so
    their likelihoods compare: a sub-harmonic pays for its empty windows, a
    super-harmonic or a wrong folding for the peaks it leaves unexplained, the
@@ -67,9 +68,12 @@ rates remain plausible says so.
 6. The speeds: where the chosen rate is the comb's, the estimate stands; else it is
    measured again with the search confined to the chosen rate's range (``rerun``,
    widened by ``rerun_margin``) and, where that does not find it within 3 %, the
-   lines' estimate is scaled. Where the lines found no comb at all over the whole
-   range (they may follow a sub-harmonic path into nothing), the screen's likeliest
-   rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
+   lines' estimate is scaled. Whatever the order, a rotor more than
+   ``rotor_spread_max`` from the median rotor (of the CPI and its neighbours) sat on a
+   line of another order or family; it goes to the median, the change into its sigma
+   (``info["order"]["n_rotors_to_median"]``). Where the lines found no comb at all over
+   the whole range (they may follow a sub-harmonic path into nothing), the screen's
+   likeliest rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
 
 Where another candidate's relative likelihood is ``ambiguous_at`` or more, the flight's
 order is ambiguous: ``RotorEstimate.info["order"]`` lists the alternatives (down to
@@ -169,9 +173,9 @@ class OrderConfig:
         that ratio (the lines measure the spacing; a nearby maximum is no other order).
     rotor_spread_max : float
         The rotors of one drone turn within this (relative) of their median rotor (a
-        quadcopter's differ by up to ~15 % in a manoeuvre). Where the order's speeds are
-        the lines' estimate scaled, a rotor beyond it sat on another order's line: it is
-        put at the median rotor and the change enters the uncertainty.
+        quadcopter's differ by up to ~15 % in a manoeuvre). A rotor beyond it sat on
+        another order's or family's line: it is put at the median rotor and the change
+        enters the uncertainty.
     """
 
     min_rev_s: float = 20.0
@@ -404,6 +408,7 @@ class _Geometry:
     pk_ok: np.ndarray      # [n_cpi, P]
     lo_bin: np.ndarray     # [n_cpi, W] first bin of each window (mod n_fft)
     hi_bin: np.ndarray     # [n_cpi, W] last bin (lo_bin + width, may pass n_fft)
+    band: np.ndarray       # [n_cpi] analysed offsets |x| <= band [Hz]
 
 
 def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: OrderConfig,
@@ -471,7 +476,8 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
         pk_d[:, :, fi] = np.take_along_axis(dsel, j[:, :, None], 2)[:, :, 0]
         wsel = np.take_along_axis(np.where(fsel & inside, 2 * hwk, np.inf), j[:, :, None], 2)[:, :, 0]
         pk_w[:, :, fi] = wsel
-    return _Geometry(f, d, fam, valid, det, fmax, tail, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m)
+    return _Geometry(f, d, fam, valid, det, fmax, tail, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m,
+                     data.band_hz[rows])
 
 
 def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> tuple[np.ndarray, float]:
@@ -501,7 +507,9 @@ def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, rho_cap_db: fl
     T, sd = ocfg.line_db, ocfg.line_sd_db
     log_keep = np.log1p(-ocfg.fade)
     log_norm = np.log(sd * np.sqrt(2 * np.pi))
-    spur = np.log(ocfg.spurious_per_cpi / data.prf / ocfg.spurious_range_db)
+    # a peak no line explains lies anywhere in the analysed band (+-band: only its peaks
+    # are observed) and its height anywhere over ``spurious_range_db``
+    spur = np.log(ocfg.spurious_per_cpi / (2 * g.band[:, None]) / ocfg.spurious_range_db)
     y = np.where(g.pk_ok, g.pk_y, 0.0)
     pd_b = np.where(np.isfinite(g.pk_d[:, :, 0]), g.pk_d[:, :, 0], 0.0)
     pd_i = np.where(np.isfinite(g.pk_d[:, :, 1]), g.pk_d[:, :, 1], 0.0)
@@ -748,6 +756,8 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     if chosen.origin != "x1" or int(lines.n_blades) != B:
         out, how = _remeasure(flight, est, lines, rate / ref, speed_config, rerun, ocfg)
         out = replace(out, n_blades=B)
+    # whatever the order, a rotor far from the others is no rotor of this drone
+    out, n_moved = _within_spread(out, ocfg)
     # the order's uncertainty: the mixture's spread about the reported speed
     v = out.valid
     mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
@@ -774,6 +784,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
         "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
         "order_rel_std": float(np.sqrt(var_rel)),
+        "n_rotors_to_median": int(n_moved),
         "n_cpis": int(len(cpis)),
         "candidates": [{**{k: (round(v, 4) if isinstance(v, float) else v) for k, v in asdict(c).items()
                            if k not in ("params", "per_cpi")}, **c.params} for c in kept],
@@ -844,15 +855,23 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
         if new.ok and abs(np.log(float(np.nanmedian(new.common_rev_s[new.valid])) / want)) <= 0.03:
             return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
     out = replace(lines)
-    speeds = lines.speeds_rev_s * ratio
-    sds = lines.speeds_std_rev_s * ratio
-    common = lines.common_rev_s * ratio
-    common_sd = lines.common_std_rev_s * ratio
-    # a rotor far from the others sat on a line of another order (read at the lines'
-    # rate, it was placed at 3/2 or 2/1 of its neighbours): its speed is not measured
-    # at the chosen order; it goes to the median rotor, the change into sigma. The
-    # median is taken over the rotors of the CPI and its neighbours (+-2): in a CPI
-    # where half the rotors sat on another order's lines its own median is neither.
+    out.speeds_rev_s, out.speeds_std_rev_s = lines.speeds_rev_s * ratio, lines.speeds_std_rev_s * ratio
+    out.common_rev_s, out.common_std_rev_s = lines.common_rev_s * ratio, lines.common_std_rev_s * ratio
+    return out, "the lines' estimate scaled (a re-measurement did not find the comb)"
+
+
+def _within_spread(est, ocfg: OrderConfig):
+    """A rotor far from the others sat on a line of another order or family (read at
+    3/2 or 2/1 of its neighbours: an unequal blade's rotation-rate line taken for a
+    blade-passing one, a scaled estimate's rotor on a third order's line): its speed is
+    not measured; it goes to the median rotor, the change into sigma. The median is
+    taken over the rotors of the CPI and its neighbours (+-2): in a CPI where half the
+    rotors sat on another order's lines its own median is neither. Returns (estimate,
+    rotors moved); the estimate itself where none is."""
+    v = est.valid
+    speeds, sds = np.array(est.speeds_rev_s, float), np.array(est.speeds_std_rev_s, float)
+    common, common_sd = np.array(est.common_rev_s, float), np.array(est.common_std_rev_s, float)
+    moved = 0
     for i in np.flatnonzero(v):
         near = v[max(0, i - 2):i + 3]
         pool = speeds[max(0, i - 2):i + 3][near]
@@ -862,14 +881,18 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
         med = float(np.median(pool))
         off = np.isfinite(speeds[i]) & (np.abs(speeds[i] / med - 1) > ocfg.rotor_spread_max)
         if off.any():
+            moved += int(off.sum())
             sds[i, off] = np.hypot(sds[i, off], speeds[i, off] - med)
             speeds[i, off] = med
             mean = float(np.nanmean(speeds[i]))
             common_sd[i] = np.hypot(common_sd[i], common[i] - mean)
             common[i] = mean
+    if not moved:
+        return est, 0
+    out = replace(est)
     out.speeds_rev_s, out.speeds_std_rev_s = speeds, sds
     out.common_rev_s, out.common_std_rev_s = common, common_sd
-    return out, "the lines' estimate scaled (a re-measurement did not find the comb)"
+    return out, moved
 
 
 def ambiguity_line(est) -> str | None:
