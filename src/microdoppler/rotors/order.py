@@ -173,12 +173,15 @@ class OrderConfig:
         that ratio (the lines measure the spacing; a nearby maximum is no other order).
     rotor_spread_max : float
         The rotors of one drone turn within this (relative) of their median rotor over
-        the CPI and its neighbours (an emulated Inspire 2's fastest rotor reaches 1.29x
-        that median in a manoeuvre). A rotor beyond it sat on another order's or
-        family's line (1.5x or 2x: an unequal blade's rotation-rate line read as a
-        blade-passing one, a scaled estimate's rotor on a third order's line): it is put
-        at the median rotor and the change enters the uncertainty. At 0.25 four of 991
-        emulated CPIs had a true rotor moved (within 1 % -0.20 [-0.63, +0.00] points).
+        the CPI and its neighbours. A rotor beyond it sat on another order's or
+        family's line (an unequal blade's rotation-rate line read as a blade-passing
+        one, a scaled estimate's rotor on a third order's line: 1.25-2x): it is put at
+        the median rotor and the change enters the uncertainty. The price: an emulated
+        Inspire 2's fastest rotor reaches 1.27-1.29x that median in a manoeuvre, and 4
+        of 991 emulated CPIs had a true rotor moved (their mean 6 % off, within 1 sigma;
+        within 1 % -0.20 [-0.63, +0.00] points). At 0.35 those stay, but a scaled
+        estimate kept rotors 25-35 % off (a 5.8 GHz recording -0.2 -> -8.3 %, 2 of 24
+        CPIs within 2 sigma).
     """
 
     min_rev_s: float = 20.0
@@ -213,7 +216,7 @@ class OrderConfig:
     min_evidence: float = 0.05
     prior_lines: float = 4.0
     snap_rel: float = 0.08
-    rotor_spread_max: float = 0.35
+    rotor_spread_max: float = 0.25
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
