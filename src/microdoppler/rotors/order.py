@@ -501,7 +501,7 @@ def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> 
     return np.where(n > 0, ym + beta * dm, floor_db), beta
 
 
-def _loglik(g: _Geometry, data: _Data, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
+def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
             a_offsets, per_cpi=False, with_cpis=False):
     """Maximised log-likelihood of a candidate: (LL, params), (LL, params, per-CPI LL)
     where ``with_cpis``, or the per-CPI LL of the best parameters where ``per_cpi``.
@@ -616,7 +616,7 @@ def _score(data: _Data, f: float, B: int, L, lam: float, ocfg: OrderConfig, grid
     """The full model's score of rate ``f``: log-likelihood (over ``temperature``), the
     fitted envelope, per-CPI log-likelihoods, the blades' tip Mach, extent and coverage."""
     g = _geometry(data, f, B, L, lam, ocfg)
-    ll, params, per = _loglik(g, data, ocfg, *grid_full, with_cpis=True)
+    ll, params, per = _loglik(g, ocfg, *grid_full, with_cpis=True)
     share, ext = _explained(g, params)
     return Candidate(float(f), float(f / ref), float(ll) / ocfg.temperature, params,
                      float(2 * np.pi * f * p_top * L / SOUND_MPS) if L is not None else float("nan"), ext, share,
@@ -723,7 +723,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     sc = np.full(len(grid), -np.inf)
     for gi, f in enumerate(grid):
         g = _geometry(data, f, B, L, lam, ocfg, srows)
-        sc[gi] = _loglik(g, data, ocfg, sk, rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
+        sc[gi] = _loglik(g, ocfg, sk, rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
     ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
     cand = [(r * ref, f"x{r:.3g}") for r in ratios if physical(r * ref)]
     n_screen = 0
@@ -825,7 +825,7 @@ def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
     grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
     if L is not None:
         grid = grid[2 * np.pi * grid * (1 + ocfg.rescue_spread) * L / SOUND_MPS <= ocfg.max_tip_mach]
-    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), data, ocfg, (1.0,), rmax_db, (None, "fit"),
+    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), ocfg, (1.0,), rmax_db, (None, "fit"),
                            (1.0,), (-3.0,))[0] for f in grid])
     tried = []
     for gi in np.argsort(sc)[::-1]:
