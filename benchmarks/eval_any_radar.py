@@ -35,6 +35,9 @@ Writes every recording's numbers to ``--json`` and the table to ``--csv``.
 
     OMP_NUM_THREADS=1 PYTHONPATH=src .venv/bin/python benchmarks/eval_any_radar.py --n 60 --seed 1000 \\
         --json any_radar.json --csv any_radar.csv --timing
+
+Runs side by side (e.g. ``--n 36 --seed 7000`` and ``--n 36 --seed 7036``, one per core)
+are joined, rows in seed order, with ``--join a.json b.json --json all.json --csv all.csv``.
 """
 
 from __future__ import annotations
@@ -152,6 +155,24 @@ def table(rows) -> list[dict]:
     return out
 
 
+def summary(rows, wall: float) -> list[str]:
+    """The run's summary lines: visible within 2 %, off > 10 % unmarked, the estimator's CPU."""
+    vis = [r for r in rows if r["visible"]]
+    bad = [r for r in rows if off_unmarked(r)]
+    amb_vis_listed = [r for r in vis if r["ok"] and r["ambiguous"] and abs(r["error"]) > 0.02]
+    secs = sum(r["seconds"] for r in rows)
+    dur = sum(r["duration_s"] for r in rows)
+    sub = [r for r in rows if r["n_rotors"] == 4 and r["prf_hz"] <= 10000]
+    per_min_sub = 60 * sum(r["seconds"] for r in sub) / max(sum(r["duration_s"] for r in sub), 1e-9)
+    return [f"visible recordings within 2 %: {sum(within(r) for r in vis)} of {len(vis)}; of the others "
+            f"{sum(1 for r in amb_vis_listed if r['truth_listed'])} of {len(amb_vis_listed)} ambiguous with the "
+            f"truth listed",
+            f"off by > 10 % and not marked ambiguous: {len(bad)} of {sum(r['ok'] for r in rows)} with an estimate"
+            + "".join(f"; {r['name']} {100 * r['error']:+.1f} %" for r in bad),
+            f"estimator CPU: {60 * secs / dur:.1f} s per minute of recording over all ({secs:.0f} s for {dur:.0f} s); "
+            f"4 rotors at <= 10 kHz: {per_min_sub:.1f} s per minute ({len(sub)} recordings); wall {wall:.0f} s"]
+
+
 def timing_run(seconds: float = 60.0) -> dict:
     """CPU seconds of one estimate of a 60 s recording: 4 two-blade rotors at 10 kHz PRF,
     3.3 GHz, flying (the issue's cost target: <= 60 s per minute on one core)."""
@@ -172,6 +193,30 @@ def timing_run(seconds: float = 60.0) -> dict:
             "order": {k: est.info.get("order", {}).get(k) for k in ("ratio_to_lines", "ambiguous")}}
 
 
+def join(args) -> int:
+    """Join runs' JSON (e.g. two halves run side by side): rows in seed order, the table,
+    the summary lines (wall: the longest run's) and the first run's timing."""
+    runs = [json.loads(Path(p).read_text()) for p in args.join]
+    rows = sorted((r for run in runs for r in run["rows"]), key=lambda r: r["seed"])
+    if len({r["seed"] for r in rows}) != len(rows):
+        raise SystemExit(f"--join: {', '.join(args.join)}: a seed appears twice (expected disjoint runs)")
+    wall = max(run["wall_s"] for run in runs)
+    tab = table(rows)
+    lines = summary(rows, wall)
+    print("\n".join(lines))
+    timing = next((run["timing"] for run in runs if run.get("timing")), None)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"joined": list(args.join), "summary_lines": lines, "rows": rows, "table": tab,
+                       "timing": timing, "wall_s": wall}, fh, indent=1, default=float)
+    if args.csv:
+        with open(args.csv, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(tab[0]))
+            w.writeheader()
+            w.writerows(tab)
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=60, help="recordings (default 60)")
@@ -180,7 +225,12 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None, help="write every recording's numbers here")
     ap.add_argument("--csv", default=None, help="write the table here")
     ap.add_argument("--timing", action="store_true", help="also time one 60 s recording (4 rotors, 10 kHz)")
+    ap.add_argument("--join", nargs="+", default=None, metavar="HALF_JSON",
+                    help="instead of running: join these runs' rows (halves run side by side) in seed order, "
+                         "their table and summary to --json/--csv")
     args = ap.parse_args(argv)
+    if args.join:
+        return join(args)
     rows = []
     t0 = time.perf_counter()
     for i in range(args.n):
@@ -200,21 +250,9 @@ def main(argv=None) -> int:
     print("|" + "---|" * len(keys))
     for t in tab:
         print("| " + " | ".join(str(t[k]) for k in keys) + " |")
-    vis = [r for r in rows if r["visible"]]
-    bad = [r for r in rows if off_unmarked(r)]
-    amb_vis_listed = [r for r in vis if r["ok"] and r["ambiguous"] and abs(r["error"]) > 0.02]
     print()
-    print(f"visible recordings within 2 %: {sum(within(r) for r in vis)} of {len(vis)}; of the others "
-          f"{sum(1 for r in amb_vis_listed if r['truth_listed'])} of {len(amb_vis_listed)} ambiguous with the truth "
-          f"listed")
-    print(f"off by > 10 % and not marked ambiguous: {len(bad)} of {sum(r['ok'] for r in rows)} with an estimate"
-          + "".join(f"; {r['name']} {100 * r['error']:+.1f} %" for r in bad))
-    secs = sum(r["seconds"] for r in rows)
-    dur = sum(r["duration_s"] for r in rows)
-    sub = [r for r in rows if r["n_rotors"] == 4 and r["prf_hz"] <= 10000]
-    per_min_sub = 60 * sum(r["seconds"] for r in sub) / max(sum(r["duration_s"] for r in sub), 1e-9)
-    print(f"estimator CPU: {60 * secs / dur:.1f} s per minute of recording over all ({secs:.0f} s for {dur:.0f} s); "
-          f"4 rotors at <= 10 kHz: {per_min_sub:.1f} s per minute ({len(sub)} recordings); wall {wall:.0f} s")
+    for line in summary(rows, wall):
+        print(line)
     timing = None
     if args.timing:
         timing = timing_run()
