@@ -393,3 +393,34 @@ def test_store_carries_the_order(tmp_path):
     v = est.valid
     rel_std = np.asarray(mr["rpm_std"], float).mean(axis=1) / (60 * est.common_rev_s[v])
     assert np.all(rel_std >= o["order_rel_std"] * 0.99)
+
+
+def test_benchmark_join_puts_halves_in_seed_order_and_refuses_a_seed_twice(tmp_path):
+    """benchmarks/eval_any_radar.py --join: halves run side by side give one table, rows
+    in seed order, the summary counted over both; a seed in two runs is refused with
+    the files named."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import eval_any_radar
+
+    def row(seed, error, visible=True, ambiguous=False):
+        return {"name": f"any{seed}", "seed": seed, "carrier_ghz": 3.3, "setup": "hover", "balance": "equal",
+                "visible": visible, "ok": True, "error": error, "ambiguous": ambiguous, "truth_listed": True,
+                "n_cpi": 10, "n_2sigma": 9, "seconds": 6.0, "duration_s": 6.0, "n_rotors": 4, "prf_hz": 5000.0}
+
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps({"rows": [row(3, 0.001), row(1, 0.5)], "wall_s": 10.0, "timing": None}))
+    b.write_text(json.dumps({"rows": [row(2, -0.3, ambiguous=True)], "wall_s": 12.0, "timing": None}))
+    out = tmp_path / "all.json"
+    assert eval_any_radar.main(["--join", str(a), str(b), "--json", str(out), "--csv", str(tmp_path / "t.csv")]) == 0
+    joined = json.loads(out.read_text())
+    assert [r["seed"] for r in joined["rows"]] == [1, 2, 3]
+    assert joined["summary_lines"][0].startswith("visible recordings within 2 %: 1 of 3")
+    assert joined["summary_lines"][1].startswith("off by > 10 % and not marked ambiguous: 1 of 3 with an estimate; any1 +50.0 %")
+    assert joined["table"][0]["recordings"] == 3 and joined["wall_s"] == 12.0
+    b.write_text(json.dumps({"rows": [row(3, 0.0)], "wall_s": 1.0, "timing": None}))
+    with pytest.raises(SystemExit, match="a seed appears twice"):
+        eval_any_radar.main(["--join", str(a), str(b)])
