@@ -329,20 +329,6 @@ def test_a_peak_no_line_explains_may_lie_anywhere_in_the_analysed_band():
         assert any(abs(s / true_mean - 1) <= 0.05 for s in named), (named, true_mean)
 
 
-def test_the_band_reaches_the_first_pair_of_rotors_b_times_faster():
-    """any7014 (1.3 GHz, 5.6 kHz, four 3-blade rotors of 0.058 m at 311 rev/s, one blade
-    3 dB weak, flying): the lines read the rotation-rate comb as the blade-passing one
-    (1/3 of the truth); the peaks stand at 1x and 2x the true rate and the true
-    blade-passing pair (921 Hz) lay beyond the analysed band, set where the lines' comb
-    merges (~840 Hz). The true order could not anchor its level there and explained no
-    peak: 2x was chosen, -33 %, not marked ambiguous. The band now reaches the first
-    blade-passing pair of rotors B times faster than the lines' comb."""
-    flight, truth = make_recording(draw_case(7014, duration_s=6.0))
-    est = estimate_rotor_speeds(flight)
-    assert est.info["order"]["ratio_to_lines"] == 3.0
-    assert_within_and_covered(est, truth, flight)
-
-
 @pytest.mark.parametrize("seed", [2, 30, 58])
 def test_drawn_recordings(seed):
     """Recordings drawn from the generator's seeds (carrier, PRF, rotors, blades, set-up,

@@ -48,9 +48,7 @@ rates remain plausible says so.
    ``prominence_db``; clutter and body bands masked) within the analysed band: offsets
    from the body where the comb's rotation harmonics stay apart (half over the
    relative spread; beyond, the rotors' lines merge into a continuum that tells no
-   order), but at least to the first blade-passing pair of rotors B times faster than
-   the comb (``band_reach``: the truth where the comb is an unequal blade's
-   rotation-rate comb). A peak inside a window of a line has the density (1 - fade) N(y; mu,
+   order). A peak inside a window of a line has the density (1 - fade) N(y; mu,
    ``line_sd_db``) / width; a window without a peak 1 - (1 - fade) Phi((mu -
    ``line_db``) / ``line_sd_db``); a peak no line explains is spurious,
    ``spurious_per_cpi`` per CPI spread over the analysed band (+-its edge: no peak
