@@ -182,18 +182,6 @@ class OrderConfig:
         within 1 % -0.20 [-0.63, +0.00] points). At 0.35 those stay, but a scaled
         estimate kept rotors 25-35 % off (a 5.8 GHz recording -0.2 -> -8.3 %, 2 of 24
         CPIs within 2 sigma).
-    band_reach : float
-        The analysed band reaches at least this times B x the lines' blade-passing
-        rate B f (times the CPI's fastest rotor; at most PRF/2): the first
-        blade-passing pair of rotors B times faster than the lines' comb. Where the
-        lines read an unequal blade's rotation-rate comb as the blade-passing one (f / B)
-        and their harmonics merge early, the true order's pair would otherwise lie
-        beyond the band: its level could not be anchored and it would explain no peak
-        (a 1.3 GHz recording of 3-blade rotors read at 1/3: -33 %, not marked). Not
-        every ratio's pair: a band widened to 3.1 B f for 2-blade rotors let a
-        sub-harmonic's dense windows take the new peaks (a 3.3 GHz recording, ambiguous
-        with the truth listed, became -49 % unmarked). 0 keeps the band where the lines'
-        comb merges.
     """
 
     min_rev_s: float = 20.0
@@ -229,7 +217,6 @@ class OrderConfig:
     prior_lines: float = 4.0
     snap_rel: float = 0.08
     rotor_spread_max: float = 0.25
-    band_reach: float = 1.03
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -402,10 +389,8 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
             far.append(a[-min(len(a), int(est.n_motors))])
     extent = float(np.median(far)) if far else 0.0
     # the analysed band: where the rotation harmonics' windows of the lines' comb stay
-    # apart (beyond, the rotors' lines merge into a continuum that tells no order), but
-    # reaching the first blade-passing pair of rotors B times faster (``band_reach``)
-    band = np.maximum(0.5 / (half / mid + 0.004) * ref * mid, ocfg.band_reach * int(est.n_blades) * fb * p_hi)
-    band = np.minimum(band, prf / 2)
+    # apart (beyond, the rotors' lines merge into a continuum that tells no order)
+    band = np.minimum(0.5 / (half / mid + 0.004) * ref * mid, prf / 2)
     peaks_x = np.where(np.abs(peaks_x) <= band[:, None], peaks_x, np.nan)
     peaks_y = np.where(np.isfinite(peaks_x), peaks_y, np.nan)
     return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks),
