@@ -151,6 +151,13 @@ ONE_PAIR_BINS = 4.25
 ONE_PAIR_SCALE = 0.8
 ONE_PAIR_ROTOR_BINS = 13.0
 ONE_PAIR_ROTOR_SCALE = 0.6
+#: the fit runs on the CPI's samples decimated to the model's band (:class:`_Model`): its
+#: half-width is the body's Doppler plus ``harmonics[-1]`` blade-passing orders of the
+#: fastest rotor a fit may reach, times BAND_MARGIN, plus BAND_BINS bins (the
+#: Blackman-Harris window's main lobe and the chirps); 0 fits every sample (the cost,
+#: not the result: benchmarks/README.md, "The I/Q fit on the model's band")
+BAND_MARGIN = 1.0
+BAND_BINS = 16
 
 
 @dataclass(frozen=True)
@@ -219,13 +226,33 @@ class CpiFit:
 
 
 class _Model:
-    """The harmonic-chirp model of one CPI (``x``: complex samples, ``prf``)."""
+    """The harmonic-chirp model of one CPI (``x``: complex samples, ``prf``).
 
-    def __init__(self, x: np.ndarray, prf: float, B: int, M: int, cfg: FitConfig):
+    With ``band_hz`` (the half-width about 0 Hz that holds every column the fit may
+    build) the samples are decimated by the largest D with 2 ``band_hz`` < PRF / D: the
+    data low-passed to the band (FFT mask) and every D-th sample, the window and the
+    data scaled by sqrt(D). Inner products of band-limited columns with band-limited
+    data are then the full-rate ones (the product's spectrum, within +-2 band, does not
+    alias at PRF / D), and the data outside the band, orthogonal to every column, add a
+    constant to the residual power (``out_power``): the cost, its gradient and J^T J
+    are the full-rate ones up to the window's leakage (-92 dB), at 1 / D of the work."""
+
+    def __init__(self, x: np.ndarray, prf: float, B: int, M: int, cfg: FitConfig, band_hz: float | None = None):
         n = len(x)
-        self.tt = (np.arange(n) - n / 2) / prf
-        self.w = blackmanharris(n, sym=False)
-        self.y = np.asarray(x, np.complex128) * self.w
+        tt = (np.arange(n) - n / 2) / prf
+        w = blackmanharris(n, sym=False)
+        y = np.asarray(x, np.complex128) * w
+        self.out_power = 0.0
+        D = int(np.ceil(prf / (2 * band_hz))) - 1 if band_hz and band_hz > 0 else 1
+        if D > 1:
+            Y = np.fft.fft(y)
+            keep = np.abs(np.fft.fftfreq(n, 1 / prf)) <= band_hz
+            self.out_power = float(np.sum(np.abs(Y[~keep]) ** 2)) / n
+            y = np.sqrt(D) * np.fft.ifft(np.where(keep, Y, 0))[::D]
+            tt, w = tt[::D], np.sqrt(D) * w[::D]
+        self.decimation = max(D, 1)
+        self.tt, self.w, self.y = tt, w, y
+        n = len(tt)
         # d(phase)/d(f_b, a_b, f_r, g_r) factors of the Jacobian's columns
         tt = self.tt
         self._dphase = (2j * np.pi * tt, 1j * np.pi * tt ** 2, 2j * np.pi * B * tt, 1j * np.pi * B * tt ** 2)
@@ -267,7 +294,7 @@ class _Model:
         U = (cholesky(G, lower=False, check_finite=False), False)
         c = cho_solve(U, zgemv(1.0, A, self.y, trans=2), check_finite=False)  # A^H y
         r = self.y - A @ c
-        return U, c, r, float(np.vdot(r, r).real)
+        return U, c, r, float(np.vdot(r, r).real) + self.out_power
 
     def prior(self, p: np.ndarray) -> float:
         d = (p[2 + self.M:] - self.g0) / self.cfg.chirp_sd_rev_s2
@@ -342,7 +369,7 @@ class _Model:
         """What each rotor adds to the last :meth:`fit` [M]: the rise of its residual
         when the rotor's columns are dropped and the rest re-projected."""
         A, K = self.A, len(self._ns)
-        base = float(np.vdot(self.r, self.r).real)
+        base = float(np.vdot(self.r, self.r).real) + self.out_power
         out = np.empty(self.M)
         for q in range(self.M):
             keep = np.ones(A.shape[1], bool)
@@ -413,12 +440,18 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
     if k == 0 or k > M or not np.all(np.isfinite(lines)):
         return None
     bin_rev = prf / len(x) / B
-    F = _Model(x, prf, B, M, cfg)
     Ns = tuple(cfg.harmonics)
+    lo, hi = lines[0] - BOUND_BINS * bin_rev, lines[-1] + BOUND_BINS * bin_rev
+    mid = 0.5 * (lines[0] + lines[-1])
+    # the fastest rotor a fit may reach: the bound, the re-seeding and the moves' windows
+    f_top = max(hi, mid * (1 + max(cfg.reseed_rel, cfg.move_rel)))
+    half_t = 0.5 * len(x) / prf
+    band = BAND_MARGIN * (abs(body_hz) + abs(body_rate_hz_s) * half_t + max(Ns) * B * (
+        f_top + (abs(rate_rev_s2) + 3 * cfg.chirp_sd_rev_s2) * half_t)) + BAND_BINS * prf / len(x)
+    F = _Model(x, prf, B, M, cfg, band if BAND_MARGIN > 0 else None)
     p0 = np.r_[body_hz, body_rate_hz_s, np.resize(lines, M), np.full(M, rate_rev_s2)]
     F.g0 = float(rate_rev_s2)
     F.s2 = F.solve(F.build(p0, Ns[0]))[3] / len(x)
-    lo, hi = lines[0] - BOUND_BINS * bin_rev, lines[-1] + BOUND_BINS * bin_rev
 
     def inside(p):
         f = p[2:2 + M]
@@ -452,7 +485,6 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
     K = 2 * N
     # re-seed the weakest rotor at the residual's strongest comb, searched over the
     # group's plausible spread (a rotor the periodogram missed lies outside the lines)
-    mid = 0.5 * (lines[0] + lines[-1])
     wlo, whi = min(lo, mid * (1 - cfg.reseed_rel)), max(hi, mid * (1 + cfg.reseed_rel))
     for k_seed in range(RESEED):
         F.fit(p, N, iterations=0)
