@@ -133,3 +133,55 @@ def test_a_comb_on_lines_the_model_does_not_hold_is_not_a_missed_rotor():
     assert len(errs) == 20
     assert off <= 4, np.round(100 * np.array(errs), 2)
     assert np.median(np.abs(errs)) < 0.001
+
+
+def _timing_like_recording(seconds: float):
+    """4 two-blade rotors at 10 kHz, 3.3 GHz, flying (the cost target's recording)."""
+    case = draw_case(7, duration_s=seconds, carrier_hz=3.3e9, prf_hz=10000.0, n_rotors=4, n_blades=2,
+                     blade_length_m=0.12, tip_speed_mps=85.0, setup="flying", radial_speed_mps=6.0,
+                     weak_blade_db=0.0, blade_to_body_db=0.0)
+    return make_recording(case)
+
+
+def test_the_fit_on_the_models_band_has_the_full_rate_cost_and_information():
+    """The model decimated to its band (samples low-passed, every D-th kept, scaled by
+    sqrt(D)) gives the full-rate residual power (Parseval: the power outside the band
+    is a constant) and the same J^T J, at a decimation D > 1, for a model whose
+    columns lie in the band; and it is not decimated where the band reaches PRF / 4."""
+    from microdoppler.rotors import fit
+
+    flight, _ = _timing_like_recording(1.0)
+    x = np.asarray(flight.iq[:4096])
+    prf, cfg = float(flight.prf_hz), fit.FitConfig()
+    p = np.r_[-132.0, 0.0, 112.0, 113.5, 115.0, 117.0, 0.0, 0.0, 0.0, 0.0]
+    full = fit._Model(x, prf, 2, 4, cfg)
+    band = fit._Model(x, prf, 2, 4, cfg, band_hz=1500.0)
+    assert full.decimation == 1 and band.decimation == 3 and len(band.tt) == int(np.ceil(4096 / 3))
+    assert fit._Model(x, prf, 2, 4, cfg, band_hz=0.26 * prf).decimation == 1
+    for N in (2, 5):
+        c_full = full.fit(p, N, iterations=0)[1]
+        c_band = band.fit(p, N, iterations=0)[1]
+        assert c_band == pytest.approx(c_full, rel=1e-6)
+        assert band.out_power > 0.01 * c_full  # the blade flash's orders beyond N lie outside
+        np.testing.assert_allclose(band.power, full.power, rtol=1e-5)
+        np.testing.assert_allclose(band.information(p), full.information(p), rtol=1e-4,
+                                   atol=1e-6 * np.abs(full.information(p)).max())
+
+
+@pytest.mark.slow
+def test_the_decimated_fit_reports_what_the_full_rate_fit_reports(monkeypatch):
+    """Every CPI of a 3 s recording (4 rotors, 10 kHz, flying): the mean speed and its
+    sigma with the fit on the model's band against the fit on every sample
+    (``BAND_MARGIN = 0``): the same CPIs, the means within 1 % of a sigma, the sigmas
+    within 2 %."""
+    from microdoppler.rotors import fit
+
+    flight, _ = _timing_like_recording(3.0)
+    band = estimate_rotor_speeds(flight)
+    monkeypatch.setattr(fit, "BAND_MARGIN", 0.0)
+    full = estimate_rotor_speeds(flight)
+    assert band.ok and full.ok and band.info["n_cpi_refined"] == full.info["n_cpi_refined"] > 5
+    np.testing.assert_array_equal(band.valid, full.valid)
+    v = full.valid
+    assert np.max(np.abs(band.common_rev_s[v] - full.common_rev_s[v]) / full.common_std_rev_s[v]) < 0.01
+    np.testing.assert_allclose(band.common_std_rev_s[v], full.common_std_rev_s[v], rtol=0.02)
