@@ -60,9 +60,11 @@ Cost: the model's columns reach the body's Doppler plus ``harmonics[-1]`` blade-
 orders of the fastest rotor a fit may try; every product is formed on the CPI's samples
 decimated to that band (:class:`_Model`: the data low-passed by an FFT mask, every D-th
 sample kept, the power outside the band a constant of the residual), which gives the
-full-rate cost and J^T J up to the window's leakage at 1 / D of the work (D = 3 for 4
-two-blade rotors at 10 kHz PRF, 3.3 GHz, flying: 91.6 -> 42.7 CPU s per minute of
-recording; ``benchmarks/README.md``, "The I/Q fit on the model's band").
+full-rate cost and J^T J up to the window's leakage at 1 / D of the work; the residual's
+comb is read at the full-rate FFT's bins, so the searches take the same paths (D = 3 for
+4 two-blade rotors at 10 kHz PRF, 3.3 GHz, flying: the estimate's 87.7-89.6 CPU s per
+minute of recording become 46.9-47.0 on one machine; ``benchmarks/README.md``, "The I/Q
+fit on the model's band").
 
 Uncertainty: the Gauss-Newton covariance (residual variance times the inverse of
 J^T J with the prior), plus the spread of the mean over the lines a spare rotor could
