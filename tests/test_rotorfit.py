@@ -143,21 +143,27 @@ def _timing_like_recording(seconds: float):
     return make_recording(case)
 
 
-def test_the_fit_on_the_models_band_has_the_full_rate_cost_and_information():
-    """The model decimated to its band (samples low-passed, every D-th kept, scaled by
-    sqrt(D)) gives the full-rate residual power (Parseval: the power outside the band
-    is a constant) and the same J^T J, at a decimation D > 1, for a model whose
-    columns lie in the band; and it is not decimated where the band reaches PRF / 4."""
+def _full_and_band_models():
+    """One CPI of the timing-like recording (4 rotors near 115 rev/s, body at -132 Hz):
+    (fit module, samples, PRF, a parameter vector near the truth, the full-rate model,
+    the model decimated to a 1500 Hz band)."""
     from microdoppler.rotors import fit
 
     flight, _ = _timing_like_recording(1.0)
     x = np.asarray(flight.iq[:4096])
     prf, cfg = float(flight.prf_hz), fit.FitConfig()
     p = np.r_[-132.0, 0.0, 112.0, 113.5, 115.0, 117.0, 0.0, 0.0, 0.0, 0.0]
-    full = fit._Model(x, prf, 2, 4, cfg)
-    band = fit._Model(x, prf, 2, 4, cfg, band_hz=1500.0)
+    return fit, x, prf, p, fit._Model(x, prf, 2, 4, cfg), fit._Model(x, prf, 2, 4, cfg, band_hz=1500.0)
+
+
+def test_the_fit_on_the_models_band_has_the_full_rate_cost_and_information():
+    """The model decimated to its band (samples low-passed, every D-th kept, scaled by
+    sqrt(D)) gives the full-rate residual power (Parseval: the power outside the band
+    is a constant) and the same J^T J, at a decimation D > 1, for a model whose
+    columns lie in the band; and it is not decimated where the band reaches PRF / 4."""
+    fit, x, prf, p, full, band = _full_and_band_models()
     assert full.decimation == 1 and band.decimation == 3 and len(band.tt) == int(np.ceil(4096 / 3))
-    assert fit._Model(x, prf, 2, 4, cfg, band_hz=0.26 * prf).decimation == 1
+    assert fit._Model(x, prf, 2, 4, fit.FitConfig(), band_hz=0.26 * prf).decimation == 1
     for N in (2, 5):
         c_full = full.fit(p, N, iterations=0)[1]
         c_band = band.fit(p, N, iterations=0)[1]
@@ -192,14 +198,7 @@ def test_the_decimated_comb_is_read_at_the_full_rate_bins():
     """The residual's strongest comb (``comb_peak``) from the decimated samples (chirp
     z-transform at the full-rate FFT's bins) is the full-rate one, on a CPI whose rotor
     lines a 3-sample decimation keeps."""
-    from microdoppler.rotors import fit
-
-    flight, _ = _timing_like_recording(1.0)
-    x = np.asarray(flight.iq[:4096])
-    prf, cfg = float(flight.prf_hz), fit.FitConfig()
-    p = np.r_[-132.0, 0.0, 112.0, 113.5, 115.0, 117.0, 0.0, 0.0, 0.0, 0.0]
-    full = fit._Model(x, prf, 2, 4, cfg)
-    band = fit._Model(x, prf, 2, 4, cfg, band_hz=1500.0)
+    fit, x, prf, p, full, band = _full_and_band_models()
     assert band.decimation == 3
     bin_rev = prf / 4096 / 2
     for F in (full, band):
