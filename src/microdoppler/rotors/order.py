@@ -98,11 +98,11 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 from scipy.signal import find_peaks
 from scipy.signal.windows import blackmanharris
-from scipy.special import log_ndtr
+from scipy.special import airy, log_ndtr
 
 from ..spectra.floor import local_floor_db
 
-METHOD = "order/1"
+METHOD = "order/2"
 SOUND_MPS = 343.0
 C_MPS = 299_792_458.0
 #: the standard ratios to the estimate's rate that are always examined
@@ -182,6 +182,14 @@ class OrderConfig:
         within 1 % -0.20 [-0.63, +0.00] points). At 0.35 those stay, but a scaled
         estimate kept rotors 25-35 % off (a 5.8 GHz recording -0.2 -> -8.3 %, 2 of 24
         CPIs within 2 sigma).
+    tail_fall : bool
+        A line window beyond kappa f_max that holds no peak costs what a line of the
+        tip's fall-off would: its expected level is lowered by 20 log10(Ai(m) / Ai(0))
+        (the Airy function; m the offset beyond kappa f_max in units of (beta / 2)^(1/3)
+        rotation harmonics, the width over which J_k(beta) falls beyond k = beta), not
+        the envelope's. Peaks there are scored at the envelope's level as before
+        (kappa is known only to the stated tolerance). False: every window at the
+        envelope's level (``order/1``).
     """
 
     min_rev_s: float = 20.0
@@ -217,6 +225,7 @@ class OrderConfig:
     prior_lines: float = 4.0
     snap_rel: float = 0.08
     rotor_spread_max: float = 0.25
+    tail_fall: bool = True
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -501,6 +510,18 @@ def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> 
     return np.where(n > 0, ym + beta * dm, floor_db), beta
 
 
+def _tail_fall_db(d: np.ndarray, lim0: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """How far [dB] a line at offset ``d`` beyond ``lim0`` (kappa f_max) falls below the
+    envelope: the tip's Bessel lines J_k(beta) beyond k = beta follow the Airy function,
+    (2 / k)^(1/3) Ai((2 / k)^(1/3) (k - beta)), so over ``width`` = (beta / 2)^(1/3)
+    harmonics [Hz] the level falls as Ai(m) / Ai(0) (8 dB at m = 1, 20 dB at m = 2)."""
+    m = np.clip((d - lim0) / width, 0.0, 8.0)
+    return np.where(d > lim0, -20 * np.log10(np.maximum(airy(m)[0], 1e-300) / _AI0), 0.0)
+
+
+_AI0 = float(airy(0.0)[0])
+
+
 def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
             a_offsets, per_cpi=False, with_cpis=False):
     """Maximised log-likelihood of a candidate: (LL, params), (LL, params, per-CPI LL)
@@ -522,10 +543,14 @@ def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_mode
     lw_b = -np.log(np.where(np.isfinite(g.pk_w[:, :, 0]), g.pk_w[:, :, 0], 1.0))
     lw_i = -np.log(np.where(np.isfinite(g.pk_w[:, :, 1]), g.pk_w[:, :, 1], 1.0))
     fmax = g.fmax[:, None]
+    # (beta / 2)^(1/3) rotation harmonics [Hz]: the tail is tail_harmonics beta^(1/3) of them
+    tail_width = np.maximum(g.tail[:, None] / (max(ocfg.tail_harmonics, 1e-9) * 2 ** (1 / 3)), 1e-9)
     best = (-np.inf, None, None)
     for kap in kappas:
         lim = kap * fmax + g.tail[:, None]
         act_w = g.valid & (g.d <= lim)
+        # a window in the tail (beyond kappa f_max) expects the tip's fall-off
+        fall_w = _tail_fall_db(g.d, kap * fmax, tail_width) if ocfg.tail_fall else 0.0
         ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
         a_fit, beta_fit = _envelope(y, pd_b, ex_b, T - 2 * sd)
         for mode in rho_modes:
@@ -543,7 +568,7 @@ def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_mode
                 a0 = a_fit + (beta - beta_fit) * np.where(ex_b, pd_b, 0.0).sum(1) / np.maximum(ex_b.sum(1), 1)
                 shp_b = -beta * pd_b
                 shp_i = -beta * pd_i + rho
-                shp_w = -beta * g.d + np.where(g.fam, rho, 0.0)
+                shp_w = -beta * g.d + np.where(g.fam, rho, 0.0) - fall_w
                 for ao in a_offsets:
                     a = (a0 + ao)[:, None]
                     lb = np.where(ex_b, log_keep - 0.5 * ((y - a - shp_b) / sd) ** 2 - log_norm + lw_b, -np.inf)
