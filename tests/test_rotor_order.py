@@ -449,3 +449,40 @@ def test_benchmark_join_puts_halves_in_seed_order_and_refuses_a_seed_twice(tmp_p
     b.write_text(json.dumps({"rows": [row(3, 0.0)], "wall_s": 1.0, "timing": None}))
     with pytest.raises(SystemExit, match="a seed appears twice"):
         eval_any_radar.main(["--join", str(a), str(b)])
+
+
+def test_benchmark_compare_pairs_runs_by_recording(tmp_path):
+    """benchmarks/compare_any_radar_runs.py: two runs over the same recordings give the
+    counts before and after, the paired difference with its interval, and the list of
+    recordings that moved (an unmarked gross error marked, another's CPIs covered); a
+    recording twice in one side is refused."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import compare_any_radar_runs
+
+    def row(seed, error, ambiguous=False, n_2sigma=9):
+        return {"name": f"any{seed}", "seed": seed, "carrier_ghz": 3.3, "n_blades": 2, "visible": True, "ok": True,
+                "error": error, "ambiguous": ambiguous, "n_cpi": 10, "n_2sigma": n_2sigma,
+                "alternatives_rev_s": []}
+
+    before = [row(1, 0.001), row(2, -0.5), row(3, 0.01, n_2sigma=5)]
+    after = [row(1, 0.001 + 1e-6), row(2, -0.5, ambiguous=True), row(3, 0.01, n_2sigma=10)]
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps({"rows": before}))
+    b.write_text(json.dumps({"rows": after}))
+    out = tmp_path / "p.json"
+    assert compare_any_radar_runs.main(["--before", str(a), "--after", str(b), "--json", str(out)]) == 0
+    p = json.loads(out.read_text())
+    assert p["n_recordings"] == 3
+    off = p["off > 10 % unmarked (estimate in both)"]
+    assert (off["before"], off["after"], off["n"]) == (1, 0, 3) and off["ci95"][0] < 0 <= off["ci95"][1]
+    cov = p["visible CPIs within 2 sigma (same CPIs)"]
+    assert (cov["before"], cov["after"], cov["n"]) == (23, 28, 30)
+    assert p["within 2 % (visible)"]["diff"] == 0.0
+    assert [c["name"] for c in p["changed"]] == ["any2", "any3"]
+    a.write_text(json.dumps({"rows": before + [row(1, 0.0)]}))
+    with pytest.raises(SystemExit, match="appears twice"):
+        compare_any_radar_runs.main(["--before", str(a), "--after", str(b)])

@@ -1,0 +1,111 @@
+"""Paired difference of two ``eval_any_radar.py --json`` runs on the same recordings.
+
+Before and after, over the recordings in both runs (each a list of JSON files whose rows
+are joined, e.g. the five seed sets): visible recordings within 2 %, estimates off by
+more than 10 % and not marked ambiguous, and the visible CPIs within 2 reported sigma,
+with the paired difference's 95 % interval from a bootstrap over recordings (the
+recording is the unit; the same draws for both runs). Lists every recording whose
+error (beyond 1e-4), ambiguity, CPIs or CPIs within 2 sigma changed.
+
+    .venv/bin/python benchmarks/compare_any_radar_runs.py --before a1.json a2.json \\
+        --after b1.json b2.json --json paired.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from eval_any_radar import off_unmarked, within  # noqa: E402
+
+from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates  # noqa: E402
+
+
+def load(paths) -> dict:
+    rows = {}
+    for p in paths:
+        for r in json.loads(Path(p).read_text())["rows"]:
+            if r["name"] in rows:
+                raise SystemExit(f"{p}: recording {r['name']} appears twice (expected disjoint runs)")
+            rows[r["name"]] = r
+    return rows
+
+
+def paired(names, a, b, num_a, num_b, den=None) -> dict:
+    """Shares before and after over ``names`` and the paired difference's interval."""
+    na = np.array([float(num_a(a[n])) for n in names])
+    nb = np.array([float(num_b(b[n])) for n in names])
+    d = np.ones(len(names)) if den is None else np.array([float(den(n)) for n in names])
+    if not len(names) or d.sum() == 0:
+        return {"n": 0}
+    draws = draw_flights(list(names), seed=0)
+    lo, hi = interval(ratio_replicates(nb, d, draws) - ratio_replicates(na, d, draws))
+    return {"n": int(d.sum()), "before": int(na.sum()), "after": int(nb.sum()),
+            "diff": float((nb.sum() - na.sum()) / d.sum()), "ci95": [float(lo), float(hi)]}
+
+
+def changed(ra, rb) -> bool:
+    ea, eb = ra.get("error"), rb.get("error")
+    err_moved = (ea is None) != (eb is None) or (ea is not None and abs(ea - eb) > 1e-4)
+    return err_moved or any(ra.get(k) != rb.get(k) for k in ("ok", "ambiguous", "n_cpi", "n_2sigma"))
+
+
+def compare(a: dict, b: dict) -> dict:
+    names = sorted(set(a) & set(b), key=lambda n: a[n]["seed"])
+    vis = [n for n in names if a[n]["visible"]]
+    both = [n for n in names if a[n]["ok"] and b[n]["ok"]]
+    same_cpis = [n for n in vis if a[n]["ok"] and b[n]["ok"] and a[n]["n_cpi"] == b[n]["n_cpi"]]
+    out = {"n_recordings": len(names), "only_in_one": sorted(set(a) ^ set(b)),
+           "within 2 % (visible)": paired(vis, a, b, within, within),
+           "off > 10 % unmarked (estimate in both)": paired(both, a, b, off_unmarked, off_unmarked),
+           "visible CPIs within 2 sigma (same CPIs)": paired(
+               same_cpis, a, b, lambda r: r["n_2sigma"], lambda r: r["n_2sigma"], den=lambda n: a[n]["n_cpi"]),
+           "changed": []}
+    for n in names:
+        if changed(a[n], b[n]):
+            out["changed"].append({"name": n, **{k: [a[n].get(k), b[n].get(k)] for k in (
+                "carrier_ghz", "n_blades", "visible", "error", "ambiguous", "n_2sigma", "n_cpi",
+                "alternatives_rev_s")}})
+    return out
+
+
+def fmt_row(c) -> str:
+    def one(i):
+        e = c["error"][i]
+        return (f"{'-' if e is None else f'{100 * e:+.2f} %'} amb={int(bool(c['ambiguous'][i]))} "
+                f"2s {c['n_2sigma'][i]}/{c['n_cpi'][i]}")
+    return f"{c['name']} {c['carrier_ghz'][0]} GHz B{c['n_blades'][0]} vis={int(c['visible'][0])}: {one(0)} -> {one(1)}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--before", nargs="+", required=True, metavar="JSON")
+    ap.add_argument("--after", nargs="+", required=True, metavar="JSON")
+    ap.add_argument("--json", default=None, help="write the comparison here")
+    args = ap.parse_args(argv)
+    out = compare(load(args.before), load(args.after))
+    print(f"recordings {out['n_recordings']}" + (f" (in one run only: {out['only_in_one']})"
+                                                 if out["only_in_one"] else ""))
+    for k in ("within 2 % (visible)", "off > 10 % unmarked (estimate in both)",
+              "visible CPIs within 2 sigma (same CPIs)"):
+        p = out[k]
+        if p["n"]:
+            print(f"{k}: {p['before']} -> {p['after']} of {p['n']}, difference {100 * p['diff']:+.1f} "
+                  f"[{100 * p['ci95'][0]:+.1f}, {100 * p['ci95'][1]:+.1f}] points")
+    print(f"changed: {len(out['changed'])}")
+    for c in out["changed"]:
+        print("  " + fmt_row(c))
+    if args.json:
+        Path(args.json).write_text(json.dumps({"script": "benchmarks/compare_any_radar_runs.py",
+                                               "before": list(args.before), "after": list(args.after), **out},
+                                              indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
