@@ -418,6 +418,7 @@ class _Geometry:
     detected: np.ndarray   # [n_cpi, W] a peak inside
     fmax: np.ndarray       # [n_cpi] blade-tip Doppler of the fastest rotor [Hz]
     tail: np.ndarray       # [n_cpi] the edge's allowance beyond kappa fmax [Hz]
+    tail_width: np.ndarray  # [n_cpi] (beta / 2)^(1/3) rotation harmonics of the fastest rotor [Hz]
     pk_d: np.ndarray       # [n_cpi, P, 2] per peak: offset d of the covering window, per family (inf: none)
     pk_w: np.ndarray       # [n_cpi, P, 2] its width [Hz]
     pk_y: np.ndarray       # [n_cpi, P]
@@ -439,10 +440,12 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
         # the lines of a point at the tip, J_k(beta) with beta = 4 pi L / lambda, fall off
         # over ~beta^(1/3) harmonics beyond k = beta: the edge's allowance
         tail = ocfg.tail_harmonics * (4 * np.pi * L / lam) ** (1 / 3) * hi
+        tail_width = (2 * np.pi * L / lam) ** (1 / 3) * hi
         dmax = kmax_ext * fmax + tail
     else:
         fmax = np.full(len(rows), np.inf)
         tail = np.zeros(len(rows))
+        tail_width = np.ones(len(rows))
         dmax = np.full(len(rows), prf)
     K = int(np.clip(np.ceil(np.max(dmax / lo)), 1, 4000))
     k = np.arange(1, K + 1)
@@ -492,7 +495,7 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
         pk_d[:, :, fi] = np.take_along_axis(dsel, j[:, :, None], 2)[:, :, 0]
         wsel = np.take_along_axis(np.where(fsel & inside, 2 * hwk, np.inf), j[:, :, None], 2)[:, :, 0]
         pk_w[:, :, fi] = wsel
-    return _Geometry(f, d, fam, valid, det, fmax, tail, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m,
+    return _Geometry(f, d, fam, valid, det, fmax, tail, tail_width, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m,
                      data.band_hz[rows])
 
 
@@ -511,6 +514,9 @@ def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> 
     return np.where(n > 0, ym + beta * dm, floor_db), beta
 
 
+_AI0 = float(airy(0.0)[0])
+
+
 def _tail_fall_db(d: np.ndarray, lim0: np.ndarray, width: np.ndarray) -> np.ndarray:
     """How far [dB] a line at offset ``d`` beyond ``lim0`` (kappa f_max) falls below the
     envelope: the tip's Bessel lines J_k(beta) beyond k = beta follow the Airy function,
@@ -518,9 +524,6 @@ def _tail_fall_db(d: np.ndarray, lim0: np.ndarray, width: np.ndarray) -> np.ndar
     harmonics [Hz] the level falls as Ai(m) / Ai(0) (8 dB at m = 1, 20 dB at m = 2)."""
     m = np.clip((d - lim0) / width, 0.0, 8.0)
     return np.where(d > lim0, -20 * np.log10(np.maximum(airy(m)[0], 1e-300) / _AI0), 0.0)
-
-
-_AI0 = float(airy(0.0)[0])
 
 
 def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
@@ -544,14 +547,12 @@ def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_mode
     lw_b = -np.log(np.where(np.isfinite(g.pk_w[:, :, 0]), g.pk_w[:, :, 0], 1.0))
     lw_i = -np.log(np.where(np.isfinite(g.pk_w[:, :, 1]), g.pk_w[:, :, 1], 1.0))
     fmax = g.fmax[:, None]
-    # (beta / 2)^(1/3) rotation harmonics [Hz]: the tail is tail_harmonics beta^(1/3) of them
-    tail_width = np.maximum(g.tail[:, None] / (max(ocfg.tail_harmonics, 1e-9) * 2 ** (1 / 3)), 1e-9)
     best = (-np.inf, None, None)
     for kap in kappas:
         lim = kap * fmax + g.tail[:, None]
         act_w = g.valid & (g.d <= lim)
         # a window in the tail (beyond kappa f_max) expects the tip's fall-off
-        fall_w = _tail_fall_db(g.d, kap * fmax, tail_width) if ocfg.tail_fall else 0.0
+        fall_w = _tail_fall_db(g.d, kap * fmax, g.tail_width[:, None]) if ocfg.tail_fall else 0.0
         ex_b = g.pk_ok & (g.pk_d[:, :, 0] <= lim)
         a_fit, beta_fit = _envelope(y, pd_b, ex_b, T - 2 * sd)
         for mode in rho_modes:
