@@ -103,7 +103,7 @@ from scipy.special import airy, log_ndtr
 
 from ..spectra.floor import local_floor_db
 
-METHOD = "order/2"
+METHOD = "order/3"
 SOUND_MPS = 343.0
 C_MPS = 299_792_458.0
 #: the standard ratios to the estimate's rate that are always examined
@@ -191,6 +191,13 @@ class OrderConfig:
         the envelope's. Peaks there are scored at the envelope's level as before
         (kappa is known only to the stated tolerance). False: every window at the
         envelope's level (``order/1``).
+    rotation_level : bool
+        A CPI whose explained peaks are all of the rotation-rate family (its
+        blade-passing lines beyond the analysed band, faded or masked) takes its level
+        from them (the blade-passing lines 1 / rho stronger; rho fitted on the CPIs
+        that show both families, else at its cap); the rho fit uses only CPIs with a
+        blade-passing peak. False: such a CPI's level is the floor's, so that its
+        rotation-rate lines read as spurious (``order/2``).
     """
 
     min_rev_s: float = 20.0
@@ -227,6 +234,7 @@ class OrderConfig:
     snap_rel: float = 0.08
     rotor_spread_max: float = 0.25
     tail_fall: bool = True
+    rotation_level: bool = True
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -559,15 +567,32 @@ def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_mode
             use_imb = mode is not None
             ex_i = g.pk_ok & use_imb & (g.pk_d[:, :, 1] <= lim)
             rho = 0.0
+            a_use, d_lev = a_fit, np.where(ex_b, pd_b, 0.0).sum(1) / np.maximum(ex_b.sum(1), 1)
             if use_imb:
                 only = ex_i & ~ex_b
-                r = (y - (a_fit[:, None] - beta_fit * pd_i))[only]
+                has_b = ex_b.any(axis=1)
+                r = (y - (a_fit[:, None] - beta_fit * pd_i))[only & has_b[:, None]]
                 rho = float(np.clip(np.median(r), rho_cap_db - 20, rho_cap_db)) if r.size else rho_cap_db - 20
+                if ocfg.rotation_level:
+                    if not r.size:
+                        rho = rho_cap_db
+                    # a CPI whose explained peaks are all of the rotation-rate family (its
+                    # blade-passing lines beyond the analysed band, faded or masked) has
+                    # its level from them: the blade-passing lines above them by 1 / rho
+                    rot = only & ~has_b[:, None]
+                    n_r = rot.sum(axis=1)
+                    with np.errstate(all="ignore"):
+                        a_rot = np.where(rot, y + beta_fit * pd_i, 0.0).sum(axis=1) / np.maximum(n_r, 1) - rho
+                    a_use = np.where(n_r > 0, a_rot, a_fit)
+                    d_lev = np.where(n_r > 0, np.where(rot, pd_i, 0.0).sum(1) / np.maximum(n_r, 1), d_lev)
+                else:
+                    r = (y - (a_fit[:, None] - beta_fit * pd_i))[only]
+                    rho = float(np.clip(np.median(r), rho_cap_db - 20, rho_cap_db)) if r.size else rho_cap_db - 20
             w_act = act_w & (~g.fam | use_imb)
             miss = w_act & ~g.detected
             for bm in beta_mults:
                 beta = beta_fit * bm
-                a0 = a_fit + (beta - beta_fit) * np.where(ex_b, pd_b, 0.0).sum(1) / np.maximum(ex_b.sum(1), 1)
+                a0 = a_use + (beta - beta_fit) * d_lev
                 shp_b = -beta * pd_b
                 shp_i = -beta * pd_i + rho
                 shp_w = -beta * g.d + np.where(g.fam, rho, 0.0) - fall_w
