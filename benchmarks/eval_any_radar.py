@@ -77,7 +77,8 @@ def evaluate(case) -> dict:
            "alternatives_rev_s": o.get("alternatives_rev_s", []),
            "relative_likelihood": o.get("relative_likelihood", []), "ratio_to_lines": o.get("ratio_to_lines"),
            "remeasured": o.get("remeasured"), "coverage": o.get("coverage"),
-           "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0}
+           "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0,
+           "lone_pair": est.info.get("lone_pair"), "rescued": o.get("rescued")}
     if not est.ok:
         row.update({"error": None, "true_rev_s": float(np.mean(truth["rev_s"])), "n_cpi": 0, "n_2sigma": 0})
         return row

@@ -221,6 +221,12 @@ class RotorSpeedConfig:
         >= 2 pairs (held-out seed 3; benchmarks/README.md, "The I/Q fit").
     fit : FitConfig
         Settings of the least-squares refinement.
+    lone_level : bool
+        A lone pair is also the comb where the second blade-passing harmonic, at the
+        level the thin-wire blade gives it relative to the first pair's median level
+        (:func:`second_order_rel_db`, :func:`first_pair_db`), would stand under
+        ``pair_snr_db`` (``info["lone_pair"]`` says so); False: only where the blade
+        flash ends short of it or the band folds it.
     """
 
     min_rev_s: float = 20.0
@@ -233,6 +239,7 @@ class RotorSpeedConfig:
     min_cpis: int = 3
     refine: bool = True
     fit: FitConfig = field(default_factory=FitConfig)
+    lone_level: bool = True
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -592,10 +599,18 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
     # pair at the speed range's floor, 14 of 70 CPIs, is not its comb)
     few = n_comb < cfg.min_cpis and n_ok >= max(cfg.min_cpis, 0.5 * n_cpi)
     lone_why = None
+    second_db = None
     if few and one_order_visible(flight, B):
         lone_why = "extent"
     elif few and second_order_folds(common, body, B, prf):
         lone_why = "folded"
+    elif few and cfg.lone_level:
+        rel_db = second_order_rel_db(flight, B)
+        first = first_pair_db(cpis, speeds, B, bin_hz)
+        if rel_db is not None and np.isfinite(first).any():
+            second_db = float(np.nanmedian(first)) + rel_db
+            if second_db < cfg.pair_snr_db:
+                lone_why = "level"
     lone = lone_why is not None
     n_refined = 0
     balance = None
@@ -613,6 +628,11 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
                              f"orders: the blade flash's Doppler extent (blade_length_m "
                              f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) holds one "
                              f"blade-passing harmonic only")
+    elif lone_why == "level":
+        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+                             f"orders: the second blade-passing harmonic of a thin-wire blade (blade_length_m "
+                             f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) is expected at "
+                             f"{second_db:.1f} dB over the floor, under the pair threshold {cfg.pair_snr_db:g} dB")
     elif lone_why == "folded":
         info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
                              f"orders: the second order's pair lies beyond +-{0.49 * prf:.0f} Hz (PRF {prf:.0f} Hz) "
@@ -688,6 +708,55 @@ def second_order_folds(common_rev_s: np.ndarray, body_hz: np.ndarray, n_blades: 
         return False
     reach = np.abs(body_hz[ok]) + 2 * int(n_blades) * common_rev_s[ok]
     return bool(np.median(reach) > 0.49 * float(prf_hz))
+
+
+def second_order_rel_db(flight, n_blades: int) -> float | None:
+    """The second blade-passing harmonic's level relative to the first [dB], the largest
+    over the blade flash's extent kappa in :class:`.order.OrderConfig`'s
+    ``extent_range``, for the paper's thin-wire blade (eq. 1: scatterers uniform from
+    the hub to the tip): harmonic k has the amplitude (1 / x) int_0^x J_k(t) dt =
+    (2 / x) sum_j J_(k + 2 j + 1)(x), x = kappa beta, beta = 4 pi L / lambda. Short
+    blades at a long wavelength put the second harmonic far down (beta = 5.8, three
+    blades: -10 dB at kappa = 1.1; beta = 3.8, two: -11 dB); None without
+    ``blade_length_m``. A tip that returns more than the blade's share (a point at the
+    tip, J_k(x)) raises it: the rule is the thin wire's, as the synthesis'."""
+    from scipy.special import jv
+
+    from .order import OrderConfig
+
+    L = flight.attrs.get("blade_length_m")
+    if L is None or not np.isfinite(float(L)) or float(L) <= 0:
+        return None
+    beta = 4 * np.pi * float(L) / float(flight.wavelength_m)
+    lo, hi = OrderConfig().extent_range
+    x = beta * np.linspace(lo, hi, 11)[:, None]
+    j = np.arange(0, 2 * int(np.ceil(x.max())) + 40)[None, :]
+
+    def amp(k):
+        return np.abs(jv(k + 2 * j + 1, x).sum(axis=1))
+
+    B = int(n_blades)
+    with np.errstate(divide="ignore"):
+        return float(np.max(20 * np.log10(amp(2 * B) / np.maximum(amp(B), 1e-300))))
+
+
+def first_pair_db(cpis: list, speeds: np.ndarray, n_blades: int, bin_hz: float) -> np.ndarray:
+    """Per CPI the first blade-passing pair's level over the floor [dB]: on each side of
+    the centre the strongest bin within 1 of any rotor's line B f_m, the weaker side
+    (NaN where the CPI has no estimate)."""
+    out = np.full(len(cpis), np.nan)
+    for i, c in enumerate(cpis):
+        sp = speeds[i][np.isfinite(speeds[i])]
+        if not len(sp):
+            continue
+        n = len(c.z)
+        off = np.round(n_blades * sp / bin_hz).astype(int)
+        ctr = int(round(c.centre))
+        near = np.arange(-1, 2)
+        up = c.z[(ctr + off[:, None] + near[None, :]) % n].max()
+        dn = c.z[(ctr - off[:, None] + near[None, :]) % n].max()
+        out[i] = float(min(up, dn))
+    return out
 
 
 def one_order_visible(flight, n_blades: int) -> bool:
