@@ -720,8 +720,6 @@ def second_order_rel_db(flight, n_blades: int) -> float | None:
     blades: -10 dB at kappa = 1.1; beta = 3.8, two: -11 dB); None without
     ``blade_length_m``. A tip that returns more than the blade's share (a point at the
     tip, J_k(x)) raises it: the rule is the thin wire's, as the synthesis'."""
-    from scipy.special import jv
-
     from .order import OrderConfig
 
     L = flight.attrs.get("blade_length_m")
@@ -729,15 +727,22 @@ def second_order_rel_db(flight, n_blades: int) -> float | None:
         return None
     beta = 4 * np.pi * float(L) / float(flight.wavelength_m)
     lo, hi = OrderConfig().extent_range
-    x = beta * np.linspace(lo, hi, 11)[:, None]
-    j = np.arange(0, 2 * int(np.ceil(x.max())) + 40)[None, :]
-
-    def amp(k):
-        return np.abs(jv(k + 2 * j + 1, x).sum(axis=1))
-
+    x = beta * np.linspace(lo, hi, 11)
     B = int(n_blades)
-    with np.errstate(divide="ignore"):
-        return float(np.max(20 * np.log10(amp(2 * B) / np.maximum(amp(B), 1e-300))))
+    return float(np.max(20 * np.log10(np.abs(thin_wire_harmonic(2 * B, x))
+                                      / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300))))
+
+
+def thin_wire_harmonic(k: int, x) -> np.ndarray:
+    """Harmonic k's amplitude of a thin-wire blade whose tip's phase swings by +-x
+    (x = beta, 4 pi L / lambda; scatterers uniform from the hub to the tip): the mean
+    over the blade of J_k(x r / L), (1 / x) int_0^x J_k(t) dt = (2 / x) sum_j
+    J_(k + 2 j + 1)(x)."""
+    from scipy.special import jv
+
+    x = np.atleast_1d(np.asarray(x, float))
+    j = np.arange(0, 2 * int(np.ceil(x.max())) + 40)
+    return 2 / x * jv(int(k) + 2 * j[None, :] + 1, x[:, None]).sum(axis=1)
 
 
 def first_pair_db(cpis: list, speeds: np.ndarray, n_blades: int, bin_hz: float) -> np.ndarray:
