@@ -40,7 +40,8 @@ rates remain plausible says so.
    family (k a multiple of B) has the level a - beta_d d (d = k f p_max), the
    rotation-rate family (other k) that level times rho^2 (rho = 0 for equal blades;
    fitted, at most :func:`rho_max` of one blade ``max_weak_blade_db`` weaker than the
-   others), and no line lies beyond kappa f_max + the tail (a window in the tail that
+   others; a CPI whose explained peaks are all rotation-rate lines takes its level from
+   them, ``rotation_level``), and no line lies beyond kappa f_max + the tail (a window in the tail that
    holds no peak expects the tip's fall-off, ``tail_fall``); kappa in ``extent_range``
    (the stated tolerance: below 1 for a rotor plane seen at an elevation, a weak tip, a
    drooping envelope; above 1 for a blade length known to ~10 %). The level a per CPI
