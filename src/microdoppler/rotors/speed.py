@@ -78,9 +78,9 @@ mirror pair can be clutter or birds), unless the blades' physics shows one order
 (:func:`one_order_visible`: the second blade-passing harmonic beyond the blade
 flash's Doppler extent), the band can hold one order's mirror pair only
 (:func:`second_order_folds`: the second order's far line beyond 0.49 PRF), or the
-second order would stand under the pair threshold (``lone_level``: the thin-wire
-blade's second harmonic, :func:`second_order_rel_db`, below the first pair's median
-level, :func:`first_pair_db`, by more than that level's margin over ``pair_snr_db``);
+second order would stand under ``pair_snr_db`` (``lone_level``: the first pair's
+median level over the floor, :func:`first_pair_db`, plus the thin-wire blade's second
+harmonic relative to its first, :func:`second_order_rel_db`);
 ``info["lone_pair"]`` says which, and the pair is needed in ``min_cpis`` CPIs and in
 half of them at least; otherwise there is no estimate and ``reason`` says why. CPIs
 without a visible pair are NaN; speeds outside ``min_rev_s`` to ``max_rev_s`` are
