@@ -26,9 +26,12 @@ Seeds 1000-1071 are the benchmark the estimator was worked on (issue 33); seeds
 seeds 7000-7071 were first run at 6fc19f7, the second hold-out; seeds 9000-9071 at
 17ba26f (the order check as at 6fc19f7), the third; seeds 11000-11071 at e45beb1 (the
 same order check, the I/Q fit on the model's band), the fourth; seeds 13000-13071 at
-c69c6a9 (a tail window without a line expects the tip's fall-off), the fifth. A next
-hold-out takes seeds never run (e.g. from 15000); ``compare_any_radar_runs.py`` pairs
-two runs by recording.
+c69c6a9 (a tail window without a line expects the tip's fall-off), the fifth; seeds
+15000-15071 at 65e8aa0 (rotation-rate lines alone set their level; a lone pair under the
+pair threshold), the sixth. A next hold-out takes seeds never run (e.g. from 17000);
+``compare_any_radar_runs.py`` pairs two runs by recording. Rows carry ``lone_pair``
+(why a lone pair was read as the comb) and ``rescued`` (the order check's search where
+the lines found no comb).
 
 Targets (issue 33): within 2 % on >= 95 % of the visible recordings; never off by more
 than 10 % unless ambiguous; >= 95 % of errors within 2 sigma. Prints a table by carrier,
