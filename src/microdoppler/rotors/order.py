@@ -571,12 +571,10 @@ def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_mode
             a_use, d_lev = a_fit, np.where(ex_b, pd_b, 0.0).sum(1) / np.maximum(ex_b.sum(1), 1)
             if use_imb:
                 only = ex_i & ~ex_b
-                has_b = ex_b.any(axis=1)
-                r = (y - (a_fit[:, None] - beta_fit * pd_i))[only & has_b[:, None]]
-                rho = float(np.clip(np.median(r), rho_cap_db - 20, rho_cap_db)) if r.size else rho_cap_db - 20
                 if ocfg.rotation_level:
-                    if not r.size:
-                        rho = rho_cap_db
+                    has_b = ex_b.any(axis=1)
+                    r = (y - (a_fit[:, None] - beta_fit * pd_i))[only & has_b[:, None]]
+                    rho = float(np.clip(np.median(r), rho_cap_db - 20, rho_cap_db)) if r.size else rho_cap_db
                     # a CPI whose explained peaks are all of the rotation-rate family (its
                     # blade-passing lines beyond the analysed band, faded or masked) has
                     # its level from them: the blade-passing lines above them by 1 / rho
