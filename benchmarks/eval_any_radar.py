@@ -229,6 +229,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=60, help="recordings (default 60)")
     ap.add_argument("--seed", type=int, default=1000, help="first seed (default 1000; seeds 1-99 were used to tune)")
+    ap.add_argument("--seeds", type=int, nargs="+", default=None, metavar="SEED",
+                    help="instead of --n/--seed: these seeds (e.g. a set's recordings a change can reach)")
     ap.add_argument("--duration", type=float, default=6.0, help="recording length [s] (default 6)")
     ap.add_argument("--json", default=None, help="write every recording's numbers here")
     ap.add_argument("--csv", default=None, help="write the table here")
@@ -241,8 +243,8 @@ def main(argv=None) -> int:
         return join(args)
     rows = []
     t0 = time.perf_counter()
-    for i in range(args.n):
-        case = draw_case(args.seed + i, duration_s=args.duration)
+    for seed in args.seeds or range(args.seed, args.seed + args.n):
+        case = draw_case(seed, duration_s=args.duration)
         r = evaluate(case)
         rows.append(r)
         e = "   -   " if r["error"] is None else f"{100 * r['error']:+6.2f}%"

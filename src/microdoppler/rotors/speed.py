@@ -230,6 +230,12 @@ class RotorSpeedConfig:
         (:func:`second_order_rel_db`, :func:`first_pair_db`), would stand under
         ``pair_snr_db`` (``info["lone_pair"]`` says so); False: only where the blade
         flash ends short of it or the band folds it.
+    lone_p_min : float
+        With ``lone_level``, a lone pair is the comb also where the second order's
+        absence is not improbable for a thin-wire blade of unknown extent: the
+        probability of seeing it in no more CPIs than it was, averaged over kappa in
+        ``extent_range`` (:func:`second_order_absence_p`), is at least ``lone_p_min``;
+        0 turns this off (only the largest level over kappa counts).
     """
 
     min_rev_s: float = 20.0
@@ -243,6 +249,7 @@ class RotorSpeedConfig:
     refine: bool = True
     fit: FitConfig = field(default_factory=FitConfig)
     lone_level: bool = True
+    lone_p_min: float = 0.05
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
@@ -258,6 +265,8 @@ class RotorSpeedConfig:
             raise ValueError(f"max_step_rel={self.max_step_rel} must be in (0, 0.5)")
         if self.min_cpis < 1:
             raise ValueError(f"min_cpis={self.min_cpis} must be >= 1")
+        if not 0 <= self.lone_p_min < 1:
+            raise ValueError(f"lone_p_min={self.lone_p_min} must be in [0, 1)")
 
     @property
     def smear_rel(self) -> float:
@@ -614,6 +623,11 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
             second_db = float(np.nanmedian(first)) + rel_db
             if second_db < cfg.pair_snr_db:
                 lone_why = "level"
+            elif cfg.lone_p_min > 0:
+                absence_p = second_order_absence_p(flight, B, float(np.nanmedian(first)), n_comb, n_ok,
+                                                   cfg.pair_snr_db)
+                if absence_p is not None and absence_p >= cfg.lone_p_min:
+                    lone_why = "likely"
     lone = lone_why is not None
     n_refined = 0
     balance = None
@@ -636,6 +650,12 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
                              f"orders: the second blade-passing harmonic of a thin-wire blade (blade_length_m "
                              f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) is expected at "
                              f"{second_db:.1f} dB over the floor, under the pair threshold {cfg.pair_snr_db:g} dB")
+    elif lone_why == "likely":
+        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+                             f"orders: a thin-wire blade (blade_length_m {float(attrs['blade_length_m']):g} m at "
+                             f"{flight.wavelength_m:.4g} m) shows its second blade-passing harmonic that rarely "
+                             f"with probability {absence_p:.2f} (averaged over its extent; up to {second_db:.1f} dB "
+                             f"over the floor)")
     elif lone_why == "folded":
         info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
                              f"orders: the second order's pair lies beyond +-{0.49 * prf:.0f} Hz (PRF {prf:.0f} Hz) "
@@ -734,6 +754,34 @@ def second_order_rel_db(flight, n_blades: int) -> float | None:
     B = int(n_blades)
     return float(np.max(20 * np.log10(np.abs(thin_wire_harmonic(2 * B, x))
                                       / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300))))
+
+
+def second_order_absence_p(flight, n_blades: int, first_db: float, n_seen: int, n_cpis: int,
+                           threshold_db: float) -> float | None:
+    """How probable it is that a thin-wire comb whose first pair stands ``first_db`` over
+    the floor shows its second blade-passing pair (both lines >= ``threshold_db``) in at
+    most ``n_seen`` of ``n_cpis`` CPIs: the binomial probability, each CPI's chance the
+    pair's two lines both pass (a line of mean power S over unit noise passes T with
+    Marcum's Q_1(sqrt(2 S), sqrt(2 T))), averaged over kappa in
+    :class:`.order.OrderConfig`'s ``extent_range`` (11 points, uniform), the second
+    harmonic's level from :func:`thin_wire_harmonic`. The extent is not known; the mean
+    over it is the prior's predictive probability of what was seen. None without
+    ``blade_length_m``."""
+    from scipy.stats import binom, ncx2
+
+    from .order import OrderConfig
+
+    L = flight.attrs.get("blade_length_m")
+    if L is None or not np.isfinite(float(L)) or float(L) <= 0 or n_cpis < 1:
+        return None
+    beta = 4 * np.pi * float(L) / float(flight.wavelength_m)
+    lo, hi = OrderConfig().extent_range
+    x = beta * np.linspace(lo, hi, 11)
+    B = int(n_blades)
+    rel = np.abs(thin_wire_harmonic(2 * B, x)) / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300)
+    s = 10 ** (first_db / 10) * rel ** 2
+    p_line = ncx2.sf(2 * 10 ** (threshold_db / 10), 2, 2 * s)
+    return float(np.mean(binom.cdf(int(n_seen), int(n_cpis), p_line ** 2)))
 
 
 def thin_wire_harmonic(k: int, x) -> np.ndarray:
