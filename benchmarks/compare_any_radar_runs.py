@@ -9,6 +9,10 @@ error (beyond 1e-4), ambiguity, CPIs or CPIs within 2 sigma changed.
 
     .venv/bin/python benchmarks/compare_any_radar_runs.py --before a1.json a2.json \\
         --after b1.json b2.json --json paired.json
+
+``--rest-unchanged``: the after run holds only the recordings a change can reach (e.g.
+``eval_any_radar.py --seeds``); the others count as unchanged, their before rows in both
+(say why in the record, and check a sample of them with a run of their own).
 """
 
 from __future__ import annotations
@@ -87,8 +91,17 @@ def main(argv=None) -> int:
     ap.add_argument("--before", nargs="+", required=True, metavar="JSON")
     ap.add_argument("--after", nargs="+", required=True, metavar="JSON")
     ap.add_argument("--json", default=None, help="write the comparison here")
+    ap.add_argument("--rest-unchanged", action="store_true",
+                    help="recordings only in --before count as unchanged (the change cannot reach them)")
     args = ap.parse_args(argv)
-    out = compare(load(args.before), load(args.after))
+    before, after = load(args.before), load(args.after)
+    if args.rest_unchanged:
+        extra = sorted(set(after) - set(before))
+        if extra:
+            raise SystemExit(f"--after: {extra[:5]}: not in --before (expected a subset of its recordings)")
+        after = {**before, **after}
+    out = compare(before, after)
+    out["rest_unchanged"] = bool(args.rest_unchanged)
     print(f"recordings {out['n_recordings']}" + (f" (in one run only: {out['only_in_one']})"
                                                  if out["only_in_one"] else ""))
     for k in ("within 2 % (visible)", "off > 10 % unmarked (estimate in both)",

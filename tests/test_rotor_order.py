@@ -619,6 +619,16 @@ def test_benchmark_compare_pairs_runs_by_recording(tmp_path):
     assert (cov["before"], cov["after"], cov["n"]) == (23, 28, 30)
     assert p["within 2 % (visible)"]["diff"] == 0.0
     assert [c["name"] for c in p["changed"]] == ["any2", "any3"]
+    # a run of the reachable recordings only: the rest count as unchanged
+    b.write_text(json.dumps({"rows": after[1:2]}))
+    assert compare_any_radar_runs.main(["--before", str(a), "--after", str(b), "--json", str(out),
+                                        "--rest-unchanged"]) == 0
+    p = json.loads(out.read_text())
+    assert p["n_recordings"] == 3 and p["rest_unchanged"] and [c["name"] for c in p["changed"]] == ["any2"]
+    assert p["off > 10 % unmarked (estimate in both)"]["after"] == 0
+    b.write_text(json.dumps({"rows": [row(4, 0.0)]}))
+    with pytest.raises(SystemExit, match="not in --before"):
+        compare_any_radar_runs.main(["--before", str(a), "--after", str(b), "--rest-unchanged"])
     a.write_text(json.dumps({"rows": before + [row(1, 0.0)]}))
     with pytest.raises(SystemExit, match="appears twice"):
         compare_any_radar_runs.main(["--before", str(a), "--after", str(b)])
