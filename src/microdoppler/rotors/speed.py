@@ -80,7 +80,9 @@ flash's Doppler extent), the band can hold one order's mirror pair only
 (:func:`second_order_folds`: the second order's far line beyond 0.49 PRF), or the
 second order would stand under ``pair_snr_db`` (``lone_level``: the first pair's
 median level over the floor, :func:`first_pair_db`, plus the thin-wire blade's second
-harmonic relative to its first, :func:`second_order_rel_db`);
+harmonic relative to its first, :func:`second_order_rel_db`) or, for a blade extent
+that is not known, would show in as few CPIs as it did with probability
+``lone_p_min`` or more (:func:`second_order_absence_p`);
 ``info["lone_pair"]`` says which, and the pair is needed in ``min_cpis`` CPIs and in
 half of them at least; otherwise there is no estimate and ``reason`` says why. CPIs
 without a visible pair are NaN; speeds outside ``min_rev_s`` to ``max_rev_s`` are
