@@ -886,7 +886,10 @@ def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
         if any(abs(np.log(f / t)) <= ocfg.rescue_rel for t in tried):
             continue
         tried.append(f)
-        narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel))
+        # a lone pair's likely comb (lone_p_min) holds over the whole range only: in a
+        # window the screen chose, a chance pair of a smeared line is one (any9046)
+        narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel),
+                         lone_p_min=0.0)
         new = rerun(narrow)
         if new.ok and new.valid.any():
             out = resolve_order(flight, new, narrow, rerun, ocfg)
@@ -908,7 +911,7 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
     hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * ocfg.rerun_margin
     lo, hi = max(lo, 0.5 * ocfg.min_rev_s), min(hi, 1.5 * ocfg.max_rev_s)
     if rerun is not None and lo < hi:
-        new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi), n_blades=int(est.n_blades))
+        new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi, lone_p_min=0.0), n_blades=int(est.n_blades))
         if new.ok and abs(np.log(float(np.nanmedian(new.common_rev_s[new.valid])) / want)) <= 0.03:
             return new, "measured again within %.1f-%.1f rev/s" % (lo, hi)
     out = replace(lines)

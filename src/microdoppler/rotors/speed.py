@@ -237,7 +237,9 @@ class RotorSpeedConfig:
         absence is not improbable for a thin-wire blade of unknown extent: the
         probability of seeing it in no more CPIs than it was, averaged over kappa in
         ``extent_range`` (:func:`second_order_absence_p`), is at least ``lone_p_min``;
-        0 turns this off (only the largest level over kappa counts).
+        0 turns this off (only the largest level over kappa counts). Over the whole
+        rate range only: the order check's re-measurements in a narrowed range set it
+        to 0 (there a smeared line's chance pair passed: any9046).
     """
 
     min_rev_s: float = 20.0
