@@ -747,6 +747,14 @@ def second_order_rel_db(flight, n_blades: int) -> float | None:
     blades: -10 dB at kappa = 1.1; beta = 3.8, two: -11 dB); None without
     ``blade_length_m``. A tip that returns more than the blade's share (a point at the
     tip, J_k(x)) raises it: the rule is the thin wire's, as the synthesis'."""
+    rel = _second_over_first(flight, n_blades)
+    return None if rel is None else float(np.max(20 * np.log10(rel)))
+
+
+def _second_over_first(flight, n_blades: int) -> np.ndarray | None:
+    """The thin-wire blade's second blade-passing harmonic over its first (amplitude) at
+    11 points of kappa over :class:`.order.OrderConfig`'s ``extent_range``; None without
+    ``blade_length_m``."""
     from .order import OrderConfig
 
     L = flight.attrs.get("blade_length_m")
@@ -756,8 +764,7 @@ def second_order_rel_db(flight, n_blades: int) -> float | None:
     lo, hi = OrderConfig().extent_range
     x = beta * np.linspace(lo, hi, 11)
     B = int(n_blades)
-    return float(np.max(20 * np.log10(np.abs(thin_wire_harmonic(2 * B, x))
-                                      / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300))))
+    return np.abs(thin_wire_harmonic(2 * B, x)) / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300)
 
 
 def second_order_absence_p(flight, n_blades: int, first_db: float, n_seen: int, n_cpis: int,
@@ -773,16 +780,9 @@ def second_order_absence_p(flight, n_blades: int, first_db: float, n_seen: int, 
     ``blade_length_m``."""
     from scipy.stats import binom, ncx2
 
-    from .order import OrderConfig
-
-    L = flight.attrs.get("blade_length_m")
-    if L is None or not np.isfinite(float(L)) or float(L) <= 0 or n_cpis < 1:
+    rel = _second_over_first(flight, n_blades)
+    if rel is None or n_cpis < 1:
         return None
-    beta = 4 * np.pi * float(L) / float(flight.wavelength_m)
-    lo, hi = OrderConfig().extent_range
-    x = beta * np.linspace(lo, hi, 11)
-    B = int(n_blades)
-    rel = np.abs(thin_wire_harmonic(2 * B, x)) / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300)
     s = 10 ** (first_db / 10) * rel ** 2
     p_line = ncx2.sf(2 * 10 ** (threshold_db / 10), 2, 2 * s)
     return float(np.mean(binom.cdf(int(n_seen), int(n_cpis), p_line ** 2)))
