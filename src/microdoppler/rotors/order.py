@@ -83,15 +83,18 @@ rates remain plausible says so.
    the whole range (they may follow a sub-harmonic path into nothing), the screen's
    likeliest rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
 
-Where another candidate's relative likelihood is ``ambiguous_at`` or more, the flight's
-order is ambiguous: ``RotorEstimate.info["order"]`` lists the alternatives (down to
-``report_at``), the store's ``motors_radar`` attributes ``rotor_order_alternatives_rev_s``
-and ``rotor_order_relative_likelihood`` carry them (:func:`order_attrs`), ``import``
-prints :func:`ambiguity_line`, and every CPI's uncertainty includes the order's:
-sigma^2 + sum_h w_h (v_h - v)^2 over the candidates h whose relative likelihood is
-``ambiguous_at`` or more (weights w normalised over them, speeds v_h = v f_h / f), the
-spread of the mixture about the reported speed (a candidate below ``ambiguous_at`` lies
-outside the mixture's 95 % interval and is listed without widening sigma).
+Where another candidate's relative likelihood, or its posterior odds against the chosen
+one (the relative likelihood times the ratio of their tip speeds' priors), is
+``ambiguous_at`` or more, the flight's order is ambiguous: ``RotorEstimate.info["order"]``
+lists the alternatives (down to ``report_at``, and those plausible by their posterior
+odds; ``posterior_odds`` beside their relative likelihoods), the store's
+``motors_radar`` attributes ``rotor_order_alternatives_rev_s`` and
+``rotor_order_relative_likelihood`` carry them (:func:`order_attrs`), ``import`` prints
+:func:`ambiguity_line`, and every CPI's uncertainty includes the order's: sigma^2 +
+sum_h w_h (v_h - v)^2 over the plausible candidates h (weights w their relative
+likelihoods normalised over them, speeds v_h = v f_h / f), the spread of the mixture
+about the reported speed (a candidate below ``ambiguous_at`` lies outside the mixture's
+95 % interval and is listed without widening sigma).
 
 Tested on recordings the project did not shape (``tests/any_radar.py``,
 ``tests/test_rotor_order.py``; ``benchmarks/eval_any_radar.py``); the settings were
@@ -855,13 +858,20 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
     # (the candidates that make the order ambiguous: under ``ambiguous_at`` an alternative
     # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
-    plaus = [c for c in kept if c.relative_likelihood >= ocfg.ambiguous_at]
+    # an alternative is plausible by its relative likelihood or by its posterior odds (the
+    # likelihood times the tip speed's prior, against the chosen one's): a rate the lines
+    # like less but whose tips turn at a typical speed stays named (any19055)
+    lp = tip_log_prior(np.array([c.rev_s for c in kept]), L, ocfg)
+    odds = [c.relative_likelihood * float(np.exp(min(lp[i] - lp[0], 50.0))) for i, c in enumerate(kept)]
+    plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
     wsum = sum(c.relative_likelihood for c in plaus)
     var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
     out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
     out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
-    alts = [c for c in kept[1:] if c.relative_likelihood >= ocfg.report_at]
-    ambiguous = any(c.relative_likelihood >= ocfg.ambiguous_at for c in alts)
+    listed = [(c, o) for c, o in zip(kept[1:], odds[1:])
+              if c.relative_likelihood >= ocfg.report_at or o >= ocfg.ambiguous_at]
+    alts = [c for c, _ in listed]
+    ambiguous = any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
     info = dict(out.info)
     info["order"] = {
         "method": METHOD,
@@ -875,6 +885,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "extent_hz": round(data.extent_hz, 1),
         "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
         "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
+        "posterior_odds": [float(f"{o:.3g}") for _, o in listed],
         "tip_prior": (None if likeliest is chosen else
                       f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
                       f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
