@@ -15,7 +15,8 @@ error (beyond 1e-4), ambiguity, CPIs or CPIs within 2 sigma changed.
 ``eval_any_radar.py --seeds``); the others count as unchanged, their before rows in both
 (say why in the record, and check a sample of them with a run of their own).
 ``--before-update``: runs of some of the --before recordings at a later code (e.g. the
-recordings an earlier change reached, re-run); their rows replace those in --before.
+recordings an earlier change reached, re-run); their rows replace those in --before,
+file by file in the order given.
 """
 
 from __future__ import annotations
@@ -106,11 +107,12 @@ def main(argv=None) -> int:
                     help="recordings only in --before count as unchanged (the change cannot reach them)")
     args = ap.parse_args(argv)
     before, after = load(args.before), load(args.after)
-    if args.before_update:
-        update = load(args.before_update)
+    for path in args.before_update:  # in order: a later file's rows replace an earlier one's
+        update = load([path])
         extra = sorted(set(update) - set(before))
         if extra:
-            raise SystemExit(f"--before-update: {extra[:5]}: not in --before (expected a later run of some of them)")
+            raise SystemExit(f"--before-update: {path}: {extra[:5]}: not in --before (expected a later run of "
+                             "some of them)")
         before.update(update)
     if args.rest_unchanged:
         extra = sorted(set(after) - set(before))
