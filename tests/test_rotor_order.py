@@ -600,6 +600,10 @@ def test_ambiguity_reaches_the_store_and_the_line():
     assert attrs["rotor_order_alternatives_rev_s"] == [161.6]
     assert attrs["rotor_order_relative_likelihood"] == [0.77]
     assert ambiguity_line(SimpleNamespace(flight_id="x", info={"order": {**order, "ambiguous": False}})) is None
+    # an alternative plausible once weighed with the tip speed's prior: both ratios named
+    line = ambiguity_line(SimpleNamespace(flight_id="x", info={"order": {
+        **order, "relative_likelihood": [0.025], "posterior_odds": [0.2]}}))
+    assert "likelihood ratio 40; with the tip speed's prior 5;" in line
 
 
 def test_store_carries_the_order(tmp_path):

@@ -1018,15 +1018,19 @@ def _within_spread(est, ocfg: OrderConfig):
 
 def ambiguity_line(est) -> str | None:
     """One line naming an ambiguous order, e.g. ``ambiguous: 80.8 or 161.6 rev/s
-    (likelihood ratio 1.3)``; None where the order is not ambiguous."""
+    (likelihood ratio 1.3)``, with the odds against each alternative once weighed with the
+    tip speed's prior where they differ; None where the order is not ambiguous."""
     o = (est.info or {}).get("order")
     if not o or not o.get("ambiguous"):
         return None
     alts = [(a, r) for a, r in zip(o["alternatives_rev_s"], o["relative_likelihood"])]
     speeds = " or ".join([f"{o['chosen_rev_s']:.1f}"] + [f"{a:.1f}" for a, _ in alts])
     ratios = ", ".join(f"{1 / r:.3g}" for _, r in alts)
-    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}; the store's "
-            f"rpm_std includes it)")
+    odds = o.get("posterior_odds")
+    prior = (f"; with the tip speed's prior {', '.join(f'{1 / x:.3g}' for x in odds)}"
+             if odds and list(odds) != list(o["relative_likelihood"]) else "")
+    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}{prior}; the "
+            f"store's rpm_std includes it)")
 
 
 def order_attrs(est) -> dict:
