@@ -1027,7 +1027,7 @@ def ambiguity_line(est) -> str | None:
     speeds = " or ".join([f"{o['chosen_rev_s']:.1f}"] + [f"{a:.1f}" for a, _ in alts])
     ratios = ", ".join(f"{1 / r:.3g}" for _, r in alts)
     odds = o.get("posterior_odds")
-    prior = (f"; with the tip speed's prior {', '.join(f'{1 / x:.3g}' for x in odds)}"
+    prior = (f"; with the tip speed's prior {', '.join(f'{1 / x:.3g}' if x > 0 else 'inf' for x in odds)}"
              if odds and list(odds) != list(o["relative_likelihood"]) else "")
     return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}{prior}; the "
             f"store's rpm_std includes it)")
