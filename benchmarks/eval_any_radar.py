@@ -30,7 +30,8 @@ c69c6a9 (a tail window without a line expects the tip's fall-off), the fifth; se
 15000-15071 at 65e8aa0 (rotation-rate lines alone set their level; a lone pair under the
 pair threshold), the sixth; seeds 17000-17071 at c5f9c33 (a lone pair whose second order
 would rarely show, ``lone_p_min``), the seventh; seeds 19000-19071 at ba48f5d (the blade-tip
-speed's prior), the eighth. A next hold-out takes seeds never run (e.g. from 21000); ``--seeds`` runs a list (the recordings a change can reach);
+speed's prior), the eighth. A next hold-out takes seeds never run (e.g. from 21000);
+``--seeds`` runs a list (the recordings a change can reach);
 ``compare_any_radar_runs.py`` pairs two runs by recording. Rows carry ``lone_pair``
 (why a lone pair was read as the comb) and ``rescued`` (the order check's search where
 the lines found no comb).

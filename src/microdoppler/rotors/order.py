@@ -832,12 +832,13 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     # the order: the largest relative likelihood times the tip speed's prior
     for c in cands:
         c.relative_likelihood = _relative(chosen, c, ocfg)
-    prior = tip_log_prior(np.array([c.rev_s for c in cands]), L, ocfg)
-    pick = int(np.argmax(np.log(np.maximum([c.relative_likelihood for c in cands], 1e-300)) + prior))
+    lp = tip_log_prior(np.array([c.rev_s for c in cands]), L, ocfg)
+    pick = int(np.argmax(np.log(np.maximum([c.relative_likelihood for c in cands], 1e-300)) + lp))
     likeliest = chosen
     if pick:
         chosen = cands[pick]
-        cands = [chosen] + [c for c in cands if c is not chosen]
+        first = [pick] + [i for i in range(len(cands)) if i != pick]
+        cands, lp = [cands[i] for i in first], lp[first]
         for c in cands:
             c.relative_likelihood = _relative(chosen, c, ocfg)
     rate = chosen.rev_s
@@ -861,7 +862,6 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     # an alternative is plausible by its relative likelihood or by its posterior odds (the
     # likelihood times the tip speed's prior, against the chosen one's): a rate the lines
     # like less but whose tips turn at a typical speed stays named (any19055)
-    lp = tip_log_prior(np.array([c.rev_s for c in kept]), L, ocfg)
     odds = [c.relative_likelihood * float(np.exp(min(lp[i] - lp[0], 50.0))) for i, c in enumerate(kept)]
     plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
     wsum = sum(c.relative_likelihood for c in plaus)
