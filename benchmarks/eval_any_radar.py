@@ -83,6 +83,10 @@ def evaluate(case) -> dict:
            "alternatives_rev_s": o.get("alternatives_rev_s", []),
            "relative_likelihood": o.get("relative_likelihood", []), "ratio_to_lines": o.get("ratio_to_lines"),
            "remeasured": o.get("remeasured"), "coverage": o.get("coverage"),
+           "extent_hz": o.get("extent_hz"), "extent_over_tip_doppler": o.get("extent_over_tip_doppler"),
+           "top_db": o.get("top_db"), "tail_harmonics": o.get("tail_harmonics"),
+           "candidates": [{k: c.get(k) for k in ("rev_s", "loglik", "extent_ratio", "tip_mach", "origin")}
+                          for c in o.get("candidates", [])],
            "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0,
            "lone_pair": est.info.get("lone_pair"), "rescued": o.get("rescued")}
     if not est.ok:

@@ -33,7 +33,11 @@ rates remain plausible says so.
    over CPIs; folded lines make it a lower bound) must not exceed (kappa_max beta +
    ``tail_harmonics`` beta^(1/3)) f, where beta f = 2 (2 pi f L) / lambda = f_max is
    the tips' Doppler, the blade flash's Doppler extent (beta = 4 pi L / lambda; the
-   tip's Bessel lines J_k(beta) fall off over ~beta^(1/3) harmonics beyond k = beta).
+   tip's Bessel lines J_k(beta) fall off over ~beta^(1/3) harmonics beyond k = beta);
+   with ``tail_level`` the tail reaches only as far as a line can stand ``line_db`` + 3
+   dB over the floor: where the fall-off Ai(m) / Ai(0) (step 4) comes to the strongest
+   line's height over the floor (per CPI, the median over CPIs) less ``line_db`` + 3 dB,
+   plus ``line_sd_db`` (a line's scatter), in units of (beta / 2)^(1/3) harmonics.
 4. Line model, per CPI, for a rate f (rotors at f p_m): rotation harmonic k has a line
    at body + s k f (s = +-1, folded modulo the PRF into the spectrum) within a window
    covering the rotors' spread k f (p_min..p_max) plus 1.5 bins; the blade-passing
@@ -113,7 +117,7 @@ from scipy.special import airy, log_ndtr
 
 from ..spectra.floor import local_floor_db
 
-METHOD = "order/4"
+METHOD = "order/5"
 SOUND_MPS = 343.0
 C_MPS = 299_792_458.0
 #: the standard ratios to the estimate's rate that are always examined
@@ -193,6 +197,11 @@ class OrderConfig:
         within 1 % -0.20 [-0.63, +0.00] points). At 0.35 those stay, but a scaled
         estimate kept rotors 25-35 % off (a 5.8 GHz recording -0.2 -> -8.3 %, 2 of 24
         CPIs within 2 sigma).
+    tail_level : bool
+        The tail of step 3 reaches no farther than the tip's fall-off lets a line stand
+        ``line_db`` + 3 dB over the floor below the strongest line (plus ``line_sd_db``):
+        a weak recording's lines cannot pass the tips' Doppler by 2 beta^(1/3)
+        harmonics, where the fall-off is ~30 dB (``order/5``; False: ``order/4``).
     tail_fall : bool
         A line window beyond kappa f_max that holds no peak costs what a line of the
         tip's fall-off would: its expected level is lowered by 20 log10(Ai(m) / Ai(0))
@@ -259,6 +268,7 @@ class OrderConfig:
     snap_rel: float = 0.08
     rotor_spread_max: float = 0.25
     tail_fall: bool = True
+    tail_level: bool = True
     rotation_level: bool = True
     tip_speed_mps: float = 80.0
     tip_speed_log_sd: float = 0.4
@@ -310,6 +320,7 @@ class _Data:
     cpi_index: np.ndarray    # which CPIs of the estimate
     band_hz: np.ndarray      # [n_cpi] analysed offsets |x| <= band (the comb's harmonics resolved)
     extent_hz: float         # the blade energy's Doppler extent: how far lines reach (a lower bound)
+    top_db: float = np.inf   # the strongest line over the floor (per CPI, the median over CPIs) [dB]
 
 
 def _sparse_table(v: np.ndarray) -> list:
@@ -436,13 +447,15 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
         if len(a):
             far.append(a[-min(len(a), int(est.n_motors))])
     extent = float(np.median(far)) if far else 0.0
+    tops = [float(np.max(y)) for y in py if len(y)]
+    top = float(np.median(tops)) if tops else np.inf
     # the analysed band: where the rotation harmonics' windows of the lines' comb stay
     # apart (beyond, the rotors' lines merge into a continuum that tells no order)
     band = np.minimum(0.5 / (half / mid + 0.004) * ref * mid, prf / 2)
     peaks_x = np.where(np.abs(peaks_x) <= band[:, None], peaks_x, np.nan)
     peaks_y = np.where(np.isfinite(peaks_x), peaks_y, np.nan)
     return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks),
-                 np.array(cb), mid - half, mid + half, np.asarray(cpis), band, extent)
+                 np.array(cb), mid - half, mid + half, np.asarray(cpis), band, extent, top)
 
 
 @dataclass
@@ -562,6 +575,17 @@ def _tail_fall_db(d: np.ndarray, lim0: np.ndarray, width: np.ndarray) -> np.ndar
     harmonics [Hz] the level falls as Ai(m) / Ai(0) (8 dB at m = 1, 20 dB at m = 2)."""
     m = np.clip((d - lim0) / width, 0.0, 8.0)
     return np.where(d > lim0, -20 * np.log10(np.maximum(airy(m)[0], 1e-300) / _AI0), 0.0)
+
+
+def _tail_reach_m(fall_db: float) -> float:
+    """The offset m (in (beta / 2)^(1/3) rotation harmonics beyond kappa f_max) at which
+    the tip's fall-off (:func:`_tail_fall_db`) reaches ``fall_db``: how far beyond the
+    tips' Doppler a line can stand that much under the strongest one."""
+    if not np.isfinite(fall_db):
+        return np.inf
+    m = np.linspace(0.0, 8.0, 1601)
+    fall = -20 * np.log10(np.maximum(airy(m)[0], 1e-300) / _AI0)
+    return float(m[min(np.searchsorted(fall, max(fall_db, 0.0)), len(m) - 1)])
 
 
 def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
@@ -781,6 +805,10 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     beta = 4 * np.pi * L / lam if L is not None else None
     p_mid_hi = float(np.median(data.p_hi))
 
+    tail_h = ocfg.tail_harmonics * beta ** (1 / 3) if L is not None else 0.0
+    if L is not None and ocfg.tail_level:
+        tail_h = min(tail_h, _tail_reach_m(data.top_db - ocfg.line_db - 3.0 + ocfg.line_sd_db) * (beta / 2) ** (1 / 3))
+
     def physical(f):
         """Rates in range, blade tips below ``max_tip_mach``, and a blade-tip Doppler
         that the lines do not pass (lines beyond it are impossible)."""
@@ -788,7 +816,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
             return False
         if L is None:
             return True
-        reach = (ocfg.extent_range[1] * beta + ocfg.tail_harmonics * beta ** (1 / 3)) * f * p_mid_hi
+        reach = (ocfg.extent_range[1] * beta + tail_h) * f * p_mid_hi
         return 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach and data.extent_hz <= reach
 
     rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
@@ -884,6 +912,8 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "coverage": round(chosen.coverage, 3),
         "extent_hz": round(data.extent_hz, 1),
         "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
+        "top_db": round(data.top_db, 1) if np.isfinite(data.top_db) else None,
+        "tail_harmonics": round(tail_h, 2) if L is not None else None,
         "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
         "posterior_odds": [float(f"{o:.3g}") for _, o in listed],
         "tip_prior": (None if likeliest is chosen else
