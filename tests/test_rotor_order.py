@@ -569,6 +569,47 @@ def test_an_order_plausible_by_its_tip_speed_is_named():
     assert o["relative_likelihood"][i] < 0.05 <= o["posterior_odds"][i]
 
 
+def test_tail_reach_inverts_the_tips_fall_off():
+    """The tail's reach (``tail_level``) is where the tip's Airy fall-off comes to the
+    given depth: 8.4 dB at m = 1, 20 dB at m = 2 (Ai(m) / Ai(0)); deeper reaches farther;
+    no depth, no reach."""
+    from microdoppler.rotors.order import _tail_fall_db, _tail_reach_m
+
+    for m in (0.5, 1.0, 2.0, 3.0):
+        depth = float(_tail_fall_db(np.array([m]), np.array([0.0]), np.array([1.0]))[0])
+        assert _tail_reach_m(depth) == pytest.approx(m, abs=0.01)
+    assert 8.0 < float(_tail_fall_db(np.array([1.0]), np.array([0.0]), np.array([1.0]))[0]) < 9.0
+    assert _tail_reach_m(0.0) == 0.0 and _tail_reach_m(-3.0) == 0.0
+    assert _tail_reach_m(10.0) < _tail_reach_m(20.0) < _tail_reach_m(30.0)
+
+
+def test_lines_past_a_subharmonics_tips_at_their_level_rule_it_out():
+    """any9061 (5.8 GHz, 12 kHz, six 0.079 m two-blade rotors at 193 rev/s, one blade 7.3
+    dB weak, flying; not visible by the generator's rule): half the rate explains the
+    lines' dense windows best, and its tips' Doppler (1.9 kHz) with 2 beta^(1/3)
+    harmonics of tail let the lines reach 2.9 kHz: -50 %, unmarked (``order/4``). The
+    strongest line stands 29 dB over the floor, so no line 13 dB over it can lie more
+    than ~2 (beta / 2)^(1/3) harmonics past the tips' Doppler (20 dB down the Airy
+    fall-off, + 5 dB): half the rate is ruled out and the estimate is within 2 %."""
+    from microdoppler.rotors.order import OrderConfig, resolve_order
+    from microdoppler.rotors.speed import RotorSpeedConfig
+
+    flight, truth = make_recording(draw_case(9061, duration_s=6.0))
+    cfg = RotorSpeedConfig()
+    lines = estimate_rotor_speeds(flight, config=cfg, order=False)
+    B = int(flight.attrs["n_blades"])
+
+    def rerun(c, n_blades=B):
+        return estimate_rotor_speeds(flight, n_fft=lines.n_fft, n_blades=n_blades, config=c, order=False)
+
+    est = resolve_order(flight, lines, cfg, rerun=rerun, config=OrderConfig())
+    err, named, true_mean = score(est, truth, flight)
+    assert abs(err) <= 0.02 and est.info["order"]["tail_harmonics"] < 2 * (4 * np.pi * 0.0794 / 0.0517) ** (1 / 3)
+    old = resolve_order(flight, lines, cfg, rerun=rerun, config=OrderConfig(tail_level=False))
+    err0, _, _ = score(old, truth, flight)
+    assert abs(err0 + 0.5) < 0.05 and not old.info["order"]["ambiguous"]
+
+
 @pytest.mark.parametrize("seed", [2, 30, 58])
 def test_drawn_recordings(seed):
     """Recordings drawn from the generator's seeds (carrier, PRF, rotors, blades, set-up,
