@@ -30,11 +30,14 @@ c69c6a9 (a tail window without a line expects the tip's fall-off), the fifth; se
 15000-15071 at 65e8aa0 (rotation-rate lines alone set their level; a lone pair under the
 pair threshold), the sixth; seeds 17000-17071 at c5f9c33 (a lone pair whose second order
 would rarely show, ``lone_p_min``), the seventh; seeds 19000-19071 at ba48f5d (the blade-tip
-speed's prior), the eighth. A next hold-out takes seeds never run (e.g. from 21000);
-``--seeds`` runs a list (the recordings a change can reach);
+speed's prior), the eighth; seeds 21000-21071 at 4be7b3d (the tail beyond the tips'
+Doppler at the lines' level, ``tail_level``), the ninth. A next hold-out takes seeds never
+run (e.g. from 23000); ``--seeds`` runs a list (the recordings a change can reach);
 ``compare_any_radar_runs.py`` pairs two runs by recording. Rows carry ``lone_pair``
-(why a lone pair was read as the comb) and ``rescued`` (the order check's search where
-the lines found no comb).
+(why a lone pair was read as the comb), ``rescued`` (the order check's search where
+the lines found no comb) and, from 4be7b3d, what a later change's reach needs: the
+lines' extent and strongest line, the tail allowed, the candidates (rate,
+log-likelihood, extent ratio, origin) and (later) the rotors moved to the median.
 
 Targets (issue 33): within 2 % on >= 95 % of the visible recordings; never off by more
 than 10 % unless ambiguous; >= 95 % of errors within 2 sigma. Prints a table by carrier,
@@ -85,6 +88,7 @@ def evaluate(case) -> dict:
            "remeasured": o.get("remeasured"), "coverage": o.get("coverage"),
            "extent_hz": o.get("extent_hz"), "extent_over_tip_doppler": o.get("extent_over_tip_doppler"),
            "top_db": o.get("top_db"), "tail_harmonics": o.get("tail_harmonics"),
+           "n_rotors_to_median": o.get("n_rotors_to_median"), "chosen_rev_s": o.get("chosen_rev_s"),
            "candidates": [{k: c.get(k) for k in ("rev_s", "loglik", "extent_ratio", "tip_mach", "origin")}
                           for c in o.get("candidates", [])],
            "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0,
