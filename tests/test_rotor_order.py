@@ -522,6 +522,23 @@ def test_tip_prior_is_a_log_normal_about_the_typical_tip_speed():
         OrderConfig(tip_speed_mps=-1.0)
 
 
+def _order_under(seed):
+    """A drawn recording's lines (no order check) and a function that resolves their
+    order under an ``OrderConfig``: (flight, truth, resolve)."""
+    from microdoppler.rotors.order import resolve_order
+    from microdoppler.rotors.speed import RotorSpeedConfig
+
+    flight, truth = make_recording(draw_case(seed, duration_s=6.0))
+    cfg = RotorSpeedConfig()
+    lines = estimate_rotor_speeds(flight, config=cfg, order=False)
+    B = int(flight.attrs["n_blades"])
+
+    def rerun(c, n_blades=B):
+        return estimate_rotor_speeds(flight, n_fft=lines.n_fft, n_blades=n_blades, config=c, order=False)
+
+    return flight, truth, lambda ocfg: resolve_order(flight, lines, cfg, rerun=rerun, config=ocfg)
+
+
 @pytest.mark.parametrize("seed", [11007, 9006])
 def test_tip_prior_decides_between_orders_the_lines_explain_alike(seed):
     """any11007 (1.3 GHz, 0.052 m blades at 186 rev/s, one blade 6.8 dB weak) and any9006
@@ -531,24 +548,16 @@ def test_tip_prior_decides_between_orders_the_lines_explain_alike(seed):
     truth's, within 2 %, and still marked ambiguous with the likelier rate listed at
     relative likelihood 1; without the prior (``tip_speed_log_sd=0``, ``order/3``) the
     likelier, more than 10 % off and marked."""
-    from microdoppler.rotors.order import OrderConfig, resolve_order
-    from microdoppler.rotors.speed import RotorSpeedConfig
+    from microdoppler.rotors.order import OrderConfig
 
-    flight, truth = make_recording(draw_case(seed, duration_s=6.0))
+    flight, truth, resolve = _order_under(seed)
     assert truth["visible"]
-    cfg = RotorSpeedConfig()
-    lines = estimate_rotor_speeds(flight, config=cfg, order=False)
-    B = int(flight.attrs["n_blades"])
-
-    def rerun(c, n_blades=B):
-        return estimate_rotor_speeds(flight, n_fft=lines.n_fft, n_blades=n_blades, config=c, order=False)
-
-    est = resolve_order(flight, lines, cfg, rerun=rerun, config=OrderConfig())
+    est = resolve(OrderConfig())
     err, named, true_mean = score(est, truth, flight)
     o = est.info["order"]
     assert abs(err) <= 0.02 and o["ambiguous"] and o["tip_prior"]
     assert 1.0 in o["relative_likelihood"]
-    flat = resolve_order(flight, lines, cfg, rerun=rerun, config=OrderConfig(tip_speed_log_sd=0.0))
+    flat = resolve(OrderConfig(tip_speed_log_sd=0.0))
     err0, _, _ = score(flat, truth, flight)
     assert abs(err0) > 0.10 and flat.info["order"]["ambiguous"] and flat.info["order"]["tip_prior"] is None
 
@@ -591,21 +600,13 @@ def test_lines_past_a_subharmonics_tips_at_their_level_rule_it_out():
     strongest line stands 29 dB over the floor, so no line 13 dB over it can lie more
     than ~2 (beta / 2)^(1/3) harmonics past the tips' Doppler (20 dB down the Airy
     fall-off, + 5 dB): half the rate is ruled out and the estimate is within 2 %."""
-    from microdoppler.rotors.order import OrderConfig, resolve_order
-    from microdoppler.rotors.speed import RotorSpeedConfig
+    from microdoppler.rotors.order import OrderConfig
 
-    flight, truth = make_recording(draw_case(9061, duration_s=6.0))
-    cfg = RotorSpeedConfig()
-    lines = estimate_rotor_speeds(flight, config=cfg, order=False)
-    B = int(flight.attrs["n_blades"])
-
-    def rerun(c, n_blades=B):
-        return estimate_rotor_speeds(flight, n_fft=lines.n_fft, n_blades=n_blades, config=c, order=False)
-
-    est = resolve_order(flight, lines, cfg, rerun=rerun, config=OrderConfig())
+    flight, truth, resolve = _order_under(9061)
+    est = resolve(OrderConfig())
     err, named, true_mean = score(est, truth, flight)
     assert abs(err) <= 0.02 and est.info["order"]["tail_harmonics"] < 2 * (4 * np.pi * 0.0794 / 0.0517) ** (1 / 3)
-    old = resolve_order(flight, lines, cfg, rerun=rerun, config=OrderConfig(tail_level=False))
+    old = resolve(OrderConfig(tail_level=False))
     err0, _, _ = score(old, truth, flight)
     assert abs(err0 + 0.5) < 0.05 and not old.info["order"]["ambiguous"]
 
