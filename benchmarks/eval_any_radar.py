@@ -89,6 +89,7 @@ def evaluate(case) -> dict:
            "extent_hz": o.get("extent_hz"), "extent_over_tip_doppler": o.get("extent_over_tip_doppler"),
            "top_db": o.get("top_db"), "tail_harmonics": o.get("tail_harmonics"),
            "n_rotors_to_median": o.get("n_rotors_to_median"), "chosen_rev_s": o.get("chosen_rev_s"),
+           "departs": o.get("departs"),
            "candidates": [{k: c.get(k) for k in ("rev_s", "loglik", "extent_ratio", "tip_mach", "origin")}
                           for c in o.get("candidates", [])],
            "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0,

@@ -83,7 +83,10 @@ rates remain plausible says so.
    lines' estimate is scaled. Whatever the order, a rotor more than
    ``rotor_spread_max`` from the median rotor (of the CPI and its neighbours) sat on a
    line of another order or family; it goes to the median, the change into its sigma
-   (``info["order"]["n_rotors_to_median"]``). Where the lines found no comb at all over
+   (``info["order"]["n_rotors_to_median"]``). Where the speeds' median over CPIs then
+   departs from the chosen rate by more than ``depart_max``, the rotors split between
+   two rates' lines: the order is ambiguous, the chosen rate listed (``departs``,
+   ``split``). Where the lines found no comb at all over
    the whole range (they may follow a sub-harmonic path into nothing), the screen's
    likeliest rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
 
@@ -117,7 +120,7 @@ from scipy.special import airy, log_ndtr
 
 from ..spectra.floor import local_floor_db
 
-METHOD = "order/5"
+METHOD = "order/6"
 SOUND_MPS = 343.0
 C_MPS = 299_792_458.0
 #: the standard ratios to the estimate's rate that are always examined
@@ -197,6 +200,16 @@ class OrderConfig:
         within 1 % -0.20 [-0.63, +0.00] points). At 0.35 those stay, but a scaled
         estimate kept rotors 25-35 % off (a 5.8 GHz recording -0.2 -> -8.3 %, 2 of 24
         CPIs within 2 sigma).
+    depart_max : float
+        The speeds reported (measured again, or the lines' estimate scaled, with rotors far
+        from the others put at the median, step 6) keep the chosen rate's order only
+        within this (log ratio of their median over CPIs to the rate). Beyond it the rotors
+        split between the lines of two rates and the median took the other (any21027: the
+        lines' rotors at 0.8x and 1.2x the chosen 74 rev/s, 37 of 92 rotor-CPIs moved,
+        60 rev/s reported, the truth 73): the order is ambiguous, the chosen rate is listed
+        at relative likelihood 1 and the uncertainty includes both (their equal mixture).
+        The value is ``snap_rel``'s: within it a rate is the same order (``order/6``; inf:
+        ``order/5``).
     tail_level : bool
         The tail of step 3 reaches no farther than the tip's fall-off lets a line stand
         ``line_db`` + 3 dB over the floor below the strongest line (plus ``line_sd_db``):
@@ -267,6 +280,7 @@ class OrderConfig:
     prior_lines: float = 4.0
     snap_rel: float = 0.08
     rotor_spread_max: float = 0.25
+    depart_max: float = 0.08
     tail_fall: bool = True
     tail_level: bool = True
     rotation_level: bool = True
@@ -279,7 +293,7 @@ class OrderConfig:
         lo, hi = self.extent_range
         if not 0 < lo < hi:
             raise ValueError(f"extent_range={self.extent_range} must satisfy 0 < low < high")
-        for name in ("max_tip_mach", "line_sd_db", "spurious_per_cpi", "spurious_range_db", "temperature",
+        for name in ("depart_max", "max_tip_mach", "line_sd_db", "spurious_per_cpi", "spurious_range_db", "temperature",
                      "screen_step", "rerun_margin"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}={getattr(self, name)} must be > 0")
@@ -885,6 +899,10 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     # the order's uncertainty: the mixture's spread about the reported speed
     v = out.valid
     mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
+    # the speeds against the chosen rate (``depart_max``): rotors split between two rates'
+    # lines keep the order's rate as plausible as theirs
+    depart = float(np.log(mean_now / rate)) if mean_now > 0 and rate > 0 else 0.0
+    split = bool(abs(depart) > ocfg.depart_max)
     # (the candidates that make the order ambiguous: under ``ambiguous_at`` an alternative
     # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
     # an alternative is plausible by its relative likelihood or by its posterior odds (the
@@ -894,12 +912,18 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
     wsum = sum(c.relative_likelihood for c in plaus)
     var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
+    if split:  # the equal mixture of the speeds and the chosen rate, about the speeds
+        var_rel += 0.5 * (rate / mean_now - 1) ** 2
     out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
     out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
     listed = [(c, o) for c, o in zip(kept[1:], odds[1:])
               if c.relative_likelihood >= ocfg.report_at or o >= ocfg.ambiguous_at]
     alts = [c for c, _ in listed]
-    ambiguous = any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
+    ambiguous = split or any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
+    alt_rev_s = [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts]
+    rel_l, post = [float(f"{c.relative_likelihood:.3g}") for c in alts], [float(f"{o:.3g}") for _, o in listed]
+    if split:
+        alt_rev_s, rel_l, post = alt_rev_s + [round(rate, 2)], rel_l + [1.0], post + [1.0]
     info = dict(out.info)
     info["order"] = {
         "method": METHOD,
@@ -908,14 +932,18 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "ratio_to_lines": round(rate / ref, 4),
         "remeasured": how,
         "ambiguous": bool(ambiguous),
-        "alternatives_rev_s": [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts],
+        "alternatives_rev_s": alt_rev_s,
         "coverage": round(chosen.coverage, 3),
         "extent_hz": round(data.extent_hz, 1),
         "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
         "top_db": round(data.top_db, 1) if np.isfinite(data.top_db) else None,
         "tail_harmonics": round(tail_h, 2) if L is not None else None,
-        "relative_likelihood": [float(f"{c.relative_likelihood:.3g}") for c in alts],
-        "posterior_odds": [float(f"{o:.3g}") for _, o in listed],
+        "relative_likelihood": rel_l,
+        "posterior_odds": post,
+        "departs": round(depart, 4),
+        "split": (f"the speeds ({mean_now:.2f} rev/s) depart from the chosen rate {rate:.2f} rev/s by "
+                  f"{100 * (mean_now / rate - 1):+.1f} %: the rotors split between two rates' lines "
+                  f"({n_moved} rotor-CPIs moved to the median)" if split else None),
         "tip_prior": (None if likeliest is chosen else
                       f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
                       f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
@@ -1059,8 +1087,9 @@ def ambiguity_line(est) -> str | None:
     odds = o.get("posterior_odds")
     prior = (f"; with the tip speed's prior {', '.join(f'{1 / x:.3g}' if x > 0 else 'inf' for x in odds)}"
              if odds and list(odds) != list(o["relative_likelihood"]) else "")
-    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}{prior}; the "
-            f"store's rpm_std includes it)")
+    split = f"; {o['split']}" if o.get("split") else ""
+    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}{prior}{split}; "
+            f"the store's rpm_std includes it)")
 
 
 def order_attrs(est) -> dict:
