@@ -85,8 +85,8 @@ rates remain plausible says so.
    line of another order or family; it goes to the median, the change into its sigma
    (``info["order"]["n_rotors_to_median"]``). Where the speeds' median over CPIs then
    departs from the chosen rate by more than ``depart_max``, the rotors split between
-   two rates' lines: the order is ambiguous, the chosen rate listed (``departs``,
-   ``split``). Where the lines found no comb at all over
+   two rates' lines: the speeds are scaled to the chosen rate, the order is ambiguous,
+   and the speeds as measured are listed (``departs``, ``split``). Where the lines found no comb at all over
    the whole range (they may follow a sub-harmonic path into nothing), the screen's
    likeliest rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
 
@@ -206,10 +206,11 @@ class OrderConfig:
         within this (log ratio of their median over CPIs to the rate). Beyond it the rotors
         split between the lines of two rates and the median took the other (any21027: the
         lines' rotors at 0.8x and 1.2x the chosen 74 rev/s, 37 of 92 rotor-CPIs moved,
-        60 rev/s reported, the truth 73): the order is ambiguous, the chosen rate is listed
-        at relative likelihood 1 and the uncertainty includes both (their equal mixture).
-        The value is ``snap_rel``'s: within it a rate is the same order (``order/6``; inf:
-        ``order/5``).
+        60 rev/s reported, the truth 73): the speeds are scaled to the chosen rate (which
+        the line model measured on every CPI; their median over CPIs becomes it), the order
+        is ambiguous with the speeds as measured listed at relative likelihood 1, and the
+        uncertainty includes both (their equal mixture). The value is ``snap_rel``'s:
+        within it a rate is the same order (``order/6``; inf: ``order/5``).
     tail_level : bool
         The tail of step 3 reaches no farther than the tip's fall-off lets a line stand
         ``line_db`` + 3 dB over the floor below the strongest line (plus ``line_sd_db``):
@@ -903,6 +904,13 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     # lines keep the order's rate as plausible as theirs
     depart = float(np.log(mean_now / rate)) if mean_now > 0 and rate > 0 else 0.0
     split = bool(abs(depart) > ocfg.depart_max)
+    as_measured = mean_now
+    if split:  # the speeds scaled to the chosen rate (their median over CPIs)
+        k = rate / mean_now
+        out = replace(out)
+        out.speeds_rev_s, out.speeds_std_rev_s = out.speeds_rev_s * k, out.speeds_std_rev_s * k
+        out.common_rev_s, out.common_std_rev_s = out.common_rev_s * k, out.common_std_rev_s * k
+        mean_now = rate
     # (the candidates that make the order ambiguous: under ``ambiguous_at`` an alternative
     # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
     # an alternative is plausible by its relative likelihood or by its posterior odds (the
@@ -912,8 +920,8 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
     wsum = sum(c.relative_likelihood for c in plaus)
     var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
-    if split:  # the equal mixture of the speeds and the chosen rate, about the speeds
-        var_rel += 0.5 * (rate / mean_now - 1) ** 2
+    if split:  # the equal mixture of the chosen rate and the speeds as measured
+        var_rel += 0.5 * (as_measured / rate - 1) ** 2
     out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
     out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
     listed = [(c, o) for c, o in zip(kept[1:], odds[1:])
@@ -923,7 +931,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     alt_rev_s = [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts]
     rel_l, post = [float(f"{c.relative_likelihood:.3g}") for c in alts], [float(f"{o:.3g}") for _, o in listed]
     if split:
-        alt_rev_s, rel_l, post = alt_rev_s + [round(rate, 2)], rel_l + [1.0], post + [1.0]
+        alt_rev_s, rel_l, post = alt_rev_s + [round(as_measured, 2)], rel_l + [1.0], post + [1.0]
     info = dict(out.info)
     info["order"] = {
         "method": METHOD,
@@ -941,9 +949,9 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "relative_likelihood": rel_l,
         "posterior_odds": post,
         "departs": round(depart, 4),
-        "split": (f"the speeds ({mean_now:.2f} rev/s) depart from the chosen rate {rate:.2f} rev/s by "
-                  f"{100 * (mean_now / rate - 1):+.1f} %: the rotors split between two rates' lines "
-                  f"({n_moved} rotor-CPIs moved to the median)" if split else None),
+        "split": (f"the speeds as measured ({as_measured:.2f} rev/s) departed from the chosen rate {rate:.2f} "
+                  f"rev/s by {100 * (as_measured / rate - 1):+.1f} %: the rotors split between two rates' lines "
+                  f"({n_moved} rotor-CPIs moved to the median); scaled to the chosen rate" if split else None),
         "tip_prior": (None if likeliest is chosen else
                       f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
                       f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
