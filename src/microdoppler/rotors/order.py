@@ -86,9 +86,10 @@ rates remain plausible says so.
    (``info["order"]["n_rotors_to_median"]``). Where the speeds' median over CPIs then
    departs from the chosen rate by more than ``depart_max``, the rotors split between
    two rates' lines: the speeds are scaled to the chosen rate, the order is ambiguous,
-   and the speeds as measured are listed (``departs``, ``split``). Where the lines found no comb at all over
-   the whole range (they may follow a sub-harmonic path into nothing), the screen's
-   likeliest rates are each searched again within ``rescue_rel`` (:func:`_rescue`).
+   and the speeds as measured are listed (``departs``, ``split``). Where the lines
+   found no comb at all over the whole range (they may follow a sub-harmonic path into
+   nothing), the screen's likeliest rates are each searched again within
+   ``rescue_rel`` (:func:`_rescue`).
 
 Where another candidate's relative likelihood, or its posterior odds against the chosen
 one (the relative likelihood times the ratio of their tip speeds' priors), is
