@@ -33,13 +33,14 @@ would rarely show, ``lone_p_min``), the seventh; seeds 19000-19071 at ba48f5d (t
 speed's prior), the eighth; seeds 21000-21071 at 4be7b3d (the tail beyond the tips'
 Doppler at the lines' level, ``tail_level``), the ninth; seeds 23000-23071 at 6a93c0e
 (speeds split between two rates scaled to the chosen one, ``depart_max``), the tenth. A
-next hold-out takes seeds never run (e.g. from 25000); ``--seeds`` runs a list (the recordings a change can reach);
-``compare_any_radar_runs.py`` pairs two runs by recording. Rows carry ``lone_pair``
-(why a lone pair was read as the comb), ``rescued`` (the order check's search where
-the lines found no comb) and, from 4be7b3d, what a later change's reach needs: the
-lines' extent and strongest line, the tail allowed, the candidates (rate,
-log-likelihood, extent ratio, origin) and (later) the rotors moved to the median and
-the speeds' departure from the chosen rate (``departs``, from e302771).
+next hold-out takes seeds never run (e.g. from 25000); ``--seeds`` runs a list (the
+recordings a change can reach); ``compare_any_radar_runs.py`` pairs two runs by
+recording. Rows carry ``lone_pair`` (why a lone pair was read as the comb),
+``rescued`` (the order check's search where the lines found no comb) and, from
+4be7b3d, what a later change's reach needs: the lines' extent and strongest line, the
+tail allowed, the candidates (rate, log-likelihood, extent ratio, origin) and (later)
+the rotors moved to the median and the speeds' departure from the chosen rate
+(``departs``, from e302771).
 
 Targets (issue 33): within 2 % on >= 95 % of the visible recordings; never off by more
 than 10 % unless ambiguous; >= 95 % of errors within 2 sigma. Prints a table by carrier,

@@ -611,7 +611,7 @@ def test_lines_past_a_subharmonics_tips_at_their_level_rule_it_out():
     assert abs(err0 + 0.5) < 0.05 and not old.info["order"]["ambiguous"]
 
 
-def test_rotors_split_between_two_rates_mark_the_order():
+def test_rotors_split_between_two_rates_are_scaled_to_the_chosen_one_and_marked():
     """any21027 (the ninth hold-out: not visible by the generator's rule): the screen's
     rate 74 rev/s explains the lines best (the truth 73), but no re-measurement finds
     its comb, and the lines' estimate scaled to it has rotors at ~0.8x and ~1.2x; those
