@@ -121,7 +121,7 @@ from scipy.special import airy, log_ndtr
 
 from ..spectra.floor import local_floor_db
 
-METHOD = "order/6"
+METHOD = "order/7"
 SOUND_MPS = 343.0
 C_MPS = 299_792_458.0
 #: the standard ratios to the estimate's rate that are always examined
@@ -241,12 +241,17 @@ class OrderConfig:
         ambiguous). The centre is the project's drone catalogue
         (:data:`microdoppler.synthesis.radar.DRONE_MODELS`: Inspire 2 at 80 rev/s with
         0.19 m blades, 96 m/s; Matrice 300, 60 rev/s and 0.22 m, 83 m/s; Mini 2, 180
-        rev/s and 0.06 m, 68 m/s; their geometric mean 81 m/s); 0.4 puts 95 % of the
-        prior between 36 and 176 m/s (a large slow propeller to a racing quadcopter at
-        full throttle); the hard limit stays ``max_tip_mach``. It decides only between
-        candidates whose likelihoods are within a factor of a few (2x the rate moves
-        the prior by exp(ln(2)^2 / (2 sd^2)) = 4.5 at most about the centre). 0: no
-        prior (``order/3``).
+        rev/s and 0.06 m, 68 m/s; their geometric mean 81 m/s); 0.3 puts 95 % of the
+        prior between 44 and 144 m/s (a large slow propeller to a small drone at full
+        throttle, tip Mach 0.13-0.42); the hard limit stays ``max_tip_mach``. It decides
+        only between candidates whose likelihoods are within a factor of ~15 (2x the
+        rate moves the prior by exp(ln(2)^2 / (2 sd^2)) = 14 at most about the centre).
+        At 0.4 (``order/6``; 95 % between 36 and 176 m/s, a factor 4.5) two recordings
+        with strong lines chose twice or half the truth on a tie of the line model (any7059:
+        1.3 GHz, 72 rev/s, 0.16 m blades read at 145 rev/s, 143 m/s tips; any19055: 220
+        rev/s read at 110); a drone whose tips turn outside ~45-145 m/s is drawn towards
+        the typical speed where the lines tie, and the likelier rate is then listed (the
+        order ambiguous). 0: no prior (``order/3``).
     """
 
     min_rev_s: float = 20.0
@@ -287,7 +292,7 @@ class OrderConfig:
     tail_level: bool = True
     rotation_level: bool = True
     tip_speed_mps: float = 80.0
-    tip_speed_log_sd: float = 0.4
+    tip_speed_log_sd: float = 0.3
 
     def __post_init__(self):
         if not 0 < self.min_rev_s < self.max_rev_s:
