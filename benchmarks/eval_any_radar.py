@@ -32,10 +32,12 @@ pair threshold), the sixth; seeds 17000-17071 at c5f9c33 (a lone pair whose seco
 would rarely show, ``lone_p_min``), the seventh; seeds 19000-19071 at ba48f5d (the blade-tip
 speed's prior), the eighth; seeds 21000-21071 at 4be7b3d (the tail beyond the tips'
 Doppler at the lines' level, ``tail_level``), the ninth; seeds 23000-23071 at 6a93c0e
-(speeds split between two rates scaled to the chosen one, ``depart_max``), the tenth. A
-next hold-out takes seeds never run (e.g. from 25000); ``--seeds`` runs a list (the
+(speeds split between two rates scaled to the chosen one, ``depart_max``), the tenth;
+seeds 25000-25071 at 3566b56 (the tip speed's prior at log sd 0.3), the eleventh. A next
+hold-out takes seeds never run (e.g. from 27000); ``--seeds`` runs a list (the
 recordings a change can reach); ``compare_any_radar_runs.py`` pairs two runs by
-recording. Rows carry ``lone_pair`` (why a lone pair was read as the comb),
+recording; ``pool_any_radar_runs.py`` pools runs at the current code (later rows in
+place of earlier ones) into the targets' numbers. Rows carry ``lone_pair`` (why a lone pair was read as the comb),
 ``rescued`` (the order check's search where the lines found no comb) and, from
 4be7b3d, what a later change's reach needs: the lines' extent and strongest line, the
 tail allowed, the candidates (rate, log-likelihood, extent ratio, origin) and (later)

@@ -794,3 +794,45 @@ def test_benchmark_compare_pairs_runs_by_recording(tmp_path):
     a.write_text(json.dumps({"rows": before + [row(1, 0.0)]}))
     with pytest.raises(SystemExit, match="appears twice"):
         compare_any_radar_runs.main(["--before", str(a), "--after", str(b)])
+
+
+def test_benchmark_pool_joins_runs_with_later_rows_in_place(tmp_path):
+    """benchmarks/pool_any_radar_runs.py: disjoint runs joined, a later run of some
+    recordings (--update) in their rows' place, a seed range kept; the counts and their
+    intervals over recordings, and the visible misses by kind. Overlapping runs and an
+    update of a recording no run holds are refused."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import pool_any_radar_runs
+
+    def row(seed, error, ambiguous=False, visible=True, listed=False):
+        return {"name": f"any{seed}", "seed": seed, "visible": visible, "ok": error is not None, "error": error,
+                "ambiguous": ambiguous, "truth_listed": listed, "n_cpi": 10 if error is not None else 0,
+                "n_2sigma": 9 if error is not None else 0}
+
+    a, b, u, out = (tmp_path / n for n in ("a.json", "b.json", "u.json", "p.json"))
+    a.write_text(json.dumps({"rows": [row(1, 0.001), row(2, -0.5, ambiguous=True, listed=True)]}))
+    b.write_text(json.dumps({"rows": [row(7, 0.2), row(8, None), row(9, 0.01, visible=False)]}))
+    u.write_text(json.dumps({"rows": [row(7, 0.015)]}))
+    assert pool_any_radar_runs.main(["--runs", str(a), str(b), "--json", str(out)]) == 0
+    p = json.loads(out.read_text())
+    w = p["within 2 % (visible)"]
+    assert (w["count"], w["n"]) == (1, 4) and w["ci95"][0] <= 0.25 <= w["ci95"][1]
+    assert p["within 2 % or ambiguous with the truth listed (visible)"]["count"] == 2
+    off = p["off > 10 % unmarked (with estimate)"]
+    assert (off["count"], off["n"]) == (1, 4)
+    m = p["visible misses"]
+    assert m["ambiguous, truth listed"] == ["any2"] and m["no estimate"] == ["any8"] and m["unmarked"] == ["any7"]
+    assert pool_any_radar_runs.main(["--runs", str(a), str(b), "--update", str(u), "--min-seed", "5",
+                                     "--json", str(out)]) == 0
+    p = json.loads(out.read_text())
+    assert p["n_recordings"] == 3 and p["within 2 % (visible)"]["count"] == 1
+    assert p["off > 10 % unmarked (with estimate)"]["count"] == 0 and p["rows_from"] == {str(b): 2, str(u): 1}
+    with pytest.raises(SystemExit, match="also in"):
+        pool_any_radar_runs.main(["--runs", str(a), str(a)])
+    u.write_text(json.dumps({"rows": [row(5, 0.0)]}))
+    with pytest.raises(SystemExit, match="not in --runs"):
+        pool_any_radar_runs.main(["--runs", str(a), "--update", str(u)])
