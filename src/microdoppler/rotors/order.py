@@ -247,11 +247,11 @@ class OrderConfig:
         only between candidates whose likelihoods are within a factor of ~15 (2x the
         rate moves the prior by exp(ln(2)^2 / (2 sd^2)) = 14 at most about the centre).
         At 0.4 (``order/6``; 95 % between 36 and 176 m/s, a factor 4.5) two recordings
-        with strong lines chose twice or half the truth on a tie of the line model (any7059:
-        1.3 GHz, 72 rev/s, 0.16 m blades read at 145 rev/s, 143 m/s tips; any19055: 220
-        rev/s read at 110); a drone whose tips turn outside ~45-145 m/s is drawn towards
-        the typical speed where the lines tie, and the likelier rate is then listed (the
-        order ambiguous). 0: no prior (``order/3``).
+        with strong lines chose twice or half the truth on a tie of the line model
+        (any7059: 1.3 GHz, 72 rev/s, 0.16 m blades read at 145 rev/s, 143 m/s tips;
+        any19055: 220 rev/s read at 110); a drone whose tips turn outside ~45-145 m/s is
+        drawn towards the typical speed where the lines tie, and the likelier rate is
+        then listed (the order ambiguous). 0: no prior (``order/3``).
     """
 
     min_rev_s: float = 20.0
