@@ -37,12 +37,12 @@ seeds 25000-25071 at 3566b56 (the tip speed's prior at log sd 0.3), the eleventh
 hold-out takes seeds never run (e.g. from 27000); ``--seeds`` runs a list (the
 recordings a change can reach); ``compare_any_radar_runs.py`` pairs two runs by
 recording; ``pool_any_radar_runs.py`` pools runs at the current code (later rows in
-place of earlier ones) into the targets' numbers. Rows carry ``lone_pair`` (why a lone pair was read as the comb),
-``rescued`` (the order check's search where the lines found no comb) and, from
-4be7b3d, what a later change's reach needs: the lines' extent and strongest line, the
-tail allowed, the candidates (rate, log-likelihood, extent ratio, origin) and (later)
-the rotors moved to the median and the speeds' departure from the chosen rate
-(``departs``, from e302771).
+place of earlier ones) into the targets' numbers. Rows carry ``lone_pair`` (why a lone
+pair was read as the comb), ``rescued`` (the order check's search where the lines found
+no comb) and, from 4be7b3d, what a later change's reach needs: the lines' extent and
+strongest line, the tail allowed, the candidates (rate, log-likelihood, extent ratio,
+origin) and (later) the rotors moved to the median and the speeds' departure from the
+chosen rate (``departs``, from e302771).
 
 Targets (issue 33): within 2 % on >= 95 % of the visible recordings; never off by more
 than 10 % unless ambiguous; >= 95 % of errors within 2 sigma. Prints a table by carrier,

@@ -24,16 +24,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from compare_any_radar_runs import load  # noqa: E402
 from eval_any_radar import cpi_share, off_unmarked, share, within  # noqa: E402
-
-
-def rows_of(path) -> dict:
-    rows = {}
-    for r in json.loads(Path(path).read_text())["rows"]:
-        if r["name"] in rows:
-            raise SystemExit(f"{path}: recording {r['name']} appears twice")
-        rows[r["name"]] = r
-    return rows
 
 
 def pool(runs, updates) -> tuple[dict, dict]:
@@ -41,13 +33,13 @@ def pool(runs, updates) -> tuple[dict, dict]:
     replace those of recordings already there) and, per recording, the file it is from."""
     rows, source = {}, {}
     for p in runs:
-        for n, r in rows_of(p).items():
+        for n, r in load([p]).items():
             if n in rows:
                 raise SystemExit(f"--runs: {p}: {n} is also in {source[n]} (expected disjoint runs; a later run of "
                                  "the same recordings goes to --update)")
             rows[n], source[n] = r, str(p)
     for p in updates:
-        new = rows_of(p)
+        new = load([p])
         extra = sorted(set(new) - set(rows))
         if extra:
             raise SystemExit(f"--update: {p}: {extra[:5]}: not in --runs (expected a later run of some of them)")
