@@ -225,3 +225,57 @@ def test_cluster_generic_run_submits_every_job(reference):
     n_rules = int(re.search(r"(\d+) of (\d+) steps \(100%\) done", text).group(2))
     assert n_jobs >= n_rules - 1, (n_jobs, n_rules)  # all but the local target rule were submitted
     assert n_rules >= 15 and len(ref) > n_rules, (n_rules, len(ref))
+
+
+#: modules an edit of which once reran no rule (the rerun probe edits each in a copy)
+PROBED = ("synthesis/radar.py", "synthesis/processes.py", "spectra/floor.py", "io/flightzarr.py",
+          "rotors/order.py", "rotors/fit.py")
+
+
+def dry_run_rules(snakefile: Path, work: Path, log: Path) -> set[str]:
+    """The rules a dry-run of ``snakefile`` in ``work`` would run for changed params."""
+    with open(log, "w") as fh:
+        rc = subprocess.run([SNAKEMAKE, "-s", str(snakefile), "-d", str(work), *RUN, "-n",
+                             "--rerun-triggers", "params"], cwd=work, env=ENV, stdout=fh,
+                            stderr=subprocess.STDOUT, timeout=600).returncode
+    text = log.read_text()
+    assert rc == 0, text[-3000:]
+    return set(re.findall(r"(?m)^rule (\w+):", text)) - {"default", "all"}
+
+
+@pytest.mark.slow
+def test_an_edit_of_any_imported_module_reruns_the_rules_that_import_it(reference, tmp_path):
+    """After a complete run, a comment appended to a library module (in a copy of the
+    workflow and its sources) makes a dry-run list every rule whose script imports it,
+    and only those (and what follows from their outputs)."""
+    from microdoppler.codeversion import import_closure
+
+    root, _, _ = reference
+    work = root / "cluster"
+    copy = tmp_path / "repo"
+    for part in ("Snakefile", "workflow", "src", "profiles"):
+        src = REPO / part
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, copy / part)
+    assert dry_run_rules(copy / "Snakefile", work, tmp_path / "none.log") == set()
+    pkg = copy / "src" / "microdoppler"
+    for rel in PROBED:
+        module = pkg / rel
+        direct = {name for name, script in rule_scripts().items()
+                  if module in import_closure(copy / "workflow" / "scripts" / script, package_dir=pkg)}
+        assert direct, f"no rule imports {rel}"
+        original = module.read_bytes()
+        module.write_bytes(original + b"\n# an edit\n")
+        try:
+            rerun = dry_run_rules(copy / "Snakefile", work, tmp_path / f"{module.stem}.log")
+        finally:
+            module.write_bytes(original)
+        assert direct <= rerun, f"{rel}: rules importing it but not rerun: {sorted(direct - rerun)}"
+
+
+def rule_scripts() -> dict[str, str]:
+    """rule name -> the file name of its script, from workflow/rules/*.smk."""
+    out = {}
+    for smk in sorted((REPO / "workflow" / "rules").glob("*.smk")):
+        for m in re.finditer(r'(?ms)^\s*rule (\w+):.*?script:\s*\n\s*"\.\./scripts/([\w.]+)"', smk.read_text()):
+            out[m.group(1)] = m.group(2)
+    return out

@@ -25,7 +25,7 @@ rule train_classifier:
         gpu=CLASSIFIER_GPUS,
     params:
         classifier=CLASSIFIER,
-        code=code_version("classifier"),
+        code=script_code("train_classifier.py"),
     script:
         "../scripts/train_classifier.py"
 
@@ -47,7 +47,7 @@ rule evaluate_classifier:
     resources:
         mem_mb=1000,
     params:
-        code=code_version("classifier"),
+        code=script_code("evaluate_classifier.py"),
     script:
         "../scripts/evaluate_classifier.py"
 
@@ -90,6 +90,6 @@ rule report_metrics:
     params:
         trainsets=TRAINSETS,
         seeds=SEEDS,
-        code=code_version("classifier"),
+        code=script_code("report_metrics.py"),
     script:
         "../scripts/report_metrics.py"

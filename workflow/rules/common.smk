@@ -1,4 +1,3 @@
-import hashlib
 import os
 import re
 import shutil
@@ -8,10 +7,12 @@ from pathlib import Path
 from snakemake.utils import validate
 
 import microdoppler
+import microdoppler.codeversion
 
 validate(config, schema="../schemas/config.schema.yaml")
 
 SRC = Path(workflow.current_basedir).parents[1] / "src" / "microdoppler"
+SCRIPTS = Path(workflow.current_basedir).parent / "scripts"
 MEASURED_SOURCE = config["measurements"]["source"]
 MEASURED_DIR = (
     "results/measured"
@@ -26,17 +27,16 @@ wildcard_constraints:
     seed=r"\d+",
 
 
-def code_version(*parts):
-    """Hash of the library sources a rule depends on (a code edit reruns the rule)."""
-    h = hashlib.sha256(microdoppler.__version__.encode())
-    for part in parts:
-        p = SRC / part
-        files = sorted(p.rglob("*.py")) if p.is_dir() else [p]
-        if not p.exists():
-            raise FileNotFoundError(f"code_version: {p} does not exist")
-        for f in files:
-            h.update(f.read_bytes())
-    return h.hexdigest()[:16]
+def script_code(script):
+    """Hash of the library code ``script`` can run (its import closure).
+
+    Each rule passes it as its ``code`` param, so an edit of any module the script
+    imports, directly, inside a function or through other modules, reruns it
+    (microdoppler.codeversion).
+    """
+    return microdoppler.codeversion.code_version(
+        SCRIPTS / script, package_dir=SRC, version=microdoppler.__version__
+    )
 
 
 # --- interrupted runs ---
@@ -84,13 +84,6 @@ DATASETS = ["real"] + VARIANTS
 TWIN_MODELS = ["inspire2", "matrice300"]
 MOTOR_LOGS = "results/motors/logs.zarr"
 SPLIT = "results/splits/flights.csv"
-DATASET_CODE = code_version(
-    "datasets",
-    "rotors/sampling.py",
-    "synthesis/model.py",
-    "spectra/spectrogram.py",
-    "spectra/snr.py",
-)
 
 # Flight batches (datasets.flight_batches): with N > 1, synthesize_flights and
 # inject_background run once per (variant, batch) on the flights whose stable id hash
@@ -185,16 +178,6 @@ def classifier_targets():
         "results/reports/table_v.csv",
         "results/reports/fig12_boxplot.png",
     ]
-
-
-# --- diagnosis (rules/diagnosis.smk) ---
-DIAGNOSIS_CODE = code_version(
-    "diagnosis",
-    "synthesis/extensions.py",
-    "synthesis/model.py",
-    "rotors/sampling.py",
-    "synthesis/catalog.py",
-)
 
 
 def figure_targets():

@@ -22,7 +22,7 @@ rule split_flights:
         split=config["datasets"]["split"],
         spectrogram=config["spectrogram"],
         search_hz=config["datasets"]["snr_search_hz"],
-        code=DATASET_CODE,
+        code=script_code("split_flights.py"),
     script:
         "../scripts/split_flights.py"
 
@@ -45,7 +45,7 @@ rule resample_motor_speeds:
         settings=variant_settings,
         n_fft=config["sampling"]["n_fft"],
         seed=config["sampling"]["seed"],
-        code=DATASET_CODE,
+        code=script_code("resample_motor_speeds.py"),
     script:
         "../scripts/resample_motor_speeds.py"
 
@@ -72,7 +72,7 @@ rule synthesize_flights:
         spectrogram=config["spectrogram"],
         seed=config["sampling"]["seed"],
         flight_batches=FLIGHT_BATCHES,
-        code=DATASET_CODE,
+        code=script_code("synthesize_flights.py"),
     script:
         "../scripts/synthesize_flights.py"
 
@@ -93,7 +93,7 @@ rule inject_background:
     resources:
         mem_mb=2000,
     params:
-        code=DATASET_CODE,
+        code=script_code("inject_background.py"),
     script:
         "../scripts/inject_background.py"
 
@@ -118,7 +118,7 @@ if FLIGHT_BATCHES > 1:
         resources:
             mem_mb=1000,
         params:
-            code=DATASET_CODE,
+            code=script_code("merge_flight_batches.py"),
         script:
             "../scripts/merge_flight_batches.py"
 
@@ -140,7 +140,7 @@ rule tile_spectrograms:
     params:
         spectrogram=config["spectrogram"],
         search_hz=config["datasets"]["snr_search_hz"],
-        code=DATASET_CODE,
+        code=script_code("tile_spectrograms.py"),
     script:
         "../scripts/tile_spectrograms.py"
 
@@ -157,6 +157,8 @@ rule report_table_iv:
     threads: 1
     resources:
         mem_mb=500,
+    params:
+        code=script_code("report_table_iv.py"),
     script:
         "../scripts/report_table_iv.py"
 
@@ -181,5 +183,6 @@ rule plot_twins:
         models=TWIN_MODELS,
         spectrogram=config["spectrogram"],
         timesteps=config["datasets"]["figure_timesteps"],
+        code=script_code("plot_twins.py"),
     script:
         "../scripts/plot_twins.py"

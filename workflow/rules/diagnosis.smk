@@ -1,6 +1,6 @@
 # Diagnosis (issue 6): what the paper's simulation gets wrong about the measured
 # drone flights (every split set by default), and the `extended` variant's model extensions.
-# Needs from common.smk: config (validated), MEASURED_DIR, DIAGNOSIS_CODE.
+# Needs from common.smk: config (validated), MEASURED_DIR, script_code.
 # Uses the outputs of ingest_motor_logs (results/motors/logs.zarr) and split_flights
 # (results/splits/flights.csv).
 
@@ -24,7 +24,7 @@ rule diagnose_flights:
         mem_mb=3000,
     params:
         diagnosis=config["diagnosis"],
-        code=DIAGNOSIS_CODE,
+        code=script_code("diagnose_flights.py"),
     script:
         "../scripts/diagnose_flights.py"
 
@@ -47,6 +47,6 @@ rule aggregate_extensions:
     params:
         diagnosis=config["diagnosis"],
         mode=config["datasets"]["extended"]["mode"],
-        code=DIAGNOSIS_CODE,
+        code=script_code("aggregate_extensions.py"),
     script:
         "../scripts/aggregate_extensions.py"

@@ -1,18 +1,6 @@
 # Direct twin fidelity (issue 12 §1): every variant's injected twins against their
 # measured flights, feature by feature, on the CPIs the calibration did not see
 # (Table VI, src/microdoppler/datasets/fidelity.py).
-FIDELITY_CODE = code_version(
-    "datasets/fidelity.py",
-    "stats/bootstrap.py",
-    "datasets",
-    "diagnosis/measure.py",
-    "diagnosis/hypotheses.py",
-    "diagnosis/config.py",
-    "spectra/spectrogram.py",
-    "spectra/snr.py",
-)
-
-
 rule report_fidelity:
     input:
         measured=MEASURED_DIR,
@@ -45,6 +33,6 @@ rule report_fidelity:
         search_hz=config["datasets"]["snr_search_hz"],
         calibration=config["datasets"]["calibration"],
         fidelity=config["fidelity"],
-        code=FIDELITY_CODE,
+        code=script_code("report_fidelity.py"),
     script:
         "../scripts/report_fidelity.py"

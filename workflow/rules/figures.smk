@@ -29,6 +29,6 @@ rule plot_motor_speed_figures:
     resources:
         mem_mb=2000,
     params:
-        code=code_version("figures.py", "synthesis/model.py", "rotors/sampling.py"),
+        code=script_code("plot_motor_speed_figures.py"),
     script:
         "../scripts/plot_motor_speed_figures.py"

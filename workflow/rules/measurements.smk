@@ -16,7 +16,7 @@ if MEASURED_SOURCE == "emulator":
         params:
             profile=config["emulator"]["profile"],
             seed=config["emulator"]["seed"],
-            code=code_version("emulator", "synthesis/model.py"),
+            code=script_code("emulate_measurements.py"),
         script:
             "../scripts/emulate_measurements.py"
 
@@ -39,6 +39,6 @@ rule ingest_motor_logs:
     params:
         table=motor_logs_table(),
         estimate=config["measurements"]["estimate_missing_motor_logs"],
-        code=code_version("io/motorlog.py", "io/inventory.py", "rotors/speed.py"),
+        code=script_code("ingest_motor_logs.py"),
     script:
         "../scripts/ingest_motor_logs.py"
