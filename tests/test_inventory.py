@@ -68,11 +68,12 @@ def test_empty_directory_is_an_error(tmp_path):
 
 @pytest.mark.slow
 def test_ingest_estimates_missing_logs_from_the_radar(tmp_path):
-    """estimate_missing: a drone without a log gets the radar's rotor speeds (status
+    """An estimator: a drone without a log gets the radar's rotor speeds (status
     estimated, motors_source radar, a log the diagnosis recognises); a Mini (no
     visible sideband) stays skipped with the reason."""
     from microdoppler.emulator import FlightSpec, emulate_flight
     from microdoppler.io.inventory import RADAR_SOURCE
+    from microdoppler.rotors.speed import estimate_rotor_speeds
 
     d = tmp_path / "measured"
     drone, _ = emulate_flight(FlightSpec("d1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0,
@@ -82,7 +83,7 @@ def test_ingest_estimates_missing_logs_from_the_radar(tmp_path):
     mini, _ = emulate_flight(FlightSpec("m1", "drone", drone_model="mini2", duration_s=8.0, seed=5))
     write_flight(d / "d1.zarr", drone)
     write_flight(d / "m1.zarr", mini)
-    status = ingest_flight_logs(d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", estimate_missing=True,
+    status = ingest_flight_logs(d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", estimator=estimate_rotor_speeds,
                                 log=lambda *_: None).set_index("flight_id")
     assert status.loc["d1", "status"] == "estimated" and status.loc["d1", "source"] == "radar"
     assert status.loc["m1", "status"] == "skipped" and "no estimate from the radar" in status.loc["m1", "reason"]

@@ -2,6 +2,7 @@
 
 from microdoppler.io.inventory import ingest_flight_logs
 from microdoppler.io.runlog import log_to
+from microdoppler.rotors.speed import estimate_rotor_speeds
 
 with log_to(snakemake.log[0]):
     status = ingest_flight_logs(
@@ -9,6 +10,6 @@ with log_to(snakemake.log[0]):
         snakemake.output.logs,
         snakemake.output.status,
         table_path=snakemake.params.table or None,
-        estimate_missing=snakemake.params.estimate,
+        estimator=estimate_rotor_speeds if snakemake.params.estimate else None,
     )
     print(status.status.value_counts().to_string())

@@ -23,11 +23,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..errors import InputError
 from ..io.flightzarr import Flight, write_flight
 from ..io.outputs import check_output
+from ..io.tracks import read_track_table
 from ..io.motorlog import read_motor_log, read_motor_store
 from ..synthesis.radar import Radar
 from ..rotors.sampling import VARIANTS, SamplingConfig, resample
@@ -90,28 +90,9 @@ def _check(ok: bool, field: str, value, expected: str) -> None:
 
 
 def read_track_csv(path) -> Track:
-    """Track CSV (``time_s``, ``range_m``) -> :class:`Track`; bad files raise InputError."""
-    path = Path(path)
-    if not path.exists():
-        raise InputError(path, "file", "does not exist", "a track CSV with columns time_s, range_m")
-    try:
-        df = pd.read_csv(path)
-    except Exception as exc:
-        raise InputError(path, "file", f"cannot be parsed as CSV ({type(exc).__name__})",
-                         "a track CSV with columns time_s, range_m") from None
-    cols = {}
-    for c in ("time_s", "range_m"):
-        if c not in df.columns:
-            raise InputError(path, c, "column missing", "columns time_s [s], range_m [m]")
-        v = pd.to_numeric(df[c], errors="coerce").to_numpy(np.float64)
-        if not np.all(np.isfinite(v)):
-            raise InputError(path, c, "has non-numeric, NaN or infinite values", "finite numbers")
-        cols[c] = v
-    t, r = cols["time_s"], cols["range_m"]
-    if len(t) < 2 or np.any(np.diff(t) <= 0):
-        raise InputError(path, "time_s", "is not strictly increasing with >= 2 rows", "increasing times [s]")
-    if np.any(r <= 0):
-        raise InputError(path, "range_m", "has non-positive ranges", "ranges > 0 m")
+    """Track CSV (``time_s``, ``range_m``) -> :class:`Track` starting at 0 s; bad files
+    raise InputError (:func:`microdoppler.io.tracks.read_track_table`)."""
+    t, r = read_track_table(path)
     return Track(t - t[0], r)
 
 

@@ -74,15 +74,20 @@ def read_flights_table(path) -> pd.DataFrame:
 RADAR_SOURCE = "radar:"
 
 
-def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, estimate_missing: bool = False,
+def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, estimator=None,
                        log=print) -> pd.DataFrame:
     """Ingest the motor log of every drone flight into one Zarr group per flight.
 
     Returns the status table (flight_id, status, source, rows, duration_s, n_motors,
     reason) and writes it to ``out_csv``. Status: ``ingested``, ``estimated`` (no log;
-    with ``estimate_missing`` the rotor speeds were estimated from the flight's HERM
-    lines, :mod:`microdoppler.rotors.speed`; group attribute ``motors_source: radar``)
-    or ``skipped`` (no log, and no estimate: ``reason`` says why).
+    with an ``estimator`` the rotor speeds were estimated from the flight's HERM
+    lines; group attribute ``motors_source: radar``) or ``skipped`` (no log, and no
+    estimate: ``reason`` says why).
+
+    ``estimator`` (optional): called as ``estimator(flight, progress=...)`` on a drone
+    flight without a motor log, it returns a rotor-speed estimate
+    (:func:`microdoppler.rotors.speed.estimate_rotor_speeds`); None leaves such
+    flights skipped.
     """
     flights = list_flights(measured_dir)
     table = read_flights_table(table_path) if table_path else None
@@ -107,11 +112,10 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, esti
                                      time_field="motors/time_s", speed_field="motors/rpm")
                 source = fl.path
             extra, state = {}, "ingested"
-            if ml is None and estimate_missing:
+            if ml is None and estimator is not None:
                 from .flightzarr import read_flight
-                from ..rotors.speed import estimate_rotor_speeds
 
-                est = estimate_rotor_speeds(read_flight(fl.path), progress=lambda done, total, fid=fl.flight_id:
+                est = estimator(read_flight(fl.path), progress=lambda done, total, fid=fl.flight_id:
                                             log(f"{fid}: rotor speeds from the radar: I/Q fit, {done} of {total} CPIs"))
                 if est.ok:
                     ml, source, state, extra = est.to_motor_log(), "radar", "estimated", est.store_attrs()

@@ -687,18 +687,18 @@ def check_required(rec: Recording, params: dict) -> None:
 # ---- tracks -----------------------------------------------------------------------------
 
 def read_track(path) -> dict:
-    """Track CSV (``time_s``, ``range_m``, optional ``radial_velocity_mps``), through
-    :func:`microdoppler.commands.simulate.read_track_csv`; times are kept on the
-    radar clock (not shifted to 0)."""
+    """Track CSV (``time_s``, ``range_m``, optional ``radial_velocity_mps``), checked by
+    :func:`microdoppler.io.tracks.read_track_table`; times are kept on the radar clock
+    (not shifted to 0)."""
     import pandas as pd
 
-    from ..commands.simulate import read_track_csv
+    from .tracks import read_track_table
 
     path = Path(path)
-    trk = read_track_csv(path)
+    t, r = read_track_table(path)
     df = pd.read_csv(path)
     t0 = float(pd.to_numeric(df["time_s"]).iloc[0])
-    out = {"time_s": trk.time_s + t0, "range_m": trk.range_m, "radial_velocity_mps": None,
+    out = {"time_s": (t - t[0]) + t0, "range_m": r, "radial_velocity_mps": None,
            "source": f"track {path}"}
     if "radial_velocity_mps" in df.columns:
         v = pd.to_numeric(df["radial_velocity_mps"], errors="coerce").to_numpy(np.float64)
