@@ -281,3 +281,30 @@ def test_check_output_kinds(tmp_path):
     with pytest.raises(InputError, match="not a report"):
         check_output(rep, kind="report", overwrite=True)
     shutil.rmtree(tmp_path / "empty")
+
+
+# --- unknown configuration keys: rejected everywhere, in one line -------------------
+
+def test_an_unknown_config_key_is_named_with_its_section():
+    import yaml
+
+    from microdoppler.classifier.training import TrainConfig
+    from microdoppler.errors import ConfigError, check_config_keys
+
+    repo = Path(__file__).resolve().parents[1]
+    schema = yaml.safe_load((repo / "workflow/schemas/config.schema.yaml").read_text())
+    for f in sorted((repo / "config").glob("*.yaml")):  # the shipped configs hold no unknown key
+        cfg = yaml.safe_load(f.read_text())
+        check_config_keys(cfg, schema, source=f)
+        TrainConfig.from_config(cfg.get("classifier", {}))
+    cfg = yaml.safe_load((repo / "config/config.yaml").read_text())
+    for section, key in (("classifier", "lerning_rate"), ("spectrogram", "nfft"), ("datasets", "splitt")):
+        bad = {**cfg, section: {**cfg[section], key: 1}}
+        with pytest.raises(ConfigError) as err:
+            check_config_keys(bad, schema, source="my.yaml")
+        msg = str(err.value)
+        assert "\n" not in msg and msg.startswith(f"my.yaml: {section}.{key}: unknown key in section {section}"), msg
+    with pytest.raises(ConfigError, match=r"classifier\.lerning_rate: unknown key"):
+        TrainConfig.from_config({**cfg["classifier"], "lerning_rate": 0.1})
+    with pytest.raises(ConfigError, match="top level"):
+        check_config_keys({**cfg, "clasifier": {}}, schema)

@@ -23,3 +23,51 @@ class InputError(ValueError):
 
 class ConfigError(InputError):
     """A configuration value is invalid."""
+
+
+def check_config_keys(config: dict, schema: dict, source="config") -> None:
+    """Reject a configuration key that its schema does not define.
+
+    Every mapping of ``config`` whose schema lists ``properties`` (and does not give
+    ``additionalProperties`` a schema of its own, as a mapping keyed by variant does)
+    may hold only those keys: a typo such as ``classifier.lerning_rate`` is an error
+    instead of a silently ignored setting.
+
+    Parameters
+    ----------
+    config : dict
+        The configuration (the merged config files).
+    schema : dict
+        Its JSON schema (``workflow/schemas/config.schema.yaml``).
+    source : str
+        What the error names as the file.
+
+    Raises
+    ------
+    ConfigError
+        For the first unknown key, in one line naming the key, its section and the
+        keys the section accepts.
+
+    Examples
+    --------
+    >>> schema = {"properties": {"classifier": {"properties": {"learning_rate": {}}}}}
+    >>> check_config_keys({"classifier": {"learning_rate": 0.01}}, schema)
+    >>> try:
+    ...     check_config_keys({"classifier": {"lerning_rate": 0.01}}, schema)
+    ... except ConfigError as exc:
+    ...     print(exc)
+    config: classifier.lerning_rate: unknown key in section classifier (expected one of: learning_rate)
+    """
+
+    def walk(cfg, sch, path):
+        props = sch.get("properties")
+        if not isinstance(cfg, dict) or props is None or isinstance(sch.get("additionalProperties"), dict):
+            return
+        for key, value in cfg.items():
+            where = f"{path}.{key}" if path else str(key)
+            if key not in props:
+                section = f"section {path}" if path else "the top level"
+                raise ConfigError(source, where, f"unknown key in {section}", f"one of: {', '.join(sorted(props))}")
+            walk(value, props[key], where)
+
+    walk(config, schema, "")

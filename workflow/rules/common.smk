@@ -4,11 +4,18 @@ import shutil
 import sys
 from pathlib import Path
 
+import yaml
 from snakemake.utils import validate
 
 import microdoppler
 import microdoppler.codeversion
+import microdoppler.errors
 
+SCHEMA = Path(workflow.current_basedir).parent / "schemas" / "config.schema.yaml"
+try:  # an unknown key (a typo) is an error, in one line naming it and its section
+    microdoppler.errors.check_config_keys(config, yaml.safe_load(SCHEMA.read_text()))
+except microdoppler.errors.ConfigError as exc:
+    sys.exit(f"error: {exc}")
 validate(config, schema="../schemas/config.schema.yaml")
 
 SRC = Path(workflow.current_basedir).parents[1] / "src" / "microdoppler"

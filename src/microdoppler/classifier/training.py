@@ -28,6 +28,10 @@ from .models import Normalisation, build_model
 log = logging.getLogger(__name__)
 
 
+#: keys of the config's ``classifier:`` section that the workflow reads, not training
+WORKFLOW_KEYS = frozenset({"trainsets", "seeds", "threads"})
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """Classifier and training settings (config ``classifier:``; see the schema).
@@ -99,12 +103,18 @@ class TrainConfig:
 
     @classmethod
     def from_config(cls, cfg: dict) -> "TrainConfig":
-        """From the config's ``classifier:`` mapping (unknown keys are ignored)."""
-        cfg = dict(cfg or {})
+        """From the config's ``classifier:`` mapping; the workflow's own keys
+        (:data:`WORKFLOW_KEYS`) are left to it, any other unknown key is a
+        :class:`ConfigError` naming it."""
+        cfg = {k: v for k, v in dict(cfg or {}).items() if k not in WORKFLOW_KEYS}
+        names = {f for f in cls.__dataclass_fields__}
+        for key in cfg:
+            if key not in names:
+                raise ConfigError("classifier", f"classifier.{key}", "unknown key in section classifier",
+                                  f"one of: {', '.join(sorted(names | WORKFLOW_KEYS))}")
         norm = Normalisation(**cfg.pop("normalisation", {}) or {})
         aug = Augmentation(**cfg.pop("augment", {}) or {})
-        names = {f for f in cls.__dataclass_fields__} - {"normalisation", "augment"}
-        return cls(normalisation=norm, augment=aug, **{k: v for k, v in cfg.items() if k in names})
+        return cls(normalisation=norm, augment=aug, **cfg)
 
     def to_dict(self) -> dict:
         d = asdict(self)
