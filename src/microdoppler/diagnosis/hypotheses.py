@@ -719,7 +719,7 @@ def body_estimate(M) -> dict:
     if v.sum() >= 20:
         y[v] = _detrend(F["y_db"][v], F["t_s"][v], F["range_m"][v])
     # no drift term: tried on emulated (aspect 1 dB, 4 s) and independent flights, a
-    # free drift took part of any fluctuation slower than ~0.5 s (sizes 20-35 % low)
+    # free drift took part of any fluctuation slower than ~0.5 s (sizes came out low)
     return fit_gain_process(y, v, F["noise_var_db2"], F["hop_s"], F["window"], M.info["prf_hz"], drift=False)
 
 

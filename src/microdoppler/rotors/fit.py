@@ -40,7 +40,7 @@ more than ``BOUND_BINS`` is dropped (the periodogram's estimate stands).
 A rotor the periodogram's lines missed (its line smeared below the pair threshold, or
 shown as part of a split line) leaves every start with a rotor on a line that is not
 its own; where no spare results, or the rotor turns beyond the re-seeding window, the
-fit used to stop there. Last, the residual's strongest harmonic comb within
+steps above stop there. Last, the residual's strongest harmonic comb within
 ``move_rel`` of the re-seeding window's centre (a quadcopter's rotors differ by up to ~15 % in a
 manoeuvre) is tried in place of each of the ``MOVE_TRIES`` weakest rotors, the best fit
 kept where it lowers the cost, ``MOVE_PASSES`` times (keep ``move_rel`` under 0.2: at
