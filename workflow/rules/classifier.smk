@@ -1,4 +1,4 @@
-# Classifier stage (issue 5): train over seeds per training set, evaluate on the
+# Classifier stage: train over seeds per training set, evaluate on the
 # measured test tiles, report Table V, the mean confusion matrices (Fig. 6) and
 # the Fig. 12 box plot.
 

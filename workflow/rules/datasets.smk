@@ -1,4 +1,4 @@
-# Datasets (issue 4): split, motor speeds per variant, calibrated twins, background
+# Datasets: split, motor speeds per variant, calibrated twins, background
 # injection, tiles, Table III/IV and the measured-vs-twin figures.
 # Input functions and constants (DATASETS, MOTOR_LOGS, SPLIT, ...) are in common.smk.
 

@@ -1,4 +1,4 @@
-# Diagnosis (issue 6): what the paper's simulation gets wrong about the measured
+# Diagnosis: what the paper's simulation gets wrong about the measured
 # drone flights (every split set by default), and the `extended` variant's model extensions.
 # Needs from common.smk: config (validated), MEASURED_DIR, script_code.
 # Uses the outputs of ingest_motor_logs (results/motors/logs.zarr) and split_flights

@@ -1,4 +1,4 @@
-# Direct twin fidelity (issue 12 §1): every variant's injected twins against their
+# Direct twin fidelity: every variant's injected twins against their
 # measured flights, feature by feature, on the CPIs the calibration did not see
 # (Table VI, src/microdoppler/datasets/fidelity.py).
 rule report_fidelity:

@@ -2,9 +2,8 @@
 
 A tile store ``results/tiles/{dataset}.zarr`` holds ``images`` (float32
 [n, 20, 480], dB) and ``labels.csv`` (index, flight_id, set, target,
-drone_model, radar_id, snr_db). :func:`load_trainset` prefers
-``microdoppler.datasets.load_trainset`` (issue 4); formerly it fell back to a local
-reading of the stores with the same recipe (workflow/README.md):
+drone_model, radar_id, snr_db). :func:`load_trainset` reads them with
+``microdoppler.datasets.load_trainset``'s recipe (workflow/README.md):
 
 * ``real``: measured train and validation tiles;
 * a variant: measured birds and Mini tiles plus the variant's Inspire and

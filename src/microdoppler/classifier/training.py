@@ -147,7 +147,7 @@ def best_epoch(train_accuracy, val_accuracy) -> int:
 
 # Forward pass of evaluation in chunks of this many images: the compact CNN's first feature
 # map of 256 images (59 MB) does not stay in cache, 32 do, and the per-image logits are
-# the same bits (benchmarks/README.md: ~0.75 instead of ~1.2 CPU ms per image, 1 thread).
+# the same bits (the timing: docs/experiments.md).
 EVAL_FORWARD_BATCH = 32
 
 

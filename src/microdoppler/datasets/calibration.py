@@ -67,7 +67,7 @@ from .tables import TABLE_IV_COLUMNS
 
 #: pulses synthesised and high-passed beyond each end of a run of calibration CPIs:
 #: the zero-phase 15 Hz Butterworth high-pass of a segment then matches the whole
-#: record's within ~1e-3 dB on every line and floor the fit reads (benchmarks/README.md,
+#: record's within ~1e-3 dB on every line and floor the fit reads (docs/experiments.md,
 #: "Calibration cost")
 HIGHPASS_MARGIN_PULSES = 2048
 #: consecutive fit CPIs per run of the capped calibration subset (runs cost

@@ -1,4 +1,4 @@
-"""Direct fidelity of the synthetic twins (issue 12 §1, Table VI).
+"""Direct fidelity of the synthetic twins (Table VI).
 
 Each twin, injected into its flight's background (``results/injected/{variant}.zarr``),
 is compared with the measured flight feature by feature, on the CPIs its calibration

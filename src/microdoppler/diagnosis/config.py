@@ -4,12 +4,10 @@ section's knobs, each with a physical meaning) and the fixed settings beside it.
 A setting is a field of :class:`DiagnosisConfig` when a user has a physical reason to
 change it (a site's clutter, a target's body line, how late a motor log may be, what
 size of a cause matters). Everything else the diagnosis reads is a module constant
-below; its comment says what chose the value and names the field it replaced (find
-its history with ``git log -S<field>``). "First version" means set with the
-diagnosis's first version (2817b21) and not changed since, with no measurement of its
-own on record; benchmarks/README.md ("``eval_diagnosis.py``") has the runs that
-checked the diagnosis as a whole at these values. A config that still sets a
-replaced field gets an "unknown key" error naming its constant.
+below; its comment says what the value means and names the field it replaced. How
+each value was chosen, and the runs that checked the diagnosis as a whole at these
+values, are in ``docs/experiments.md``. A config that still sets a replaced field gets
+an "unknown key" error naming its constant.
 """
 
 from __future__ import annotations
@@ -26,74 +24,68 @@ from ..errors import ConfigError
 #: a floor more than this [dB] above the reference floor is no thermal noise: a CPI
 #: whose whole-spectrum floor is this far above the flight's median floor is an
 #: artifact CPI (not used), and a sideband whose local floor is this far above its
-#: CPI's floor (clutter, another line's skirt) is not read. Two fields of the first
-#: version (``artifact_floor_db``, ``raised_floor_db``), both 3 dB: twice the power.
+#: CPI's floor (clutter, another line's skirt) is not read. Replaces two fields
+#: (``artifact_floor_db``, ``raised_floor_db``); 3 dB is twice the power.
 RAISED_FLOOR_DB = 3.0
 #: the same guard for the rotation-rate lines (the blade-imbalance test's observations,
 #: :func:`.measure.rotation_line_powers`): their local floor lies between lines of the
 #: target itself (a rotor's lines of neighbouring orders, the other rotors' lines of the
 #: same order, each smeared by the speed's change within a CPI), which lift it by 5-30 dB
-#: on emulated Matrice/Inspire flights while it is still the floor under the line; at
-#: 3 dB no order of an emulated weak-blade flight was read (f0295: 0 of 102 CPIs at the
-#: blade-passing order). The floor is subtracted as measured, the noise variance taken
-#: from it; only a floor this far up (no line could be read over it) is refused.
+#: on emulated Matrice/Inspire flights while it is still the floor under the line (at
+#: 3 dB a weak-blade flight's orders would not be read). The floor is subtracted as
+#: measured, the noise variance taken from it; only a floor this far up (no line could
+#: be read over it) is refused.
 ROTATION_RAISED_FLOOR_DB = 30.0
 #: the body line is the strongest bin within this [Hz] of the tracker's Doppler
 #: (``body_search_hz``): a radial-speed error of the track up to 1.1 m/s at 1.35 GHz.
-#: First version.
 BODY_SEARCH_HZ = 10.0
 #: the HERM line spacing measured against the model's is searched over dilations
 #: SCALE_MIN to SCALE_MAX in steps of SCALE_STEP (``scale_min``, ``scale_max``,
 #: ``scale_step``): a speed error of -20 % to +25 %, symmetric in log (SCALE_MAX =
 #: 1 / SCALE_MIN), four times the catalog's detectable scale error (|scale - 1| >=
 #: 0.05); the step is 1/10 of the relevance margin of a scale (``margin_scale``), and
-#: the best step is refined parabolically. First version.
+#: the best step is refined parabolically.
 SCALE_MIN = 0.8
 SCALE_MAX = 1 / SCALE_MIN
 SCALE_STEP = 0.0025
 #: harmonics of the HERM pattern matched (``n_match_harmonics``): world v2's
 #: fall-offs of up to 16 dB per harmonic leave sidebands that end after one or two
-#: pairs (benchmarks/README.md, "Spurious causes on steep fall-offs"). First version.
+#: pairs.
 N_MATCH_HARMONICS = 3
 #: a CPI's spacing match is used when the normalised correlation of measured and
-#: model patterns exceeds this (``min_match``): below it the pattern is noise. First
-#: version.
+#: model patterns exceeds this (``min_match``): below it the pattern is noise.
 MIN_MATCH = 0.2
-#: sideband pairs read per CPI (``n_harmonics``): harmonics 1-5. First version.
+#: sideband pairs read per CPI (``n_harmonics``): harmonics 1-5.
 N_HARMONICS = 5
 #: least half width of a sideband's band [bins] (``line_half_bins``): the
-#: Blackman-Harris main lobe (+-4 bins). First version.
+#: Blackman-Harris main lobe (+-4 bins).
 LINE_HALF_BINS = 4
 #: a harmonic pair is used when the median over the CPIs of its weaker side's power
-#: over its noise std is at least this (``min_pair_snr``), in at least 6 CPIs. First
-#: version; the weak-blade flights it leaves untestable say so (67c70bf).
+#: over its noise std is at least this (``min_pair_snr``), in at least 6 CPIs; the
+#: weak-blade flights it leaves untestable say so.
 MIN_PAIR_SNR = 5.0
 #: step of the motor-log lag grid [s] (``lag_step_s``), refined parabolically: 1/15
-#: of the relevance margin of a lag (``margin_lag_s``). First version.
+#: of the relevance margin of a lag (``margin_lag_s``).
 LAG_STEP_S = 0.01
 #: phase-noise ordinates: the floor PN_INNER_HZ to PN_OUTER_HZ from the clutter line
 #: (``pn_inner_hz``, ``pn_outer_hz``), inside the catalog's phase-noise band (|f| <
-#: 100 Hz) and beyond the clutter notch; the inner edge was 12 Hz in the first
-#: version, 35 Hz since 2d4232b (its commit gives no measurement).
-#: benchmarks/README.md reports the phase-noise recall by this band's floor rise
-#: ("Recall per cause in bins of measured body SNR").
+#: 100 Hz) and beyond the clutter notch.
 PN_INNER_HZ = 35.0
 PN_OUTER_HZ = 95.0
 #: the measured skirt profile (:func:`.measure.skirt_profile`, the phase-noise
 #: extension's shape): bands of offset from PN_PROFILE_INNER_HZ, sqrt(2) apart, up to
 #: PN_PROFILE_OUTER_HZ (or 0.4 x PRF). A real skirt need not be flat to 100 Hz: a
-#: 1/f-like one reaches a few hundred Hz (issue 34).
+#: 1/f-like one reaches a few hundred Hz.
 PN_PROFILE_INNER_HZ = PN_INNER_HZ
 PN_PROFILE_OUTER_HZ = 1200.0
 #: a phase noise is relevant only where the profile's median-based level at 50 Hz is
-#: within this many dB below the phase-noise test's fit [dB]: on the evaluation plan
-#: (seed 20261126) a true skirt agrees to ~2 dB (f0127 -61.1 / -61.2, f0077 -67.3 /
-#: -67.5 dBc/Hz); where the target's own lines lifted the fit (a wrong blade count, a
-#: log lag: f0137, f0227, f0329) the medians find no skirt at all (issue 34)
+#: within this many dB below the phase-noise test's fit [dB]: a true skirt agrees to a
+#: few dB; where the target's own lines lifted the fit (a wrong blade count, a log lag)
+#: the medians find no skirt at all
 PN_PROFILE_AGREE_DB = 10.0
 #: the wide-band phase-noise reading (:func:`.hypotheses.profile_skirt_test`) uses
 #: ordinates at least this far from the body [Hz]: a fluctuating body beside the
-#: clutter line spreads on both sides of it (emulated flights, issue 34)
+#: clutter line spreads on both sides of it
 PN_PROFILE_BODY_GUARD_HZ = 100.0
 #: ... and only where its levels fall by at least this much [dB] from the innermost
 #: band measured on both sides to the outermost: a skirt falls with offset (flat,
@@ -102,48 +94,43 @@ PN_PROFILE_BODY_GUARD_HZ = 100.0
 PN_PROFILE_FALL_DB = 10.0
 #: every PN_BIN_STEP-th bin of the band (``pn_bin_step``): the Whittle likelihood
 #: takes its ordinates as independent; the noise of neighbouring Blackman-Harris bins
-#: is correlated 0.82, of every second bin 0.44 (4096 pulses). First version.
+#: is correlated 0.82, of every second bin 0.44 (4096 pulses).
 PN_BIN_STEP = 2
 #: the background recording's periodogram, the baseline PSD, smoothed over
 #: +-PN_SMOOTH_CPIS CPIs and +-PN_SMOOTH_BINS bins (``pn_smooth_cpis``,
-#: ``pn_smooth_bins``): a 5 x 5 average. Since 2d4232b (CPIs) and the first version
-#: (bins).
+#: ``pn_smooth_bins``): a 5 x 5 average.
 PN_SMOOTH_CPIS = 2
 PN_SMOOTH_BINS = 2
 #: the clutter line's power is summed within this [Hz] of 0 Hz
 #: (``pn_clutter_line_hz``): +-2.8 bins of 1.78 Hz (7.3 kHz, 4096 pulses), which hold
-#: 99.8-99.97 % of a Blackman-Harris line's power (on a bin, half a bin off). First
-#: version.
+#: 99.8-99.97 % of a Blackman-Harris line's power (on a bin, half a bin off).
 PN_CLUTTER_LINE_HZ = 5.0
 #: the target's HERM lines are avoided by this fraction of their spacing
 #: (``pn_line_guard_frac``), in the phase-noise ordinates and the body's floor
 #: (measure.body_floor_ratio) on either side of each of the first 15 lines, so the
-#: middle 40 % between two lines is read. First version.
+#: middle 40 % between two lines is read.
 LINE_GUARD_FRAC = 0.3
 #: ... and the body's own skirt by this [Hz] beyond the body band
 #: (``pn_body_guard_hz``): a fluctuating body spreads its line (4.5 dB at 0.08 s
 #: raises the bins next to the band ~15 dB at 44 dB SNR, measure.body_floor_ratio).
-#: 10 Hz in the first version, 40 Hz since 2d4232b (its commit gives no measurement).
 PN_BODY_GUARD_HZ = 40.0
 #: ... and the blade power the calibrated model predicts above this level [dB]
 #: relative to the CPI's floor (``pn_model_guard_db``): smeared lines are no floor.
-#: Since d83fdb2 (the harmonic alpha envelope).
 PN_MODEL_GUARD_DB = -10.0
 
 # Tests (hypotheses.py)
 
 #: the body-power statistic is detrended by a moving average over this many CPIs
 #: (``body_smooth_cpis``, 2.5 s at 7.3 kHz): slow aspect changes are no
-#: fluctuation. Since 2d4232b; the body's sizes and times are estimated on short
-#: windows without it (hypotheses.body_estimate).
+#: fluctuation. The body's sizes and times are estimated on short windows without it
+#: (hypotheses.body_estimate).
 BODY_SMOOTH_CPIS = 9
 #: width [Hz] of the Lorentzian skirt of a fluctuating body, a nuisance column of the
-#: phase-noise likelihood in both models (``pn_body_skirt_hz``). Since 7999cff.
+#: phase-noise likelihood in both models (``pn_body_skirt_hz``).
 PN_BODY_SKIRT_HZ = 10.0
 #: decay lengths [Hz] of extra exponential clutter columns of the phase-noise
 #: likelihood (``pn_nuisance_decay_hz``): none. The baseline is the background
-#: recording's own PSD, which holds the wind-blown clutter already; the field was
-#: empty by default since it was added (2d4232b) and no config set it.
+#: recording's own PSD, which holds the wind-blown clutter already.
 PN_CLUTTER_DECAYS_HZ: tuple = ()
 
 #: removed fields of DiagnosisConfig -> the constant that replaced them (named in
@@ -164,12 +151,12 @@ REMOVED_FIELDS = {
 
 def unknown_key_error(source, key: str, names) -> ConfigError:
     """The :class:`ConfigError` of an unknown ``diagnosis.<key>``; a key that was a
-    field before issue 35 names what replaced it."""
+    field before the fixed settings became constants names what replaced it."""
     expected = f"one of {', '.join(names)}"
     if key in REMOVED_FIELDS:
         now = REMOVED_FIELDS[key]
         now = now if now.startswith("the field") else f"the constant microdoppler.diagnosis.config.{now}"
-        expected += f"; {key} is no setting since issue 35: {now}"
+        expected += f"; {key} is no longer a setting: {now}"
     return ConfigError(source, f"diagnosis.{key}", "unknown key", expected)
 
 
@@ -258,14 +245,12 @@ class DiagnosisConfig:
     alpha : float
         Family-wise false-alarm level of the held-out tests per flight: Bonferroni
         over the causes, at alpha / (k (k + 1)) for greedy step k
-        (:func:`.decide.step_threshold`). At 0.01: no false alarm on the clean
-        flights of eval_diagnosis.py (0/15 at >= 36 dB body SNR on 180 s flights;
-        0/36 on plan 20261 after the fixes of 7ae995c; benchmarks/README.md).
+        (:func:`.decide.step_threshold`); in (0, 1).
     block_cpis : int
         CPIs per block of the two alternating held-out folds: 8 CPIs = 2.2 s at
         7.3 kHz, longer than the catalog's correlation times (fading 1-2 s), so
         the folds are nearly independent; the calibration's held-out CPIs use the
-        same blocks (``datasets.holdout_block_cpis``). First version.
+        same blocks (``datasets.holdout_block_cpis``); >= 1.
     figures : bool
         Write one figure per diagnosed flight (:mod:`.explain`).
     clutter_guard_hz : float
@@ -277,23 +262,20 @@ class DiagnosisConfig:
         / 4096), the Blackman-Harris main lobe (+-4 bins) and a bin of Doppler
         wander within a CPI. The body power is summed over it; the guards around
         the body (phase-noise ordinates, the floor at the body) start at its edge.
-        First version; eval_diagnosis.py's body sizes met their 20 % target with
-        it (benchmarks/README.md, "Paper-length flights").
     model_floor_db : float
         Std [dB] of per-CPI power the paper's model is allowed to miss beyond the
         measurement noise (added in quadrature in the baselines of the fading and
         body tests): 0.5 dB, i.e. 0.25 dB^2 against the 9 dB^2 of the smallest
-        detectable fluctuation (3 dB). First version.
+        detectable fluctuation (3 dB).
     max_lag_s : float
         Longest motor-log lag searched [s], both signs (grid step
-        :data:`LAG_STEP_S`): twice the largest lag eval_diagnosis.py draws
-        (+-0.3-1.0 s); lags came out within 0.038 s on its 180 s flights
-        (benchmarks/README.md, "Paper-length flights").
+        :data:`LAG_STEP_S`), >= 0.01: twice the largest lag
+        ``benchmarks/eval_diagnosis.py`` draws (+-0.3-1.0 s).
     margin_asymmetry_db, margin_std_db, margin_lag_s, margin_scale, margin_floor_rise_db : float
         Relevance margins: a significant cause is named only if its fitted effect
         is at least this, about half the catalog's detectable size: asymmetry
         1.5 dB (detectable >= 3 dB), the std of a fading or body gain 2.0 dB
-        (>= 3 dB; 1.5 dB until cac01d9, when sizes came from the variogram), lag
+        (>= 3 dB), lag
         0.15 s (>= 0.3 s), scale 0.025 (>= 0.05), the phase-noise floor rise
         3 dB (>= 6 dB).
     margin_imbalance_db : float
@@ -306,24 +288,17 @@ class DiagnosisConfig:
         fitted model with every named cause's extension, in one Doppler band
         relative to the body) that names ``unexplained``, when it is also
         significant and seen in both folds. 7 dB: the model's own fidelity on flights
-        it explains. On the calibration plan of ``benchmarks/eval_diagnosis.py``
-        (seed 515, record ``eval_diagnosis_seed515.json``: 106 flights at body SNR
-        >= 36 dB whose every true cause was named) the worst band of 8 exceeded 4 dB
-        (the first version's margin), of 2 exceeded 7 dB: the smallest whole dB at
-        which at most 2.5 % of explained flights read ``unexplained``. Every
-        out-of-catalog flight there with a band residual reached 13 dB or more (the
-        summary's margin table).
+        it explains: the smallest whole dB at which at most 2.5 % of explained flights
+        read ``unexplained`` on the calibration plan of ``benchmarks/eval_diagnosis.py``
+        (the runs: ``docs/experiments.md``).
     margin_common_gain_db : float
         Goodness of fit: the smallest std [dB] of a significant sideband power
         fluctuation that follows the body's (correlation above
         :data:`.hypotheses.COMMON_GAIN_CORR`, the body moving at least
         :data:`.hypotheses.COMMON_GAIN_BODY_SHARE` as many dB) for ``unexplained`` (a gain on the
         whole target: a range-cell straddle, an aspect change; no catalog cause is
-        one). 1 dB, half the fading's ``margin_std_db`` (2 dB, the margin until this
-        version, which left slow straddles of 1.8-1.95 dB std ``none``). On the
-        calibration plan of ``benchmarks/eval_diagnosis.py`` (seed 515) with no
-        margin, the 8 out-of-catalog straddles at >= 36 dB read 1.6-3.0 dB and no
-        catalog-only flight read a correlated gain below 3.2 dB.
+        one). 1 dB, half the fading's ``margin_std_db``: slow straddles of under 2 dB std
+        are named (the runs that set it: ``docs/experiments.md``).
     min_blade_wavelengths : float
         Blades shorter than this many wavelengths (below the thin wire's half-wave
         resonance) have rotor lines below the noise: such drones (the Mini 2's

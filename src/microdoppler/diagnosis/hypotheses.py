@@ -354,10 +354,9 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
 #: independent of the body; the independent generator's fading flights read |r| < 0.3)
 COMMON_GAIN_CORR = 0.7
 #: the body's dB excursions over the sidebands' (std ratio) that a gain on the whole
-#: target gives: it moves both alike (ratio ~1; straddles of seed 20261126 read
-#: 0.67-1.14, the sidebands' noise lowering it). A blade fading moves the body line
-#: only by the blades' share in it (their mean return lies on the body Doppler): the
-#: emulator's fading flights correlate up to r = 0.87 but read 0.13-0.39.
+#: target gives: it moves both alike (ratio ~1, the sidebands' noise lowering it). A
+#: blade fading moves the body line only by the blades' share in it (their mean return
+#: lies on the body Doppler), well under 0.5 even where it correlates strongly.
 COMMON_GAIN_BODY_SHARE = 0.5
 
 
@@ -645,8 +644,8 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
     trend in time and log range; T up to the longest lag / 2.5; where it still
     rises there, the variogram's estimate is kept), started from the variogram fit
     with the nuisance subtracted lag by lag (gamma(L) = mean[d^2 / 2] - n(L)
-    mean[1 / K], :func:`fit_variogram`, no nugget, no drift). Tuned on
-    plans 777-780 (benchmarks/README.md, "Fading timescale on short windows")."""
+    mean[1 / K], :func:`fit_variogram`, no nugget, no drift). How it was tuned:
+    ``docs/experiments.md`` ("Fading timescale on short windows")."""
     F = getattr(M, "side_fine", None)
     if F is None or m.sum() < 4:
         return None
@@ -720,7 +719,7 @@ def body_estimate(M) -> dict:
     if v.sum() >= 20:
         y[v] = _detrend(F["y_db"][v], F["t_s"][v], F["range_m"][v])
     # no drift term: tried on emulated (aspect 1 dB, 4 s) and independent flights, a
-    # free drift took part of any fluctuation slower than ~0.5 s (sizes 20-35 % low)
+    # free drift took part of any fluctuation slower than ~0.5 s (sizes came out low)
     return fit_gain_process(y, v, F["noise_var_db2"], F["hop_s"], F["window"], M.info["prf_hz"], drift=False)
 
 
@@ -996,7 +995,7 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     # to the clutter line, this test's 35-95 Hz ordinates lie on one side only and
     # its body-spread column takes up the skirt; the wide band sees the skirt on both
     # sides and far from the body. Used when it gives more held-out evidence and the
-    # floor rise it finds by medians in its innermost band passes the margin (issue 34).
+    # floor rise it finds by medians in its innermost band passes the margin.
     # the body's spread as the model with a skirt fits it (its weight per unit line power)
     spread = float(xe[-1] / norm[-1]) if len(xe) > NQ else 0.0
     prof = None if d is None or profile is None else profile_skirt_test(d, fold, spread)
@@ -1043,7 +1042,7 @@ ROTOR_CAUSES = ("sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor
 #: under the sidebands near the clutter line, where the raised-floor guard drops them;
 #: with phase noise named, they are read with its fitted skirt in the floor's model
 #: (:func:`.measure.given_skirt`, both models), so the sideband causes are judged on
-#: what the skirt leaves (issue 34). Phase noise's own test reads the floor off the
+#: what the skirt leaves. Phase noise's own test reads the floor off the
 #: target's lines and does not change with a sideband cause.
 #: Likewise a named blade imbalance: its rotation-rate lines lie between the
 #: blade-passing lines and lift the sidebands' local floor (:func:`.measure.given_imbalance`);

@@ -916,10 +916,9 @@ def given_imbalance(M: Measurements) -> Measurements:
     and its noise std taken from it, as always. ``pair_ok``, ``usable_pairs``,
     ``usable_pair_sums`` and the calibration (:func:`calibrate`) follow.
 
-    Without it a weak blade of 3-10 dB leaves no usable pair on emulated Matrice and
-    Inspire flights (f0295 of eval_diagnosis seed 20261126: none of 5 harmonics), the
-    paper's model is calibrated on nothing (S_blade 30-45 dB low) and the sideband
-    causes beside the imbalance are not testable."""
+    Without it a weak blade of 3-10 dB can leave no usable pair on Matrice and Inspire
+    flights, the paper's model is calibrated on nothing and the sideband causes beside
+    the imbalance are not testable."""
     if M.side_floor is None or M.pair_ok_any_floor is None:
         return M
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -942,7 +941,7 @@ def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
     ``usable_pair_sums`` follow. A skirt of a radar's oscillator lifts the floor
     around the clutter line by up to ~20 dB over 35-400 Hz, where the sidebands of a
     slow body lie; without this, the raised-floor guard drops them and the sideband
-    causes cannot be tested (issue 34).
+    causes cannot be tested.
 
     The skirt's own noise stays: a sideband on it is read with a larger noise std,
     and one too weak over it is not usable (:func:`usable_pairs`). With

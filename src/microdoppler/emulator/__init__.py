@@ -1,5 +1,5 @@
 """The measurement emulator: the measured world the pipeline is trained, tested and
-diagnosed against (issue 3). Nothing downstream may depend on data coming from here.
+diagnosed against. Nothing downstream may depend on data coming from here.
 
 Public API
 ----------

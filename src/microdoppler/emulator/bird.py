@@ -30,9 +30,9 @@ WING_BELOW_BODY_DB = (8.0, 22.0)
 TURN_RATE_SD_RAD_S = (0.05, 0.5)
 SPEED_SURGE = (0.0, 0.3)
 #: body scintillation std [dB] over 1.5 s, drawn uniformly per group with the
-#: manoeuvres (without: 4.5 dB); with the turns' notch crossings the paper profile's
-#: training birds measure 6.7 dB of per-flight SNR std (Table III: 5.5 +- 1.5;
-#: benchmarks/README.md, "World v3")
+#: manoeuvres (without: 4.5 dB); with the turns' notch crossings it sets the birds'
+#: per-flight SNR std against Table III's 5.5 +- 1.5 dB (docs/experiments.md,
+#: "World v3")
 SCINT_DB = (2.0, 6.0)
 #: flap-glide cycle of the species that glide (world v3d), drawn per group with the
 #: manoeuvres: the share of time spent gliding (uniform) and the cycle's correlation

@@ -111,7 +111,7 @@ def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_
     centre = mean_range_m * np.array([np.cos(az0), np.sin(az0)])
     # turn radius and leg orientation set the time the body spends in the 15 Hz notch
     # at the turns, which dominates a flight's SNR spread: calibrated to Table III's
-    # per-flight std (Inspire 7.0, Matrice 7.5, Mini 5.7 dB; benchmarks/README.md)
+    # per-flight std (Inspire 7.0, Matrice 7.5, Mini 5.7 dB; docs/experiments.md)
     radius = rng.uniform(15.0, 40.0)
     leg = rng.uniform(100.0, 400.0)
     # legs laid out roughly along the line of sight (trials want a Doppler signature)

@@ -42,7 +42,7 @@ STRADDLE_LOSS_DB = 1.5
 #: polarisation at the flight's aspect) and the first sideband's level below the body
 #: on those flights [dB]: the paper's far sidebands "fluctuated in their appearance and
 #: power" and its real large drones were called birds 6 % of the time (Table V);
-#: calibrated against the real-trained row only (benchmarks/README.md, world v3)
+#: calibrated against the real-trained row only (docs/experiments.md, "World v3")
 WEAK_BLADE_SHARE = 0.4
 WEAK_BLADE_DB = (30.0, 50.0)
 #: the Mini pilot's wander about the plan [m], drawn log-uniformly per flight

@@ -40,21 +40,18 @@ more than ``BOUND_BINS`` is dropped (the periodogram's estimate stands).
 A rotor the periodogram's lines missed (its line smeared below the pair threshold, or
 shown as part of a split line) leaves every start with a rotor on a line that is not
 its own; where no spare results, or the rotor turns beyond the re-seeding window, the
-fit used to stop there. Last, the residual's strongest harmonic comb within
+steps above stop there. Last, the residual's strongest harmonic comb within
 ``move_rel`` of the re-seeding window's centre (a quadcopter's rotors differ by up to ~15 % in a
 manoeuvre) is tried in place of each of the ``MOVE_TRIES`` weakest rotors, the best fit
 kept where it lowers the cost, ``MOVE_PASSES`` times (keep ``move_rel`` under 0.2: at
 25 % a rotor settled at 4/5 of a true rotor's speed, its fifth harmonic on the true
-rotor's fourth, and fitted better than the truth). Started at the true speeds, the
-fit reached a lower cost than its chosen fit in 60-75 % of the emulated tail; these
-moves recover about half of those (``benchmarks/bound_rotorspeed.py``;
-``benchmarks/README.md``, "What the likelihood allows: the fit started at the truth").
+rotor's fourth, and fitted better than the truth). The moves recover part of the fits
+that a start at the true speeds would have bettered (``benchmarks/bound_rotorspeed.py``).
 A re-seeded or moved rotor is kept only if it lights its harmonic orders as the other
 rotors do (:func:`_comb_like`): the residual also holds lines the model does not (the
 rotation-rate lines of unequal blades, the orders beyond ``harmonics[-1]`` of a wide
 blade flash), and a comb placed on one of them matches it at one order only; kept, such
-a rotor moved the mean 2-10 % off on the generator's recordings
-(``benchmarks/eval_any_radar.py``).
+a rotor would move the mean several per cent off.
 
 Cost: the model's columns reach the body's Doppler plus ``harmonics[-1]`` blade-passing
 orders of the fastest rotor a fit may try; every product is formed on the CPI's samples
@@ -62,9 +59,7 @@ decimated to that band (:class:`_Model`: the data low-passed by an FFT mask, eve
 sample kept, the power outside the band a constant of the residual), which gives the
 full-rate cost and J^T J up to the window's leakage at 1 / D of the work; the residual's
 comb is read at the full-rate FFT's bins, so the searches take the same paths (D = 3 for
-4 two-blade rotors at 10 kHz PRF, 3.3 GHz, flying: the estimate's 87.7-89.6 CPU s per
-minute of recording become 46.9-47.0 on one machine; ``benchmarks/README.md``, "The I/Q
-fit on the model's band").
+4 two-blade rotors at 10 kHz PRF, 3.3 GHz, flying, which about halves the cost).
 
 Uncertainty: the Gauss-Newton covariance (residual variance times the inverse of
 J^T J with the prior), plus the spread of the mean over the lines a spare rotor could
@@ -74,26 +69,24 @@ sits on its own true lines; where it does not (two rotors within a fraction of a
 fitted as one line, and another rotor on a line of its own that is not a rotor's), the
 error is a large part of a bin, not a small multiple of sigma. The rotors of one drone
 return about equal power, so the fit's balance (its weakest rotor's power over its
-strongest's) tells how far to trust the composition: a balanced fit (>= 0.6) is within
-0.15 bin in 95 % of emulated CPIs, one under 0.3 off by over 1 % (~0.8 bin) in
-10-40 %. The ambiguity term is ``AMBIGUITY_BINS`` x exp(-balance / ``AMBIGUITY_SCALE``)
+strongest's, in [0, 1]) tells how far to trust the composition: a balanced fit is
+within a fraction of a bin, an unbalanced one may be off by about a bin. The ambiguity
+term is ``AMBIGUITY_BINS`` x exp(-balance / ``AMBIGUITY_SCALE``)
 bins of the first harmonic for the mean speed, at most ``AMBIGUITY_MAX_BINS`` (where a
 spare is left, the spread over the lines it could share is already in sigma), and
-``AMBIGUITY_ROTOR_*`` for each ranked rotor; calibrated on the emulated flights of one
-seed so that 95 % of the errors lie within 2 sigma at every balance
-(``benchmarks/eval_rotorspeed.py``; ``benchmarks/README.md``, "The I/Q fit's
-uncertainty"). Sigma is then a scale, not a Gaussian one-sigma: the
-errors are a sharp core plus a tail, and 87-89 % of them lie within 1 sigma.
+``AMBIGUITY_ROTOR_*`` for each ranked rotor; calibrated on emulated flights so that
+95 % of the errors lie within 2 sigma at every balance (``benchmarks/eval_rotorspeed.py``).
+Sigma is then a scale, not a Gaussian one-sigma: the errors are a sharp core plus a
+tail, and most of them lie well within 1 sigma.
 
 Where the periodogram showed one sideband pair only (``n_pairs=1``), the composition is
 far less certain at every balance: the rotors' lines are read from one harmonic, and a
 rotor on another rotor's line or on a line that is none of theirs is off by one to
 several bins (one bin at n = 1 is ~1.2 % of the speed). Such a fit adds
 ``ONE_PAIR_BINS`` x exp(-balance / ``ONE_PAIR_SCALE``) bins to the mean's sigma and
-``ONE_PAIR_ROTOR_*`` to each ranked rotor's, calibrated on the 1,190 one-pair CPIs of
-six emulated seeds so that 95 % of their errors lie within 2 sigma (``benchmarks/README.md``,
-"One visible pair: its own uncertainty"). Such a sigma is wide (median ~3 % of the
-speed for the mean) because the errors are: 59-81 % of one-pair CPIs are within 1 %.
+``ONE_PAIR_ROTOR_*`` to each ranked rotor's, calibrated on the one-pair CPIs of
+emulated flights so that 95 % of their errors lie within 2 sigma. Such a sigma is wide
+(a few per cent of the speed for the mean) because the errors are.
 """
 
 from __future__ import annotations
@@ -110,31 +103,27 @@ from threadpoolctl import threadpool_limits
 
 
 # Fixed settings of the fit (module constants: search effort and calibrated terms, not
-# physical knobs). Each says what set it; the benchmark that measures the fit with them is
-# benchmarks/eval_rotorspeed.py (benchmarks/README.md, "The I/Q fit" and after).
+# physical knobs). How each was set: docs/experiments.md ("Where the code's settings come
+# from"); the benchmark that measures the fit with them is benchmarks/eval_rotorspeed.py.
 # ``benchmarks/bound_rotorspeed.py --fit NAME=VALUE`` overrides them for experiments.
 
 #: Gauss-Newton iterations per fit, and per screening fit of a start (with
 #: ``harmonics[0]``); a fit stops earlier once the cost falls by under TOLERANCE
-#: (relative). Set with the fit (356bdf1, tuned on seed 1's first flights).
+#: (relative).
 ITERATIONS = 10
 SCREEN_ITERATIONS = 4
 TOLERANCE = 1e-5
-#: screened starts carried on to the full harmonics: 4 instead of 2 was worse
-#: (-0.3 [-0.6, -0.1] points within 1 %, seed 1; benchmarks/README.md, "What the
-#: likelihood allows", tried (f))
+#: screened starts carried on to the full harmonics (>= 1)
 KEEP = 2
-#: spreads [bins of the first harmonic] at which rotors sharing a line start (356bdf1)
+#: spreads [bins of the first harmonic] at which rotors sharing a line start
 SPREADS_BINS = (0.6, 1.5)
 #: a fit whose rotors leave the lines' range by more than this [bins] is dropped and the
-#: periodogram's estimate stands (356bdf1)
+#: periodogram's estimate stands
 BOUND_BINS = 5.0
-#: times the weakest rotor is re-seeded at the residual's strongest comb (b5e707c)
+#: times the weakest rotor is re-seeded at the residual's strongest comb
 RESEED = 3
 #: the residual's comb tried in place of each of the MOVE_TRIES weakest rotors, at most
-#: MOVE_PASSES times (benchmarks/README.md, "What the likelihood allows": the kept change
-#: +1.2 [+0.4, +2.2] points on seed 1, held out +1.9 / +1.3 on seeds 3 / 4; MOVE_TRIES = 1
-#: -0.4 [-0.8, +0.0], tried (d))
+#: MOVE_PASSES times (0: no moves)
 MOVE_PASSES = 2
 MOVE_TRIES = 2
 #: a re-seeded or moved rotor's harmonic-order profile must match the other rotors'
@@ -143,21 +132,19 @@ MOVE_TRIES = 2
 COMB_SIMILARITY = 0.45
 COMB_SPREAD = 0.5
 COMB_SLACK = 0.1
-#: relative uncertainty floor for what the quadratic phase does not capture (356bdf1)
+#: relative uncertainty floor for what the quadratic phase does not capture
 REL_FLOOR = 0.0004
 #: the composition's ambiguity by the fit's balance b (module docstring): the mean's sigma
 #: adds min(AMBIGUITY_BINS exp(-b / AMBIGUITY_SCALE), AMBIGUITY_MAX_BINS) bins, each ranked
-#: rotor's AMBIGUITY_ROTOR_BINS exp(-b / AMBIGUITY_ROTOR_SCALE); calibrated on one seed's
-#: emulated flights so that 95 % of errors lie within 2 sigma at every balance
-#: (benchmarks/README.md, "The I/Q fit's uncertainty"; ffc50e2)
+#: rotor's AMBIGUITY_ROTOR_BINS exp(-b / AMBIGUITY_ROTOR_SCALE); calibrated on emulated
+#: flights so that 95 % of errors lie within 2 sigma at every balance
 AMBIGUITY_BINS = 5.3
 AMBIGUITY_SCALE = 0.13
 AMBIGUITY_MAX_BINS = 2.0
 AMBIGUITY_ROTOR_BINS = 4.0
 AMBIGUITY_ROTOR_SCALE = 0.21
-#: the same for CPIs with one visible pair (in quadrature on top): fitted on 1,190
-#: one-pair CPIs of seeds 1-6, held out 90.0 / 97.6 % within 2 sigma on seeds 7 / 8
-#: (benchmarks/README.md, "One visible pair: its own uncertainty")
+#: the same for CPIs with one visible pair (in quadrature on top), calibrated on the
+#: one-pair CPIs of emulated flights to the same 95 % within 2 sigma
 ONE_PAIR_BINS = 4.25
 ONE_PAIR_SCALE = 0.8
 ONE_PAIR_ROTOR_BINS = 13.0
@@ -165,8 +152,8 @@ ONE_PAIR_ROTOR_SCALE = 0.6
 #: the fit runs on the CPI's samples decimated to the model's band (:class:`_Model`): its
 #: half-width is the body's Doppler plus ``harmonics[-1]`` blade-passing orders of the
 #: fastest rotor a fit may reach, times BAND_MARGIN, plus BAND_BINS bins (the
-#: Blackman-Harris window's main lobe and the chirps); 0 fits every sample (the cost,
-#: not the result: benchmarks/README.md, "The I/Q fit on the model's band")
+#: Blackman-Harris window's main lobe and the chirps); 0 fits every sample (this changes
+#: the cost, not the result)
 BAND_MARGIN = 1.0
 BAND_BINS = 16
 
@@ -182,27 +169,22 @@ class FitConfig:
     harmonics : tuple of int
         Harmonics per rotor and side in the model: starts are screened with
         ``harmonics[0]`` (a wide basin), the best carried through the others; the last
-        is the final model order. (2, 5): set with the fit on seed 1 (356bdf1;
-        benchmarks/README.md, "The I/Q fit", held out +13.6 / +10.9 points on seeds 3 / 2).
+        is the final model order (a non-empty tuple of integers >= 1).
     chirp_sd_rev_s2 : float
         Prior standard deviation of each rotor's rate of change about the group's
-        [rev/s^2] (356bdf1; same section).
+        [rev/s^2], > 0.
     min_power : float
         A rotor with under this fraction of the strongest rotor's sideband power (and of
         what the fit loses without the strongest) is a spare whose lines coincide with
-        another's: a drone's rotors return about equal power. 0.15 since b5e707c; the
-        second condition (c983cb4) gained +1.0 / +1.4 points within 1 % held out
-        (benchmarks/README.md, "A spare must also be weak in what the fit loses
-        without it").
+        another's: a drone's rotors return about equal power. In [0, 1).
     reseed_rel : float
         Relative half-width around the lines' centre in which a spare rotor is
         re-seeded at the residual's strongest comb: the rotors' spread about the group
-        speed (b5e707c).
+        speed.
     move_rel : float
         Relative half-width in which a rotor the periodogram missed is searched (a
-        quadcopter's rotors differ by up to ~15 % in a manoeuvre); under 0.2, since at
-        0.25 a rotor settled at 4/5 of a true one's speed (benchmarks/README.md, "What
-        the likelihood allows": 0.16 kept, seed 1 +1.2 [+0.4, +2.2] points).
+        quadcopter's rotors differ by up to ~15 % in a manoeuvre); keep it under 0.2,
+        where a rotor can settle at 4/5 of a true one's speed.
     """
 
     harmonics: tuple = (2, 5)
@@ -613,12 +595,8 @@ def _comb_like(F: _Model, q: int) -> bool:
     test). A comb placed on lines the model does not hold (the rotation-rate lines of
     unequal blades; the harmonics of a blade flash wider than ``harmonics[-1]`` orders,
     where (N + 1) / N of a rotor's speed puts order N on its order N + 1) matches them
-    at one order only. Probed (``tests/any_radar.py``): the captures on seed 1011
-    (unequal blades) had a similarity of 0.07-0.36 and a share of 0.01-0.10 against the
-    others' ~0.6; on seed 1039 (equal blades, 26 orders lit) a similarity of 0.55-0.92
-    but a share of 0.01-0.03 against 0.3-0.6. The emulated moves that put a rotor on
-    its own lines had 0.54-1.0 (0.54: a first harmonic hidden, the power in n = 2), with
-    every rotor's share under 0.2."""
+    at one order only: a low similarity (unequal blades) or a low share (a wide flash).
+    How the thresholds were set: ``docs/experiments.md``."""
     if F.M < 2:
         return True
     N = len(F._ns) // 2

@@ -195,19 +195,15 @@ class OrderConfig:
         the CPI and its neighbours. A rotor beyond it sat on another order's or
         family's line (an unequal blade's rotation-rate line read as a blade-passing
         one, a scaled estimate's rotor on a third order's line: 1.25-2x): it is put at
-        the median rotor and the change enters the uncertainty. The price: an emulated
-        Inspire 2's fastest rotor reaches 1.27-1.29x that median in a manoeuvre, and 4
-        of 991 emulated CPIs had a true rotor moved (their mean 6 % off, within 1 sigma;
-        within 1 % -0.20 [-0.63, +0.00] points). At 0.35 those stay, but a scaled
-        estimate kept rotors 25-35 % off (a 5.8 GHz recording -0.2 -> -8.3 %, 2 of 24
-        CPIs within 2 sigma).
+        the median rotor and the change enters the uncertainty. The price: a true rotor
+        beyond it in a hard manoeuvre is moved too. Must be > 0; a larger value keeps
+        more misplaced rotors (the trade-off measured: ``docs/experiments.md``).
     depart_max : float
         The speeds reported (measured again, or the lines' estimate scaled, with rotors far
         from the others put at the median, step 6) keep the chosen rate's order only
         within this (log ratio of their median over CPIs to the rate). Beyond it the rotors
-        split between the lines of two rates and the median took the other (any21027: the
-        lines' rotors at 0.8x and 1.2x the chosen 74 rev/s, 37 of 92 rotor-CPIs moved,
-        60 rev/s reported, the truth 73): the speeds are scaled to the chosen rate (which
+        split between the lines of two rates and the median took the other (rotors at
+        0.8x and 1.2x the chosen rate): the speeds are scaled to the chosen rate (which
         the line model measured on every CPI; their median over CPIs becomes it), the order
         is ambiguous with the speeds as measured listed at relative likelihood 1, and the
         uncertainty includes both (their equal mixture). The value is ``snap_rel``'s:
@@ -246,12 +242,10 @@ class OrderConfig:
         throttle, tip Mach 0.13-0.42); the hard limit stays ``max_tip_mach``. It decides
         only between candidates whose likelihoods are within a factor of ~15 (2x the
         rate moves the prior by exp(ln(2)^2 / (2 sd^2)) = 14 at most about the centre).
-        At 0.4 (``order/6``; 95 % between 36 and 176 m/s, a factor 4.5) two recordings
-        with strong lines chose twice or half the truth on a tie of the line model
-        (any7059: 1.3 GHz, 72 rev/s, 0.16 m blades read at 145 rev/s, 143 m/s tips;
-        any19055: 220 rev/s read at 110); a drone whose tips turn outside ~45-145 m/s is
-        drawn towards the typical speed where the lines tie, and the likelier rate is
-        then listed (the order ambiguous). 0: no prior (``order/3``).
+        0.4 is ``order/6`` (95 % between 36 and 176 m/s). A drone whose tips turn outside
+        ~45-145 m/s is drawn towards the typical speed where the lines tie, and the
+        likelier rate is then listed (the order ambiguous). Must be >= 0; 0: no prior
+        (``order/3``). How 0.3 was chosen: ``docs/experiments.md``.
     """
 
     min_rev_s: float = 20.0
@@ -438,8 +432,7 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
     raw, sp = sp, np.where(np.abs(sp / med - 1) <= 0.15, sp, np.nan)
     # a CPI with as many rotors on one order's lines as on another's has no rotor near
     # its median: there the rotors within 15 % of the comb's rate, else the rate alone
-    # (its spread was NaN, and the order went unjudged: 6 of 72 drawn recordings
-    # reported at 2.3-3.0x the truth without a doubt, eval_any_radar seeds 1000-1071)
+    # (without it the spread is NaN and the order goes unjudged)
     empty = ~np.isfinite(sp).any(axis=1)
     if empty.any():
         near = np.where(np.abs(raw[empty] / ref - 1) <= 0.15, raw[empty], np.nan)
@@ -921,7 +914,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
     # an alternative is plausible by its relative likelihood or by its posterior odds (the
     # likelihood times the tip speed's prior, against the chosen one's): a rate the lines
-    # like less but whose tips turn at a typical speed stays named (any19055)
+    # like less but whose tips turn at a typical speed stays named
     odds = [c.relative_likelihood * float(np.exp(min(lp[i] - lp[0], 50.0))) for i, c in enumerate(kept)]
     plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
     wsum = sum(c.relative_likelihood for c in plaus)
@@ -1020,7 +1013,7 @@ def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
             continue
         tried.append(f)
         # a lone pair's likely comb (lone_p_min) holds over the whole range only: in a
-        # window the screen chose, a chance pair of a smeared line is one (any9046)
+        # window the screen chose, a chance pair of a smeared line is one
         narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel),
                          lone_p_min=0.0)
         new = rerun(narrow)

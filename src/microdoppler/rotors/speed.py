@@ -88,15 +88,12 @@ half of them at least; otherwise there is no estimate and ``reason`` says why. C
 without a visible pair are NaN; speeds outside ``min_rev_s`` to ``max_rev_s`` are
 dropped.
 
-Accuracy (``benchmarks/eval_rotorspeed.py``, 24 emulated Inspire/Matrice flights
-per seed, both radars, 500-3000 m; ``benchmarks/README.md``, "The I/Q fit"): in CPIs
-with two or more visible pairs the mean rotor speed is within 1 % of the truth in
-~92 % (median error 0.03 %) with step 9; the periodogram's lines alone (steps 1-8,
-``herm-pairs/1``) reach ~80 % (median 0.26 %), their tail the rotor count per merged
-line: rotors within a bin of each other whose speeds spread by 1-5 % within a 0.56 s
-CPI merge and interfere, and a merged line's power tells its rotor count only to
-+-0.1 of the group's. On constant or ramping speeds made with eq. (1) directly the
-error is < 0.05 % (median).
+Accuracy is measured by ``benchmarks/eval_rotorspeed.py`` (its numbers:
+``docs/experiments.md``). The periodogram's lines alone (steps 1-8, ``herm-pairs/1``)
+have a tail from the rotor count per merged line: rotors within a bin of each other
+whose speeds spread by 1-5 % within a 0.56 s CPI merge and interfere, and a merged
+line's power tells its rotor count only to +-0.1 of the group's; step 9 removes most
+of it.
 
 Motor identity: the radar cannot tell which rotor is which, so the columns of
 ``speeds_rev_s`` are ranks (ascending speed in every CPI), not physical motors.
@@ -141,9 +138,8 @@ METHOD = "herm-pairs+iq-fit/2"
 LOG_STEP = 0.005
 
 # Fixed settings of the method (module constants, not knobs: none has a physical value a
-# user would set per radar or drone, and each was set with the estimator in 0004c07 and
-# measured since only through the estimator's accuracy, ``benchmarks/eval_rotorspeed.py``,
-# benchmarks/README.md "eval_rotorspeed.py", unless the comment says otherwise).
+# user would set per radar or drone; each is measured through the estimator's accuracy,
+# ``benchmarks/eval_rotorspeed.py``, and how it was set is in ``docs/experiments.md``).
 
 #: prominence of a spectral line [dB] (steps 1, 5-6)
 LINE_PROMINENCE_DB = 6.0
@@ -159,8 +155,7 @@ LINE_RANGE_DB = 30.0
 #: the shortest default CPI [pulses]: the paper's STFT length (see ``n_fft`` of
 #: :func:`estimate_rotor_speeds`)
 N_FFT_MIN = 4096
-#: harmonics (from the lowest) at which each cluster's centroid is measured (step 5);
-#: 6 and 10 were tried and did not help (benchmarks/README.md, "The tail")
+#: harmonics (from the lowest) at which each cluster's centroid is measured (step 5)
 N_MEASURE = 4
 #: a cluster with under this share of the group's power is merged away (step 5)
 MIN_SHARE = 0.06
@@ -172,10 +167,8 @@ SPLIT_COST = 10.0
 PATTERN_SD = 0.02
 PATTERN_CPIS = 8
 #: the uncertainty of the mean speed from the rotor counts (step 7): the share of a line
-#: of k rotors has variance SPREAD_SHARE_SD^2 + SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2;
-#: measured on emulated flights of eval_rotorspeed.py seed 1 (share scatter sd 0.074 for
-#: a line of one rotor, 0.13 for two; benchmarks/README.md, "Changes behind these
-#: numbers", commit 2b969d3)
+#: of k rotors has variance SPREAD_SHARE_SD^2 + SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2
+#: (measured scatter of the shares on emulated flights)
 SPREAD_SHARE_SD = 0.075
 SPREAD_INTERFERENCE_SD = 0.10
 #: relative uncertainty floor of one centroid measurement (step 8)
@@ -197,8 +190,7 @@ class RotorSpeedConfig:
         Plausible rotor speeds [rev/s]: the paper's 40-250 Hz (§II) widened by a
         margin on both sides; drones of any size 20-400 rev/s; a speed outside is no rotor's.
     n_harmonics : int
-        Highest harmonic order examined (steps 3, 6); set with the estimator (0004c07),
-        not tuned since.
+        Highest harmonic order examined (steps 3, 6), >= 1.
     pair_snr_db : float
         Both lines of a visible pair stand this far over the local noise floor [dB]:
         a periodogram bin of noise alone has exponentially distributed power, so it
@@ -206,11 +198,10 @@ class RotorSpeedConfig:
         with ~exp(-20).
     clutter_guard_hz : float
         Dopplers within this of 0 Hz are masked as stationary clutter [Hz] (wider than
-        the paper's 15 Hz high-pass; 0004c07).
+        the paper's 15 Hz high-pass).
     body_search_hz : float
         Search half-width of the centre of symmetry around the track's Doppler [Hz]:
-        the track's radial-velocity error it tolerates, 20 Hz = 2.2 m/s at 1.35 GHz
-        (0004c07).
+        the track's radial-velocity error it tolerates, 20 Hz = 2.2 m/s at 1.35 GHz.
     max_step_rel : float
         Largest relative change of the rotor group's speed from one CPI to the next
         (one hop, n_fft / 2 pulses; step 4); a line smears over twice this within a
@@ -222,8 +213,7 @@ class RotorSpeedConfig:
     refine : bool
         Step 9: refit every CPI with an estimate by least squares on its I/Q
         (:mod:`microdoppler.rotors.fit`, settings ``fit``); False keeps the periodogram's
-        estimate (``herm-pairs/1``). Measured: within 1 % 79.6 -> 93.2 % of CPIs with
-        >= 2 pairs (held-out seed 3; benchmarks/README.md, "The I/Q fit").
+        estimate (``herm-pairs/1``), which is less accurate.
     fit : FitConfig
         Settings of the least-squares refinement.
     lone_level : bool
@@ -239,7 +229,7 @@ class RotorSpeedConfig:
         ``extent_range`` (:func:`second_order_absence_p`), is at least ``lone_p_min``;
         0 turns this off (only the largest level over kappa counts). Over the whole
         rate range only: the order check's re-measurements in a narrowed range set it
-        to 0 (there a smeared line's chance pair passed: any9046).
+        to 0 (there a smeared line's chance pair would pass).
     """
 
     min_rev_s: float = 20.0
@@ -484,10 +474,9 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
         CPI length [pulses], 50 % overlap. Default: the power of two nearest the
         paper's CPI in time (``PAPER_WINDOW_S``, 0.56 s) x PRF, as the spectrogram's
         default, but at least ``N_FFT_MIN`` (4096, the paper's STFT): 8192 at 10.3-20.7
-        kHz. A fixed 4096 pulses gave 0.2-0.3 s at 14-19 kHz, bins of 4 % of a
-        2-blade rotor's first line at 44 rev/s, and the mean 2.3-2.4 % off on two drawn
-        recordings (0.01 % at 8192); shorter CPIs at low PRF (2048 at 5 kHz) read an
-        unequal blade's comb 12.6 % off. Where the longer default CPI gives no
+        kHz. Shorter CPIs give coarser bins (4096 pulses at 14-19 kHz: 4 % of a 2-blade
+        rotor's first line at 44 rev/s) and biased speeds (the trade-off measured:
+        ``docs/experiments.md``). Where the longer default CPI gives no
         estimate (rotor speeds changing within it smear the lines: a flying drone at
         1.3 GHz and 19 kHz), the estimate is made at 4096 pulses and ``info["cpi"]``
         says so.
@@ -611,8 +600,8 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
     # a lone pair is an estimate only where the blades' physics shows no more (the
     # second blade-passing harmonic beyond the blade flash's Doppler extent) or the band
     # cannot (its mirror pair folded), and only where it persists, in half the CPIs at
-    # least (a rotor's first pair stands in most CPIs; an emulated Mini's intermittent
-    # pair at the speed range's floor, 14 of 70 CPIs, is not its comb)
+    # least (a rotor's first pair stands in most CPIs; an intermittent pair at the speed
+    # range's floor is not its comb)
     few = n_comb < cfg.min_cpis and n_ok >= max(cfg.min_cpis, 0.5 * n_cpi)
     lone_why = None
     second_db = None
@@ -697,12 +686,10 @@ def departure_sigma(est: RotorEstimate, rel: float) -> int:
 
     The tool's own motion model lets the group's speed change by ``max_step_rel`` per hop
     (a steady change leaves the median of both sides on the CPI); a larger departure is
-    a comb misread in that CPI (``tests/any_radar.py``'s any1041: CPIs at 5/4 and 3/2 of
-    their neighbours, 17-50 % off with a sigma of 1-5 %) or a change faster than the
-    model allows. ``eval_any_radar.py`` (seed 1000): 28 of 960 visible CPIs depart, and
-    those within 2 sigma go from 93.5 to 95.3 %; on ``eval_rotorspeed.py``'s emulated
-    seed 7 the rule flags 16 of 1,062 CPIs, 12 of them the world's sharpest manoeuvres,
-    estimated right: their sigma grows, their error does not."""
+    a comb misread in that CPI (at 5/4 or 3/2 of its neighbours, tens of per cent off
+    with a sigma of a few) or a change faster than the model allows (a sharp
+    manoeuvre estimated right: its sigma grows, its error does not). What the rule
+    flags and gains is measured in ``docs/experiments.md``."""
     c = est.common_rev_s
     ok = np.isfinite(c)
     n = 0
