@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from .errors import InputError
 from .io.flightzarr import Flight
-from .spectra.spectrogram import C_MPS, SpectrogramSettings, blade_tip_doppler_hz, spectrogram
+from .spectra.spectrogram import C_MPS, Spectrogram, SpectrogramSettings, blade_tip_doppler_hz, spectrogram
 
 #: columns of the rotor-speed table (:func:`rotor_table`, ``rotor_speeds.csv``)
 TABLE_COLUMNS = ("flight_id", "rotor", "source", "method", "n_rows", "mean_rev_s", "sigma_rev_s", "scatter_rev_s",
@@ -164,6 +165,28 @@ def spectrograms(flight: Flight, settings: SpectrogramSettings | None = None) ->
     return whole, image, cfg
 
 
+def for_display(spec: Spectrogram, max_rows: int = 600) -> tuple[Spectrogram, int]:
+    """``(spec, k)``: ``spec`` with every ``k`` adjacent Doppler bins replaced by their
+    largest power so that at most ``max_rows`` rows remain (k = 1: unchanged). A figure
+    of a few hundred pixel rows shows every line this way; nearest-pixel sampling of
+    thousands of bins would drop most of them."""
+    n = spec.power_db.shape[1]
+    k = max(1, math.ceil(n / max_rows))
+    if k == 1:
+        return spec, 1
+    m = n // k
+    p = spec.power_db[:, : m * k].reshape(len(spec.time_s), m, k).max(axis=2)
+    f = spec.doppler_hz[: m * k].reshape(m, k).mean(axis=1)
+    return Spectrogram(p, spec.time_s, f), k
+
+
+def _range_db(spec: Spectrogram, dynamic_range_db: float) -> float:
+    """The colour range: from 3 dB under the median (the noise floor) to the peak, at
+    most ``dynamic_range_db``."""
+    p = np.asarray(spec.power_db, np.float64)
+    return float(min(dynamic_range_db, max(10.0, p.max() - np.median(p) + 3.0)))
+
+
 def _velocity_axis(ax, carrier_hz: float) -> None:
     """A right-hand axis in radial velocity [m/s] (v = f lambda / 2)."""
     k = C_MPS / carrier_hz / 2.0
@@ -179,7 +202,9 @@ def plot_store(flight: Flight, out_png, *, settings: SpectrogramSettings | None 
     largest Doppler at the stored mean rotor speeds (dashed, where the store holds
     speeds); (b) the same over the span the pipeline's images keep; (c) where the store
     holds rotor speeds, each rotor's speed over time [rev/s] with its ±2 sigma band
-    (speeds from the radar) and any alternative order (dotted).
+    (speeds from the radar) and any alternative order (dotted). Spectrograms of more
+    bins than a figure has pixel rows are shown by their largest power per row
+    (:func:`for_display`); the colours span from the noise floor to the peak.
     """
     import matplotlib
 
@@ -196,27 +221,30 @@ def plot_store(flight: Flight, out_png, *, settings: SpectrogramSettings | None 
                              squeeze=False)
     axes = axes[:, 0]
     cpi = f"CPI {cfg.n_fft} pulses = {cfg.n_fft / flight.prf_hz:.3g} s"
-    im = plot_spectrogram(axes[0], whole, dynamic_range_db=dynamic_range_db,
-                          title=f"(a) whole PRF: ±{flight.prf_hz / 2:.0f} Hz ({cpi})")
-    fig.colorbar(im, ax=axes[0], label="power [dB]", pad=0.08)
     span = cfg.doppler_span_hz(flight.prf_hz)
-    im = plot_spectrogram(axes[1], image, dynamic_range_db=dynamic_range_db,
-                          title=f"(b) the images' span: {span:.0f} Hz = "
-                                f"{span * C_MPS / flight.carrier_hz / 2:.1f} m/s ({cfg.n_bins or cfg.n_fft} bins)")
-    fig.colorbar(im, ax=axes[1], label="power [dB]", pad=0.08)
-    for ax in axes[:2]:
+    titles = (f"(a) whole PRF: ±{flight.prf_hz / 2:.0f} Hz ({cpi})",
+              f"(b) the images' span: {span:.0f} Hz = {span * C_MPS / flight.carrier_hz / 2:.1f} m/s "
+              f"({cfg.n_bins or cfg.n_fft} bins)")
+    for ax, spec, title in zip(axes[:2], (whole, image), titles):
+        shown, k = for_display(spec)
+        im = plot_spectrogram(ax, shown, dynamic_range_db=_range_db(spec, dynamic_range_db),
+                              title=title + (f", max of {k} bins per row" if k > 1 else ""))
+        fig.colorbar(im, ax=ax, label="power [dB]", pad=0.01)
         _velocity_axis(ax, flight.carrier_hz)
+        ax.set_ylim(spec.doppler_hz[0], spec.doppler_hz[-1])
     if sp is not None and a.get("blade_length_m"):
         tips = [blade_tip_doppler_hz(float(np.mean(sp["rev_s"][:, j])), float(a["blade_length_m"]),
                                      flight.carrier_hz) for j in range(sp["rev_s"].shape[1])]
         top = max(tips)
-        for s in (1, -1):
-            axes[0].axhline(s * top, color="w", ls="--", lw=1.0,
-                            label="blade tips' Doppler at the mean speed" if s == 1 else None)
-        if top > flight.prf_hz / 2:
-            axes[0].text(0.01, 0.02, f"blade tips reach ±{top:.0f} Hz: folded past ±PRF/2",
-                         transform=axes[0].transAxes, color="w", fontsize=9)
-        axes[0].legend(loc="upper right", fontsize=8)
+        box = {"facecolor": "w", "alpha": 0.8, "lw": 0}
+        if top < flight.prf_hz / 2:
+            for s in (1, -1):
+                axes[0].axhline(s * top, color="w", ls="--", lw=1.0)
+            axes[0].text(0.01, 0.02, f"dashed: the blade tips' Doppler at the mean speed, ±{top:.0f} Hz",
+                         transform=axes[0].transAxes, fontsize=9, bbox=box)
+        else:
+            axes[0].text(0.01, 0.02, f"the blade tips' Doppler at the mean speed, ±{top:.0f} Hz, folds past "
+                         "±PRF/2", transform=axes[0].transAxes, fontsize=9, bbox=box)
     if sp is not None:
         ax = axes[2]
         t, rev, std = sp["time_s"], sp["rev_s"], sp["std_rev_s"]
