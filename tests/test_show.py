@@ -104,3 +104,14 @@ def test_show_never_replaces_files_it_did_not_write(tmp_path, stores, capsys):
     rc, err = run_cli(capsys, ["show", stores["log1"], "--out", out, "--overwrite"])
     one_line(rc, err, "notes.txt")
     assert (out / "notes.txt").read_text() == "mine" and not (out / "log1.png").exists()
+
+
+def test_the_docs_define_every_column_of_the_table():
+    from pathlib import Path
+
+    from microdoppler.views import COLUMN_DOC, TABLE_COLUMNS
+
+    assert tuple(COLUMN_DOC) == TABLE_COLUMNS
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "recordings.md").read_text()
+    for c in TABLE_COLUMNS:
+        assert f"| `{c}` |" in doc, c
