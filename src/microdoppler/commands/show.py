@@ -1,4 +1,4 @@
-"""``microdoppler show STORE.zarr... --out DIR``: look at flight-zarr/1 stores.
+"""``microdoppler show STORE.zarr [STORE.zarr ...] --out DIR``: look at flight-zarr/1 stores.
 
 Per store, ``DIR/<flight_id>.png``: the spectrogram over the whole PRF and over the
 span the pipeline's images keep (Doppler in Hz and radial velocity in m/s, time in s),
