@@ -76,7 +76,8 @@ def check_table(path, report, *, overwrite: bool) -> None:
         raise InputError("--out", str(path), "exists and is not a table this tool wrote",
                          "a report path whose .csv sibling is new or this tool's")
     if not overwrite:
-        raise InputError("--out", str(path), "already exists", "a new path (or --overwrite to replace the tool's table)")
+        raise InputError("--out", str(path), "already exists",
+                         "a new path (or --overwrite to replace the tool's table)")
 
 
 def run(args) -> int:
