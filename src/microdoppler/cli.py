@@ -15,7 +15,7 @@ import sys
 
 from .errors import InputError
 
-COMMANDS = ("ingest", "simulate", "validate", "emulate", "diagnose", "importer")
+COMMANDS = ("ingest", "simulate", "validate", "emulate", "diagnose", "importer", "show")
 
 
 class OneLineParser(argparse.ArgumentParser):

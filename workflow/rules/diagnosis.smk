@@ -12,6 +12,7 @@ rule diagnose_flights:
         split="results/splits/flights.csv",
     output:
         report="results/diagnosis/report.json",
+        table="results/diagnosis/report.csv",
         figures=directory("results/diagnosis/figures"),
     log:
         "results/logs/diagnose_flights.log",

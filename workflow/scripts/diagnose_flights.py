@@ -1,5 +1,6 @@
 """Rule diagnose_flights: diagnose the measured drone flights (of the `diagnosis.sets` split sets) that have a
-motor log; write the report JSON and one figure per flight."""
+motor log; write the report JSON, its one-row-per-flight table (report.csv, beside it) and one figure per
+flight."""
 
 from microdoppler.diagnosis.pipeline import diagnose_split
 from microdoppler.io.runlog import log_to

@@ -13,7 +13,11 @@ a staring recording: radial velocity 0). The receiver's I/Q balance is measured
 ``--noise-segment-s`` of the recording, else from the body line when it lies well
 away from 0 Hz, else "not measurable" -- a hovering rotor's spectrum is
 mirror-symmetric by nature; and the Doppler sign against the track); a doubtful one
-is warned about on stderr; both go into the store's ``import`` attribute.
+is warned about on stderr; both go into the store's ``import`` attribute. The declared
+set-up is checked before anything is written (carrier and PRF in a radar's range, at
+least one CPI of recording, a drone's blade tips not folding far past ±PRF/2): an
+implausible one is refused naming the field, or written with ``--force`` and the
+warning stored in the ``plausibility_warnings`` attribute.
 
 Raw FMCW data (``.npy``/``.npz``/``.mat``: a cube [chirps, samples] or [chirps,
 samples, channels], real or complex) is read when its chirp parameters are given
@@ -124,6 +128,11 @@ def register(subparsers) -> None:
                    help="drones without --motor-log: estimate each rotor's speed over time from the HERM lines "
                         "and store it as the motor log (motors_source: radar, with its uncertainty); a flight "
                         "with no visible sideband pair gets no estimate, and the reason is printed")
+    p.add_argument("--force", action="store_true",
+                   help="write the store even where the declared set-up looks implausible (a carrier or PRF outside "
+                        "a radar's range, a recording shorter than one CPI, blade tips folding far past ±PRF/2); "
+                        "the warning is stored as the plausibility_warnings attribute and repeated by validate and "
+                        "diagnose")
     p.add_argument("--quiet", action="store_true", help="no summary line on stderr (warnings are still shown)")
     add_overwrite(p)
     p.set_defaults(func=run)
@@ -176,7 +185,7 @@ def run(args) -> int:
     log = load_motor_log(args.motor_log, args.motor_log_unit)
     flight, warns = import_recording(
         args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
-        default_flight_id=default_flight_id_for(args.out), background=args.background)
+        default_flight_id=default_flight_id_for(args.out), background=args.background, force=args.force)
     flight = complete_flight(flight, warns, log=log, log_path=args.motor_log, estimate=args.estimate_motors)
     write_flight(args.out, flight)
     _report(_summary(args.recording, args.out, flight, warns), args.quiet)
@@ -318,7 +327,8 @@ def run_batch(args) -> int:
             flight, warns = import_recording(
                 row["file"], options=opts, sidecar=sidecar,
                 layout=vals.get("layout", (args.layout,))[0], variable=vals.get("variable", (args.variable,))[0],
-                default_flight_id=default_flight_id_for(row["file"]), background=row.get("background"))
+                default_flight_id=default_flight_id_for(row["file"]), background=row.get("background"),
+                force=args.force)
             log = load_motor_log(row.get("motor_log"), row.get("motor_log_unit", args.motor_log_unit))
             flight = complete_flight(
                 flight, warns, log=log, log_path=row.get("motor_log"),

@@ -4,6 +4,8 @@ Checks the attributes, dtypes and shapes, that every chunk is stored and readabl
 and that every value is finite (streamed chunk by chunk; ``--quick``: metadata only).
 Prints ``ok <store>`` per valid store (stdout) and one line per bad store naming the
 store, the field and what was expected (stderr); exit status 2 if any store is bad.
+A store imported with ``--force`` despite an implausible set-up is valid, and its
+stored warning is repeated on stderr.
 """
 
 from __future__ import annotations
@@ -34,4 +36,6 @@ def run(args) -> int:
             bad += 1
             continue
         print(f"ok {store} ({f.attrs['target']}, {len(f.iq)} pulses, {f.duration_s:.2f} s)")
+        for w in f.attrs.get("plausibility_warnings") or []:
+            print(f"warning: {store}: imported with --force despite an implausible set-up: {w}", file=sys.stderr)
     return 2 if bad else 0

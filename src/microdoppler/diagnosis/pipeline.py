@@ -122,33 +122,111 @@ def write_json(obj, path) -> Path:
     return Path(path)
 
 
+#: columns of the one-row-per-flight table written beside the report (:func:`report_table`)
+TABLE_COLUMNS = ("flight_id", "cause", "causes", "params", "log_evalues", "not_testable", "goodness_of_fit",
+                 "excess_db", "band_hz", "reason", "hint", "plausibility_warnings")
+#: hints for a skip reason: what the user can do about it
+SKIP_HINTS = {
+    "no motor log": "import the recording with `microdoppler import --estimate-motors` to estimate its rotor "
+                    "speeds from the radar (pipeline: measurements.estimate_missing_motor_logs: true), or give "
+                    "its log with --motor-log",
+}
+
+
+def table_path(out_json) -> Path:
+    """The table written beside the report: ``report.json`` -> ``report.csv``."""
+    return Path(out_json).with_suffix(".csv")
+
+
+def skip_hint(reason: str | None) -> str:
+    """What to do about a skip ``reason`` ("" where there is no hint)."""
+    return SKIP_HINTS.get(str(reason or ""), "")
+
+
+def plausibility_warnings(flight) -> list[str]:
+    """The warnings a ``--force`` import stored with the set-up it found implausible."""
+    w = flight.attrs.get("plausibility_warnings") or []
+    return [str(x) for x in w] if isinstance(w, list) else [str(w)]
+
+
+def _flat(x) -> str:
+    return json.dumps(x, separators=(",", ":"), sort_keys=False)
+
+
+def report_row(entry: dict, *, warnings=()) -> dict:
+    """One report entry as a row of :data:`TABLE_COLUMNS`: the causes (``;``), each
+    cause's parameters (compact JSON ``{cause: params}``) and log e-value, the causes
+    not testable (``cause: reason``, ``;``), the goodness of fit (``explained`` or
+    ``excess``, its worst band's level and band), the skip reason with its hint, and the
+    import's plausibility warnings (``warnings``)."""
+    causes = entry.get("causes") or []
+    gof = (entry.get("evidence") or {}).get("goodness_of_fit") or {}
+    skipped = entry.get("cause") == "skipped"
+    return {
+        "flight_id": entry["flight_id"], "cause": entry["cause"],
+        "causes": ";".join(c["cause"] for c in causes),
+        "params": _flat({c["cause"]: (c.get("extension") or c).get("params") for c in causes}) if causes else "",
+        "log_evalues": ";".join(f"{c['cause']}={c['evidence']['log_evalue']}" for c in causes
+                                if "log_evalue" in (c.get("evidence") or {})),
+        "not_testable": ";".join(f"{k}: {v}" for k, v in (entry.get("not_testable") or {}).items()),
+        "goodness_of_fit": "" if skipped or not gof else ("excess" if gof.get("excess") else "explained"),
+        "excess_db": "" if gof.get("excess_db") is None else gof["excess_db"],
+        "band_hz": "" if gof.get("band_hz") is None else _flat(gof["band_hz"]),
+        "reason": entry.get("reason", ""), "hint": skip_hint(entry.get("reason")) if skipped else "",
+        "plausibility_warnings": ";".join(warnings),
+    }
+
+
+def write_table(rows: list[dict], path) -> Path:
+    """Write ``rows`` (:func:`report_row`) as CSV, atomically."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=TABLE_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    with atomic_file(path) as tmp:
+        tmp.write_text(buf.getvalue())
+    return Path(path)
+
+
 def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None,
              log=print) -> dict:
-    """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``).
+    """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``)
+    and, beside it, the one-row-per-flight table (:func:`table_path`, :func:`report_row`).
 
     Every flight appears in the report: flights that cannot be diagnosed (birds,
     target-free recordings, Minis, drones without a usable motor log, too short, no
     visible rotor lines) with cause ``skipped`` and the ``reason``. A store that
     breaks the format is an error (:class:`InputError`). ``motor_logs`` maps
-    flight_id -> MotorLog (overrides the stores' own logs).
+    flight_id -> MotorLog (overrides the stores' own logs). A store's stored
+    plausibility warnings (an import with ``--force``) are repeated in the log and the
+    table.
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
-    entries = []
+    entries, rows = [], []
     for p in paths:
         f = read_flight(p)
+        warns = plausibility_warnings(f)
+        for w in warns:
+            log(f"{f.flight_id}: warning: imported despite an implausible set-up: {w}")
         ml = (motor_logs or {}).get(f.flight_id)
         fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
         try:
             e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
         except Undiagnosable as exc:
             e = skipped_entry(f.flight_id, exc.reason)
-            log(f"{f.flight_id}: skipped: {exc.reason}")
+            hint = skip_hint(exc.reason)
+            log(f"{f.flight_id}: skipped: {exc.reason}" + (f" (hint: {hint})" if hint else ""))
         else:
             named = "; ".join(f"{c['cause']} {(c.get('extension') or c).get('params')}" for c in e["causes"]) or "none"
             log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
+        rows.append(report_row(e, warnings=warns))
     report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}
     write_json(report, out_json)
+    write_table(rows, table_path(out_json))
     return report
 
 

@@ -9,12 +9,14 @@ from pathlib import Path
 from ..errors import InputError
 from .flightzarr import Flight
 from .fmcw_files import import_fmcw
+from .plausibility import check_setup, mark
 from .recordings import _level_value, import_slow_time, wants_fmcw
 
 
 def import_recording(path, *, options: dict | None = None, sidecar: dict | None = None,
                      layout: str | None = None, variable: str | None = None,
-                     default_flight_id: str | None = None, background=None) -> tuple[Flight, list[str]]:
+                     default_flight_id: str | None = None, background=None,
+                     force: bool = False) -> tuple[Flight, list[str]]:
     """Read ``path`` and return ``(flight, warnings)``.
 
     ``options`` and ``sidecar`` map keys of
@@ -29,6 +31,11 @@ def import_recording(path, *, options: dict | None = None, sidecar: dict | None 
 
     A raw FMCW cube (FMCW parameters given, or a file that states them) is turned into
     the target's slow time and track first (:func:`~microdoppler.io.fmcw_files.import_fmcw`).
+
+    The declared set-up is checked against physics and the recording
+    (:func:`~microdoppler.io.plausibility.check_setup`): an implausible one raises
+    :class:`InputError`, or with ``force`` is kept with the warnings in the flight's
+    ``plausibility_warnings`` attribute (and in the warnings returned).
     """
     options, sidecar = dict(options or {}), dict(sidecar or {})
     if layout is None:
@@ -42,7 +49,11 @@ def import_recording(path, *, options: dict | None = None, sidecar: dict | None 
         if layout is not None:
             raise InputError(path, "--layout", f"is {layout!r} for an FMCW cube",
                              "no --layout (a real cube is a real beat signal, a complex one I/Q)")
-        return import_fmcw(path, *read, options=options, sidecar=sidecar, variable=variable,
-                           default_flight_id=default_flight_id, background=background, noise_s=noise_s)
-    return import_slow_time(path, read, options=options, sidecar=sidecar, layout=layout, variable=variable,
-                            default_flight_id=default_flight_id, background=background, noise_s=noise_s)
+        flight, warns = import_fmcw(path, *read, options=options, sidecar=sidecar, variable=variable,
+                                    default_flight_id=default_flight_id, background=background, noise_s=noise_s)
+    else:
+        flight, warns = import_slow_time(path, read, options=options, sidecar=sidecar, layout=layout,
+                                         variable=variable, default_flight_id=default_flight_id,
+                                         background=background, noise_s=noise_s)
+    implausible = check_setup(path, flight.attrs, len(flight.iq), force=force)
+    return mark(flight, implausible), warns + implausible

@@ -677,11 +677,19 @@ def missing_parameter(rec: Recording, key: str) -> InputError:
                       f"{OPTION[key]} or the sidecar key {key}")
 
 
-def check_required(rec: Recording, params: dict) -> None:
+def check_required(rec: Recording, params: dict, *, track_missing: bool = False) -> None:
+    """Raise one :class:`InputError` naming every required parameter that is missing
+    (and the track, where ``track_missing`` and a parameter is missing too)."""
     need = REQUIRED + (DRONE_REQUIRED if params.get("target") == "drone" else ())
-    for key in need:
-        if key not in params:
-            raise missing_parameter(rec, key)
+    missing = [key for key in need if key not in params]
+    if len(missing) == 1 and not track_missing:
+        raise missing_parameter(rec, missing[0])
+    if missing:
+        first = missing_parameter(rec, missing[0])
+        opts = [OPTION[k] for k in missing] + (["--track CSV or --range-m"] if track_missing else [])
+        raise InputError(rec.path, ", ".join(missing + (["track"] if track_missing else [])),
+                         f"missing{first.problem[len('missing'):]}",
+                         f"{', '.join(opts)} or the sidecar keys {', '.join(missing)}")
 
 
 # ---- tracks -----------------------------------------------------------------------------
@@ -813,6 +821,11 @@ def explicit_track(options: dict, sidecar: dict, duration_s: float) -> dict | No
     return None
 
 
+def explicit_track_given(options: dict, sidecar: dict) -> bool:
+    """Whether the options or the sidecar give a track (``track`` or ``range_m``)."""
+    return any(lv.get(k, (None,))[0] is not None for lv in (options, sidecar) for k in ("track", "range_m"))
+
+
 def read_arrays(path: Path) -> tuple[str, dict]:
     """The named arrays of an ``.npy`` (one, named ``array``), ``.npz`` or ``.mat`` file,
     and its format (``npy``, ``npz``, ``mat-v5``, ``mat-v7.3``)."""
@@ -861,7 +874,9 @@ def import_slow_time(path, read, *, options: dict, sidecar: dict, layout: str | 
         rec = recording_from_arrays(path, *read, variable=variable, layout=layout)
     params, sources, warns = resolve_parameters(rec, options, sidecar)
     set_flight_id(rec, params, sources, default_flight_id)
-    check_required(rec, params)
+    no_track = (not explicit_track_given(options, sidecar) and rec.track is None
+                and "range_m" not in rec.metadata)
+    check_required(rec, params, track_missing=no_track)
     duration = len(rec.iq) / float(params["prf_hz"])
     track = explicit_track(options, sidecar, duration)
     if track is not None and rec.track is not None:

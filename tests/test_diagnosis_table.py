@@ -1,0 +1,85 @@
+"""The one-row-per-flight table that ``diagnose`` writes beside ``report.json``, the
+hint of a skipped flight and the repetition of an import's plausibility warning."""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import replace
+
+import pytest
+
+from conftest import one_line, run_cli
+from microdoppler.diagnosis.pipeline import TABLE_COLUMNS
+from microdoppler.emulator.world import FlightSpec, emulate_flight
+from microdoppler.io.flightzarr import write_flight
+
+
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory):
+    d = tmp_path_factory.mktemp("diag_table")
+    spec = FlightSpec("tab01", "drone", drone_model="inspire2", duration_s=12.0, snr_db=40.0,
+                      effects={"sideband_asymmetry": {"asymmetry_db": 5.0}}, seed=20261121)
+    flight, _ = emulate_flight(spec)
+    nolog = replace(flight, attrs={**flight.attrs, "flight_id": "nolog1",
+                                   "plausibility_warnings": ["prf_hz: a stored warning"]},
+                    motors_time_s=None, motors_rpm=None)
+    return [write_flight(d / f"{f.flight_id}.zarr", f) for f in (flight, nolog)]
+
+
+def test_diagnose_writes_a_table_whose_rows_are_the_reports_flights(tmp_path, stores, capsys):
+    from microdoppler.cli import main
+
+    out = tmp_path / "report.json"
+    rc = main(["diagnose", *map(str, stores), "--out", str(out)])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    rep = json.loads(out.read_text())
+    assert out.read_text() == json.dumps(rep, indent=1)  # the report as before: no table in it
+    with open(tmp_path / "report.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert tuple(rows[0]) == TABLE_COLUMNS
+    assert [r["flight_id"] for r in rows] == [e["flight_id"] for e in rep["flights"]] == ["tab01", "nolog1"]
+    e, r = rep["flights"][0], rows[0]
+    assert r["cause"] == e["cause"] == "sideband_asymmetry"
+    assert r["causes"].split(";") == [c["cause"] for c in e["causes"]]
+    assert json.loads(r["params"]) == {c["cause"]: (c.get("extension") or c)["params"] for c in e["causes"]}
+    assert r["log_evalues"].split(";")[0] == f"sideband_asymmetry={e['causes'][0]['evidence']['log_evalue']}"
+    assert r["not_testable"] == ";".join(f"{k}: {v}" for k, v in e["not_testable"].items())
+    gof = e["evidence"]["goodness_of_fit"]
+    assert r["goodness_of_fit"] == ("excess" if gof["excess"] else "explained")
+    assert r["reason"] == r["hint"] == r["plausibility_warnings"] == ""
+    s = rows[1]
+    assert s["cause"] == "skipped" and s["reason"] == rep["flights"][1]["reason"] == "no motor log"
+    assert "microdoppler import --estimate-motors" in s["hint"]
+    assert s["params"] == s["goodness_of_fit"] == ""
+    assert s["plausibility_warnings"] == "prf_hz: a stored warning"
+    # the terminal: the hint with the skip, the stored warning repeated
+    assert "nolog1: skipped: no motor log (hint: import the recording with `microdoppler import --estimate-motors`" \
+        in cap.err
+    assert "nolog1: warning: imported despite an implausible set-up: prf_hz: a stored warning" in cap.err
+
+    # a second run replaces the tool's own table only with --overwrite
+    rc, err = run_cli(capsys, ["diagnose", stores[1], "--out", out])
+    one_line(rc, err, "report", "already exists")
+    rc, err = run_cli(capsys, ["diagnose", stores[1], "--out", out, "--overwrite"])
+    assert rc == 0, err
+    with open(tmp_path / "report.csv", newline="") as fh:
+        assert [r["flight_id"] for r in csv.DictReader(fh)] == ["nolog1"]
+
+
+def test_diagnose_never_replaces_a_csv_it_did_not_write(tmp_path, stores, capsys):
+    (tmp_path / "report.csv").write_text("my,own\n1,2\n")
+    rc, err = run_cli(capsys, ["diagnose", stores[1], "--out", tmp_path / "report.json", "--overwrite"])
+    one_line(rc, err, "report.csv", "not a table this tool wrote")
+    assert (tmp_path / "report.csv").read_text() == "my,own\n1,2\n"
+    assert not (tmp_path / "report.json").exists()
+
+
+def test_validate_repeats_the_stored_plausibility_warning(stores, capsys):
+    from microdoppler.cli import main
+
+    rc = main(["validate", "--quick", str(stores[1])])
+    cap = capsys.readouterr()
+    assert rc == 0 and cap.out.startswith("ok ")
+    assert "imported with --force despite an implausible set-up: prf_hz: a stored warning" in cap.err
