@@ -9,14 +9,27 @@ not in one line (docs/campaign.md).
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
-import pandas as pd
 import pytest
+import yaml
 
 from any_radar import draw_case, make_recording
+from microdoppler.classifier import TrainConfig, train
+from microdoppler.classifier.data import toy_tiles
 from microdoppler.diagnosis import DiagnosisConfig
 from microdoppler.diagnosis.measure import Undiagnosable, check_diagnosable
+from microdoppler.errors import InputError
+from microdoppler.io.flightzarr import write_flight
+from microdoppler.io.inventory import missing_class_note
 from microdoppler.io.motorlog import MotorLog
+
+REPO = Path(__file__).resolve().parents[1]
+SNAKEMAKE = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
 
 
 def _recording(duration_s: float, prf_hz: float = 2000.0):
@@ -60,3 +73,69 @@ def test_too_short_flight_says_the_minimum_in_seconds(duration_s, min_duration_s
     assert reason.startswith(f"flight too short: iq: has {len(flight.iq)} pulses at 2000 Hz = {duration_s:g} s")
     assert expect in reason, reason
     assert exc.value.field == "iq"
+
+
+# ---------------------------------------------------------------- a campaign without birds
+
+def _drone_campaign(folder, n: int = 2):
+    """``n`` short drone recordings of tests/any_radar.py as flight-zarr stores."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for k in range(n):
+        flight, _ = make_recording(draw_case(20 + k, duration_s=0.5, prf_hz=2000.0))
+        write_flight(folder / f"{flight.flight_id}.zarr", flight)
+    return folder
+
+
+def test_no_bird_flights_note(tmp_path):
+    folder = _drone_campaign(tmp_path / "measured")
+    assert missing_class_note(folder) == (
+        f"classifier left out: the campaign in {folder} has no bird flights (2 drone flights); "
+        "add bird recordings to train a bird/drone classifier")
+    assert missing_class_note(folder, {"a": "drone", "b": "bird", "c": "none"}) == ""
+
+
+def test_training_on_one_class_is_refused_in_one_line():
+    tiles = toy_tiles(24, seed=3)
+    drones = tiles.subset(tiles.labels["target"] == "drone")
+    with pytest.raises(InputError) as exc:
+        train(drones, drones, TrainConfig(max_epochs=1), seed=1)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"training set: train.target: has drone tiles only ({len(drones)} tiles of ")
+    assert msg.endswith("(expected tiles of both classes, bird and drone: add bird recordings to train a bird/drone "
+                        "classifier)")
+
+
+def _snakemake_dry(work, *targets):
+    return subprocess.run([SNAKEMAKE, "-n", *targets, "-s", str(REPO / "Snakefile"), "-d", str(work),
+                           "--configfile", "config.yaml"], cwd=work, capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def drone_only_workdir(tmp_path_factory):
+    work = tmp_path_factory.mktemp("campaign")
+    _drone_campaign(work / "measured")
+    cfg = yaml.safe_load((REPO / "config/config.yaml").read_text())
+    cfg["measurements"].update(source="directory", directory="measured")
+    cfg["figures"]["ulog"] = str((REPO / cfg["figures"]["ulog"]).resolve())
+    (work / "config.yaml").write_text(yaml.safe_dump(cfg))
+    return work
+
+
+def test_campaign_without_birds_leaves_the_classifier_out(drone_only_workdir):
+    r = _snakemake_dry(drone_only_workdir)
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = r.stdout + r.stderr
+    note = ("classifier left out: the campaign in measured has no bird flights (2 drone flights); "
+            "add bird recordings to train a bird/drone classifier")
+    assert out.count(note) == 1, out[-3000:]
+    for rule in ("train_classifier", "evaluate_classifier", "report_metrics"):
+        assert f"rule {rule}:" not in out and f"\n{rule} " not in out
+    for rule in ("diagnose_flights", "report_fidelity", "synthesize_flights"):
+        assert rule in out
+
+
+def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone_only_workdir):
+    r = _snakemake_dry(drone_only_workdir, "results/reports/table_v.csv")
+    assert r.returncode != 0
+    assert "classifier left out: the campaign in measured has no bird flights (2 drone flights)" in r.stderr
