@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
 
@@ -139,3 +140,53 @@ def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone
     r = _snakemake_dry(drone_only_workdir, "results/reports/table_v.csv")
     assert r.returncode != 0
     assert "classifier left out: the campaign in measured has no bird flights (2 drone flights)" in r.stderr
+
+
+# ---------------------------------------------------------------- a fidelity table that cannot be formed
+
+def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
+    """Drone flights without twins (no background recording; no motor log; a model no
+    twin is made of): Table VI has no rows, the log and fidelity_left_out.csv name each
+    flight with its reason in one line, and the figure is one panel saying why."""
+    from dataclasses import replace
+
+    from microdoppler.datasets.fidelity import write_fidelity_report
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.injection import INJECTED_SCHEMA
+    from microdoppler.datasets.stores import writing_store
+    from microdoppler.io.inventory import ingest_flight_logs
+
+    measured = tmp_path / "measured"
+    measured.mkdir()
+    for k, (model, with_log) in enumerate([("own_quad", True), ("own_quad", False), ("mini2", True)]):
+        flight, truth = make_recording(draw_case(40 + k, duration_s=3.0, prf_hz=4000.0))
+        rpm = (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32)
+        flight = replace(flight, attrs={**flight.attrs, "flight_id": f"c{k}", "drone_model": model},
+                         motors_time_s=np.asarray(truth["time_s"], float) if with_log else None,
+                         motors_rpm=rpm if with_log else None)
+        write_flight(measured / f"c{k}.zarr", flight)
+    logs = tmp_path / "motors" / "logs.zarr"
+    ingest_flight_logs(measured, logs, tmp_path / "motors" / "ingest.csv", log=lambda m: None)
+    injected = {}
+    for v in ("sub_cpi", "extended"):
+        injected[v] = tmp_path / "injected" / f"{v}.zarr"
+        with writing_store(injected[v], {"schema": INJECTED_SCHEMA, "variant": v}):
+            pass
+    lines = []
+    out = tmp_path / "reports"
+    table = write_fidelity_report(measured, logs, injected, out / "table_vi.csv", out / "fig_fidelity.png",
+                                  out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
+                                                                                                 log=lambda m: None),
+                                  left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
+    assert table.empty and pd.read_csv(out / "table_vi.csv").empty
+    left = pd.read_csv(out / "fidelity_left_out.csv").set_index("flight_id")
+    assert left.loc["c0", "reason"] == "no background recording (background/iq): no twin can be injected"
+    assert left.loc["c1", "reason"] == "no motor log (neither in the store nor in the flights table)"
+    assert left.loc["c2", "reason"].startswith("no twins of drone model 'mini2': twins are made of inspire2, "
+                                               "matrice300 and of drone models")
+    assert (left.variants == "sub_cpi extended").all()
+    for fid in ("c0", "c1", "c2"):
+        assert f"{fid}: left out of Table VI (sub_cpi extended): {left.loc[fid, 'reason']}" in lines
+    assert lines[-1] == ("Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
+                         "(3 drone flights left out, reasons above)")
+    assert (out / "fig_fidelity.png").stat().st_size > 0
