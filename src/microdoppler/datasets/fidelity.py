@@ -697,6 +697,10 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
     if table.empty:
         log(f"Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
             f"({left.flight_id.nunique()} drone flights left out, reasons above)")
+    elif len(per_flight):
+        for m in DISTANCES:
+            if not np.isfinite(per_flight[m].to_numpy(float)).any():
+                log(f"Table VI: {m} was measured on no flight's held-out CPIs (its columns are empty)")
     outputs = [(per_flight, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
     for df, path in outputs:
         with atomic_file(path) as tmp:
