@@ -144,16 +144,12 @@ def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone
 
 # ---------------------------------------------------------------- a fidelity table that cannot be formed
 
-def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
-    """Drone flights without twins (no background recording; no motor log; a model no
-    twin is made of): Table VI has no rows, the log and fidelity_left_out.csv name each
-    flight with its reason in one line, and the figure is one panel saying why."""
+def _own_campaign(tmp_path):
+    """Three drone flights of tests/any_radar.py (no background recording): c0 of a
+    model of one's own with a motor log, c1 of the same model without, c2 a Mini 2
+    with a log; their logs ingested. Returns (measured folder, logs store)."""
     from dataclasses import replace
 
-    from microdoppler.datasets.fidelity import write_fidelity_report
-    from microdoppler.datasets.imaging import spectrogram_for_flights
-    from microdoppler.datasets.injection import INJECTED_SCHEMA
-    from microdoppler.datasets.stores import writing_store
     from microdoppler.io.inventory import ingest_flight_logs
 
     measured = tmp_path / "measured"
@@ -167,6 +163,37 @@ def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
         write_flight(measured / f"c{k}.zarr", flight)
     logs = tmp_path / "motors" / "logs.zarr"
     ingest_flight_logs(measured, logs, tmp_path / "motors" / "ingest.csv", log=lambda m: None)
+    return measured, logs
+
+
+def test_a_drone_model_of_ones_own_gets_twin_speeds(tmp_path):
+    """Twins are made of a drone model the catalog does not hold (not of the Mini 2);
+    fixed_speeds draws around its flights' median logged speed."""
+    from microdoppler.datasets.speeds import build_speeds
+    from microdoppler.datasets.stores import flight_ids, open_store
+    from microdoppler.io.inventory import read_ingested_log
+
+    measured, logs = _own_campaign(tmp_path)
+    status = build_speeds(measured, logs, tmp_path / "fixed.zarr", variant="fixed_speeds", settings={"spread": 0.1},
+                          n_fft=4096, seed=7, log=lambda m: None)
+    assert list(status.flight_id) == ["c0", "c1"]
+    assert status.set_index("flight_id").status.to_dict() == {"c0": "ok", "c1": "skipped"}
+    root = open_store(tmp_path / "fixed.zarr", "speeds/2")
+    assert flight_ids(root) == ["c0"]
+    typical = float(np.median(read_ingested_log(logs, "c0").rev_s))
+    assert abs(root["c0"].attrs["fixed_rev_s"] / typical - 1) <= 0.1
+
+
+def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
+    """Drone flights without twins (no background recording; no motor log; a model no
+    twin is made of): Table VI has no rows, the log and fidelity_left_out.csv name each
+    flight with its reason in one line, and the figure is one panel saying why."""
+    from microdoppler.datasets.fidelity import write_fidelity_report
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.injection import INJECTED_SCHEMA
+    from microdoppler.datasets.stores import writing_store
+
+    measured, logs = _own_campaign(tmp_path)
     injected = {}
     for v in ("sub_cpi", "extended"):
         injected[v] = tmp_path / "injected" / f"{v}.zarr"
