@@ -423,7 +423,7 @@ def oddity_rise_db(p: dict, flight, nominal_snr_db: float) -> dict | None:
     except Undiagnosable:
         return None
     twin = _make({**p, "oddities": {}}, nominal_snr_db)
-    other = stft_power(twin.iq, twin.prf_hz, cfg.n_fft)
+    other = stft_power(twin.iq, twin.prf_hz, cfg.cpi_pulses(twin.prf_hz))
     use = np.flatnonzero(M.valid)
     a = g["_band_args"]
     with warnings.catch_warnings():

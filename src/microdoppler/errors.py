@@ -28,10 +28,11 @@ class ConfigError(InputError):
 def check_config_keys(config: dict, schema: dict, source="config") -> None:
     """Reject a configuration key that its schema does not define.
 
-    Every mapping of ``config`` whose schema lists ``properties`` (and does not give
-    ``additionalProperties`` a schema of its own, as a mapping keyed by variant does)
-    may hold only those keys: a typo such as ``classifier.lerning_rate`` is an error
-    instead of a silently ignored setting.
+    Every mapping of ``config`` whose schema lists ``properties`` may hold only those
+    keys: a typo such as ``classifier.lerning_rate`` is an error instead of a silently
+    ignored setting. A section whose schema gives ``additionalProperties`` a schema of
+    its own (a mapping keyed by variant) or sets it to ``true`` (a section whose
+    library class checks its own keys, such as ``diagnosis``) is left to that.
 
     Parameters
     ----------
@@ -61,7 +62,8 @@ def check_config_keys(config: dict, schema: dict, source="config") -> None:
 
     def walk(cfg, sch, path):
         props = sch.get("properties")
-        if not isinstance(cfg, dict) or props is None or isinstance(sch.get("additionalProperties"), dict):
+        open_ = sch.get("additionalProperties")
+        if not isinstance(cfg, dict) or props is None or isinstance(open_, dict) or open_ is True:
             return
         for key, value in cfg.items():
             where = f"{path}.{key}" if path else str(key)

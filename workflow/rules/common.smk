@@ -5,15 +5,18 @@ import sys
 from pathlib import Path
 
 import yaml
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import validate
 
 import microdoppler
 import microdoppler.codeversion
+import microdoppler.diagnosis.pipeline
 import microdoppler.errors
 
 SCHEMA = Path(workflow.current_basedir).parent / "schemas" / "config.schema.yaml"
 try:  # an unknown key (a typo) is an error, in one line naming it and its section
     microdoppler.errors.check_config_keys(config, yaml.safe_load(SCHEMA.read_text()))
+    microdoppler.diagnosis.pipeline.split_settings(config.get("diagnosis"))
 except microdoppler.errors.ConfigError as exc:
     sys.exit(f"error: {exc}")
 validate(config, schema="../schemas/config.schema.yaml")
@@ -165,8 +168,26 @@ SEEDS = [int(s) for s in CLASSIFIER.get("seeds", list(range(1, 10)))]
 CLASSIFIER_GPUS = 1 if CLASSIFIER.get("architecture") == "alexnet" else 0
 
 
+def classifier_note():
+    """Why a campaign of your own cannot train the bird/drone classifier, or ''.
+
+    One line (microdoppler.io.inventory.missing_class_note); the emulated world has both classes.
+    """
+    if MEASURED_SOURCE != "directory" or not Path(MEASURED_DIR).is_dir():
+        return ""
+    from microdoppler.io.inventory import missing_class_note
+
+    return missing_class_note(MEASURED_DIR)
+
+
+CLASSIFIER_NOTE = classifier_note()
+
+
 def classifier_tiles(wildcards):
     """Tile stores a training set needs: the measured one, plus the variant's twins."""
+    if CLASSIFIER_NOTE:
+        # a classifier target asked for explicitly: fail before any job runs
+        raise WorkflowError(CLASSIFIER_NOTE)
     stores = {"real": "results/tiles/real.zarr"}
     if wildcards.trainset != "real":
         stores["variant"] = f"results/tiles/{wildcards.trainset}.zarr"
@@ -198,7 +219,10 @@ def all_targets():
     targets = ["results/motors/ingest.csv"]
     targets += figure_targets()
     targets += dataset_targets()
-    targets += classifier_targets()
+    if not CLASSIFIER_NOTE:
+        targets += classifier_targets()
+    elif workflow.is_main_process:
+        print(CLASSIFIER_NOTE, file=sys.stderr)
     targets += ["results/diagnosis/report.json", "results/diagnosis/extended.yaml"]
     targets += ["results/reports/table_vi.csv", "results/reports/fig_fidelity.png"]
     return targets

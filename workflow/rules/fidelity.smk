@@ -18,6 +18,7 @@ rule report_fidelity:
             category="Twin fidelity",
         ),
         flights="results/reports/fidelity_flights.csv",
+        left_out="results/reports/fidelity_left_out.csv",
     log:
         "results/logs/report_fidelity.log",
     benchmark:

@@ -25,5 +25,6 @@ with log_to(snakemake.log[0]):
         cfg=cfg,
         n_boot=settings["n_boot"],
         seed=settings["seed"],
+        left_out_csv=snakemake.output.left_out,
     )
     print(table.to_string())

@@ -227,6 +227,18 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     logger = logger or log
     if len(train_set) == 0:
         raise InputError("training set", "train", "has no tiles", "at least one training tile")
+    classes = set(train_set.labels["target"])
+    if len(classes) < 2:
+        only = ", ".join(sorted(map(str, classes)))
+        missing = " and ".join(c for c in ("bird", "drone") if c not in classes)
+        raise InputError("training set", "train.target",
+                         f"has {only} tiles only ({len(train_set)} tiles of "
+                         f"{train_set.labels['flight_id'].nunique()} flights)",
+                         f"tiles of both classes, bird and drone: add {missing} recordings to train a bird/drone "
+                         "classifier")
+    if len(val_set) and len(set(val_set.labels["target"])) < 2:
+        logger.warning("the validation tiles hold one class only (%s): validation accuracy measures that class alone",
+                       ", ".join(sorted(map(str, set(val_set.labels["target"])))))
     if len(val_set) == 0:
         logger.warning("no validation tiles: validation loss/accuracy are NaN, the stopping rule never fires "
                        "and the kept epoch maximises training accuracy alone")

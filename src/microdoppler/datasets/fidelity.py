@@ -62,13 +62,14 @@ from scipy.signal.windows import blackmanharris
 from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
+from .split import TWIN_MODELS, twin_model
 from .stores import flight_ids, open_store
 from ..diagnosis.config import RAISED_FLOOR_DB
 from ..diagnosis.hypotheses import folds, non_multiple_observations
 from ..diagnosis.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
 from ..errors import InputError
 from ..io.flightzarr import read_flight
-from ..io.inventory import read_ingested_log
+from ..io.inventory import list_flights, read_ingested_log
 from ..io.outputs import atomic_file
 from ..spectra.snr import noise_floor_db
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram
@@ -562,19 +563,106 @@ def _extension_sources(per_flight: pd.DataFrame, flights: list) -> list[tuple[st
     return [(s, src == s) for s in sorted(names, key=lambda s: (order.get(s, 9), s))]
 
 
-def plot_fidelity(table: pd.DataFrame, path) -> None:
-    """Per distance, the mean and 95 % interval of every variant (Table VI's first rows)."""
+#: columns of the flights Table VI leaves out (``results/reports/fidelity_left_out.csv``)
+LEFT_OUT_COLUMNS = ["flight_id", "drone_model", "variants", "reason"]
+
+
+def _ingest_reasons(logs_zarr) -> dict[str, str]:
+    """flight_id -> why the motor-log ingest skipped it (``ingest.csv`` beside the logs)."""
+    path = Path(logs_zarr).parent / "ingest.csv"
+    if not path.exists():
+        return {}
+    df = pd.read_csv(path, dtype={"flight_id": str}, keep_default_na=False)
+    if "reason" not in df.columns:
+        return {}
+    return {r.flight_id: str(r.reason) for r in df.itertuples() if str(r.reason)}
+
+
+def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame) -> pd.DataFrame:
+    """The drone flights that Table VI does not score, with the reason (one row per
+    flight and reason; ``variants``: the variants it applies to, space-separated).
+
+    Reasons: no twins are made of the flight's drone model (:func:`.split.twin_model`);
+    no motor log; no background recording to inject a twin into; no twin in the
+    variant's store; no held-out CPI; no feature measurable on the held-out CPIs."""
+    flights = list_flights(measured_dir)
+    drones = flights[flights.target == "drone"]
+    ingest = _ingest_reasons(logs_zarr)
+    logged = set()
+    if Path(logs_zarr).exists():
+        logged = {fid for fid in drones.flight_id if read_ingested_log(logs_zarr, fid) is not None}
+    scored = per_flight.set_index(["flight_id", "variant"]) if len(per_flight) else None
+    stores = {v: set(flight_ids(open_store(path, INJECTED_SCHEMA))) for v, path in injected.items()}
+    reasons: dict[tuple[str, str], list[str]] = {}
+    for fl in drones.itertuples():
+        for v in injected:
+            if not twin_model(fl.drone_model):
+                why = (f"no twins of drone model {fl.drone_model or '(none)'!r}: twins are made of "
+                       f"{', '.join(TWIN_MODELS)} and of drone models the catalog does not hold")
+            elif fl.flight_id not in logged:
+                why = ingest.get(fl.flight_id) or "no motor log (not in the ingested logs)"
+            elif not fl.has_background:
+                why = "no background recording (background/iq): no twin can be injected"
+            elif fl.flight_id not in stores[v]:
+                why = f"no twin in the {v} store"
+            else:
+                key = (fl.flight_id, v)
+                row = scored.loc[key] if scored is not None and key in scored.index else None
+                if row is None or int(row["n_cpis_scored"]) == 0:
+                    why = "no held-out CPI to score (the calibration fitted every CPI)"
+                elif not np.isfinite(row[list(DISTANCES)].to_numpy(float)).any():
+                    why = "no feature measurable on the held-out CPIs"
+                else:
+                    continue
+            reasons.setdefault((fl.flight_id, fl.drone_model, why), []).append(v)
+    rows = [{"flight_id": fid, "drone_model": model, "variants": " ".join(vs), "reason": why}
+            for (fid, model, why), vs in reasons.items()]
+    return pd.DataFrame(rows, columns=LEFT_OUT_COLUMNS)
+
+
+def _note_panel(ax, lines: list[str]) -> None:
+    ax.set_axis_off()
+    ax.text(0.02, 0.98, "\n".join(lines), va="top", ha="left", fontsize=9, family="monospace",
+            transform=ax.transAxes, wrap=True)
+
+
+def plot_fidelity(table: pd.DataFrame, path, *, left_out: pd.DataFrame | None = None) -> None:
+    """Per distance, the mean and 95 % interval of every variant (Table VI's first rows).
+
+    Never an empty panel: with no variant scored, one panel says why (the flights
+    ``left_out``, :func:`left_out_flights`); a distance no flight has is a panel that
+    says so."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     t = table[~table["variant"].str.contains(" - ")]
+    if t.empty:
+        fig, ax = plt.subplots(figsize=(9.0, 4.0))
+        lines = ["Table VI could not be formed: no drone flight has a twin scored on held-out CPIs."]
+        if left_out is not None and len(left_out):
+            lines += ["", "Flights left out:"]
+            shown = left_out.head(12)
+            lines += [f"  {r.flight_id}: {r.reason}" for r in shown.itertuples()]
+            if len(left_out) > len(shown):
+                lines.append(f"  ... and {len(left_out) - len(shown)} more (fidelity_left_out.csv)")
+        else:
+            lines.append("The campaign holds no drone flight.")
+        _note_panel(ax, lines)
+        with atomic_file(path) as tmp:
+            fig.savefig(tmp, dpi=110)
+        plt.close(fig)
+        return
     n_col = int(np.ceil(len(DISTANCES) / 2))
     fig, axes = plt.subplots(2, n_col, figsize=(3.25 * n_col, 5.5), squeeze=False)
     x = np.arange(len(t))
     for ax, (m, unit) in zip(axes.ravel(), DISTANCES.items()):
         mean = t[f"{m}_mean"].to_numpy(float)
+        if not np.isfinite(mean).any():
+            ax.set_title(f"|Δ {m}| [{unit}]", fontsize=9)
+            _note_panel(ax, ["no flight has", f"{m} measured", "on held-out CPIs"])
+            continue
         err = np.abs(np.vstack([mean - t[f"{m}_ci95_low"].to_numpy(float), t[f"{m}_ci95_high"].to_numpy(float) - mean]))
         ax.errorbar(x, mean, yerr=np.nan_to_num(err), fmt="o", color="black", capsize=3)
         ax.set_xticks(x, t["variant"], rotation=30, fontsize=8)
@@ -592,15 +680,30 @@ def plot_fidelity(table: pd.DataFrame, path) -> None:
 
 def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, figure_png, flights_csv, *,
                           spec_cfg: SpectrogramConfig, cfg: FidelityConfig = FidelityConfig(), n_boot: int = N_BOOT,
-                          seed: int = 0, log=print) -> pd.DataFrame:
+                          seed: int = 0, left_out_csv=None, log=print) -> pd.DataFrame:
     """Score every variant's injected twins (``injected``: variant -> store), write the
-    per-flight distances, Table VI and its figure; returns Table VI."""
+    per-flight distances, Table VI and its figure; returns Table VI.
+
+    The drone flights left out (:func:`left_out_flights`) are logged one line each
+    with the reason and written to ``left_out_csv``; a Table VI without rows is
+    logged with why, and its figure is a panel that says so."""
     cache: dict = {}
     per_flight = pd.concat([score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache,
                                           log=log) for v, path in injected.items()], ignore_index=True)
     table = fidelity_table(per_flight, n_boot=n_boot, seed=seed)
-    for df, path in ((per_flight, flights_csv), (table, table_csv)):
+    left = left_out_flights(measured_dir, logs_zarr, injected, per_flight)
+    for r in left.itertuples():
+        log(f"{r.flight_id}: left out of Table VI ({r.variants}): {r.reason}")
+    if table.empty:
+        log(f"Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
+            f"({left.flight_id.nunique()} drone flights left out, reasons above)")
+    elif len(per_flight):
+        for m in DISTANCES:
+            if not np.isfinite(per_flight[m].to_numpy(float)).any():
+                log(f"Table VI: {m} was measured on no flight's held-out CPIs (its columns are empty)")
+    outputs = [(per_flight, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
+    for df, path in outputs:
         with atomic_file(path) as tmp:
             df.to_csv(tmp, index=False, float_format="%.6g")
-    plot_fidelity(table, figure_png)
+    plot_fidelity(table, figure_png, left_out=left)
     return table

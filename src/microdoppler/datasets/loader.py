@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from .split import TWIN_MODELS
+from .split import TWIN_MODELS, twin_model
 from .tiles import read_tiles
 
 
@@ -62,10 +62,14 @@ def load_trainset(name: str, tiles_dir="results/tiles") -> tuple[TileSet, TileSe
     if not path.exists():
         raise InputError(path, "store", "does not exist", f"tiles of variant {name!r} (rule tile_spectrograms)")
     v_images, v_table = read_tiles(path)
-    if not set(v_table.drone_model) <= set(TWIN_MODELS) | {""}:
-        raise InputError(path, "labels.csv", f"has drone models {sorted(set(v_table.drone_model))}", f"only {TWIN_MODELS}")
+    models = {str(m) for m in set(v_table.drone_model) if isinstance(m, str) and m}
+    if not all(twin_model(m) for m in models):
+        raise InputError(path, "labels.csv", f"has drone models {sorted(models)}",
+                         f"only {TWIN_MODELS} or drone models of your own")
+    # the measured flights of every twinned model are replaced by their twins
+    twinned = set(TWIN_MODELS) | models
     out = []
     for s in ("train", "validation"):
-        keep = (table.set == s) & ~table.drone_model.isin(TWIN_MODELS)
+        keep = (table.set == s) & ~table.drone_model.isin(twinned)
         out.append(_concat(_part(images, table, keep, "real"), _part(v_images, v_table, v_table.set == s, name)))
     return out[0], out[1], parts["test"]

@@ -42,7 +42,7 @@ from ..errors import ConfigError, InputError
 from ..io.inventory import list_flights, read_ingested_log
 from ..synthesis.radar import DRONE_MODELS
 from .extended import twin_extensions
-from .split import TWIN_MODELS
+from .split import twin_model
 from .stores import open_store, put_array, stable_seed, writing_store
 
 SPEEDS_SCHEMA = "speeds/2"
@@ -119,8 +119,12 @@ def expand_speeds(form: str, knots_rev_s: np.ndarray, n_pulses: int, params: dic
 
 
 def resample_flight_compact(variant: str, log, n_pulses: int, prf_hz: float, drone_model: str, *,
-                            settings: dict, n_fft: int, seed: int) -> tuple[CompactSpeeds, dict]:
+                            settings: dict, n_fft: int, seed: int,
+                            typical_hz: float | None = None) -> tuple[CompactSpeeds, dict]:
     """Rotor rates of one flight for ``variant``, as knots (:class:`CompactSpeeds`).
+
+    ``typical_hz`` [rev/s]: the drone model's typical rotor speed that ``fixed_speeds``
+    draws around; None: the catalog's (:data:`~microdoppler.synthesis.radar.DRONE_MODELS`).
 
     Returns
     -------
@@ -136,7 +140,8 @@ def resample_flight_compact(variant: str, log, n_pulses: int, prf_hz: float, dro
     attrs = {"variant": variant, "sampling": base, "seed": seed}
     if base == "fixed_speeds":
         cfg = sampling.SamplingConfig(n_fft=n_fft, fixed_spread=float(settings.get("spread", 0.1)))
-        _, f = sampling.fixed_speeds(log.n_motors, 1, DRONE_MODELS[drone_model].typical_motor_hz, seed, cfg)
+        typical = DRONE_MODELS[drone_model].typical_motor_hz if typical_hz is None else float(typical_hz)
+        _, f = sampling.fixed_speeds(log.n_motors, 1, typical, seed, cfg)
         attrs["fixed_rev_s"] = f
         knots = np.full((1, log.n_motors), f, np.float32)
         return CompactSpeeds("hold", knots, n_pulses, {"hold_pulses": max(n_pulses, 1)}), attrs
@@ -213,6 +218,22 @@ def read_rev_s(group, source="speeds") -> np.ndarray:
     return expand_speeds(a.get("rev_s_form"), group["knots_rev_s"][...], int(a["n_pulses"]), a, source)
 
 
+def own_typical_hz(flights: pd.DataFrame, logs_zarr) -> dict[str, float]:
+    """Typical rotor speed [rev/s] of each drone model of ``flights`` that the catalog
+    does not hold (a drone of your own): the median over its flights of each ingested
+    log's median speed. The catalog's models keep their own (Table IV)."""
+    if not Path(logs_zarr).exists():
+        return {}
+    speeds: dict[str, list[float]] = {}
+    for fl in flights.itertuples():
+        if fl.drone_model in DRONE_MODELS:
+            continue
+        ml = read_ingested_log(logs_zarr, fl.flight_id)
+        if ml is not None:
+            speeds.setdefault(fl.drone_model, []).append(float(np.median(ml.rev_s)))
+    return {m: float(np.median(v)) for m, v in speeds.items()}
+
+
 def build_speeds(measured_dir, logs_zarr, out, *, variant: str, settings: dict, n_fft: int, seed: int,
                  extensions=None, log=print) -> pd.DataFrame:
     """Write ``results/speeds/{variant}.zarr``: group per twin-able flight with
@@ -221,7 +242,8 @@ def build_speeds(measured_dir, logs_zarr, out, *, variant: str, settings: dict, 
     Returns the status table (flight_id, drone_model, status, detail).
     """
     flights = list_flights(measured_dir)
-    flights = flights[(flights.target == "drone") & flights.drone_model.isin(TWIN_MODELS)]
+    flights = flights[(flights.target == "drone") & flights.drone_model.map(twin_model)]
+    typical = own_typical_hz(flights, logs_zarr)
     status, skipped = [], {}
     with writing_store(out, {"schema": SPEEDS_SCHEMA, "variant": variant, "unit": "rev/s",
                              "settings": dict(settings), "n_fft": n_fft, "seed": seed}) as root:
@@ -237,7 +259,8 @@ def build_speeds(measured_dir, logs_zarr, out, *, variant: str, settings: dict, 
             # extended draws sub_cpi's window: a twin without extensions is its sub_cpi twin
             fseed = stable_seed(seed, BASE_SAMPLING.get(variant, variant), fl.flight_id)
             sp, attrs = resample_flight_compact(variant, ml, int(fl.n_pulses), fl.prf_hz, fl.drone_model,
-                                                settings=settings, n_fft=n_fft, seed=fseed)
+                                                settings=settings, n_fft=n_fft, seed=fseed,
+                                                typical_hz=typical.get(fl.drone_model))
             write_flight_speeds(root, fl.flight_id, sp, {**attrs, "drone_model": fl.drone_model, "prf_hz": fl.prf_hz})
             log(f"{fl.flight_id}: {variant} rev_s [{sp.n_pulses}, {sp.knots_rev_s.shape[1]}] as {sp.form} knots "
                 f"{sp.knots_rev_s.shape}, mean {sp.knots_rev_s.mean():.1f} rev/s, {attrs}")

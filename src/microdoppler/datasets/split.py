@@ -27,6 +27,18 @@ CLASSES = ("bird", "inspire2", "matrice300", "mini2")
 TWIN_MODELS = ("inspire2", "matrice300")
 
 
+def twin_model(drone_model) -> bool:
+    """Whether the flights of ``drone_model`` get synthetic twins: the paper's
+    :data:`TWIN_MODELS`, and a model the catalog
+    (:data:`microdoppler.synthesis.radar.DRONE_MODELS`) does not hold, a drone of your
+    own whose rotor lines the calibration measures. The catalog's Mini 2 (0.06 m
+    blades, lines below the noise at L band) gets none, as in the paper."""
+    from ..synthesis.radar import DRONE_MODELS
+
+    model = "" if drone_model is None else str(drone_model)
+    return model in TWIN_MODELS or (model != "" and model not in DRONE_MODELS)
+
+
 def flight_class(target: str, drone_model: str | None) -> str | None:
     """Class of a flight: ``bird``, the drone model, or None (a target-free recording)."""
     if target == "bird":

@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..errors import ConfigError
+from ..spectra.spectrogram import nearest_power_of_two
 
 # ---------------------------------------------------------------- fixed settings
 # Measurement (measure.py)
@@ -175,6 +176,8 @@ def _check_value(source, key: str, v, kind: str, lo=None, hi=None, lo_open=False
     ``float``, ``bool``) within [lo, hi] (open ends with ``*_open``); else
     :class:`ConfigError` naming ``diagnosis.<key>``."""
     field = f"diagnosis.{key}"
+    if kind == "int_or_null":
+        return None if v is None else _check_value(source, key, v, "int", lo, hi, lo_open, hi_open)
 
     def rng_text():
         a = "" if lo is None else (f"> {lo:g}" if lo_open else f">= {lo:g}")
@@ -206,7 +209,9 @@ def _check_value(source, key: str, v, kind: str, lo=None, hi=None, lo_open=False
 
 #: type and allowed range of every DiagnosisConfig field: (kind, lo, hi, lo_open, hi_open)
 _RULES = {
-    "n_fft": ("int", 64, None, False, False),
+    "cpi_s": ("float", 0, None, True, False),
+    "n_fft": ("int_or_null", 64, None, False, False),
+    "min_duration_s": ("float", 0, None, False, False),
     "seed": ("int", 0, None, False, False),
     "alpha": ("float", 0, 1, True, True),
     "block_cpis": ("int", 1, None, False, False),
@@ -234,11 +239,19 @@ class DiagnosisConfig:
 
     Parameters
     ----------
-    n_fft : int
-        CPI length [pulses] of the STFT every statistic is read from (50 % overlap,
-        Blackman-Harris): the paper's STFT, 4096 pulses = 0.56 s at 7.3 kHz (White
-        et al. §II; ``synthesis.radar.Radar.n_fft``), so the diagnosis sees the
-        flight as the classifier's spectrograms do.
+    cpi_s : float
+        CPI duration [s] of the STFT every statistic is read from (50 % overlap,
+        Blackman-Harris): at a flight's PRF the CPI is the power of two of pulses
+        nearest ``cpi_s`` x PRF (:meth:`cpi_pulses`), as the spectrogram's
+        ``window_s`` gives it. 0.56 s is the paper's STFT, 4096 pulses at 7.3 kHz
+        (White et al. §II; ``synthesis.radar.Radar.n_fft``), so the diagnosis sees
+        the flight as the classifier's spectrograms do; 1024 pulses at 2 kHz.
+    n_fft : int or None
+        An explicit CPI length [pulses] that ignores the PRF; None: from ``cpi_s``.
+    min_duration_s : float
+        Shortest flight diagnosed [s]. A flight needs at least the CPIs of two
+        held-out folds of ``block_cpis`` (plus four), whatever this says
+        (:meth:`min_flight_s`); 0: that need alone (5.9 s at 7.3 kHz).
     seed : int
         Seed of the paper's model simulated for the flight (sub-CPI speed sampling,
         synthesis): the same seed gives the same report.
@@ -312,7 +325,9 @@ class DiagnosisConfig:
     (:meth:`from_dict` names the config file).
     """
 
-    n_fft: int = 4096
+    cpi_s: float = 0.56
+    n_fft: int | None = None
+    min_duration_s: float = 0.0
     seed: int = 0
     alpha: float = 0.01
     block_cpis: int = 8
@@ -347,6 +362,24 @@ class DiagnosisConfig:
         values = {f.name: f.default for f in fields(cls)}
         values.update(d)
         return cls(**_check_config(values, source))
+
+    def cpi_pulses(self, prf_hz: float) -> int:
+        """The CPI [pulses] at PRF ``prf_hz`` [Hz]: ``n_fft`` when set, else the power
+        of two nearest ``cpi_s`` x ``prf_hz`` (4096 at 7.3 kHz)."""
+        if self.n_fft is not None:
+            return int(self.n_fft)
+        return nearest_power_of_two(self.cpi_s * float(prf_hz))
+
+    def min_cpis(self) -> int:
+        """CPIs a flight needs: two held-out folds of ``block_cpis``, plus four."""
+        return 2 * self.block_cpis + 4
+
+    def min_flight_s(self, prf_hz: float) -> float:
+        """Shortest flight diagnosed at PRF ``prf_hz`` [s]: ``min_duration_s`` or the
+        span of :meth:`min_cpis` CPIs of 50 % overlap, whichever is longer."""
+        n = self.cpi_pulses(prf_hz)
+        need = n + (self.min_cpis() - 1) * int(round(n * 0.5))
+        return max(float(self.min_duration_s), need / float(prf_hz))
 
     def __post_init__(self):
         _check_config({f.name: getattr(self, f.name) for f in fields(self)}, "DiagnosisConfig")

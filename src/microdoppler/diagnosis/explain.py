@@ -142,7 +142,8 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
         # the model calibrated with the imbalance's rotation lines in the sidebands'
         # floor model (without it a weak blade can leave no pair to calibrate on)
         M = given_imbalance(M)
-    sim = stft_power(simulate_flight(flight, M, ext, cfg.seed, cfg.n_fft), prf, cfg.n_fft)
+    n_fft = cfg.cpi_pulses(prf)
+    sim = stft_power(simulate_flight(flight, M, ext, cfg.seed, n_fft), prf, n_fft)
     f_sim = refine_peak(sim, body_doppler(flight, sim.t_s), BODY_SEARCH_HZ)
     B = int(flight.attrs["n_blades"])
     dil = np.where(np.isfinite(M.dil), M.dil, 1.0)
@@ -234,15 +235,16 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     tests, cause = D.shown, D.cause
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    base_iq = simulate_flight(flight, M, None, cfg.seed, cfg.n_fft)
+    n_fft = cfg.cpi_pulses(flight.prf_hz)
+    base_iq = simulate_flight(flight, M, None, cfg.seed, n_fft)
     ext = named_extensions(D)
     # calibrated as the goodness of fit calibrates it (with a named imbalance's lines)
     Me = given_imbalance(M) if ext is not None and "blade_imbalance" in ext.effects else M
-    ext_iq = simulate_flight(flight, Me, ext, cfg.seed, cfg.n_fft) if ext else base_iq
+    ext_iq = simulate_flight(flight, Me, ext, cfg.seed, n_fft) if ext else base_iq
     named = " + ".join(sorted(ext.effects)) if ext is not None else "none"
     st = M.stft
-    sb = stft_power(base_iq, flight.prf_hz, cfg.n_fft)
-    se = stft_power(ext_iq, flight.prf_hz, cfg.n_fft) if ext else sb
+    sb = stft_power(base_iq, flight.prf_hz, n_fft)
+    se = stft_power(ext_iq, flight.prf_hz, n_fft) if ext else sb
     h = float(np.median(M.f_log_hz)) * int(flight.attrs["n_blades"])
     fc = float(np.median(M.f_body_hz))
     sel = np.abs(st.f_hz - fc) <= 4.5 * h

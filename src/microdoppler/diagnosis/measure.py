@@ -89,8 +89,8 @@ def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) 
     be diagnosed: not a drone, blades too short for visible rotor lines (Minis), no
     motor log, a log that :func:`~microdoppler.io.motorlog.check_motor_log` rejects
     (all zeros, a median speed implausible for a rotor, e.g. rev/s declared as rpm),
-    a log covering less than ``min_log_coverage`` of the flight's span, or fewer CPIs
-    than two held-out folds need."""
+    a log covering less than ``min_log_coverage`` of the flight's span, or a flight
+    shorter than :meth:`DiagnosisConfig.min_flight_s` (two held-out folds' CPIs)."""
     fid = flight.flight_id
     a = flight.attrs
     target = a.get("target")
@@ -127,12 +127,15 @@ def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) 
         expected = f">= {cfg.min_log_coverage:.0%} of the flight covered (diagnosis.min_log_coverage)"
         raise Undiagnosable(src, t_field, problem, expected,
                             reason=f"motor log outside the flight: {t_field}: {problem} (expected {expected})")
-    n_t = _n_cpis(len(flight.iq), cfg.n_fft)
-    need = 2 * cfg.block_cpis + 4
-    if n_t < need:
-        n_need = cfg.n_fft + (need - 1) * int(round(cfg.n_fft * 0.5))
-        problem = f"has {len(flight.iq)} pulses = {n_t} CPIs of {cfg.n_fft}"
-        expected = f">= {need} CPIs = {n_need} pulses (two held-out folds of diagnosis.block_cpis={cfg.block_cpis})"
+    prf = flight.prf_hz
+    n_fft = cfg.cpi_pulses(prf)
+    n_t = _n_cpis(len(flight.iq), n_fft)
+    duration_s = len(flight.iq) / prf
+    if n_t < cfg.min_cpis() or duration_s < cfg.min_duration_s:
+        problem = f"has {len(flight.iq)} pulses at {prf:g} Hz = {duration_s:.3g} s"
+        expected = (f">= {cfg.min_flight_s(prf):.3g} s: {cfg.min_cpis()} CPIs of {n_fft / prf:.3g} s, two held-out "
+                    f"folds of diagnosis.block_cpis={cfg.block_cpis}"
+                    + (f", and diagnosis.min_duration_s={cfg.min_duration_s:g} s" if cfg.min_duration_s else ""))
         raise Undiagnosable(fid, "iq", problem, expected,
                             reason=f"flight too short: iq: {problem} (expected {expected})")
     return log
@@ -1110,7 +1113,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
                       else str(motor_log.source).startswith(RADAR_SOURCE))
     prf = flight.prf_hz
     a = flight.attrs
-    n_fft = cfg.n_fft
+    n_fft = cfg.cpi_pulses(prf)
     iq = flight.iq
     st = stft_power(iq, prf, n_fft)
     n_t = len(st.t_s)

@@ -52,6 +52,35 @@ def list_flights(measured_dir) -> pd.DataFrame:
     return df
 
 
+#: the two classes of the bird/drone classifier
+CLASSES = ("bird", "drone")
+
+
+def flight_targets(measured_dir) -> dict[str, str]:
+    """flight_id -> ``attrs.target`` of every ``*.zarr`` store in ``measured_dir``,
+    read from the stores' attributes alone (cheap enough to call when a workflow is
+    parsed; :func:`list_flights` validates the stores)."""
+    out = {}
+    for p in sorted(Path(measured_dir).glob("*.zarr")):
+        a = dict(zarr.open_group(str(p), mode="r").attrs)
+        out[str(a.get("flight_id", p.stem))] = str(a.get("target", ""))
+    return out
+
+
+def missing_class_note(measured_dir, targets: dict[str, str] | None = None) -> str:
+    """Why the flights in ``measured_dir`` cannot train a bird/drone classifier, in
+    one line, or ``""`` when they hold both classes (or no store at all: the stages
+    that read them say so)."""
+    targets = flight_targets(measured_dir) if targets is None else targets
+    counts = {c: sum(t == c for t in targets.values()) for c in CLASSES}
+    if not targets or all(counts.values()):
+        return ""
+    missing = [c for c in CLASSES if not counts[c]]
+    held = ", ".join(f"{n} {c} flight{'s' if n != 1 else ''}" for c, n in counts.items() if n) or "no bird or drone"
+    return (f"classifier left out: the campaign in {measured_dir} has no {' or '.join(missing)} flights ({held}); "
+            f"add {' and '.join(missing)} recordings to train a bird/drone classifier")
+
+
 def read_flights_table(path) -> pd.DataFrame:
     """Read the flights -> motor logs table (TSV); relative log paths are relative to the table."""
     path = Path(path)

@@ -1,0 +1,219 @@
+"""A campaign of one's own: every stage runs on flights from any radar, or says why
+not in one line (docs/campaign.md).
+
+- the diagnosis's CPI and minimum duration follow seconds: a 20-s recording at a
+  2 kHz PRF is long enough, a shorter one is skipped with the minimum in seconds;
+- a campaign without birds: the classifier refuses one class in one line;
+- a fidelity table that cannot be formed names the flights and the reason.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from any_radar import draw_case, make_recording
+from microdoppler.classifier import TrainConfig, train
+from microdoppler.classifier.data import toy_tiles
+from microdoppler.diagnosis import DiagnosisConfig
+from microdoppler.diagnosis.measure import Undiagnosable, check_diagnosable
+from microdoppler.errors import InputError
+from microdoppler.io.flightzarr import write_flight
+from microdoppler.io.inventory import missing_class_note
+from microdoppler.io.motorlog import MotorLog
+
+REPO = Path(__file__).resolve().parents[1]
+SNAKEMAKE = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
+
+
+def _recording(duration_s: float, prf_hz: float = 2000.0):
+    """A flying drone of tests/any_radar.py at ``prf_hz`` (3.3 GHz, 0.15 m blades) and
+    its true rotor speeds as a motor log."""
+    case = draw_case(5, duration_s=duration_s, prf_hz=prf_hz, carrier_hz=3.3e9, blade_length_m=0.15,
+                     setup="flying", radial_speed_mps=4.0)
+    flight, truth = make_recording(case)
+    log = MotorLog(np.asarray(truth["time_s"], float), (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32),
+                   "truth")
+    return flight, log
+
+
+def test_diagnosis_cpi_follows_seconds():
+    cfg = DiagnosisConfig()
+    assert cfg.cpi_pulses(7300.0) == 4096  # the paper's radar: today's CPI
+    assert cfg.cpi_pulses(2000.0) == 1024
+    assert DiagnosisConfig(n_fft=4096).cpi_pulses(2000.0) == 4096
+
+
+def test_twenty_second_flight_at_2khz_is_not_too_short():
+    flight, log = _recording(20.0)
+    assert len(flight.iq) == 40000
+    check_diagnosable(flight, log, DiagnosisConfig())  # no Undiagnosable
+    # the same flight with the CPI fixed at 4096 pulses (2 s) was skipped
+    with pytest.raises(Undiagnosable) as exc:
+        check_diagnosable(flight, log, DiagnosisConfig(n_fft=4096))
+    assert exc.value.reason.startswith("flight too short: iq: has 40000 pulses at 2000 Hz = 20 s")
+
+
+@pytest.mark.parametrize("duration_s, min_duration_s, expect", [
+    (4.0, 0.0, "expected >= 5.38 s: 20 CPIs of 0.512 s"),
+    (8.0, 10.0, "expected >= 10 s: 20 CPIs of 0.512 s"),
+])
+def test_too_short_flight_says_the_minimum_in_seconds(duration_s, min_duration_s, expect):
+    flight, log = _recording(duration_s)
+    with pytest.raises(Undiagnosable) as exc:
+        check_diagnosable(flight, log, DiagnosisConfig(min_duration_s=min_duration_s))
+    reason = exc.value.reason
+    assert "\n" not in reason
+    assert reason.startswith(f"flight too short: iq: has {len(flight.iq)} pulses at 2000 Hz = {duration_s:g} s")
+    assert expect in reason, reason
+    assert exc.value.field == "iq"
+
+
+# ---------------------------------------------------------------- a campaign without birds
+
+def _drone_campaign(folder, n: int = 2):
+    """``n`` short drone recordings of tests/any_radar.py as flight-zarr stores."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for k in range(n):
+        flight, _ = make_recording(draw_case(20 + k, duration_s=0.5, prf_hz=2000.0))
+        write_flight(folder / f"{flight.flight_id}.zarr", flight)
+    return folder
+
+
+def test_no_bird_flights_note(tmp_path):
+    folder = _drone_campaign(tmp_path / "measured")
+    assert missing_class_note(folder) == (
+        f"classifier left out: the campaign in {folder} has no bird flights (2 drone flights); "
+        "add bird recordings to train a bird/drone classifier")
+    assert missing_class_note(folder, {"a": "drone", "b": "bird", "c": "none"}) == ""
+
+
+def test_training_on_one_class_is_refused_in_one_line():
+    tiles = toy_tiles(24, seed=3)
+    drones = tiles.subset(tiles.labels["target"] == "drone")
+    with pytest.raises(InputError) as exc:
+        train(drones, drones, TrainConfig(max_epochs=1), seed=1)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"training set: train.target: has drone tiles only ({len(drones)} tiles of ")
+    assert msg.endswith("(expected tiles of both classes, bird and drone: add bird recordings to train a bird/drone "
+                        "classifier)")
+
+
+def _snakemake_dry(work, *targets):
+    return subprocess.run([SNAKEMAKE, "-n", *targets, "-s", str(REPO / "Snakefile"), "-d", str(work),
+                           "--configfile", "config.yaml"], cwd=work, capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def drone_only_workdir(tmp_path_factory):
+    work = tmp_path_factory.mktemp("campaign")
+    _drone_campaign(work / "measured")
+    cfg = yaml.safe_load((REPO / "config/config.yaml").read_text())
+    cfg["measurements"].update(source="directory", directory="measured")
+    cfg["figures"]["ulog"] = str((REPO / cfg["figures"]["ulog"]).resolve())
+    (work / "config.yaml").write_text(yaml.safe_dump(cfg))
+    return work
+
+
+def test_campaign_without_birds_leaves_the_classifier_out(drone_only_workdir):
+    r = _snakemake_dry(drone_only_workdir)
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = r.stdout + r.stderr
+    note = ("classifier left out: the campaign in measured has no bird flights (2 drone flights); "
+            "add bird recordings to train a bird/drone classifier")
+    assert out.count(note) == 1, out[-3000:]
+    for rule in ("train_classifier", "evaluate_classifier", "report_metrics"):
+        assert f"rule {rule}:" not in out and f"\n{rule} " not in out
+    for rule in ("diagnose_flights", "report_fidelity", "synthesize_flights"):
+        assert rule in out
+
+
+def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone_only_workdir):
+    r = _snakemake_dry(drone_only_workdir, "results/reports/table_v.csv")
+    assert r.returncode != 0
+    assert "classifier left out: the campaign in measured has no bird flights (2 drone flights)" in r.stderr
+
+
+# ---------------------------------------------------------------- a fidelity table that cannot be formed
+
+def _own_campaign(tmp_path):
+    """Three drone flights of tests/any_radar.py (no background recording): c0 of a
+    model of one's own with a motor log, c1 of the same model without, c2 a Mini 2
+    with a log; their logs ingested. Returns (measured folder, logs store)."""
+    from dataclasses import replace
+
+    from microdoppler.io.inventory import ingest_flight_logs
+
+    measured = tmp_path / "measured"
+    measured.mkdir()
+    for k, (model, with_log) in enumerate([("own_quad", True), ("own_quad", False), ("mini2", True)]):
+        flight, truth = make_recording(draw_case(40 + k, duration_s=3.0, prf_hz=4000.0))
+        rpm = (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32)
+        flight = replace(flight, attrs={**flight.attrs, "flight_id": f"c{k}", "drone_model": model},
+                         motors_time_s=np.asarray(truth["time_s"], float) if with_log else None,
+                         motors_rpm=rpm if with_log else None)
+        write_flight(measured / f"c{k}.zarr", flight)
+    logs = tmp_path / "motors" / "logs.zarr"
+    ingest_flight_logs(measured, logs, tmp_path / "motors" / "ingest.csv", log=lambda m: None)
+    return measured, logs
+
+
+def test_a_drone_model_of_ones_own_gets_twin_speeds(tmp_path):
+    """Twins are made of a drone model the catalog does not hold (not of the Mini 2);
+    fixed_speeds draws around its flights' median logged speed."""
+    from microdoppler.datasets.speeds import build_speeds
+    from microdoppler.datasets.stores import flight_ids, open_store
+    from microdoppler.io.inventory import read_ingested_log
+
+    measured, logs = _own_campaign(tmp_path)
+    status = build_speeds(measured, logs, tmp_path / "fixed.zarr", variant="fixed_speeds", settings={"spread": 0.1},
+                          n_fft=4096, seed=7, log=lambda m: None)
+    assert list(status.flight_id) == ["c0", "c1"]
+    assert status.set_index("flight_id").status.to_dict() == {"c0": "ok", "c1": "skipped"}
+    root = open_store(tmp_path / "fixed.zarr", "speeds/2")
+    assert flight_ids(root) == ["c0"]
+    typical = float(np.median(read_ingested_log(logs, "c0").rev_s))
+    assert abs(root["c0"].attrs["fixed_rev_s"] / typical - 1) <= 0.1
+
+
+def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
+    """Drone flights without twins (no background recording; no motor log; a model no
+    twin is made of): Table VI has no rows, the log and fidelity_left_out.csv name each
+    flight with its reason in one line, and the figure is one panel saying why."""
+    from microdoppler.datasets.fidelity import write_fidelity_report
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.injection import INJECTED_SCHEMA
+    from microdoppler.datasets.stores import writing_store
+
+    measured, logs = _own_campaign(tmp_path)
+    injected = {}
+    for v in ("sub_cpi", "extended"):
+        injected[v] = tmp_path / "injected" / f"{v}.zarr"
+        with writing_store(injected[v], {"schema": INJECTED_SCHEMA, "variant": v}):
+            pass
+    lines = []
+    out = tmp_path / "reports"
+    table = write_fidelity_report(measured, logs, injected, out / "table_vi.csv", out / "fig_fidelity.png",
+                                  out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
+                                                                                                 log=lambda m: None),
+                                  left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
+    assert table.empty and pd.read_csv(out / "table_vi.csv").empty
+    left = pd.read_csv(out / "fidelity_left_out.csv").set_index("flight_id")
+    assert left.loc["c0", "reason"] == "no background recording (background/iq): no twin can be injected"
+    assert left.loc["c1", "reason"] == "no motor log (neither in the store nor in the flights table)"
+    assert left.loc["c2", "reason"].startswith("no twins of drone model 'mini2': twins are made of inspire2, "
+                                               "matrice300 and of drone models")
+    assert (left.variants == "sub_cpi extended").all()
+    for fid in ("c0", "c1", "c2"):
+        assert f"{fid}: left out of Table VI (sub_cpi extended): {left.loc[fid, 'reason']}" in lines
+    assert lines[-1] == ("Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
+                         "(3 drone flights left out, reasons above)")
+    assert (out / "fig_fidelity.png").stat().st_size > 0
