@@ -258,7 +258,7 @@ class DiagnosisConfig:
     alpha : float
         Family-wise false-alarm level of the held-out tests per flight: Bonferroni
         over the causes, at alpha / (k (k + 1)) for greedy step k
-        (:func:`.decide.step_threshold`). At 0.01: no false alarm on the clean
+        (``microdoppler.diagnosis.decide.step_threshold``). At 0.01: no false alarm on the clean
         flights of eval_diagnosis.py (0/15 at >= 36 dB body SNR on 180 s flights;
         0/36 on plan 20261 after the fixes of 7ae995c; benchmarks/README.md).
     block_cpis : int
@@ -267,7 +267,7 @@ class DiagnosisConfig:
         the folds are nearly independent; the calibration's held-out CPIs use the
         same blocks (``datasets.holdout_block_cpis``). First version.
     figures : bool
-        Write one figure per diagnosed flight (:mod:`.explain`).
+        Write one figure per diagnosed flight (``microdoppler.diagnosis.explain``).
     clutter_guard_hz : float
         Half width [Hz] of the clutter notch: a body or sideband within it of 0 Hz
         is not read. 15 Hz is the paper's high-pass edge (radial speeds below
@@ -286,7 +286,7 @@ class DiagnosisConfig:
         detectable fluctuation (3 dB). First version.
     max_lag_s : float
         Longest motor-log lag searched [s], both signs (grid step
-        :data:`LAG_STEP_S`): twice the largest lag eval_diagnosis.py draws
+        ``LAG_STEP_S``): twice the largest lag eval_diagnosis.py draws
         (+-0.3-1.0 s); lags came out within 0.038 s on its 180 s flights
         (benchmarks/README.md, "Paper-length flights").
     margin_asymmetry_db, margin_std_db, margin_lag_s, margin_scale, margin_floor_rise_db : float
@@ -316,8 +316,8 @@ class DiagnosisConfig:
     margin_common_gain_db : float
         Goodness of fit: the smallest std [dB] of a significant sideband power
         fluctuation that follows the body's (correlation above
-        :data:`.hypotheses.COMMON_GAIN_CORR`, the body moving at least
-        :data:`.hypotheses.COMMON_GAIN_BODY_SHARE` as many dB) for ``unexplained`` (a gain on the
+        ``hypotheses.COMMON_GAIN_CORR``, the body moving at least
+        ``hypotheses.COMMON_GAIN_BODY_SHARE`` as many dB) for ``unexplained`` (a gain on the
         whole target: a range-cell straddle, an aspect change; no catalog cause is
         one). 1 dB, half the fading's ``margin_std_db`` (2 dB, the margin until this
         version, which left slow straddles of 1.8-1.95 dB std ``none``). On the
@@ -335,6 +335,26 @@ class DiagnosisConfig:
     The fixed settings beside these are this module's constants. Invalid values
     raise :class:`~microdoppler.errors.ConfigError` naming ``diagnosis.<field>``
     (:meth:`from_dict` names the config file).
+
+    Raises
+    ------
+    microdoppler.errors.ConfigError
+        From :meth:`from_dict`, for an unknown key or a value out of its range.
+
+    See Also
+    --------
+    diagnose_flight, diagnose
+
+    Examples
+    --------
+    >>> from microdoppler.diagnosis import DiagnosisConfig
+    >>> cfg = DiagnosisConfig.from_dict({"alpha": 0.05, "figures": False})
+    >>> cfg.alpha, cfg.n_fft
+    (0.05, 4096)
+    >>> DiagnosisConfig.from_dict({"alpah": 0.05})
+    Traceback (most recent call last):
+    ...
+    microdoppler.errors.ConfigError: config: diagnosis.alpah: ...
     """
 
     n_fft: int = 4096
