@@ -225,7 +225,7 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     ----------
     train_set, val_set : TileSet
         Images float32 [n, T, D] in dB, targets bird/drone
-        (:func:`microdoppler.classifier.load_trainset`).
+        (``microdoppler.classifier.load_trainset``).
     cfg : TrainConfig
         Architecture and training settings.
     seed : int

@@ -382,7 +382,34 @@ def extensions_from_dict(d, path) -> ExtensionSet:
 
 
 def save_extensions(ext: ExtensionSet, path_yaml) -> Path:
-    """Write ``ext`` as YAML, atomically (temporary sibling, then rename)."""
+    """Write ``ext`` as YAML, atomically (temporary sibling, then rename).
+
+    Parameters
+    ----------
+    ext : ExtensionSet
+        The extensions with their parameters and ``meta``.
+    path_yaml : str or path-like
+        The file to write (``schema: extensions/1``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path_yaml``.
+
+    See Also
+    --------
+    load_extensions
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.synthesis import ExtensionSet, save_extensions
+    >>> path = save_extensions(ExtensionSet({"sideband_asymmetry": {"asymmetry_db": 3.0}}),
+    ...                        Path(tempfile.mkdtemp()) / "extended.yaml")
+    >>> print(path.read_text().splitlines()[0])
+    schema: extensions/1
+    """
     path = Path(path_yaml)
     with atomic_file(path) as tmp:
         tmp.write_text(yaml.safe_dump(yaml_plain(ext.to_dict()), sort_keys=False))

@@ -541,7 +541,7 @@ class ModelExtensions:
 
 @dataclass(frozen=True)
 class SynthesisConfig:
-    """Everything :func:`synthesize` needs besides the flight (track, rotor speeds).
+    """Everything :func:`~microdoppler.synthesis.synthesize` needs besides the flight (track, rotor speeds).
 
     Parameters
     ----------
