@@ -5,6 +5,7 @@ the curated public API (``docs/api.md``) and the code of the user guide's page
 import doctest
 import importlib
 import re
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -45,6 +46,7 @@ CURATED_MODULES = [
 def _headless(monkeypatch, tmp_path):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.chdir(tmp_path)  # an example that writes a relative path writes here
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # and tempfile.mkdtemp() under pytest's tmp_path
 
 
 @pytest.mark.parametrize("name", CURATED_MODULES)
