@@ -8,6 +8,26 @@ class InputError(ValueError):
 
     The message is one line: ``<source>: <field>: <problem> (expected <expected>)``.
     The command-line interface prints it without a traceback and exits non-zero.
+
+    Parameters
+    ----------
+    source : str or path-like
+        The file, store or option at fault.
+    field : str
+        The attribute, array, column or key at fault.
+    problem : str
+        What is wrong with it.
+    expected : str, optional
+        What was expected.
+
+    Examples
+    --------
+    >>> from microdoppler.errors import InputError
+    >>> err = InputError("flight.zarr", "attrs.prf_hz", "is -1", "a number > 0 [Hz]")
+    >>> str(err)
+    'flight.zarr: attrs.prf_hz: is -1 (expected a number > 0 [Hz])'
+    >>> isinstance(err, ValueError), err.field
+    (True, 'attrs.prf_hz')
     """
 
     def __init__(self, source, field: str, problem: str, expected: str | None = None):

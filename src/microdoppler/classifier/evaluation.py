@@ -19,12 +19,34 @@ def predict(model: torch.nn.Module, images_db: np.ndarray, normalisation: Normal
 
     Parameters
     ----------
+    model : torch.nn.Module
+        A classifier (:func:`build_model`, ``train(...).model``).
     images_db : ndarray, float32 [n, T, D]
         Tiles in dB.
+    normalisation : Normalisation
+        The normalisation the model was trained with (``TrainConfig.normalisation``).
+    batch_size : int
+        Images per forward pass.
 
     Returns
     -------
     p_drone : ndarray, float64 [n]
+        Probability of the drone class per image, in [0, 1].
+
+    See Also
+    --------
+    train
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import torch
+    >>> from microdoppler.classifier import Normalisation, build_model, predict
+    >>> _ = torch.manual_seed(0)
+    >>> model = build_model("compact", compact={"doppler_pool": 4})
+    >>> p = predict(model, np.zeros((3, 8, 64), np.float32), Normalisation())
+    >>> p.shape, p.dtype, bool(((p >= 0) & (p <= 1)).all())
+    ((3,), dtype('float64'), True)
     """
     model.eval()
     x = torch.from_numpy(normalisation(images_db))

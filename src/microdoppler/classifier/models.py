@@ -196,14 +196,39 @@ def build_model(architecture: str = "compact", *, compact: dict | None = None, c
     Parameters
     ----------
     architecture : {'compact', 'alexnet'}
+        The small CNN over [T, D] tiles, or the paper's AlexNet over false-colour
+        images.
     compact : dict
-        Keyword arguments of :class:`CompactCNN` (channels, doppler_pool, dropout).
+        Keyword arguments of ``CompactCNN`` (channels, doppler_pool, dropout).
     colormap : str
         False-colour map of the AlexNet input.
     alexnet_weights : str
         Local torchvision AlexNet state_dict; empty = train AlexNet from scratch.
     normalisation : Normalisation
         Gives the AlexNet colour map's value range.
+
+    Returns
+    -------
+    torch.nn.Module
+        Maps normalised tiles float32 [n, T, D] to logits float32 [n, 2] (bird, drone).
+
+    Raises
+    ------
+    microdoppler.errors.ConfigError
+        For an unknown architecture or out-of-range CNN settings.
+
+    See Also
+    --------
+    train, predict
+
+    Examples
+    --------
+    >>> import torch
+    >>> from microdoppler.classifier import build_model
+    >>> _ = torch.manual_seed(0)
+    >>> model = build_model("compact", compact={"doppler_pool": 4})
+    >>> model(torch.zeros(2, 8, 64)).shape
+    torch.Size([2, 2])
     """
     if architecture == "compact":
         return CompactCNN(**(compact or {}))

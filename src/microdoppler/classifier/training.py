@@ -70,8 +70,25 @@ class TrainConfig:
         weight averaging within one seed's run; no ensembling across seeds), which
         does not depend on a small validation set's noisy accuracy.
     normalisation : Normalisation
+        Per-tile normalisation of the dB images (clip relative to the tile median).
     augment : Augmentation
         Doppler-axis augmentation of training tiles (default: none).
+
+    Raises
+    ------
+    microdoppler.errors.ConfigError
+        When a setting is out of its range.
+
+    See Also
+    --------
+    train
+
+    Examples
+    --------
+    >>> from microdoppler.classifier import TrainConfig
+    >>> cfg = TrainConfig.from_config({"max_epochs": 3, "batch_size": 8})
+    >>> cfg.architecture, cfg.max_epochs, cfg.batch_size
+    ('compact', 3, 8)
     """
 
     architecture: str = "compact"
@@ -217,12 +234,42 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     Parameters
     ----------
     train_set, val_set : TileSet
-        Images float32 [n, T, D] in dB, targets bird/drone.
+        Images float32 [n, T, D] in dB, targets bird/drone
+        (``microdoppler.classifier.load_trainset``).
     cfg : TrainConfig
+        Architecture and training settings.
     seed : int
         Seeds initialisation, dropout and shuffling.
     threads : int
         torch intra-op threads.
+    logger : logging.Logger, optional
+        Where the epochs are logged.
+
+    Returns
+    -------
+    TrainResult
+        ``model`` (the kept epoch's, in eval mode), ``history`` (one row per epoch)
+        and ``best_epoch`` (1-based).
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When the training set has no tiles.
+
+    See Also
+    --------
+    TrainConfig, predict, build_model
+
+    Examples
+    --------
+    One epoch on toy tiles (``toy_tiles``: noise and lines, not physics):
+
+    >>> from microdoppler.classifier import TrainConfig, train
+    >>> from microdoppler.classifier.data import toy_tiles
+    >>> tiles = toy_tiles(16, seed=0, n_timesteps=8, n_bins=64)
+    >>> result = train(tiles, tiles, TrainConfig(max_epochs=1, compact={"doppler_pool": 4}), seed=0)
+    >>> result.best_epoch, list(result.history.epoch)
+    (1, [1])
     """
     logger = logger or log
     if len(train_set) == 0:

@@ -14,7 +14,10 @@ spectrogram tiles and the training sets.
 - ``figures``      measured vs twin spectrograms (Fig. 9/10)
 """
 
+from .calibration import CalibrationConfig, fit_twin
+from .injection import inject
 from .loader import TileSet, load_trainset
 from .split import CLASSES, SETS, TWIN_MODELS, split_flights
 
-__all__ = ["TileSet", "load_trainset", "CLASSES", "SETS", "TWIN_MODELS", "split_flights"]
+__all__ = ["TileSet", "load_trainset", "CLASSES", "SETS", "TWIN_MODELS", "split_flights", "fit_twin",
+           "CalibrationConfig", "inject"]

@@ -445,6 +445,12 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         The twin's rotor rates [rev/s] (a sampling variant of the log).
     motor_log : MotorLog
         The log that locates the measured flight's HERM lines.
+    spec_cfg : SpectrogramConfig
+        The STFT the SNRs are measured on (the classifier's).
+    cfg : CalibrationConfig
+        Settings of the fit (tolerance, alpha grid, held-out blocks, ...).
+    seed : int
+        Seed of the twin (initial rotor angles, the extensions' draws).
     extensions : callable, optional
         ``extensions(seed) -> ModelExtensions``: the model extensions acting inside
         ``synthesize`` (``SynthesisConfig.extensions``).
@@ -472,6 +478,34 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         errors, status, ``holdout_block_cpis`` (None for a caller's ``fit_mask``, whose
         CPI indices are then in ``fit_cpis``), ``n_fit_cpis``/``n_cpis`` and
         ``n_search_cpis`` (the CPIs the search read).
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When the flight has no ``background/iq``.
+
+    See Also
+    --------
+    inject, microdoppler.rotors.resample, microdoppler.synthesis.synthesize
+
+    Examples
+    --------
+    The twin of a 2 s emulated Inspire 2, driven by its logged speeds (``sub_cpi``):
+
+    >>> from microdoppler.datasets import fit_twin
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> from microdoppler.io import MotorLog
+    >>> from microdoppler.rotors import resample
+    >>> from microdoppler.spectra import SpectrogramConfig
+    >>> flight, _ = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=2.0,
+    ...                                       mean_range_m=600.0, path="straight", snr_db=40.0, seed=1))
+    >>> log = MotorLog(flight.motors_time_s, flight.motors_rpm)
+    >>> rev_s = resample("sub_cpi", log, len(flight.iq), flight.prf_hz)
+    >>> twin_iq, fit = fit_twin(flight, rev_s, log, spec_cfg=SpectrogramConfig(), seed=0)
+    >>> twin_iq.shape == flight.iq.shape, twin_iq.dtype, fit["status"]
+    (True, dtype('complex64'), 'ok')
+    >>> sorted(k for k in fit if k in ("alpha_s", "s_blade", "s_body"))
+    ['alpha_s', 's_blade', 's_body']
     """
     t0 = time.perf_counter()
     n = len(flight.iq)

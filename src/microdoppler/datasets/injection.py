@@ -28,7 +28,49 @@ def inject(target_iq: np.ndarray, background_iq: np.ndarray, source: str = "twin
     diagnosis sees next to the clutter line). The twin's target already carries its
     own draw (``ExtensionSet.post``); target and clutter are independent, so two
     independent phase draws give the sum the same spectrum as one common one.
-    ``prf_hz`` is then required; ``seed`` is the twin's seed."""
+    ``prf_hz`` is then required; ``seed`` is the twin's seed.
+
+    Parameters
+    ----------
+    target_iq : ndarray, complex64 [n_pulses]
+        The simulated target (a twin).
+    background_iq : ndarray, complex64 [n_pulses]
+        The recorded target-free background (a flight's ``background_iq``).
+    source : str
+        Named in errors.
+    effects : dict, optional
+        ``{cause: params}`` of the twin's extensions.
+    prf_hz : float, optional
+        Pulse repetition frequency [Hz]; needed with ``phase_noise``.
+    seed : int
+        The twin's seed.
+
+    Returns
+    -------
+    ndarray, complex64 [n_pulses]
+        Target plus background.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When the background is missing or its length differs from the target's.
+
+    See Also
+    --------
+    fit_twin
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from microdoppler.datasets import inject
+    >>> x = inject(np.ones(4, np.complex64), np.full(4, 1j, np.complex64))
+    >>> x.dtype, x.tolist()
+    (dtype('complex64'), [(1+1j), (1+1j), (1+1j), (1+1j)])
+    >>> inject(np.ones(4, np.complex64), None)
+    Traceback (most recent call last):
+    ...
+    microdoppler.errors.InputError: twin: background/iq: missing (expected a target-free recording of ...)
+    """
     if background_iq is None:
         raise InputError(source, "background/iq", "missing", "a target-free recording of the flight's cells")
     if len(target_iq) != len(background_iq):

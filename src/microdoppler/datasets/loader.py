@@ -52,7 +52,55 @@ def _concat(a: TileSet, b: TileSet) -> TileSet:
 
 
 def load_trainset(name: str, tiles_dir="results/tiles") -> tuple[TileSet, TileSet, TileSet]:
-    """(train, validation, test) of training set ``name`` (``real`` or a variant)."""
+    """(train, validation, test) of training set ``name`` (``real`` or a variant).
+
+    Parameters
+    ----------
+    name : str
+        ``real`` (the measured tiles) or a synthetic variant (``sub_cpi``, ...): the
+        measured birds and Minis plus the variant's twins of the large drones.
+    tiles_dir : path-like
+        The folder of the tile stores (``real.zarr``, ``<variant>.zarr``).
+
+    Returns
+    -------
+    train, validation, test : TileSet
+        Images float32 [n, tile_timesteps, n_bins] [dB], labels int64 [n] (0 bird,
+        1 drone) and their table. Test is always the measured test tiles.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When a tile store is missing or holds drones other than the twins' models.
+
+    See Also
+    --------
+    split_flights, microdoppler.classifier.train
+
+    Examples
+    --------
+    Tiles of six emulated 1 s flights (small STFT settings to stay fast):
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import pandas as pd
+    >>> from microdoppler.datasets import load_trainset
+    >>> from microdoppler.datasets.tiles import build_tiles
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> from microdoppler.spectra import SpectrogramConfig
+    >>> specs = [FlightSpec(f"d{i}", "drone", drone_model="inspire2", duration_s=1.0, seed=i) for i in range(3)]
+    >>> specs += [FlightSpec(f"b{i}", "bird", bird_kind="single", duration_s=1.0, seed=10 + i) for i in range(3)]
+    >>> flights = [emulate_flight(s)[0] for s in specs]
+    >>> split = pd.DataFrame({"flight_id": [f.flight_id for f in flights],
+    ...                       "set": ["train", "validation", "test"] * 2})
+    >>> tiles_dir = Path(tempfile.mkdtemp())
+    >>> cfg = SpectrogramConfig(n_fft=512, n_bins=64, tile_timesteps=4)
+    >>> _ = build_tiles(((f, f.iq) for f in flights), split, tiles_dir / "real.zarr", dataset="real", spec_cfg=cfg,
+    ...                 log=lambda message: None)
+    >>> train, validation, test = load_trainset("real", tiles_dir)
+    >>> train.images.shape, train.labels.tolist()
+    ((12, 4, 64), [1, 1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0])
+    """
     tiles_dir = Path(tiles_dir)
     images, table = read_tiles(tiles_dir / "real.zarr")
     parts = {s: _part(images, table, table.set == s, "real") for s in ("train", "validation", "test")}

@@ -113,10 +113,38 @@ def split_flights(flights: pd.DataFrame, *, seed: int, fractions: dict | None = 
     flights : DataFrame
         Columns flight_id, target, drone_model, radar_id, images. Flights whose class is
         None (target ``none``) are left out.
+    seed : int
+        Seed of the random assignments (same seed, same split).
+    fractions : dict, optional
+        ``{set: fraction}`` of images for ``train``, ``validation`` and ``test``
+        (default the paper's 60:30:10).
+    n_trials : int
+        Random assignments tried per class; the one nearest the fractions is kept.
 
     Returns
     -------
-    DataFrame with columns flight_id, set, target, drone_model, radar_id, class, images.
+    DataFrame
+        Columns flight_id, set, target, drone_model, radar_id, class, images; one
+        row per flight, sorted by flight_id. No flight is split across sets.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When a flight id appears twice.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microdoppler.datasets import split_flights
+    >>> flights = pd.DataFrame({"flight_id": [f"f{i}" for i in range(10)],
+    ...                         "target": ["drone"] * 5 + ["bird"] * 5,
+    ...                         "drone_model": ["inspire2"] * 5 + [None] * 5, "radar_id": "radar1",
+    ...                         "images": [3, 5, 2, 4, 6, 1, 2, 3, 4, 5]})
+    >>> split = split_flights(flights, seed=0)
+    >>> split.loc[split["class"] == "bird", "set"].value_counts().sort_index().to_dict()
+    {'test': 2, 'train': 2, 'validation': 1}
+    >>> split.loc[split["class"] == "inspire2", "set"].value_counts().sort_index().to_dict()
+    {'test': 1, 'train': 3, 'validation': 1}
     """
     fractions = fractions or PAPER_FRACTIONS
     fr = [float(fractions[s]) for s in SETS]

@@ -42,6 +42,38 @@ def aggregate(report: dict, *, min_fraction: float = 0.25, flight_ids=None) -> E
         skipped flights (not diagnosed) do not count.
     flight_ids : iterable of str, optional
         Only these flights (e.g. the training set).
+
+    Returns
+    -------
+    microdoppler.synthesis.ExtensionSet
+        The kept causes with their median parameters; ``meta`` counts the flights,
+        the skipped ones and each cause.
+
+    Raises
+    ------
+    ValueError
+        When ``min_fraction`` is outside [0, 1].
+
+    See Also
+    --------
+    diagnose, microdoppler.synthesis.save_extensions
+
+    Examples
+    --------
+    Two of three diagnosed flights name a motor-speed scale, one is skipped:
+
+    >>> from microdoppler.diagnosis import aggregate
+    >>> def named(scale):
+    ...     return [{"cause": "motor_speed_scale", "extension": {"params": {"scale": scale}}}]
+    >>> report = {"flights": [{"flight_id": "a", "cause": "motor_speed_scale", "causes": named(1.04)},
+    ...                       {"flight_id": "b", "cause": "motor_speed_scale", "causes": named(1.06)},
+    ...                       {"flight_id": "c", "cause": "none", "causes": []},
+    ...                       {"flight_id": "d", "cause": "skipped", "reason": "a bird"}]}
+    >>> ext = aggregate(report)
+    >>> ext.effects
+    {'motor_speed_scale': {'scale': 1.05}}
+    >>> ext.meta["n_flights"], ext.meta["n_skipped"]
+    (3, 1)
     """
     if not 0 <= min_fraction <= 1:
         raise ValueError(f"min_fraction={min_fraction} must be in [0, 1]")

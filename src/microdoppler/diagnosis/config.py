@@ -258,14 +258,14 @@ class DiagnosisConfig:
     alpha : float
         Family-wise false-alarm level of the held-out tests per flight: Bonferroni
         over the causes, at alpha / (k (k + 1)) for greedy step k
-        (:func:`.decide.step_threshold`); in (0, 1).
+        (``microdoppler.diagnosis.decide.step_threshold``); in (0, 1).
     block_cpis : int
         CPIs per block of the two alternating held-out folds: 8 CPIs = 2.2 s at
         7.3 kHz, longer than the catalog's correlation times (fading 1-2 s), so
         the folds are nearly independent; the calibration's held-out CPIs use the
         same blocks (``datasets.holdout_block_cpis``); >= 1.
     figures : bool
-        Write one figure per diagnosed flight (:mod:`.explain`).
+        Write one figure per diagnosed flight (``microdoppler.diagnosis.explain``).
     clutter_guard_hz : float
         Half width [Hz] of the clutter notch: a body or sideband within it of 0 Hz
         is not read. 15 Hz is the paper's high-pass edge (radial speeds below
@@ -282,7 +282,7 @@ class DiagnosisConfig:
         detectable fluctuation (3 dB).
     max_lag_s : float
         Longest motor-log lag searched [s], both signs (grid step
-        :data:`LAG_STEP_S`), >= 0.01: twice the largest lag
+        ``LAG_STEP_S``), >= 0.01: twice the largest lag
         ``benchmarks/eval_diagnosis.py`` draws (+-0.3-1.0 s).
     margin_asymmetry_db, margin_std_db, margin_lag_s, margin_scale, margin_floor_rise_db : float
         Relevance margins: a significant cause is named only if its fitted effect
@@ -307,8 +307,8 @@ class DiagnosisConfig:
     margin_common_gain_db : float
         Goodness of fit: the smallest std [dB] of a significant sideband power
         fluctuation that follows the body's (correlation above
-        :data:`.hypotheses.COMMON_GAIN_CORR`, the body moving at least
-        :data:`.hypotheses.COMMON_GAIN_BODY_SHARE` as many dB) for ``unexplained`` (a gain on the
+        ``hypotheses.COMMON_GAIN_CORR``, the body moving at least
+        ``hypotheses.COMMON_GAIN_BODY_SHARE`` as many dB) for ``unexplained`` (a gain on the
         whole target: a range-cell straddle, an aspect change; no catalog cause is
         one). 1 dB, half the fading's ``margin_std_db``: slow straddles of under 2 dB std
         are named (the runs that set it: ``docs/experiments.md``).
@@ -323,6 +323,26 @@ class DiagnosisConfig:
     The fixed settings beside these are this module's constants. Invalid values
     raise :class:`~microdoppler.errors.ConfigError` naming ``diagnosis.<field>``
     (:meth:`from_dict` names the config file).
+
+    Raises
+    ------
+    microdoppler.errors.ConfigError
+        From :meth:`from_dict`, for an unknown key or a value out of its range.
+
+    See Also
+    --------
+    diagnose_flight, diagnose
+
+    Examples
+    --------
+    >>> from microdoppler.diagnosis import DiagnosisConfig
+    >>> cfg = DiagnosisConfig.from_dict({"alpha": 0.05, "figures": False})
+    >>> cfg.alpha, cfg.cpi_s, cfg.cpi_pulses(7300.0), cfg.cpi_pulses(2000.0)
+    (0.05, 0.56, 4096, 1024)
+    >>> DiagnosisConfig.from_dict({"alpah": 0.05})
+    Traceback (most recent call last):
+    ...
+    microdoppler.errors.ConfigError: config: diagnosis.alpah: ...
     """
 
     cpi_s: float = 0.56

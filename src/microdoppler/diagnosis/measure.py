@@ -61,9 +61,35 @@ DB = 10.0 / np.log(10.0)
 
 class Undiagnosable(InputError):
     """A flight the diagnosis cannot judge (a bird, a Mini, no usable motor log, too
-    short, no visible rotor lines). :func:`measure` (and the tests, when nothing is
-    left to test) raise it (an :class:`InputError` naming the field);
-    :func:`.pipeline.diagnose` lists the flight as ``skipped`` with ``reason``."""
+    short, no visible rotor lines). The measurement (and the tests, when nothing is
+    left to test) raise it (an :class:`~microdoppler.errors.InputError` naming the
+    field); :func:`~microdoppler.diagnosis.diagnose` lists the flight as ``skipped``
+    with ``reason``.
+
+    Parameters
+    ----------
+    source : str
+        The flight (its id).
+    field : str
+        What makes it undiagnosable (``attrs.target``, ``iq``, ``motors/rpm``, ...).
+    problem : str
+        What is wrong.
+    expected : str, optional
+        What the diagnosis needs.
+    reason : str, optional
+        The report's ``reason`` (default: field, problem and expectation).
+
+    Examples
+    --------
+    >>> from microdoppler.diagnosis import Undiagnosable, diagnose_flight
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> bird, _ = emulate_flight(FlightSpec("b1", "bird", bird_kind="single", duration_s=1.0, seed=2))
+    >>> try:
+    ...     diagnose_flight(bird)
+    ... except Undiagnosable as err:
+    ...     print(err.field)
+    attrs.target
+    """
 
     def __init__(self, source, field: str, problem: str, expected: str | None = None, *, reason: str | None = None):
         super().__init__(source, field, problem, expected)

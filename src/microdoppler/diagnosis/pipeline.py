@@ -42,18 +42,20 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
 
     Parameters
     ----------
-    flight : microdoppler.io.flightzarr.Flight
-        A measured drone flight (``target == "drone"``).
+    flight : microdoppler.io.Flight
+        A measured drone flight (``target == "drone"``) of at least 20 CPIs (about
+        6 s at 7.3 kHz) with ``background_iq``.
     motor_log : MotorLog, optional
         Its motor log; default the store's ``motors/*`` arrays.
     config : DiagnosisConfig or dict, optional
+        Settings (default: ``DiagnosisConfig()``).
     figure_path : path, optional
         Where to write the figure (measured vs baseline vs extended, residual).
 
     Returns
     -------
     dict
-        The report entry (``diagnosis-report/2``, :func:`.decide.decide_flight`):
+        The report entry (``diagnosis-report/2``, ``decide.decide_flight``):
         flight_id, cause (the first of ``causes`` or ``"none"``), causes (every
         significant and relevant cause, strongest first, each with its extension,
         held-out gain with the other named causes in both models, and evidence) and
@@ -63,9 +65,27 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     Raises
     ------
     Undiagnosable
-        (an :class:`InputError` naming the field) when the flight cannot be
-        diagnosed (:func:`.measure.check_diagnosable`), or no rotor line is visible
-        (:func:`.hypotheses.check_testable`).
+        (an :class:`~microdoppler.errors.InputError` naming the field) when the flight
+        cannot be diagnosed (``measure.check_diagnosable``: a bird, a Mini, no usable
+        motor log, too short), or no rotor line is visible (``hypotheses.check_testable``).
+
+    See Also
+    --------
+    diagnose, aggregate, DiagnosisConfig
+
+    Examples
+    --------
+    A 6 s emulated Inspire 2 without any cause of the catalog:
+
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> flight, _ = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=6.0,
+    ...                                       mean_range_m=600.0, path="straight", snr_db=40.0, seed=1))
+    >>> from microdoppler.diagnosis import diagnose_flight
+    >>> entry = diagnose_flight(flight, config={"figures": False})
+    >>> entry["flight_id"], entry["cause"], entry["causes"]
+    ('demo', 'none', [])
+    >>> "motor_speed_scale" in entry["evidence"]["tests"]
+    True
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
     started = time.perf_counter()
@@ -199,10 +219,52 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
     Every flight appears in the report: flights that cannot be diagnosed (birds,
     target-free recordings, Minis, drones without a usable motor log, too short, no
     visible rotor lines) with cause ``skipped`` and the ``reason``. A store that
-    breaks the format is an error (:class:`InputError`). ``motor_logs`` maps
-    flight_id -> MotorLog (overrides the stores' own logs). A store's stored
-    plausibility warnings (an import with ``--force``) are repeated in the log and the
-    table.
+    breaks the format is an error. A store's stored plausibility warnings (an import
+    with ``--force``) are repeated in the log and the table.
+
+    Parameters
+    ----------
+    paths : iterable of path-like
+        flight-zarr/1 stores.
+    out_json : path-like
+        The report to write (atomically).
+    motor_logs : dict, optional
+        ``{flight_id: MotorLog}``, overriding the stores' own logs.
+    config : DiagnosisConfig or dict, optional
+        Settings (default: ``DiagnosisConfig()``).
+    figures_dir : path-like, optional
+        Where to write one figure per diagnosed flight.
+    log : callable
+        Progress messages (one string each).
+
+    Returns
+    -------
+    dict
+        The report (``schema``, ``settings``, ``flights``: one entry per store).
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When a store breaks the flight-zarr/1 format.
+
+    See Also
+    --------
+    diagnose_flight, aggregate
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.diagnosis import diagnose
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> from microdoppler.io import write_flight
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> bird, _ = emulate_flight(FlightSpec("b1", "bird", bird_kind="single", duration_s=1.0, seed=2))
+    >>> report = diagnose([write_flight(folder / "b1.zarr", bird)], folder / "report.json", log=lambda m: None)
+    >>> [(e["flight_id"], e["cause"]) for e in report["flights"]]
+    [('b1', 'skipped')]
+    >>> json.loads((folder / "report.json").read_text())["flights"][0]["reason"]
+    'bird flight: no rotors'
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
     entries, rows = [], []

@@ -73,7 +73,7 @@ class FlightSpec:
     speed_mps : float
         Ground speed.
     effects : mapping
-        ``{cause: {param: value}}`` with the catalog's names (see :mod:`.knobs`).
+        ``{cause: {param: value}}`` with the catalog's names (see ``microdoppler.emulator.knobs``).
     seed : int
         Everything random in the flight derives from it.
     snr_db : float, optional
@@ -86,7 +86,7 @@ class FlightSpec:
     first_sideband_db, harmonic_falloff_db : float, optional
         Drones: first HERM sideband (per motor line) below the body [dB] and further
         fall-off per harmonic [dB]; default drawn (large drones 7-10, with
-        ``weak_blades`` :data:`WEAK_BLADE_DB`, and 4-16 (log-uniform) dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
+        ``weak_blades`` ``WEAK_BLADE_DB``, and 4-16 (log-uniform) dB per motor line, which measures ~2 dB less against the body line as motor lines overlap; the
         Mini's blades sit below the noise).
     clutter_scale_db : float
         Added to every clutter cell's clutter-to-noise ratio.
@@ -99,12 +99,33 @@ class FlightSpec:
         sight (no turns, body Doppler far from the notch; for diagnosis tests).
     weak_blades : bool
         Large drones: the blades echo weakly, the first sideband
-        :data:`WEAK_BLADE_DB` below the body (drawn) instead of 7-10 dB; the worlds
-        draw it for :data:`WEAK_BLADE_SHARE` of their large-drone flights.
+        ``WEAK_BLADE_DB`` below the body (drawn) instead of 7-10 dB; the worlds
+        draw it for ``WEAK_BLADE_SHARE`` of their large-drone flights.
     airframe : str
         Drones: the airframe that flies the flight (worlds: one of a few per model,
-        :func:`~.profiles.plan_airframes`); a label for the key, what the airframe
+        ``profiles.plan_airframes``); a label for the key, what the airframe
         carries (``blade_imbalance``) is in ``effects``.
+
+    Raises
+    ------
+    ValueError
+        When a field is out of its range (an unknown target, drone model, bird kind
+        or radar, a duration under 1 s, a range outside 100-20000 m, unknown effects).
+
+    See Also
+    --------
+    emulate_flight
+
+    Examples
+    --------
+    >>> from microdoppler.emulator import FlightSpec
+    >>> spec = FlightSpec("demo", "drone", drone_model="inspire2", duration_s=2.0, seed=1)
+    >>> spec.cls, spec.radar_id, spec.mean_range_m
+    ('inspire2', 'radar1', 1500.0)
+    >>> FlightSpec("demo", "drone", drone_model="inspire2", duration_s=0.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: duration_s=0.5 must be >= 1
     """
 
     flight_id: str
@@ -188,6 +209,15 @@ def draw_conditions(spec: FlightSpec) -> tuple[float, float, float]:
 def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
     """Emulate one measured flight.
 
+    The emulator is the measured world the pipeline is tested against: physics beyond
+    the paper's model (tapered blades, motor dynamics, clutter, phase noise, ...), and
+    no code shared with the synthesis' eq. (2).
+
+    Parameters
+    ----------
+    spec : FlightSpec
+        The flight; everything random derives from ``spec.seed``.
+
     Returns
     -------
     flight : Flight
@@ -196,6 +226,19 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
     truth : dict
         The effects applied, the SNR and scaling used, the true per-motor speed
         summary, the wind, bird group details; JSON-serialisable.
+
+    See Also
+    --------
+    FlightSpec, microdoppler.io.write_flight
+
+    Examples
+    --------
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> flight, truth = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=1.0, seed=1))
+    >>> flight.attrs["radar_id"], flight.iq.shape, flight.motors_rpm.shape[1]
+    ('radar1', (7300,), 4)
+    >>> truth["drone_model"], truth["effects"]
+    ('inspire2', {})
     """
     effects = validate_effects(spec.effects)
     site = radar_site(spec.radar_id)

@@ -48,10 +48,31 @@ class Flight:
         ``prf_hz``, ``carrier_hz`` and, for drones, the rotor geometry). Unknown
         attributes are preserved.
     iq : ndarray, complex64 [n_pulses]
+        Slow-time samples, one per pulse (pulse i at i / ``prf_hz`` s).
     track_time_s, track_range_m, track_radial_velocity_mps : ndarray, float64 [n_track]
+        The tracker's output: time [s], range [m], radial velocity [m/s], positive
+        receding.
     motors_time_s : ndarray, float64 [n_log] or None
+        Motor-log row times [s], on the radar clock.
     motors_rpm : ndarray, float32 [n_log, n_motors] or None
+        Logged motor speeds [rev/min].
     background_iq : ndarray, complex64 [n_pulses] or None
+        A target-free recording of the same cells.
+    extra_arrays : dict
+        Further arrays of the store, written back unchanged.
+
+    See Also
+    --------
+    read_flight, write_flight, microdoppler.emulator.emulate_flight
+
+    Examples
+    --------
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> flight, truth = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=1.0, seed=1))
+    >>> flight.iq.dtype, flight.iq.shape, flight.prf_hz
+    (dtype('complex64'), (7300,), 7300.0)
+    >>> round(flight.wavelength_m, 3), flight.duration_s, flight.has_motor_log
+    (0.222, 1.0, True)
     """
 
     attrs: dict
@@ -218,6 +239,8 @@ def read_flight(path, *, load_iq: bool = True, content: bool = True) -> Flight:
 
     Parameters
     ----------
+    path : str or path-like
+        The store (a Zarr group directory, conventionally ``<flight_id>.zarr``).
     load_iq : bool
         Load ``iq`` and ``background/iq`` (else zero-filled placeholders of the right
         shape are returned).
@@ -226,10 +249,36 @@ def read_flight(path, *, load_iq: bool = True, content: bool = True) -> Flight:
         ``load_iq`` the I/Q arrays are streamed chunk by chunk. ``False`` checks the
         metadata (attributes, dtypes, shapes) and the small track/motor arrays only.
 
+    Returns
+    -------
+    Flight
+        The flight in memory.
+
     Raises
     ------
-    InputError
-        Naming the store, the field and what was expected.
+    microdoppler.errors.InputError
+        Naming the store, the field and what was expected (a missing store, a
+        missing attribute or array, a wrong dtype, NaN values, ...).
+
+    See Also
+    --------
+    write_flight, validate_store, import_recording
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> from microdoppler.io import read_flight, write_flight
+    >>> flight, _ = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=1.0, seed=1))
+    >>> path = write_flight(Path(tempfile.mkdtemp()) / "demo.zarr", flight)
+    >>> again = read_flight(path)
+    >>> again.flight_id, again.attrs["n_blades"], bool((again.iq == flight.iq).all())
+    ('demo', 2, True)
+    >>> read_flight(path.parent / "missing.zarr")
+    Traceback (most recent call last):
+    ...
+    microdoppler.errors.InputError: .../missing.zarr: store: does not exist (expected a flight-zarr/1 directory)
     """
     path = Path(path)
     if not path.exists():
@@ -281,17 +330,84 @@ def read_flight(path, *, load_iq: bool = True, content: bool = True) -> Flight:
 
 
 def validate_store(path, *, quick: bool = False) -> Flight:
-    """Validate a store (raises :class:`InputError`); returns the flight without I/Q.
+    """Validate a store; returns the flight without I/Q.
 
     By default the content is checked too (every chunk present and readable, every
     value finite), streamed chunk by chunk so a long flight stays within memory;
     ``quick`` checks the metadata only.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The flight-zarr/1 store.
+    quick : bool
+        Check the metadata (attributes, dtypes, shapes) only.
+
+    Returns
+    -------
+    Flight
+        The flight with zero-filled ``iq`` and ``background_iq`` of the stored shape.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        Naming the store, the field and what was expected.
+
+    See Also
+    --------
+    read_flight
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> from microdoppler.io import validate_store, write_flight
+    >>> flight, _ = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=1.0, seed=1))
+    >>> path = write_flight(Path(tempfile.mkdtemp()) / "demo.zarr", flight)
+    >>> validate_store(path).iq.shape
+    (7300,)
     """
     return read_flight(path, load_iq=False, content=not quick)
 
 
 def write_flight(path, flight: Flight, *, chunk_pulses: int = 1 << 18) -> Path:
-    """Write ``flight`` as a flight-zarr/1 store, atomically. Validates first."""
+    """Write ``flight`` as a flight-zarr/1 store, atomically. Validates first.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The store to write (a directory); replaced atomically if it exists.
+    flight : Flight
+        The flight; its arrays are cast to the format's dtypes.
+    chunk_pulses : int
+        Chunk length of the pulse-rate arrays [pulses].
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When the flight breaks the format (a missing attribute, NaN values, a track
+        that does not cover the flight, ...); nothing is written then.
+
+    See Also
+    --------
+    read_flight, Flight
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.emulator import FlightSpec, emulate_flight
+    >>> from microdoppler.io import write_flight
+    >>> flight, _ = emulate_flight(FlightSpec("demo", "drone", drone_model="inspire2", duration_s=1.0, seed=1))
+    >>> write_flight(Path(tempfile.mkdtemp()) / "demo.zarr", flight).name
+    'demo.zarr'
+    """
     path = Path(path)
     attrs = dict(flight.attrs)
     attrs.setdefault("schema", SCHEMA)

@@ -41,6 +41,18 @@ class MotorLog:
         Motor speeds [rev/min].
     source : str
         File it came from.
+
+    See Also
+    --------
+    read_motor_log, microdoppler.rotors.resample
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from microdoppler.io import MotorLog
+    >>> log = MotorLog(np.array([0.0, 0.05, 0.1]), np.full((3, 4), 4800.0, np.float32))
+    >>> log.n_motors, log.duration_s, float(log.rev_s[0, 0])
+    (4, 0.1, 80.0)
     """
 
     time_s: np.ndarray
@@ -246,7 +258,40 @@ def read_csv(path, *, unit: str = "rpm", time_column: str = "time_s", time_unit:
 
 
 def read_motor_log(path, fmt: str | None = None, **csv_options) -> MotorLog:
-    """Read a motor log; ``fmt`` is ``ulog`` or ``csv`` (default: from the suffix)."""
+    """Read a motor log (PX4 ULog or CSV).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log file.
+    fmt : {"ulog", "csv"}, optional
+        Its format; default from the suffix (``.ulg``, ``.csv``).
+    **csv_options
+        For CSV: ``unit`` (``rpm``, ``rev/s`` or ``rad/s``), ``time_column``,
+        ``time_unit`` (``s``, ``ms``, ``us``), ``motor_columns``.
+
+    Returns
+    -------
+    MotorLog
+        Row times [s] and speeds [rev/min].
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        Naming the file, the field and what was expected (an unknown suffix, a
+        missing column, non-increasing times, implausible speeds, ...).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.io import read_motor_log
+    >>> path = Path(tempfile.mkdtemp()) / "log.csv"
+    >>> _ = path.write_text("time_s,m1,m2\\n0,4800,4810\\n0.05,4820,4790\\n0.1,4830,4800\\n")
+    >>> log = read_motor_log(path)
+    >>> log.n_motors, log.rpm.dtype, log.rpm[-1].tolist()
+    (2, dtype('float32'), [4830.0, 4800.0])
+    """
     path = Path(path)
     if fmt is None:
         fmt = {".ulg": "ulog", ".csv": "csv"}.get(path.suffix.lower())

@@ -166,7 +166,55 @@ def fixed_speeds(n_motors: int, n_pulses: int, typical_hz: float, seed: int,
 
 def resample(variant: str, log: MotorLog, n_pulses: int, prf_hz: float, *, typical_hz: float | None = None,
              seed: int = 0, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
-    """Rotation rates at pulse rate for one sampling ``variant``."""
+    """Rotation rates at pulse rate for one sampling ``variant`` (paper §V.A.1).
+
+    Parameters
+    ----------
+    variant : {"per_cpi", "sub_cpi", "single_motor", "fixed_speeds"}
+        ``per_cpi``: each motor's logged speed averaged per CPI; ``sub_cpi``: a
+        rolling average sampled several times per CPI; ``single_motor``: motor 0's
+        ``sub_cpi`` speed on every rotor; ``fixed_speeds``: one constant speed drawn
+        around ``typical_hz``.
+    log : MotorLog
+        The logged speeds, on the radar clock.
+    n_pulses : int
+        Pulses of the flight.
+    prf_hz : float
+        Pulse repetition frequency [Hz].
+    typical_hz : float, optional
+        The drone model's typical rotor speed [rev/s] (``fixed_speeds`` only).
+    seed : int
+        Seed of the ``fixed_speeds`` draw.
+    cfg : SamplingConfig
+        CPI length, sub-CPI samples, rolling-average length.
+
+    Returns
+    -------
+    ndarray, float32 [n_pulses, n_motors]
+        Rotor speeds [rev/s] at every pulse (``synthesize``'s ``rev_s``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``variant``, or ``fixed_speeds`` without ``typical_hz``.
+
+    See Also
+    --------
+    microdoppler.synthesis.synthesize, microdoppler.datasets.fit_twin
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from microdoppler.io import MotorLog
+    >>> from microdoppler.rotors import resample
+    >>> t = np.arange(0.0, 2.0, 0.05)
+    >>> log = MotorLog(t, np.column_stack([4800 + 600 * t] * 4).astype(np.float32))
+    >>> rev_s = resample("per_cpi", log, 7300, 7300.0)
+    >>> rev_s.shape, rev_s.dtype
+    ((7300, 4), dtype('float32'))
+    >>> bool(80.0 <= rev_s.min() <= rev_s.max() <= 90.0)
+    True
+    """
     if variant == "per_cpi":
         return per_cpi(log, n_pulses, prf_hz, cfg)
     if variant == "sub_cpi":

@@ -30,7 +30,30 @@ def line_snr_db(spec: Spectrogram, expected_hz: np.ndarray | float | None = None
         Doppler where the line is expected. ``None`` takes the strongest bin outside
         ±``notch_hz``.
     search_hz : float
-        Half-width of the search window around ``expected_hz``.
+        Half-width of the search window around ``expected_hz`` [Hz].
+    notch_hz : float
+        Without ``expected_hz``: lines within this of 0 Hz (clutter) are ignored [Hz].
+
+    Returns
+    -------
+    ndarray, float64 [n_timesteps]
+        The line's peak over the timestep's median floor [dB]; -inf where the search
+        window holds no bin.
+
+    See Also
+    --------
+    spectrogram
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from microdoppler.spectra import line_snr_db, spectrogram
+    >>> rng = np.random.default_rng(0)
+    >>> n = 4 * 4096
+    >>> iq = np.exp(2j * np.pi * 100.0 * np.arange(n) / 7300.0) + 0.01 * rng.standard_normal(n)
+    >>> snr = line_snr_db(spectrogram(iq.astype(np.complex64), 7300.0), expected_hz=100.0)
+    >>> snr.shape, bool(np.all(snr > 50))
+    ((7,), True)
     """
     p = spec.power_db
     f = spec.doppler_hz

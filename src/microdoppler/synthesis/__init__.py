@@ -1,1 +1,8 @@
 """The paper's model (eq. 1 thin-wire blades, eq. 2 body/blade/alpha), the radar, and the catalog of model extensions."""
+
+from .extensions import ExtensionSet, load_extensions, save_extensions
+from .model import Scaling, SynthesisConfig, Track, add_noise, synthesize
+from .radar import DRONE_MODELS, DroneModel, Radar
+
+__all__ = ["Radar", "DroneModel", "DRONE_MODELS", "SynthesisConfig", "Scaling", "Track", "synthesize", "add_noise",
+           "ExtensionSet", "load_extensions", "save_extensions"]

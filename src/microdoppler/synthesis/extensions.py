@@ -234,7 +234,23 @@ class ExtensionSet:
         empty = the paper's model.
     meta : mapping
         Free-form provenance (e.g. how the parameters were aggregated); preserved by
-        :func:`save_extensions`.
+        :func:`~microdoppler.synthesis.save_extensions`.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        For an unknown cause or parameter, or a value out of the catalog's range.
+
+    See Also
+    --------
+    load_extensions, microdoppler.diagnosis.aggregate
+
+    Examples
+    --------
+    >>> from microdoppler.synthesis import ExtensionSet
+    >>> ext = ExtensionSet({"motor_speed_scale": {"scale": 1.02}})
+    >>> "motor_speed_scale" in ext, "phase_noise" in ext
+    (True, False)
     """
 
     effects: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
@@ -257,7 +273,7 @@ class ExtensionSet:
         return MotorLog(np.asarray(t, np.float64), rpm, log.source)
 
     def model_extensions(self, *, prf_hz: float, n_pulses: int, seed: int) -> ModelExtensions:
-        """The extensions that act inside :func:`microdoppler.synthesis.model.synthesize`
+        """The extensions that act inside :func:`microdoppler.synthesis.synthesize`
         (``SynthesisConfig.extensions``: envelope gain, blade and body hooks; None where
         not in use) for a record of ``n_pulses`` at ``prf_hz``."""
         if not prf_hz > 0:
@@ -324,7 +340,33 @@ def read_yaml(path, expected: str):
 
 
 def load_extensions(path_yaml) -> ExtensionSet:
-    """Read an extensions YAML (as written by :func:`save_extensions`)."""
+    """Read an extensions YAML (as written by :func:`~microdoppler.synthesis.save_extensions`).
+
+    Parameters
+    ----------
+    path_yaml : str or path-like
+        The YAML file (``schema: extensions/1``).
+
+    Returns
+    -------
+    ExtensionSet
+        The extensions with their parameters and ``meta``.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        Naming the file and the field (a missing file, a wrong schema, an unknown cause).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.synthesis import ExtensionSet, load_extensions, save_extensions
+    >>> path = save_extensions(ExtensionSet({"motor_speed_scale": {"scale": 1.02}}),
+    ...                        Path(tempfile.mkdtemp()) / "extended.yaml")
+    >>> load_extensions(path).effects
+    {'motor_speed_scale': {'scale': 1.02}}
+    """
     path = Path(path_yaml)
     return extensions_from_dict(read_yaml(path, f"an {SCHEMA} YAML file"), path)
 
@@ -340,7 +382,34 @@ def extensions_from_dict(d, path) -> ExtensionSet:
 
 
 def save_extensions(ext: ExtensionSet, path_yaml) -> Path:
-    """Write ``ext`` as YAML, atomically (temporary sibling, then rename)."""
+    """Write ``ext`` as YAML, atomically (temporary sibling, then rename).
+
+    Parameters
+    ----------
+    ext : ExtensionSet
+        The extensions with their parameters and ``meta``.
+    path_yaml : str or path-like
+        The file to write (``schema: extensions/1``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path_yaml``.
+
+    See Also
+    --------
+    load_extensions
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from microdoppler.synthesis import ExtensionSet, save_extensions
+    >>> path = save_extensions(ExtensionSet({"sideband_asymmetry": {"asymmetry_db": 3.0}}),
+    ...                        Path(tempfile.mkdtemp()) / "extended.yaml")
+    >>> print(path.read_text().splitlines()[0])
+    schema: extensions/1
+    """
     path = Path(path_yaml)
     with atomic_file(path) as tmp:
         tmp.write_text(yaml.safe_dump(yaml_plain(ext.to_dict()), sort_keys=False))

@@ -20,6 +20,26 @@ class Radar:
         matches the paper's "15 Hz high-pass removes speeds below 1.65 m/s").
     n_fft : int
         STFT length in pulses (one CPI, 4096).
+
+    Raises
+    ------
+    ValueError
+        When ``prf_hz`` or ``carrier_hz`` is not > 0, or ``n_fft`` is odd or < 2.
+
+    See Also
+    --------
+    microdoppler.synthesis.SynthesisConfig
+
+    Examples
+    --------
+    The paper's L-band radar and a 3.3 GHz radar at 5 kHz:
+
+    >>> from microdoppler.synthesis import Radar
+    >>> round(Radar().wavelength_m, 4), round(Radar().cpi_s, 3)
+    (0.2221, 0.561)
+    >>> radar = Radar(prf_hz=5000.0, carrier_hz=3.3e9)
+    >>> round(radar.wavelength_m, 4), round(radar.doppler_hz(-1.0), 1)
+    (0.0908, 22.0)
     """
 
     prf_hz: float = 7300.0
@@ -58,7 +78,34 @@ class Radar:
 
 @dataclass(frozen=True)
 class DroneModel:
-    """Rotor geometry of a multirotor drone (Table II)."""
+    """Rotor geometry of a multirotor drone (Table II).
+
+    Parameters
+    ----------
+    name : str
+        The model's name (``inspire2``, ``matrice300``, ``mini2`` in ``DRONE_MODELS``).
+    n_motors : int
+        Rotors.
+    n_blades : int
+        Blades per rotor.
+    blade_length_m : float
+        Blade length, hub to tip [m], in (0, 5).
+    typical_motor_hz : float
+        Typical rotor speed [rev/s] (the ``fixed_speeds`` variant's centre).
+
+    Raises
+    ------
+    ValueError
+        When a value is out of its range.
+
+    Examples
+    --------
+    >>> from microdoppler.synthesis import DRONE_MODELS, DroneModel
+    >>> DRONE_MODELS["inspire2"].blade_length_m
+    0.19
+    >>> DroneModel("quad_stand", n_motors=4, n_blades=2, blade_length_m=0.12, typical_motor_hz=160.0).n_motors
+    4
+    """
 
     name: str
     n_motors: int
