@@ -121,8 +121,8 @@ class TrainConfig:
     @classmethod
     def from_config(cls, cfg: dict) -> "TrainConfig":
         """From the config's ``classifier:`` mapping; the workflow's own keys
-        (:data:`WORKFLOW_KEYS`) are left to it, any other unknown key is a
-        :class:`ConfigError` naming it."""
+        (``WORKFLOW_KEYS``) are left to it, any other unknown key is a
+        ``microdoppler.errors.ConfigError`` naming it."""
         cfg = {k: v for k, v in dict(cfg or {}).items() if k not in WORKFLOW_KEYS}
         names = {f for f in cls.__dataclass_fields__}
         for key in cfg:

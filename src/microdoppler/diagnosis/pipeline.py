@@ -214,7 +214,7 @@ def write_table(rows: list[dict], path) -> Path:
 def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None,
              log=print) -> dict:
     """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``)
-    and, beside it, the one-row-per-flight table (:func:`table_path`, :func:`report_row`).
+    and, beside it, the one-row-per-flight table (``report.csv``: ``table_path``, ``report_row``).
 
     Every flight appears in the report: flights that cannot be diagnosed (birds,
     target-free recordings, Minis, drones without a usable motor log, too short, no
