@@ -299,6 +299,8 @@ def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(t
     assert "rotor speeds from the radar" in err
     g = read_flight(out)
     assert g.attrs["motors_source"] == "radar" and g.has_motor_log
+    method = g.attrs["motors_radar"]["method"]  # the method printed is the method stored
+    assert f"method {method}" in err and err.count("method ") == 1, err
     true_rev_s = np.median(f.motors_rpm) / 60
     assert np.median(g.motors_rpm) / 60 == pytest.approx(true_rev_s, rel=0.02)
     rep = diagnose([out], tmp_path / "r.json", config={"figures": False}, log=lambda m: None)

@@ -232,8 +232,14 @@ def estimate_motors(flight, warns: list):
 
     if flight.attrs.get("target") != "drone":
         raise InputError("--estimate-motors", "target", f"is {flight.attrs.get('target')!r}", "a drone recording")
+    passes = [0, 0]  # the I/Q fit's passes (another runs where the order check measures again), last done
+
     def progress(done, total):
-        print(f"rotor speeds from the radar: I/Q fit, {done} of {total} CPIs", file=sys.stderr, flush=True)
+        if done <= passes[1] or passes[0] == 0:
+            passes[0] += 1
+        passes[1] = done
+        label = f" (pass {passes[0]}: measured again at another order)" if passes[0] > 1 else ""
+        print(f"rotor speeds from the radar: I/Q fit{label}, {done} of {total} CPIs", file=sys.stderr, flush=True)
 
     est = estimate_rotor_speeds(flight, progress=progress)
     if not est.ok:

@@ -437,7 +437,9 @@ class RotorEstimate:
         return replace(flight, attrs=attrs, motors_time_s=log.time_s, motors_rpm=log.rpm)
 
     def summary(self) -> str:
-        """One line: CPIs with an estimate, mean speed, pairs (and why a lone pair was
+        """One line: CPIs with an estimate, the method stored with the speeds (and, where
+        it is the lines' alone after an I/Q fit at another order, why), mean speed, pairs
+        (and why a lone pair was
         read as the comb; how many CPIs depart from their neighbours; the CPI where the
         default's gave no estimate), or the reason."""
         if not self.ok:
@@ -445,7 +447,11 @@ class RotorEstimate:
         v = self.valid
         lone = self.info.get("lone_pair")
         dep = int(self.info.get("n_cpi_departing", 0))
-        return (f"{self.flight_id}: {int(v.sum())} of {len(v)} CPIs, mean rotor speed "
+        method = self.info.get("method", METHOD)
+        remeasured = (self.info.get("order") or {}).get("remeasured", "")
+        fallback = (f" (the lines alone: the I/Q fit ran at another order and its speeds were not kept; "
+                    f"{remeasured})" if method == METHOD_LINES and remeasured.startswith("the lines'") else "")
+        return (f"{self.flight_id}: {int(v.sum())} of {len(v)} CPIs, method {method}{fallback}, mean rotor speed "
                 f"{np.nanmean(self.common_rev_s):.1f} rev/s, median {np.median(self.n_pairs[v]):.0f} pairs, "
                 f"{int(self.separated.sum())} CPIs with every rotor separated"
                 + (f"; a lone pair read as the comb: {lone}" if lone else "")
