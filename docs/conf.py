@@ -1,5 +1,8 @@
-"""Sphinx configuration: MyST pages, an API reference from the numpydoc docstrings,
-and a results page generated from a pipeline run (``docs/generate_results.py``).
+"""Sphinx configuration: MyST pages, an API reference from the numpydoc docstrings, a
+gallery of scripts run at build (sphinx-gallery, ``docs/examples/plot_*.py``), and pages
+generated at build: the results of a pipeline run (``docs/generate_results.py``), the
+benchmarks' records (``docs/generate_benchmarks.py``) and the diagnosis's cause table
+(``docs/generate_catalog.py``).
 
 Build: ``sphinx-build -n -W -b html docs docs/_build/html`` (CI does: nitpicky, warnings
 as errors, so every reference to the project's own functions must resolve).
@@ -14,6 +17,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "src"))
 sys.path.insert(0, str(HERE))
 
+import generate_benchmarks  # noqa: E402
+import generate_catalog  # noqa: E402
 import generate_results  # noqa: E402
 
 import microdoppler  # noqa: E402
@@ -27,9 +32,10 @@ extensions = [
     "sphinx.ext.autosummary",
     "numpydoc",
     "sphinx.ext.mathjax",
+    "sphinx_gallery.gen_gallery",
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
+exclude_patterns = ["_build", "_include", "Thumbs.db", ".DS_Store", "examples/GALLERY_HEADER.rst"]
 templates_path = ["_templates"]
 html_static_path = ["_static"]
 html_theme = "alabaster"
@@ -53,10 +59,30 @@ nitpick_ignore_regex = [
     (r"py:.*", r"(pathlib|logging|collections|typing|os|argparse)\..*"),
 ]
 
+# the gallery: docs/examples/plot_*.py run at every build, their figures drawn off screen;
+# a script that fails fails the build
+os.environ.setdefault("MPLBACKEND", "Agg")
+sphinx_gallery_conf = {
+    "examples_dirs": "examples",
+    "gallery_dirs": "gallery",
+    "filename_pattern": r"/plot_",
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "show_memory": False,
+    "write_computation_times": False,
+    "matplotlib_animations": False,
+    "reset_modules": ("matplotlib", "seaborn"),
+}
+
 # the results page: built from a pipeline run's own tables and figures
 generate_results.write_page(
     Path(os.environ.get("MICRODOPPLER_RESULTS", HERE.parent / "results")), HERE / "results.md", HERE / "_static" / "results"
 )
+
+# the benchmark page, from the records the benchmark scripts wrote
+generate_benchmarks.write_page(HERE.parent / "benchmarks" / "records", HERE / "benchmarks.md")
+# the report page's cause table, from the catalog
+generate_catalog.write_table(HERE / "_include" / "causes.inc")
 
 
 def _escape_bars(app, what, name, obj, options, lines):

@@ -39,6 +39,7 @@ CURATED_MODULES = [
     "microdoppler.classifier.training",
     "microdoppler.classifier.evaluation",
     "microdoppler.stats.bootstrap",
+    "microdoppler.examples",
 ]
 
 
@@ -79,12 +80,13 @@ def test_every_curated_entry_has_an_example():
     assert missing == []
 
 
-def test_user_guide_page_runs():
-    """``docs/python.md``: its ``pycon`` blocks, in order, as one session."""
-    text = (DOCS / "python.md").read_text()
+@pytest.mark.parametrize(("page", "min_blocks"), [("python.md", 6), ("format.md", 1)])
+def test_user_guide_page_runs(page, min_blocks):
+    """A page's ``pycon`` blocks (``docs/python.md``, ``docs/format.md``), in order, as one session."""
+    text = (DOCS / page).read_text()
     blocks = re.findall(r"^```pycon\n(.*?)^```", text, flags=re.S | re.M)
-    assert len(blocks) >= 6
-    test = doctest.DocTestParser().get_doctest("\n".join(blocks), {}, "python.md", str(DOCS / "python.md"), 0)
+    assert len(blocks) >= min_blocks
+    test = doctest.DocTestParser().get_doctest("\n".join(blocks), {}, page, str(DOCS / page), 0)
     runner = doctest.DocTestRunner(optionflags=FLAGS)
     runner.run(test)
     result = runner.summarize(verbose=False)

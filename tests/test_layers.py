@@ -13,7 +13,7 @@ from microdoppler.codeversion import PACKAGE_DIR, _module_name, imported_modules
 
 #: subpackages (and top-level modules) from the bottom up: each may import from itself
 #: and from those before it only
-LAYERS = ("errors", "codeversion", "io", "spectra", "stats", "rotors", "synthesis", "emulator", "figures", "views",
+LAYERS = ("errors", "codeversion", "io", "examples", "spectra", "stats", "rotors", "synthesis", "emulator", "figures", "views",
           "diagnosis", "datasets", "classifier", "commands", "cli")
 
 #: (importer, imported) pairs that still point up, each with the reason it is left

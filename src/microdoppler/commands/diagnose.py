@@ -1,6 +1,6 @@
 """``microdoppler diagnose FLIGHT.zarr [...] --out report.json``: name what the paper's
 simulation gets wrong about measured drone flights (report format
-``diagnosis-report/2``: shared/formats/flight-zarr.md)."""
+``diagnosis-report/2``, defined in ``docs/report.md``)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The flight-zarr/1 exchange format (``shared/formats/flight-zarr.md``).
+"""The flight-zarr/1 exchange format (its definition: the documentation's page ``docs/format.md``).
 
 One measured flight is one Zarr group. :func:`read_flight` validates a store and
 returns a :class:`Flight`; :func:`write_flight` writes one atomically (to a sibling

@@ -104,7 +104,7 @@ likelihoods normalised over them, speeds v_h = v f_h / f), the spread of the mix
 about the reported speed (a candidate below ``ambiguous_at`` lies outside the mixture's
 95 % interval and is listed without widening sigma).
 
-Tested on recordings the project did not shape (``tests/any_radar.py``,
+Tested on recordings the project did not shape (:mod:`microdoppler.examples`,
 ``tests/test_rotor_order.py``; ``benchmarks/eval_any_radar.py``); the settings were
 chosen on the generator's seeds 1-99 and on the emulated flights, the benchmark runs on
 seeds from 1000.
