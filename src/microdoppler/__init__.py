@@ -17,4 +17,4 @@ The folders follow the pipeline (White, Jahangir, Baker, Antoniou):
 - ``commands``    the ``microdoppler`` command line
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
