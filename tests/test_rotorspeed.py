@@ -75,7 +75,7 @@ def test_ramping_speeds_of_close_rotors():
 
 @pytest.mark.slow
 def test_steady_rotors_a_bin_apart_are_within_one_percent_in_every_cpi():
-    """The condition under which the 1 % target holds (benchmarks/README.md): speeds
+    """The condition under which the 1 % target holds (docs/experiments.md): speeds
     steady within the CPI (here a 1 % wobble over 3 s) and the closest two rotors at
     least one STFT bin apart at the first harmonic (1.0 rev/s = 2 Hz = 1.1 bins)."""
     t = np.arange(int(10 * PRF)) / PRF
@@ -95,7 +95,7 @@ def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
     """Two rotors 0.1 rev/s apart never separate in the periodogram (their line's power
     swings with their phase, 0 to 4 times one rotor's) beside two that do: the rotor
     count per line is ambiguous and the periodogram's mean speed is off by up to ~2 %
-    in some CPIs (as in the emulated tail, benchmarks/README.md). Its reported
+    in some CPIs (as in the emulated tail, docs/experiments.md). Its reported
     uncertainty must say so: the error within 3 sigma in >= 85 % of the CPIs (it was
     68 % with the counts' sharp posterior, 91 % with the measured share scatter), and
     the CPIs off by more than 1 % flagged with sigma > 0.5 %."""
