@@ -79,8 +79,8 @@ def rate(v) -> str:
 def section_any_radar(records: Path) -> list[str]:
     out = ["## Rotor speeds on recordings from any radar (`eval_any_radar.py`)", "",
            "Recordings drawn by the independent generator (`microdoppler.examples`), estimated with the default "
-           "`estimate_rotor_speeds`. Shares in % with 95 % intervals.", "", "### Pooled over the runs at the current code",
-           ""]
+           "`estimate_rotor_speeds`. Shares in % with 95 % intervals.", "",
+           "### Pooled over the runs at the current code", ""]
     for name, d in _load(records, "pooled_any_radar_*.json"):
         out += [f"{d['n_recordings']} recordings" + (f", seeds from {d['min_seed']}" if d.get("min_seed") else "")
                 + " " + provenance(name, d), "", table(("metric", "n", "count", "share % [95 % CI]"), shares(d)), ""]
@@ -138,7 +138,8 @@ def section_timing(records: Path) -> list[str]:
 
 def section_diagnosis(records: Path) -> list[str]:
     out = ["## The diagnosis on flights with known causes (`eval_diagnosis.py`)", "",
-           "Rates in % with 95 % flight-bootstrap intervals; ≥36 / <36: flights at or above / below 36 dB body SNR.", ""]
+           "Rates in % with 95 % flight-bootstrap intervals; ≥36 / <36: flights at or above / below 36 dB "
+           "body SNR.", ""]
     for name, d in _load(records, "eval_diagnosis_*.json"):
         s = d["summary"]
         rows = [(g, v["flights"], rate(v["recall"]), rate(v["spurious_two"]), rate(v["spurious_one"]),

@@ -22,4 +22,5 @@ from microdoppler.examples import stand_recording
 flight, truth, sidecar = stand_recording(seed=7, duration_s=12.0)
 np.savez("stand_3p3ghz.npz", iq=flight.iq)
 Path("stand.yaml").write_text(yaml.safe_dump(sidecar, sort_keys=False))
-print(f"truth: mean rotor speed {np.mean(truth['rev_s']):.1f} rev/s, one blade {truth['case']['weak_blade_db']:g} dB weak")
+weak_db = truth["case"]["weak_blade_db"]
+print(f"truth: mean rotor speed {np.mean(truth['rev_s']):.1f} rev/s, one blade {weak_db:g} dB weak")

@@ -43,6 +43,7 @@ mean_db = sg.power_db.mean(axis=0)
 ax.plot(sg.doppler_hz, mean_db, lw=0.7)
 for k in range(-7, 8):
     ax.axvline(k * np.nanmean(est.common_rev_s), color="C1", lw=0.5, ls=":")
-ax.set(xlim=(-1200, 1200), ylim=(np.percentile(mean_db, 2) - 5, mean_db.max() + 5), xlabel="Doppler [Hz]", ylabel="mean power [dB]",
+ax.set(xlim=(-1200, 1200), ylim=(np.percentile(mean_db, 2) - 5, mean_db.max() + 5), xlabel="Doppler [Hz]",
+       ylabel="mean power [dB]",
        title="dotted: multiples of the estimated rotation rate")
 plt.show()

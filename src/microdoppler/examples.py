@@ -3,8 +3,8 @@ of the paper's model.
 
 The documentation's examples use it for a recording from outside the paper's set-up
 (:func:`stand_recording`), and it tests the rotor-speed estimator
-(:mod:`microdoppler.rotors.speed`, :mod:`microdoppler.rotors.order`) on carriers, PRFs, rotor counts, blade sets and set-ups
-the project was not tuned on. It imports only numpy, scipy and
+(:mod:`microdoppler.rotors.speed`, :mod:`microdoppler.rotors.order`) on carriers, PRFs,
+rotor counts, blade sets and set-ups the project was not tuned on. It imports only numpy, scipy and
 :class:`microdoppler.io.flightzarr.Flight` (the container) and shares no code with
 ``microdoppler.emulator``, ``microdoppler.synthesis.model``, ``.extensions`` or
 ``.processes``; its echo is written here from the geometry:
