@@ -121,9 +121,17 @@ def test_registry_lists_the_catalog_in_order():
     assert causes.names() == ("sideband_asymmetry", "sideband_fading", "body_fluctuation", "motor_log_lag",
                               "motor_speed_scale", "phase_noise", "blade_imbalance")
     assert catalog() == ("none", *causes.names(), "unexplained")
+    from dataclasses import fields
+
+    from microdoppler.causes.measure import Measurements
+
+    shared = {f.name for f in fields(Measurements)} | {n for n in dir(Measurements)
+                                                       if isinstance(getattr(Measurements, n), property)}
     for spec in causes.specs():
         assert spec.params and spec.entry.main_param == spec.params[0].name
         assert spec.line in ("body", "rotor", "")
+        # the observations a cause declares are fields of the shared measurement
+        assert spec.observations and set(spec.observations) <= shared, (spec.name, set(spec.observations) - shared)
     with pytest.raises(ValueError, match="already registered"):
         causes.register(causes.get("phase_noise"))
     with pytest.raises(ValueError, match="identifier"):

@@ -161,7 +161,7 @@ class BladeImbalance(CauseSpec):
                "blade): lines at multiples of the rotation rate that are not multiples of the blade-passing rate")
     params = (Param("imbalance_db", "dB", "how far the weakest blade's scattering amplitude lies below the mean of "
                     "the propeller's other blades, 20 log10 of the amplitude ratio, positive", ">= 3"),)
-    observations = ("rot_pow", "rot_var", "rot_cross", "rot_n", "rot_wire", "t_s")
+    observations = ("rot_pow", "rot_var", "rot_cross", "rot_n", "rot_wire", "log", "info", "t_s")
     line = "rotor"
     floor_partner = True
     floor_stage = 0   # its lines enter the floor's model before a skirt does

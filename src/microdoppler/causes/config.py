@@ -83,7 +83,7 @@ PN_PROFILE_OUTER_HZ = 1200.0
 #: few dB; where the target's own lines lifted the fit (a wrong blade count, a log lag)
 #: the medians find no skirt at all
 PN_PROFILE_AGREE_DB = 10.0
-#: the wide-band phase-noise reading (:func:`.hypotheses.profile_skirt_test`) uses
+#: the wide-band phase-noise reading (:func:`.phase_noise.profile_skirt_test`) uses
 #: ordinates at least this far from the body [Hz]: a fluctuating body beside the
 #: clutter line spreads on both sides of it
 PN_PROFILE_BODY_GUARD_HZ = 100.0
@@ -245,14 +245,14 @@ class DiagnosisConfig:
     alpha : float
         Family-wise false-alarm level of the held-out tests per flight: Bonferroni
         over the causes, at alpha / (k (k + 1)) for greedy step k
-        (:func:`.decide.step_threshold`); in (0, 1).
+        (:func:`microdoppler.diagnosis.decide.step_threshold`); in (0, 1).
     block_cpis : int
         CPIs per block of the two alternating held-out folds: 8 CPIs = 2.2 s at
         7.3 kHz, longer than the catalog's correlation times (fading 1-2 s), so
         the folds are nearly independent; the calibration's held-out CPIs use the
         same blocks (``datasets.holdout_block_cpis``); >= 1.
     figures : bool
-        Write one figure per diagnosed flight (:mod:`.explain`).
+        Write one figure per diagnosed flight (:mod:`microdoppler.diagnosis.explain`).
     clutter_guard_hz : float
         Half width [Hz] of the clutter notch: a body or sideband within it of 0 Hz
         is not read. 15 Hz is the paper's high-pass edge (radial speeds below
@@ -294,8 +294,8 @@ class DiagnosisConfig:
     margin_common_gain_db : float
         Goodness of fit: the smallest std [dB] of a significant sideband power
         fluctuation that follows the body's (correlation above
-        :data:`.hypotheses.COMMON_GAIN_CORR`, the body moving at least
-        :data:`.hypotheses.COMMON_GAIN_BODY_SHARE` as many dB) for ``unexplained`` (a gain on the
+        :data:`.sideband_fading.COMMON_GAIN_CORR`, the body moving at least
+        :data:`.sideband_fading.COMMON_GAIN_BODY_SHARE` as many dB) for ``unexplained`` (a gain on the
         whole target: a range-cell straddle, an aspect change; no catalog cause is
         one). 1 dB, half the fading's ``margin_std_db``: slow straddles of under 2 dB std
         are named (the runs that set it: ``docs/experiments.md``).

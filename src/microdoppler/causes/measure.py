@@ -1,7 +1,8 @@
 """Step 1 of the diagnosis: measure a drone flight against the paper's model of it.
 
-Everything the cause tests (:mod:`.hypotheses`) read of a flight is measured here,
-once, into one :class:`Measurements`; the tests never go back to the I/Q or the
+Everything the cause tests (each cause module's, run by
+:mod:`microdoppler.diagnosis.hypotheses`) read of a flight is measured here, once,
+into one :class:`Measurements`; the tests never go back to the I/Q or the
 spectrograms. :func:`measure` first checks that the flight can be diagnosed
 (:func:`check_diagnosable`: a drone, blades long enough for visible rotor lines, a
 usable motor log, long enough; else :class:`Undiagnosable`), then:
@@ -63,7 +64,7 @@ class Undiagnosable(InputError):
     """A flight the diagnosis cannot judge (a bird, a Mini, no usable motor log, too
     short, no visible rotor lines). :func:`measure` (and the tests, when nothing is
     left to test) raise it (an :class:`InputError` naming the field);
-    :func:`.pipeline.diagnose` lists the flight as ``skipped`` with ``reason``."""
+    :func:`microdoppler.diagnosis.pipeline.diagnose` lists the flight as ``skipped`` with ``reason``."""
 
     def __init__(self, source, field: str, problem: str, expected: str | None = None, *, reason: str | None = None):
         super().__init__(source, field, problem, expected)
@@ -534,7 +535,7 @@ def sideband_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndar
     window's far floor (median / ln 2), upper and lower side apart. In so short a
     window the rotors' lines (1-3 % apart) are not resolved: their power beats at
     the lines' difference frequencies (n x a few Hz), a nuisance that is
-    independent between the harmonics (:func:`.hypotheses.fading_estimate_fine`
+    independent between the harmonics (:func:`.sideband_fading.fading_estimate_fine`
     measures it where the fading cancels). Which harmonics and windows are used is
     left to the caller (the nearest CPI's validity). The stationary clutter is
     first taken out as in :func:`body_power_fine`.
@@ -739,7 +740,7 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = 
 def skirt_shape(f_hz: np.ndarray, bandwidth_hz: float, offset_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """The phase-noise skirt's two shapes at offsets ``f_hz`` [Hz] from its line: flat
     (1 within ``bandwidth_hz``) and sloped ((``offset_hz`` / max(|f|, 20 Hz))^2); the
-    phase-noise test fits their mix (:func:`.hypotheses.test_phase_noise`) and
+    phase-noise test fits their mix (:func:`.phase_noise.test_phase_noise`) and
     :func:`skirt_floor` evaluates the fit."""
     with np.errstate(invalid="ignore"):
         return f_hz < bandwidth_hz, (offset_hz / np.maximum(f_hz, 20.0)) ** 2
@@ -748,7 +749,7 @@ def skirt_shape(f_hz: np.ndarray, bandwidth_hz: float, offset_hz: float) -> tupl
 def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
                 offset_hz: float) -> np.ndarray:
     """The floor per bin [n_t, N, 2] that a phase-noise skirt adds at each sideband
-    (``M.side_f_hz``): the phase-noise test's model (:func:`.hypotheses.test_phase_noise`),
+    (``M.side_f_hz``): the phase-noise test's model (:func:`.phase_noise.test_phase_noise`),
     (bin / 2 bandwidth) x line power x (q_flat [|f| < bandwidth] + q_slope (offset /
     max(|f|, 20 Hz))^2) around the clutter line (its power, :func:`clutter_line_power`)
     and around the body line (f relative to each)."""

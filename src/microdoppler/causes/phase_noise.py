@@ -248,7 +248,7 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
 def check_skirt_profile(profile, source="extensions") -> dict:
     """Validate a phase-noise ``skirt_profile`` (``{"band_edges_hz": [n + 1],
     "dbc_hz": [n]}``: the measured skirt, piecewise constant per band of offset;
-    :func:`microdoppler.diagnosis.measure.skirt_profile`); returns it as floats."""
+    :func:`microdoppler.causes.measure.skirt_profile`); returns it as floats."""
     key = "extensions.phase_noise.skirt_profile"
     want = "{band_edges_hz: [n + 1 increasing offsets > 0 Hz], dbc_hz: [n levels, dBc/Hz]}"
     if not isinstance(profile, Mapping) or "band_edges_hz" not in profile or "dbc_hz" not in profile:
@@ -341,7 +341,8 @@ class PhaseNoise(CauseSpec):
               Param("skirt_dbc_hz", "dBc/Hz", "single-sideband phase-noise density at 50 Hz from the carrier, "
                     "relative to the carrier (any spectral shape; for the flat process "
                     ":func:`flat_skirt_dbc_hz` of rms_rad)", ">= about -75 dBc/Hz"))
-    observations = ("pn", "floor_ordinates", "body_pow", "t_s", "info", "stft")
+    observations = ("floor_ordinates", "stft", "bg_stft", "sim_stft", "calib", "floor", "body_pow", "f_body_hz",
+                    "f_log_hz", "dil", "valid", "info")
     line = "body"
     floor_partner = True
     floor_stage = 1   # the skirt enters the floor's model after a named imbalance's lines

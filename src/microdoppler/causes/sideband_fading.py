@@ -401,7 +401,7 @@ class SidebandFading(CauseSpec):
                     "(log-normal gain, Ornstein-Uhlenbeck in dB)", ">= 3"),
               Param("timescale_s", "s", "correlation time of the fading", "1-2 s"))
     observations = ("up", "lo", "pair_ok", "usable_pair_sums", "valid", "harm", "t_s", "range_m", "f_log_hz",
-                    "dil", "dil_ok", "model_h", "body_pow", "info")
+                    "dil", "dil_ok", "model_h", "body_pow", "side_fine", "stft", "info")
     line = "rotor"
     reads_sidebands = True
     clear_side = True
