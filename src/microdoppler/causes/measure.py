@@ -32,7 +32,7 @@ usable motor log, long enough; else :class:`Undiagnosable`), then:
   a weak or strong blade adds, are read where no other line lies, for the
   blade-imbalance test.
 
-The fixed settings read here are :mod:`.config`'s constants.
+The fixed settings read here are :mod:`microdoppler.causes.config`'s constants.
 """
 
 from __future__ import annotations
@@ -1017,7 +1017,7 @@ ROTOR_WANDER_REL = 0.025
 
 
 def thin_wire_line_power(blade_length_m: float, wavelength_m: float, k_max: int, n: int = 4096) -> np.ndarray:
-    """|c_k|^2, k = 0..k_max: the power of the k-th rotation harmonic of ONE thin-wire
+    """The power |c_k|^2 (k = 0..k_max) of the k-th rotation harmonic of ONE thin-wire
     blade of eq. (1), L exp(-j u cos phi) sinc(u cos phi / pi) with u = 2 pi L / lambda,
     as a Fourier series over one revolution (symmetric in k). Identical blades keep only
     the multiples of the blade count; a weak blade lets the others through."""

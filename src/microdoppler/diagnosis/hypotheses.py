@@ -67,7 +67,7 @@ Statistics (per CPI) and models:
   200 Hz) is its density at 50 Hz, ``rms_rad`` = sqrt(ln(1 + q_flat + q_slope)) the
   rms of the flat process with that skirt.
 
-The fixed settings read here are :mod:`.config`'s constants.
+The fixed settings read here are :mod:`microdoppler.causes.config`'s constants.
 """
 
 from __future__ import annotations
