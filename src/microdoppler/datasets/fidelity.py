@@ -63,9 +63,10 @@ from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, 
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .stores import flight_ids, open_store
-from ..diagnosis.config import RAISED_FLOOR_DB
-from ..diagnosis.hypotheses import folds, non_multiple_observations
-from ..diagnosis.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
+from ..causes.config import RAISED_FLOOR_DB
+from ..causes.blade_imbalance import non_multiple_observations
+from ..causes.heldout import folds
+from ..causes.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
 from ..errors import InputError
 from ..io.flightzarr import read_flight
 from ..io.inventory import read_ingested_log
