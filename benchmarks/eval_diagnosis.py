@@ -100,7 +100,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from microdoppler.stats.bootstrap import draw_flights, interval, ratio_replicates, resolved  # noqa: E402
-from microdoppler.synthesis.catalog import CATALOG, UNEXPLAINED  # noqa: E402
+from microdoppler.causes.catalog import CATALOG, UNEXPLAINED  # noqa: E402
 from diagnose_stores import diagnose_with_fit  # noqa: E402  (this folder: the script's own)
 from microdoppler.emulator import world as emu_world  # noqa: E402
 from microdoppler.emulator.world import FlightSpec, emulate_flight  # noqa: E402

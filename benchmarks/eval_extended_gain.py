@@ -48,10 +48,10 @@ from microdoppler.datasets.injection import inject  # noqa: E402
 from microdoppler.datasets.speeds import resample_flight  # noqa: E402
 from microdoppler.diagnosis import Undiagnosable, diagnose_flight  # noqa: E402
 from microdoppler.diagnosis.measure import flight_log  # noqa: E402
-from microdoppler.synthesis.extensions import ExtensionSet  # noqa: E402
+from microdoppler.causes.extensions import ExtensionSet  # noqa: E402
 from microdoppler.datasets.fidelity import DISTANCES, distances, flight_features, scoring_mask  # noqa: E402
 from microdoppler.io.outputs import atomic_file  # noqa: E402
-from microdoppler.synthesis.catalog import UNEXPLAINED  # noqa: E402
+from microdoppler.causes.catalog import UNEXPLAINED  # noqa: E402
 from microdoppler.spectra.spectrogram import SpectrogramConfig  # noqa: E402
 
 #: the Table VI features each cause should move (the "features of the diagnosed cause")

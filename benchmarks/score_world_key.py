@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microdoppler.synthesis.catalog import CAUSES
+from microdoppler.causes.catalog import CAUSES
 
 
 def score(run_dir) -> dict:

@@ -1,7 +1,7 @@
 """Write the table of the diagnosis's causes and their parameters from the catalog.
 
 The report page (``docs/report.md``) includes the table, so a cause or a parameter
-added to :mod:`microdoppler.synthesis.catalog` appears on the page at the next docs
+added to the registry (:mod:`microdoppler.causes`) appears on the page at the next docs
 build (``docs/conf.py`` calls :func:`write_table`).
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 def causes_table() -> str:
     """The catalog as a Markdown table: cause, what differs, and one line per parameter
     (name, unit, meaning, detectable range)."""
-    from microdoppler.synthesis.catalog import CAUSES
+    from microdoppler.causes.catalog import CAUSES
 
     def cell(text: str) -> str:
         return str(text).replace("|", "\\|").replace("\n", " ")

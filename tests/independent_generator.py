@@ -2,7 +2,7 @@
 
 It tests the diagnosis on effects that the project's emulator did not make: it
 imports only numpy, scipy and :mod:`microdoppler.io.flightzarr` (the container), and
-shares no code with ``microdoppler.emulator``, ``microdoppler.synthesis.extensions`` or
+shares no code with ``microdoppler.emulator``, ``microdoppler.causes.extensions`` or
 ``microdoppler.synthesis.processes``. Its constants and process shapes differ on purpose:
 
 - radars: ``gen_l`` (1.25 GHz, PRF 6500 Hz) and ``gen_s`` (2.9 GHz, PRF 9000 Hz);

@@ -260,7 +260,7 @@ def test_load_trainset(built):
 
 
 class StubExtensions:
-    """Stands in for ``microdoppler.synthesis.extensions`` (the diagnosis' model extensions)."""
+    """Stands in for ``microdoppler.causes.extensions`` (the diagnosis' model extensions)."""
 
     def __init__(self):
         self.calls = {"transform_log": 0, "model_extensions": 0, "post": 0}

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from conftest import fast_loop
-from microdoppler.synthesis.catalog import CATALOG, CAUSES
+from microdoppler.causes.catalog import CATALOG, CAUSES
 from microdoppler.diagnosis import (DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, measure,
                                    run_tests)
 from microdoppler.diagnosis import hypotheses as C

@@ -13,7 +13,7 @@ import pytest
 from independent_generator import GenCase, make_flight
 from microdoppler.diagnosis import diagnose_flight
 from microdoppler.diagnosis.hypotheses import imbalance_from_ratio
-from microdoppler.synthesis.extensions import ExtensionSet
+from microdoppler.causes.extensions import ExtensionSet
 
 #: the issue's tolerance on imbalance_db [dB]
 IMBALANCE_TOL_DB = 1.5

@@ -264,7 +264,7 @@ def test_known_misses(case):
 
 
 def test_cases_cover_the_catalog_both_radars_and_signs():
-    from microdoppler.synthesis.catalog import CATALOG
+    from microdoppler.causes.catalog import CATALOG
 
     causes = {c for case in ONE for c in case.effects}
     # "unexplained" is no effect; blade_imbalance is hidden in tests/test_diagnosis_blades.py

@@ -47,7 +47,7 @@ def test_benchmark_page_names_every_json_record_it_reads():
 
 
 def test_report_page_cause_table_is_the_catalogs():
-    from microdoppler.synthesis.catalog import CAUSES
+    from microdoppler.causes.catalog import CAUSES
 
     text = _docs_module("generate_catalog").causes_table()
     for cause in CAUSES.values():

@@ -459,7 +459,7 @@ def test_world_effects_have_a_population_structure(profile):
     world's per-model value, on most flights), per-flight effects on top, >= 30 % of
     flights with two effects, some clean flights; Minis clean; no fixed cycle; all
     from the seed, and a different seed gives a different world."""
-    from microdoppler.synthesis.catalog import CAUSES
+    from microdoppler.causes.catalog import CAUSES
     from microdoppler.emulator.profiles import PER_FLIGHT, world_population
 
     for seed in (11, 20221, 5):

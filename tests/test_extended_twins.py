@@ -22,7 +22,7 @@ from microdoppler.datasets.stores import open_store
 from microdoppler.diagnosis.aggregate import aggregate_twins
 from microdoppler.diagnosis.pipeline import write_twin_extensions
 from microdoppler.errors import InputError
-from microdoppler.synthesis.extensions import ExtensionSet, save_extensions
+from microdoppler.causes.extensions import ExtensionSet, save_extensions
 from microdoppler.io.inventory import ingest_flight_logs
 from microdoppler.spectra.spectrogram import SpectrogramConfig
 

@@ -1,4 +1,4 @@
-"""Model extensions as options of the synthesis stage (microdoppler.synthesis.extensions)."""
+"""Model extensions as options of the synthesis stage (microdoppler.causes.extensions)."""
 
 from dataclasses import replace
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from microdoppler.errors import InputError
-from microdoppler.synthesis.extensions import ExtensionSet, load_extensions, save_extensions
+from microdoppler.causes.extensions import ExtensionSet, load_extensions, save_extensions
 from microdoppler.io.motorlog import MotorLog
 from microdoppler.synthesis.model import Scaling, SynthesisConfig, Track, synthesize
 
@@ -193,7 +193,7 @@ def test_save_load_roundtrip_and_bad_input(tmp_path):
 def test_old_yaml_without_the_new_parameters_is_read(tmp_path):
     """A file written before body timescale_s and skirt_dbc_hz existed: the body's
     timescale defaults to 0.3 s and the skirt follows from rms_rad (flat process)."""
-    from microdoppler.synthesis.catalog import flat_skirt_dbc_hz
+    from microdoppler.causes.catalog import flat_skirt_dbc_hz
 
     (tmp_path / "old.yaml").write_text("schema: extensions/1\nextensions:\n  body_fluctuation: {body_std_db: 3.0}\n"
                                        "  phase_noise: {rms_rad: 0.01}\nmeta: {}\n")
@@ -232,7 +232,7 @@ def test_body_timescale_is_used_and_skirt_defines_rms(tmp_path):
 def test_flat_skirt_matches_the_emulated_phase_noise_spectrum():
     """skirt_dbc_hz of the emulator's knob, computed analytically, against the
     measured spectrum of exp(j theta) of its own process."""
-    from microdoppler.synthesis.catalog import flat_skirt_dbc_hz
+    from microdoppler.causes.catalog import flat_skirt_dbc_hz
     from microdoppler.emulator.knobs import band_limited_phase, validate_effects
 
     rms = 0.02

@@ -51,7 +51,7 @@ import scipy.fft as sfft
 from scipy.signal import ShortTimeFFT, butter, sosfilt, sosfilt_zi
 from scipy.signal.windows import blackmanharris
 
-from ..diagnosis.hypotheses import folds
+from ..causes.heldout import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig

@@ -64,9 +64,10 @@ from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .split import TWIN_MODELS, twin_model
 from .stores import flight_ids, open_store
-from ..diagnosis.config import RAISED_FLOOR_DB
-from ..diagnosis.hypotheses import folds, non_multiple_observations
-from ..diagnosis.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
+from ..causes.config import RAISED_FLOOR_DB
+from ..causes.blade_imbalance import non_multiple_observations
+from ..causes.heldout import folds
+from ..causes.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
 from ..errors import InputError
 from ..io.flightzarr import read_flight
 from ..io.inventory import list_flights, read_ingested_log

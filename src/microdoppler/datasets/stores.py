@@ -9,7 +9,6 @@ store is written atomically (temporary sibling, then renamed).
 from __future__ import annotations
 
 import shutil
-import zlib
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -18,14 +17,7 @@ import zarr
 
 from ..errors import InputError
 from ..io.outputs import atomic_dir, commit_dir
-
-
-def stable_seed(*parts) -> int:
-    """A seed from ``parts`` (ints, strings) that is the same in every process.
-
-    Python's ``hash`` of a string changes between runs; CRC32 does not.
-    """
-    return zlib.crc32("/".join(str(p) for p in parts).encode()) & 0x7FFFFFFF
+from ..synthesis.processes import stable_seed  # noqa: F401 (re-exported)
 
 
 @contextmanager

@@ -37,7 +37,7 @@ def split_and_table_iii(measured_dir, *, spec_cfg: SpectrogramConfig, search_hz:
 def load_extensions(path):
     """The diagnosis' model extensions, or None without a path: ``extensions/2`` ->
     per-twin :class:`~.extended.TwinExtensions`, ``extensions/1`` -> one
-    :class:`~microdoppler.synthesis.extensions.ExtensionSet` for every twin.
+    :class:`~microdoppler.causes.extensions.ExtensionSet` for every twin.
 
     Imported lazily: only the ``extended`` variant needs those modules.
     """

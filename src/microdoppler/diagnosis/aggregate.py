@@ -12,8 +12,8 @@ from typing import Mapping
 
 import numpy as np
 
-from ..synthesis.catalog import CAUSES, UNEXPLAINED
-from ..synthesis.extensions import ExtensionSet
+from ..causes.catalog import CAUSES, UNEXPLAINED
+from ..causes.extensions import ExtensionSet
 
 
 def flight_causes(entry: dict) -> list[dict]:
@@ -120,7 +120,7 @@ def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids
         set, so that no test flight shapes a population-drawn training twin); default
         every flight kept.
     mode : {"per_flight", "population"}
-        How the twins pick their extensions (:mod:`microdoppler.datasets.extended`).
+        How the twins pick their extensions (:mod:`microdoppler.causes.twins`).
     source : str
         Named in errors.
 
@@ -131,7 +131,7 @@ def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids
         flights with status ``skipped``) and per-model population (incidence and
         parameter sets of each cause over the model's diagnosed flights).
     """
-    from ..datasets.extended import MODES, TwinExtensions, catalog_params, fit_population
+    from ..causes.twins import MODES, TwinExtensions, catalog_params, fit_population
     from ..errors import InputError
 
     if mode not in MODES:

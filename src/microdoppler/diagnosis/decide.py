@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import DiagnosisConfig
-from .hypotheses import COUPLED, TestResults
+from .hypotheses import TestResults, coupled
 from .measure import Measurements
 
 
@@ -27,10 +27,11 @@ def tests_given(T: TestResults, named) -> dict:
     replaced by its test given the named partners (``T.conditional``); the other
     causes' statistics do not change."""
     named = frozenset(named)
-    if not any(named & partners for partners in COUPLED.values()):
+    pairs = coupled()
+    if not any(named & partners for partners in pairs.values()):
         return T.tests
     out = dict(T.tests)
-    for cause, partners in COUPLED.items():
+    for cause, partners in pairs.items():
         key = (cause, frozenset(named & partners))
         # conditional tests exist where they were computed (a coupled cause testable
         # against the paper's model; a sideband cause given a non-nil skirt, which may

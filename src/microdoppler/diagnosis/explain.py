@@ -18,20 +18,20 @@ import numpy as np
 import scipy.fft as sfft
 from scipy.stats import t as student_t
 
-from ..synthesis.catalog import PHASE_NOISE_BANDWIDTH_HZ
-from ..synthesis.extensions import ExtensionSet
+from ..causes import registry
+from ..causes.extensions import ExtensionSet
 from ..synthesis.model import ModelExtensions, Track, add_noise
 
-from .config import BODY_SEARCH_HZ, PN_OUTER_HZ, DiagnosisConfig
+from .config import BODY_SEARCH_HZ, DiagnosisConfig
 from .decide import Decision
 from .hypotheses import folds
-from .measure import DB, Measurements, body_doppler, given_imbalance, refine_peak, simulate_blades, stft_power
+from .measure import DB, Measurements, body_doppler, refine_peak, simulate_blades, stft_power
 
 
 def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
     """The paper's model of ``flight`` (calibrated), optionally extended, plus the
     flight's background recording (or white noise at its floor); a named phase noise
-    acts on the background too, as in the twins (:func:`..datasets.injection.inject`).
+    acts on the background too, as in the twins (:func:`microdoppler.causes.twins.inject`).
 
     The blades are simulated relative to the body and their mean return (every
     component within half the rotation rate of the body Doppler) is taken out, as
@@ -74,7 +74,7 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
         iq = ext.post(iq.astype(np.complex64), prf_hz=prf, seed=seed)
     if flight.background_iq is not None:
         # as the twins are injected: a named phase noise acts on the clutter too
-        from ..datasets.injection import inject
+        from ..causes.twins import inject
 
         iq = inject(iq, flight.background_iq, effects=ext.effects if ext is not None else None, prf_hz=prf,
                     seed=seed)
@@ -138,10 +138,10 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     st = M.stft
     prf = flight.prf_hz
     ext = named_extensions(D)
-    if ext is not None and "blade_imbalance" in ext.effects:
-        # the model calibrated with the imbalance's rotation lines in the sidebands'
-        # floor model (without it a weak blade can leave no pair to calibrate on)
-        M = given_imbalance(M)
+    named = _named_specs(ext)
+    # the model calibrated as the named causes ask (a blade imbalance: with its
+    # rotation lines in the sidebands' floor model)
+    M = _calibration_measurement(M, named)
     n_fft = cfg.cpi_pulses(prf)
     sim = stft_power(simulate_flight(flight, M, ext, cfg.seed, n_fft), prf, n_fft)
     f_sim = refine_peak(sim, body_doppler(flight, sim.t_s), BODY_SEARCH_HZ)
@@ -161,14 +161,16 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     # whole skirt band (the catalog's flat skirt need not have the measured shape)
     guard = cfg.clutter_guard_hz * (2.0 if flight.background_iq is not None else 3.0)
     skirt_edge = None
-    if ext is not None and "phase_noise" in ext.effects:
-        guard = max(guard, 2 * PN_OUTER_HZ)
-        # the edge of the body's skirt, whose shape the catalog's flat process does not know
-        skirt_edge = (0.75 * PHASE_NOISE_BANDWIDTH_HZ, 4.5 * PHASE_NOISE_BANDWIDTH_HZ)
+    for spec in named:   # a named phase noise: its whole skirt band and the edge of the body's skirt
+        guard, edge = spec.gof_guard(guard)
+        skirt_edge = edge if edge is not None else skirt_edge
     # the body's band (its level is S_body's calibration); with a fluctuating body
     # named, its neighbours too (the fluctuation's skirt scales with the body line,
     # which the model draws with the blades' mean return added)
-    body_half = bw / 2 if ext is None or "body_fluctuation" not in ext.effects else 1.5 * bw
+    body_half = bw / 2
+    for spec in named:
+        half = spec.gof_body_half(bw)
+        body_half = half if half is not None else body_half
     use = np.flatnonzero(M.valid)
     d = np.full((len(st.t_s), n_bands), np.nan)
     for i in use:
@@ -239,7 +241,7 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     base_iq = simulate_flight(flight, M, None, cfg.seed, n_fft)
     ext = named_extensions(D)
     # calibrated as the goodness of fit calibrates it (with a named imbalance's lines)
-    Me = given_imbalance(M) if ext is not None and "blade_imbalance" in ext.effects else M
+    Me = _calibration_measurement(M, _named_specs(ext))
     ext_iq = simulate_flight(flight, Me, ext, cfg.seed, n_fft) if ext else base_iq
     named = " + ".join(sorted(ext.effects)) if ext is not None else "none"
     st = M.stft
@@ -275,16 +277,7 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
                                              key=lambda t: t.log_e, default=None)
     show = tests[show] if isinstance(show, str) else show
     if show is not None and show.series:
-        s = show.series
-        ax[4].plot(s["t_s"], s["stat"], ".", ms=3, label="measured")
-        if show.cause in ("sideband_fading", "body_fluctuation"):
-            ax[4].fill_between(s["t_s"], -2 * s["base"], 2 * s["base"], alpha=0.3, label="baseline 95%")
-            ax[4].plot(s["t_s"], 2 * s["ext"], "r--", lw=1, label="extended 95%")
-            ax[4].plot(s["t_s"], -2 * s["ext"], "r--", lw=1)
-        else:
-            ax[4].plot(s["t_s"], s["base"], "k-", label="baseline")
-            ax[4].plot(s["t_s"], s["ext"], "r-", label="extended")
-        ax[4].legend(fontsize=8)
+        registry.get(show.cause).draw_panel(ax[4], show)   # the cause's own panel
     ax[4].set_title(f"{show.cause if show else ''}: {show.statistic if show else ''}\n"
                     f"log e-value {show.log_e:.1f}" if show else "no statistic", fontsize=9)
     ax[4].set_xlabel("time [s]")
@@ -295,3 +288,15 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     plt.close(fig)
     tmp.replace(path)
     return path
+
+
+def _named_specs(ext) -> list:
+    """The registered causes named in ``ext`` (an ExtensionSet or None), in order."""
+    return [] if ext is None else [s for s in registry.specs() if s.name in ext.effects]
+
+
+def _calibration_measurement(M, named):
+    """``M`` as the named causes ask the model to be calibrated on."""
+    for spec in named:
+        M = spec.calibration_measurement(M)
+    return M

@@ -24,8 +24,8 @@ from ..errors import ConfigError, InputError
 from ..io.flightzarr import read_flight
 from ..io.motorlog import MotorLog
 from ..io.outputs import atomic_file
-from ..synthesis.catalog import CATALOG, UNEXPLAINED
-from ..synthesis.extensions import save_extensions
+from ..causes.catalog import UNEXPLAINED, catalog
+from ..causes.extensions import save_extensions
 from .aggregate import aggregate, aggregate_twins
 from .config import DiagnosisConfig, unknown_key_error
 from .decide import decide_flight, skipped_entry, tests_given
@@ -106,7 +106,8 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
     could not test, so that ``none`` is never read as "tested and absent"."""
     out = dict(entry)
     causes = list(out["causes"])
-    fading = T.tests.get("sideband_fading")
+    # a test that found a gain common to the body and the blades (the fading's)
+    fading = next((t for t in T.tests.values() if "common_gain_db" in t.evidence), None)
     common = (fading is not None and fading.testable and "common_gain_db" in fading.evidence
               and fading.log_e >= entry["evidence"]["log_evalue_threshold"])
     if gof["excess"]:
@@ -286,7 +287,7 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
             log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
         rows.append(report_row(e, warnings=warns))
-    report = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": entries}
+    report = {"schema": REPORT_SCHEMA, "catalog": list(catalog()), "flights": entries}
     write_json(report, out_json)
     write_table(rows, table_path(out_json))
     return report
@@ -384,8 +385,8 @@ def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mo
     """``extended.yaml`` (``extensions/2``) from the report's flights in the split sets
     of ``settings['sets']`` (the ``diagnosis:`` config section), the population from
     those of ``settings['population_sets']``; drone models from the split table.
-    Returns the :class:`~microdoppler.datasets.extended.TwinExtensions`."""
-    from ..datasets.extended import TwinExtensions, save_twin_extensions
+    Returns the :class:`~microdoppler.causes.twins.TwinExtensions`."""
+    from ..causes.twins import TwinExtensions, save_twin_extensions
 
     pipe, _ = split_settings(settings)
     try:

@@ -30,7 +30,7 @@ Conventions
   the 15 Hz high-pass notch.
 - ``first_sideband_db`` is the per-motor-line amplitude below the body in the model;
   the measured first sideband group sits ~0.5-2 dB closer to the body.
-- Knobs follow :mod:`microdoppler.synthesis.catalog` exactly. The ``phase_noise`` knob is an
+- Knobs follow :mod:`microdoppler.causes.catalog` exactly. The ``phase_noise`` knob is an
   episode of the flight recording: ``iq`` carries it, ``background/iq`` (another time)
   does not. The radars' own (weaker, Lorentzian) phase noise is in both.
 - Drones of the ``default`` and ``paper`` worlds are flown by a few airframes per model

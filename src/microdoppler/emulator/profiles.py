@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..synthesis.catalog import CAUSES
+from ..causes.catalog import CAUSES
 from ..io.flightzarr import write_flight
 from ..io.outputs import atomic_dir, atomic_file, commit_folder, is_tool_store
 from ..spectra.spectrogram import SpectrogramConfig

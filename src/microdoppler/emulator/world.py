@@ -20,7 +20,8 @@ from ..spectra.snr import flight_body_snr_db
 from . import background as bg
 from .bird import KINDS, plan_group, render
 from .drone import DYNAMICS, loop_path, motor_speeds, write_log
-from .knobs import SlowGain, asymmetry_envelope, imbalance_amplitudes, ou_process, validate_effects
+from ..causes import registry
+from .knobs import SlowGain, ou_process, validate_effects
 from .radars import radar_site
 
 TARGETS = ("drone", "bird")
@@ -104,7 +105,7 @@ class FlightSpec:
     airframe : str
         Drones: the airframe that flies the flight (worlds: one of a few per model,
         ``profiles.plan_airframes``); a label for the key, what the airframe
-        carries (``blade_imbalance``) is in ``effects``.
+        carries (a blade imbalance) is in ``effects``.
 
     Raises
     ------
@@ -305,11 +306,13 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         alpha_s = float(max(falloff - natural, 0.5) / (20 * np.log10(np.e) * B * f_rot))
         cB = abs(coef[B])
         s_blade = float(a_body * 10 ** (-first_db / 20) / (cB * np.exp(-alpha_s * B * f_rot)))
-        asym = effects.get("sideband_asymmetry", {}).get("asymmetry_db", 0.0)
-        env_asym = asymmetry_envelope(asym)
+        knobs = [(s, effects[s.name]) for s in registry.specs() if s.name in effects]
+        envs = [e for e in (s.world_envelope(p) for s, p in knobs) if e is not None]
 
         def envelope(f_hz):
-            g = env_asym(f_hz)
+            g = np.ones(np.shape(f_hz), np.float32)   # no knob: the paper's envelope alone
+            for k, env in enumerate(envs):
+                g = env(f_hz) if k == 0 else g * env(f_hz)
             g[f_hz == 0] = 0.0  # the blades' mean return is part of the body RCS
             return g
 
@@ -318,29 +321,29 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         if dyn.hand_flown:
             aspect = SlowGain(spec.duration_s + 1, scint_db, MINI_SCINT_S, r_v3)
         blade_nat = SlowGain(spec.duration_s + 1, 0.5, 5.0, r_bl)
-        fad = effects.get("sideband_fading")
-        fading = SlowGain(spec.duration_s + 1, fad["fading_std_db"], fad["timescale_s"], r_bl) if fad else None
-        bf = effects.get("body_fluctuation")
-        bodyfl = SlowGain(spec.duration_s + 1, bf["body_std_db"], bf["timescale_s"], r_bl) if bf else None
+        # the knobs' slow gains, drawn from r_bl in the registry's order: the blades', then the body's
+        blade_gains = [g for g in (s.world_blade_gain(p, spec.duration_s + 1, r_bl) for s, p in knobs)
+                       if g is not None]
+        body_gains = [g for g in (s.world_body_gain(p, spec.duration_s + 1, r_bl) for s, p in knobs)
+                      if g is not None]
 
         def blade_hook(i0, i1, ts, x):
             g = blade_nat.amplitude(ts)
-            if fading is not None:
-                g *= fading.amplitude(ts)
+            for gain in blade_gains:
+                g *= gain.amplitude(ts)
             x *= g
 
         def body_hook(i0, i1, ts, x):
             g = aspect.amplitude(ts)
-            if bodyfl is not None:
-                g *= bodyfl.amplitude(ts)
+            for gain in body_gains:
+                g *= gain.amplitude(ts)
             x *= g
 
         start = r_bl.uniform(0, 1, model.n_motors)  # rotor angles at t = 0 [rev]
-        # unequal blades (blade_imbalance): one weak blade on every rotor, the same
+        # unequal blades (a blade imbalance): one weak blade on every rotor, the same
         # amplitudes for each nested wire of the tapered blade; no draw (flights
         # without it are unchanged)
-        imb = effects.get("blade_imbalance")
-        amps = imbalance_amplitudes(imb["imbalance_db"], B) if imb else None
+        amps = next((a for a in (s.world_blade_amplitudes(p, B) for s, p in knobs) if a is not None), None)
         target = None
         hooks = synthesis.ModelExtensions(envelope_gain=envelope, blade_hook=blade_hook, body_hook=body_hook)
         for k, fr in enumerate(BLADE_TAPER):
@@ -354,10 +357,10 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         attrs.update({"drone_model": spec.drone_model, "n_motors": int(model.n_motors),
                       "n_blades": int(B), "blade_length_m": float(model.blade_length_m)})
         if dyn.log_rate_hz > 0:
-            lag = effects.get("motor_log_lag", {}).get("lag_s", 0.0)
-            scale = effects.get("motor_speed_scale", {}).get("scale", 1.0)
-            motors_t, motors_rpm = write_log(mt, spec.duration_s, dyn.log_rate_hz, _rng(spec.seed, 4),
-                                             lag_s=lag, scale=scale)
+            log_kw = {"lag_s": 0.0, "scale": 1.0}   # a log on the radar's clock, at the true speed
+            for s, p in knobs:
+                log_kw.update(s.world_log(p))
+            motors_t, motors_rpm = write_log(mt, spec.duration_s, dyn.log_rate_hz, _rng(spec.seed, 4), **log_kw)
         inflight = (mt.t_s >= 0) & (mt.t_s <= spec.duration_s)
         rv = mt.rev_s[inflight]
         truth.update({"drone_model": spec.drone_model, "alpha_s": alpha_s, "s_body": a_body, "s_blade": s_blade,
@@ -389,7 +392,10 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
                       "body_doppler_offsets_hz": (-2 * (np.gradient(group.range_m, group.t_s, axis=0)
                                                         - np.gradient(centre, group.t_s)[:, None]).mean(0) / lam).tolist()})
     cells = bg.cell_ids(range_tt, az_tt)
-    knob_pn = effects.get("phase_noise", {}).get("rms_rad", 0.0)
+    # a flat phase error on the whole flight echo (a phase-noise knob; rms of the sum for several)
+    pn = [r for r in (s.world_phase_rms(effects[s.name]) for s in registry.specs() if s.name in effects)
+          if r is not None]
+    knob_pn = 0.0 if not pn else pn[0] if len(pn) == 1 else float(np.sqrt(np.sum(np.square(pn))))
     iq, info = bg.record(target, n, t_track_s=tt, cells=cells, site=site, site_seed=spec.site_seed,
                          wind_mps=wind, rng=_rng(spec.seed, 5), knob_phase_rms_rad=knob_pn,
                          clutter_scale_db=spec.clutter_scale_db)

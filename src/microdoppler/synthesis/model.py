@@ -520,7 +520,7 @@ class Envelope:
 @dataclass(frozen=True)
 class ModelExtensions:
     """Model extensions acting inside the synthesis (what
-    :meth:`microdoppler.synthesis.extensions.ExtensionSet.model_extensions` gives).
+    :meth:`microdoppler.causes.extensions.ExtensionSet.model_extensions` gives).
 
     Parameters
     ----------
