@@ -7,7 +7,7 @@ A cause module (one per cause, see ``docs/adding-a-cause.md``) subclasses
 - the catalog entry: ``name``, ``meaning``, ``params`` (names, units, signs,
   detectable ranges);
 - the diagnosis: ``observations`` (the fields of the shared
-  :class:`~microdoppler.causes.measure.Measurements` its test reads), ``line`` (the
+  ``microdoppler.causes.measure.Measurements`` its test reads), ``line`` (the
   line its test needs: ``"body"``, ``"rotor"`` or ``""``), its held-out
   :meth:`~CauseSpec.test`, its couplings (``test_partners``, ``reads_sidebands``,
   ``floor_partner``) and its relevance margin (``margin_field``);
@@ -80,11 +80,11 @@ class CauseSpec:
     name: str = ""
     #: what the cause is, in one line
     meaning: str = ""
-    #: its parameters (:class:`Param`); the first one is the one the diagnosis must recover
+    #: its parameters (``Param``); the first one is the one the diagnosis must recover
     params: tuple = ()
 
     # ------------------------------------------------------------ the diagnosis
-    #: fields of the shared measurement (:class:`~microdoppler.causes.measure.Measurements`) the test reads
+    #: fields of the shared measurement (``microdoppler.causes.measure.Measurements``) the test reads
     observations: tuple = ()
     #: the line the test needs: "body" (not testable with the body in the clutter
     #: notch), "rotor" (the rotors' HERM lines: a flight where no rotor test is
@@ -107,7 +107,7 @@ class CauseSpec:
     margin_field: str | None = None
 
     def test(self, M, cfg, fold, given: frozenset = frozenset()):
-        """The held-out test (:class:`~microdoppler.causes.heldout.CauseTest`) of
+        """The held-out test (``microdoppler.causes.heldout.CauseTest``) of
         the measured flight ``M`` on the folds ``fold``, with the extensions of the
         named ``given`` (a subset of ``test_partners``) in both models."""
         raise NotImplementedError
@@ -159,7 +159,7 @@ class CauseSpec:
         return t, rpm
 
     def model_extension(self, p, *, duration_s: float, seed: int) -> dict:
-        """Slots of :class:`~microdoppler.synthesis.model.ModelExtensions`
+        """Slots of ``microdoppler.synthesis.model.ModelExtensions``
         (``envelope_gain``, ``blade_hook``, ``body_hook``) the extension fills."""
         return {}
 

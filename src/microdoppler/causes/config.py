@@ -258,14 +258,14 @@ class DiagnosisConfig:
     alpha : float
         Family-wise false-alarm level of the held-out tests per flight: Bonferroni
         over the causes, at alpha / (k (k + 1)) for greedy step k
-        (:func:`microdoppler.diagnosis.decide.step_threshold`); in (0, 1).
+        (``microdoppler.diagnosis.decide.step_threshold``); in (0, 1).
     block_cpis : int
         CPIs per block of the two alternating held-out folds: 8 CPIs = 2.2 s at
         7.3 kHz, longer than the catalog's correlation times (fading 1-2 s), so
         the folds are nearly independent; the calibration's held-out CPIs use the
         same blocks (``datasets.holdout_block_cpis``); >= 1.
     figures : bool
-        Write one figure per diagnosed flight (:mod:`microdoppler.diagnosis.explain`).
+        Write one figure per diagnosed flight (``microdoppler.diagnosis.explain``).
     clutter_guard_hz : float
         Half width [Hz] of the clutter notch: a body or sideband within it of 0 Hz
         is not read. 15 Hz is the paper's high-pass edge (radial speeds below

@@ -86,7 +86,7 @@ class ExtensionSet:
         empty = the paper's model.
     meta : mapping
         Free-form provenance (e.g. how the parameters were aggregated); preserved by
-        :func:`~microdoppler.synthesis.save_extensions`.
+        :func:`~microdoppler.causes.save_extensions`.
 
     Raises
     ------
@@ -177,7 +177,7 @@ def read_yaml(path, expected: str):
 
 
 def load_extensions(path_yaml) -> ExtensionSet:
-    """Read an extensions YAML (as written by :func:`~microdoppler.synthesis.save_extensions`).
+    """Read an extensions YAML (as written by :func:`~microdoppler.causes.save_extensions`).
 
     Parameters
     ----------

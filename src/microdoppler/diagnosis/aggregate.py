@@ -56,7 +56,7 @@ def aggregate(report: dict, *, min_fraction: float = 0.25, flight_ids=None) -> E
 
     See Also
     --------
-    diagnose, microdoppler.synthesis.save_extensions
+    diagnose, microdoppler.causes.save_extensions
 
     Examples
     --------
