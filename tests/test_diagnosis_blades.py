@@ -124,3 +124,27 @@ def test_shallow_range_straddle_is_unexplained():
     un = entry["causes"][-1]
     assert un["evidence"].get("kind") == "a power fluctuation common to the body and the blades", un
     assert un["evidence"]["body_correlation"] > 0.7
+
+
+def test_imbalance_interval_is_one_sided_where_one_blade_dominates():
+    """The interval of imbalance_db from the non-multiple/blade-passing ratio: a
+    ratio within noise of a lone blade's (0 dB for two blades) bounds the imbalance
+    from below only; a ratio of a 10 dB imbalance gives a two-sided interval around
+    10 dB; no non-multiple power bounds it from above only."""
+    from microdoppler.causes.blade_imbalance import imbalance_from_ratio, imbalance_interval
+
+    rng = np.random.default_rng(3)
+    idx = np.repeat(np.arange(40), 6)  # 40 CPIs, 6 observations each
+    lone = imbalance_interval(1.0 + 0.05 * rng.standard_normal(idx.size), idx, 2, 8, seed=1)
+    assert lone["bound"] == "lower" and lone["high"] is None and lone["low"] > 20, lone
+    assert "one blade dominates" in lone["meaning"]
+    a = 10 ** (-10 / 20)
+    r = ((1 - a) / (1 + a)) ** 2
+    assert imbalance_from_ratio(r, 2) == pytest.approx(10.0)
+    two = imbalance_interval(r * (1 + 0.1 * rng.standard_normal(idx.size)), idx, 2, 8, seed=1)
+    assert two["bound"] == "two-sided" and two["low"] < 10.0 < two["high"] and two["high"] - two["low"] < 3, two
+    none = imbalance_interval(0.002 * rng.standard_normal(idx.size), idx, 2, 8, seed=1)
+    assert none["bound"] == "upper" and none["low"] == 0.0, none
+    # the same seed gives the same interval
+    assert imbalance_interval(r * np.ones(idx.size), idx, 2, 8, seed=1) == imbalance_interval(
+        r * np.ones(idx.size), idx, 2, 8, seed=1)

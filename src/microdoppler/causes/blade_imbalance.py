@@ -38,6 +38,48 @@ def imbalance_from_ratio(r: float, n_blades: int) -> float:
     return float(-20 * np.log10(a)) if a > 0 else float("nan")
 
 
+#: bootstrap resamples of the imbalance's interval, and its level
+N_BOOT = 400
+INTERVAL_LEVEL = 0.95
+
+
+def imbalance_interval(z, idx, n_blades: int, block_cpis: int, seed: int) -> dict:
+    """The interval of ``imbalance_db`` the flight's data allow: the median ratio of
+    the non-multiple lines to the blade-passing lines (``z``, one per observation,
+    ``idx`` its CPI) resampled by blocks of ``block_cpis`` CPIs (the CPIs of a block
+    are correlated; the flight's blocks are the unit), through
+    :func:`imbalance_from_ratio`, which is monotonic in the ratio.
+
+    Returns ``{"low": dB, "high": dB or None, "bound": "two-sided" | "lower" |
+    "upper", "level": 0.95, "meaning": ...}``. Where the ratio's upper end reaches what
+    one blade alone makes (the non-multiple lines as strong as the blade-passing ones:
+    one blade dominates), the data bound the imbalance from below only (``high`` None,
+    ``bound`` "lower"); where its lower end reaches 0, from above only."""
+    cpis = np.unique(idx)
+    blocks = [cpis[i:i + block_cpis] for i in range(0, len(cpis), max(int(block_cpis), 1))]
+    members = [np.flatnonzero(np.isin(idx, b)) for b in blocks]
+    rng = np.random.default_rng(seed)
+    r = np.empty(N_BOOT)
+    for i in range(N_BOOT):
+        pick = rng.integers(0, len(members), len(members))
+        r[i] = max(float(np.median(z[np.concatenate([members[j] for j in pick])])), 0.0)
+    q = (1 - INTERVAL_LEVEL) / 2
+    r_lo, r_hi = np.quantile(r, [q, 1 - q])
+    lo, hi = imbalance_from_ratio(float(r_lo), n_blades), imbalance_from_ratio(float(r_hi), n_blades)
+    top = not np.isfinite(hi)  # the ratio's upper end: more than one blade alone can make, or one blade alone
+    if not np.isfinite(lo):  # even the lower end: the lines are no imbalance
+        return {"low": None, "high": None, "bound": "none", "level": INTERVAL_LEVEL,
+                "meaning": "the non-multiple lines stand at or above the blade-passing lines: no imbalance of "
+                           "one blade makes that"}
+    bound = "lower" if top else ("upper" if lo <= 0 else "two-sided")
+    meaning = {"lower": f"one blade dominates: its imbalance is at least {lo:.1f} dB; the noise does not let "
+                        "the data say how much more",
+               "upper": f"the imbalance is at most {hi:.1f} dB; the data cannot tell it from none",
+               "two-sided": f"{INTERVAL_LEVEL:.0%} interval of the weakest blade's amplitude below the others"}[bound]
+    return {"low": round(float(lo), 2), "high": None if top else round(float(hi), 2), "bound": bound,
+            "level": INTERVAL_LEVEL, "meaning": meaning}
+
+
 def imbalance_observations(M):
     """The blade-imbalance test's observations, one per (CPI, non-multiple order k,
     side): the measured power ``x`` of the rotors' lines of order k, its noise variance
@@ -122,7 +164,8 @@ def test_imbalance(M, cfg, fold) -> CauseTest:
     res.effect = imb if np.isfinite(imb) else 0.0
     res.relevant = bool(np.isfinite(imb) and imb >= cfg.margin_imbalance_db)
     res.evidence = {"ratio_db": round(float(DB * np.log(max(r, 1e-12))), 2), "n_blades": int(B),
-                    "n_cpis": int(n_cpi), "n_lines": int(len(z))}
+                    "n_cpis": int(n_cpi), "n_lines": int(len(z)),
+                    "intervals": {"imbalance_db": imbalance_interval(z, idx, B, cfg.block_cpis, cfg.seed)}}
     if not np.isfinite(imb):
         res.evidence["reason"] = (f"the non-multiple lines stand {DB * np.log(r):.1f} dB from the blade-passing "
                                   "lines: more than one weak or strong blade can make, not an imbalance")

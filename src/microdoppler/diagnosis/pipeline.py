@@ -144,7 +144,7 @@ def write_json(obj, path) -> Path:
 
 
 #: columns of the one-row-per-flight table written beside the report (:func:`report_table`)
-TABLE_COLUMNS = ("flight_id", "cause", "causes", "params", "log_evalues", "not_testable", "goodness_of_fit",
+TABLE_COLUMNS = ("flight_id", "cause", "causes", "params", "intervals", "log_evalues", "not_testable", "goodness_of_fit",
                  "excess_db", "band_hz", "reason", "hint", "plausibility_warnings")
 #: hints for a skip reason: what the user can do about it
 SKIP_HINTS = {
@@ -176,7 +176,9 @@ def _flat(x) -> str:
 
 def report_row(entry: dict, *, warnings=()) -> dict:
     """One report entry as a row of :data:`TABLE_COLUMNS`: the causes (``;``), each
-    cause's parameters (compact JSON ``{cause: params}``) and log e-value, the causes
+    cause's parameters (compact JSON ``{cause: params}``), the intervals the data
+    allow them (``{cause: {param: {low, high, bound, level, meaning}}}``, where the
+    cause's test gives one) and log e-value, the causes
     not testable (``cause: reason``, ``;``), the goodness of fit (``explained`` or
     ``excess``, its worst band's level and band), the skip reason with its hint, and the
     import's plausibility warnings (``warnings``)."""
@@ -187,6 +189,8 @@ def report_row(entry: dict, *, warnings=()) -> dict:
         "flight_id": entry["flight_id"], "cause": entry["cause"],
         "causes": ";".join(c["cause"] for c in causes),
         "params": _flat({c["cause"]: (c.get("extension") or c).get("params") for c in causes}) if causes else "",
+        "intervals": _flat({c["cause"]: c["evidence"]["intervals"] for c in causes
+                            if "intervals" in (c.get("evidence") or {})}) if causes else "",
         "log_evalues": ";".join(f"{c['cause']}={c['evidence']['log_evalue']}" for c in causes
                                 if "log_evalue" in (c.get("evidence") or {})),
         "not_testable": ";".join(f"{k}: {v}" for k, v in (entry.get("not_testable") or {}).items()),
