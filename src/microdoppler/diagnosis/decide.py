@@ -46,6 +46,15 @@ def _significant(t, thr: float) -> bool:
     return bool(t.testable and t.held_out and t.log_e >= thr)
 
 
+def _improves(t) -> bool:
+    """The extension fits the held-out data better, pooled over both folds: the
+    held-out negative log-likelihood per observation with the extension
+    (``nll_ext``) below the paper's model's (``nll_base``). The log e-value averages
+    the two folds' likelihood ratios, so one fold can carry it while the pooled fit
+    gets worse; a cause named must do both (one story per cause)."""
+    return bool(np.isfinite(t.nll_base) and np.isfinite(t.nll_ext) and t.nll_ext < t.nll_base)
+
+
 def step_threshold(n_testable: int, step: int, alpha: float) -> float:
     """log e-value threshold of greedy step ``step`` (1-based): Bonferroni over the
     ``n_testable`` causes at level alpha_k = alpha / (k (k + 1)), so that the levels
@@ -67,12 +76,12 @@ def _strength(t) -> float:
 
 
 def decide(tests: dict, cfg: DiagnosisConfig, step: int = 1, n_testable: int | None = None) -> tuple[str, float]:
-    """The strongest significant and relevant cause of one greedy step (``"none"``
+    """The strongest significant, relevant and fit-improving cause of one greedy step (``"none"``
     when there is none) and that step's log e-value threshold (Bonferroni over
     ``n_testable`` causes, default the testable ones in ``tests``)."""
     n = sum(t.testable for t in tests.values()) if n_testable is None else n_testable
     thr = step_threshold(n, step, cfg.alpha)
-    cands = [t for t in tests.values() if _significant(t, thr) and t.relevant]
+    cands = [t for t in tests.values() if _significant(t, thr) and t.relevant and _improves(t)]
     if not cands:
         return "none", thr
     return max(cands, key=_strength).cause, thr
@@ -153,6 +162,12 @@ class Decision:
 def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, started: float | None = None) -> Decision:
     """Name the flight's causes and write its report entry.
 
+    A cause is named when its held-out log e-value passes the step's threshold, its
+    fitted effect is relevant (beyond its margin) and its extension improves the
+    pooled held-out fit (``gain``: ``extended`` below ``baseline``); the e-value
+    (the folds' likelihood ratios averaged) and the gain (their log-likelihoods
+    pooled) then tell one story.
+
     Parameters
     ----------
     M : Measurements
@@ -185,12 +200,14 @@ def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, star
     dropped = []
     while True:
         final = {c: tests_given(T, set(named) - {c})[c] for c in named}
-        failing = [c for c in named if not (_significant(final[c], thr_of[c]) and final[c].relevant)]
+        failing = [c for c in named
+                   if not (_significant(final[c], thr_of[c]) and final[c].relevant and _improves(final[c]))]
         if not failing:
             break
         worst = min(failing, key=lambda c: _strength(final[c]))
         dropped.append({"cause": worst, "given": sorted(set(named) - {worst}), "log_evalue": final[worst].log_e,
-                        "log_evalue_threshold": thr_of[worst], "relevant": bool(final[worst].relevant)})
+                        "log_evalue_threshold": thr_of[worst], "relevant": bool(final[worst].relevant),
+                        "improves_heldout_fit": _improves(final[worst])})
         named.remove(worst)
     order = sorted(named, key=lambda c: -(final[c].nll_base - final[c].nll_ext))
     causes = [cause_entry(final[c], thr_of[c], given=sorted(set(named) - {c}),
@@ -205,7 +222,8 @@ def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, star
         "calibration": {"s_body": calib.s_body, "s_blade": calib.s_blade, "alpha_s": calib.alpha_s},
         "per_harmonic_power_error_db": calib.per_harmonic_power_error_db,
         "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": _significant(t, thr),
-                      "relevant": bool(t.relevant), "testable": bool(t.testable), "params": t.params,
+                      "relevant": bool(t.relevant), "improves_heldout_fit": _improves(t),
+                      "testable": bool(t.testable), "params": t.params,
                       "statistic": t.statistic, "heldout_nll_base": t.nll_base, "heldout_nll_ext": t.nll_ext,
                       "held_out": bool(t.held_out), **t.evidence}
                   for c, t in tests.items()},
