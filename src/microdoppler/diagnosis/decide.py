@@ -46,6 +46,15 @@ def _significant(t, thr: float) -> bool:
     return bool(t.testable and t.held_out and t.log_e >= thr)
 
 
+def _improves(t) -> bool:
+    """The extension fits the held-out data better, pooled over both folds: the
+    held-out negative log-likelihood per observation with the extension
+    (``nll_ext``) below the paper's model's (``nll_base``). The log e-value averages
+    the two folds' likelihood ratios, so one fold can carry it while the pooled fit
+    gets worse; the report then says so (:func:`gain`)."""
+    return bool(np.isfinite(t.nll_base) and np.isfinite(t.nll_ext) and t.nll_ext < t.nll_base)
+
+
 def step_threshold(n_testable: int, step: int, alpha: float) -> float:
     """log e-value threshold of greedy step ``step`` (1-based): Bonferroni over the
     ``n_testable`` causes at level alpha_k = alpha / (k (k + 1)), so that the levels
@@ -103,9 +112,15 @@ def gain(t) -> dict:
     """The ``gain`` of a report entry: the held-out negative log-likelihood per
     observation of the cause's statistic without (baseline) and with (extended) its
     extension; ``held_out`` is the test's own record of whether each fold was scored
-    with parameters fitted on the other fold only."""
-    return {"metric": f"nll_per_obs:{t.statistic}", "baseline": t.nll_base, "extended": t.nll_ext,
-            "held_out": bool(t.held_out)}
+    with parameters fitted on the other fold only; ``agrees_with_evalue`` whether the
+    extension also improves the pooled fit (with ``why`` where it does not)."""
+    out = {"metric": f"nll_per_obs:{t.statistic}", "baseline": t.nll_base, "extended": t.nll_ext,
+           "held_out": bool(t.held_out), "agrees_with_evalue": _improves(t)}
+    if not out["agrees_with_evalue"]:
+        out["why"] = ("the log e-value averages the two folds' held-out likelihood ratios, so one fold can carry "
+                      "it; this gain pools both folds' log-likelihoods, and the extension fits the pooled "
+                      "held-out data worse: the evidence rests on part of the flight")
+    return out
 
 
 def cause_entry(t, thr: float, given=(), step: int = 1) -> dict:
@@ -153,6 +168,12 @@ class Decision:
 def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, started: float | None = None) -> Decision:
     """Name the flight's causes and write its report entry.
 
+    A cause is named when its held-out log e-value passes the step's threshold and
+    its fitted effect is relevant (beyond its margin). The e-value averages the two
+    folds' likelihood ratios, the ``gain`` pools their log-likelihoods: where one fold
+    carries the e-value while the pooled fit gets worse, the cause's entry says so
+    (``gain.agrees_with_evalue`` false, with ``gain.why``).
+
     Parameters
     ----------
     M : Measurements
@@ -190,7 +211,8 @@ def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, star
             break
         worst = min(failing, key=lambda c: _strength(final[c]))
         dropped.append({"cause": worst, "given": sorted(set(named) - {worst}), "log_evalue": final[worst].log_e,
-                        "log_evalue_threshold": thr_of[worst], "relevant": bool(final[worst].relevant)})
+                        "log_evalue_threshold": thr_of[worst], "relevant": bool(final[worst].relevant),
+                        "improves_heldout_fit": _improves(final[worst])})
         named.remove(worst)
     order = sorted(named, key=lambda c: -(final[c].nll_base - final[c].nll_ext))
     causes = [cause_entry(final[c], thr_of[c], given=sorted(set(named) - {c}),
@@ -205,7 +227,8 @@ def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, star
         "calibration": {"s_body": calib.s_body, "s_blade": calib.s_blade, "alpha_s": calib.alpha_s},
         "per_harmonic_power_error_db": calib.per_harmonic_power_error_db,
         "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": _significant(t, thr),
-                      "relevant": bool(t.relevant), "testable": bool(t.testable), "params": t.params,
+                      "relevant": bool(t.relevant), "improves_heldout_fit": _improves(t),
+                      "testable": bool(t.testable), "params": t.params,
                       "statistic": t.statistic, "heldout_nll_base": t.nll_base, "heldout_nll_ext": t.nll_ext,
                       "held_out": bool(t.held_out), **t.evidence}
                   for c, t in tests.items()},
