@@ -186,10 +186,30 @@ def run(args) -> int:
     flight, warns = import_recording(
         args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
         default_flight_id=default_flight_id_for(args.out), background=args.background, force=args.force)
+    check_recording(flight, args.recording, warns, force=args.force, rotors=False)
     flight = complete_flight(flight, warns, log=log, log_path=args.motor_log, estimate=args.estimate_motors)
+    flight = check_recording(flight, args.recording, warns, force=args.force)
     write_flight(args.out, flight)
     _report(_summary(args.recording, args.out, flight, warns), args.quiet)
     return 0
+
+
+def check_recording(flight, source, warns: list, *, force: bool = False, rotors: bool = True):
+    """Check the declared set-up against the recording itself
+    (:func:`microdoppler.rotors.plausibility.recording_problems`: the spectrum's
+    Doppler extent; with ``rotors``, the tips at the motor log's rates): a
+    contradiction raises :class:`InputError`, or with ``force`` is added to ``warns``
+    and the flight's ``plausibility_warnings``. Returns the flight. ``rotors=False``
+    checks the spectrum alone and stores nothing (the check with the rotors follows)."""
+    from ..io.plausibility import mark, settle
+    from ..rotors.plausibility import recording_problems, spectrum_problems
+
+    if not rotors:
+        settle(source, spectrum_problems(flight), force=force)  # refused early, before an estimate
+        return flight
+    found = settle(source, recording_problems(flight), force=force)
+    warns.extend(found)
+    return mark(flight, found)
 
 
 def load_motor_log(path, unit: str = "rpm"):
@@ -243,6 +263,9 @@ def estimate_motors(flight, warns: list):
     from ..rotors.order import ambiguity_line
     if (line := ambiguity_line(est)) is not None:
         print(line, file=sys.stderr)
+    from ..rotors.plausibility import blade_count_hint
+    if (hint := blade_count_hint(est)) is not None:
+        print(f"hint: {hint}", file=sys.stderr)
     return est.with_flight(flight)
 
 
@@ -330,9 +353,11 @@ def run_batch(args) -> int:
                 default_flight_id=default_flight_id_for(row["file"]), background=row.get("background"),
                 force=args.force)
             log = load_motor_log(row.get("motor_log"), row.get("motor_log_unit", args.motor_log_unit))
+            check_recording(flight, row["file"], warns, force=args.force, rotors=False)
             flight = complete_flight(
                 flight, warns, log=log, log_path=row.get("motor_log"),
                 estimate=args.estimate_motors and log is None and flight.attrs.get("target") == "drone")
+            flight = check_recording(flight, row["file"], warns, force=args.force)
             fid = flight.flight_id
             if fid in seen:
                 raise InputError(row["line"], "flight_id", f"{fid!r} is also the flight id of {seen[fid]}",
