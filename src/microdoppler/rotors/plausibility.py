@@ -15,6 +15,13 @@ not a new setting:
   harmonics (beta = 4 pi L / lambda) at the fastest rate such tips allow (at most
   ``max_rev_s``). Wider lines mean the PRF (a frequency axis stretched) or the carrier
   (a wavelength too short) is off;
+- a moving target's body: the centre of the spectrum's lines (the body line, about
+  which the rotors' lines lie symmetric) against the track's Doppler -2 v / lambda
+  (averaged over the recording), where the track moves: the centre or the strongest
+  line (the body line, as a rule) must agree with it within the
+  track's own spread over the recording, :data:`TRACK_SPEED_TOL_MPS` and three bins
+  (the sign aside: a swapped I/Q is warned about separately). A body line at another
+  Doppler means the PRF (the frequency axis) or the carrier (the wavelength) is off;
 - with rotor speeds (estimated from the radar, ``--estimate-motors``, or logged): the
   tips' speed 2 pi f L must lie in :data:`~microdoppler.io.plausibility.TIP_SPEED_RANGE_MPS`
   (at most ``max_tip_mach``) and the spectrum's lines must not pass the tips' Doppler
@@ -40,6 +47,9 @@ from ..io.plausibility import SPEED_OF_LIGHT_MPS, TIP_SPEED_RANGE_MPS, _unit
 from ..spectra.floor import FLOOR_PERCENTILE
 from .order import SOUND_MPS, OrderConfig
 
+#: how well a track's radial velocity is trusted [m/s] (a tracker's range rate): the
+#: body line and the track's Doppler -2 v / lambda disagree only beyond it
+TRACK_SPEED_TOL_MPS = 1.0
 #: segments of the time-averaged spectrum: this long [s] (a power of two of pulses,
 #: 256-4096), at most this many, evenly spread over the recording
 SEGMENT_S = 0.1
@@ -65,7 +75,8 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
     Returns
     -------
     dict or None
-        ``extent_hz`` [Hz], ``centre_hz`` (the body) [Hz], ``filled`` (the extent is
+        ``extent_hz`` [Hz], ``centre_hz`` (the body) [Hz], ``peak_hz`` (the
+        strongest line outside the clutter band: the body line, as a rule) [Hz], ``filled`` (the extent is
         ±PRF/2: a lower bound, the lines may fold), ``n_fft``; None where no bin
         outside the clutter band is occupied in pairs.
     """
@@ -92,8 +103,9 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
         return None
     # a bin counts with its neighbours (a line's main lobe, the rotors' spread)
     wide = occ | np.roll(occ, 1) | np.roll(occ, -1) | np.roll(occ, 2) | np.roll(occ, -2)
-    # the centre of symmetry: the most occupied bins pairing about it (k and 2c - k)
-    x = wide.astype(float)
+    # the centre of symmetry: the most occupied bins pairing about it (k and 2c - k), each
+    # pair weighted by its bins' heights over the threshold (the body line pairs with itself)
+    x = np.where(wide, 1.0 + np.clip(db - floor - ocfg.line_db, 0.0, None), 0.0)  # weighted by the height [dB]
     pairs = np.real(np.fft.ifft(np.fft.fft(x) ** 2))         # [m]: pairs with k + k' = m (mod n_fft)
     m = int(np.argmax(np.round(pairs, 6)))
     d = np.arange(1, n_fft // 2 + 1)
@@ -113,8 +125,9 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
     # beyond the clutter band where it is the only occupied stretch
     filled = reach_bins >= n_fft // 2 - 2
     centre_hz = float(((centre / n_fft + 0.5) % 1.0 - 0.5) * prf_hz)
-    return {"extent_hz": float(reach_bins * prf_hz / n_fft), "centre_hz": centre_hz, "filled": bool(filled),
-            "n_fft": int(n_fft)}
+    peak = int(np.argmax(np.where(occ, db, -np.inf)))
+    return {"extent_hz": float(reach_bins * prf_hz / n_fft), "centre_hz": centre_hz, "peak_hz": float(f[peak]),
+            "filled": bool(filled), "n_fft": int(n_fft)}
 
 
 def tip_reach_hz(rev_s: float, blade_length_m: float, carrier_hz: float, ocfg: OrderConfig | None = None) -> float:
@@ -138,18 +151,55 @@ def spectrum_problems(flight, *, ocfg: OrderConfig | None = None) -> list[tuple[
     ext = doppler_extent(flight.iq, prf, ocfg=ocfg)
     if ext is None:
         return []
+    out = body_problems(flight, ext)
     f_max = min(ocfg.max_rev_s, v_max / (2 * math.pi * L))
     reach = tip_reach_hz(f_max, L, carrier, ocfg)
     if ext["extent_hz"] <= reach:
-        return []
+        return out
     e = ext["extent_hz"]
     shows = (f"the spectrum's lines fill ±PRF/2 = ±{e:.0f} Hz" if ext["filled"] else
              f"the spectrum's lines reach ±{e:.0f} Hz about the body")
-    return [("prf_hz, carrier_hz",
+    return out + [("prf_hz, carrier_hz",
              f"{shows}, but tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} reach at most "
              f"±{reach:.0f} Hz for tip speeds <= {v_max:.0f} m/s (a {e / reach:.2g}x wider Doppler): check prf_hz, "
              "carrier_hz, blade_length_m",
              f"lines within the blade tips' Doppler (prf_hz {prf:g} Hz as declared)")]
+
+
+def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
+    """The spectrum's body (``ext``, :func:`doppler_extent`) against the track's
+    Doppler, where the track moves (module docstring)."""
+    if ext is None or ext["filled"]:
+        return []
+    a = flight.attrs
+    prf, lam = float(a["prf_hz"]), SPEED_OF_LIGHT_MPS / float(a["carrier_hz"])
+    tt, v = np.asarray(flight.track_time_s, float), np.asarray(flight.track_radial_velocity_mps, float)
+    t = np.linspace(0.0, len(flight.iq) / prf, 64)
+    if len(tt) == 0 or not np.all(np.isfinite(v)):
+        return []
+    pred = -2 * np.interp(t, tt, v) / lam
+    tol = 3 * prf / ext["n_fft"] + (pred.max() - pred.min()) / 2 + 2 * TRACK_SPEED_TOL_MPS / lam
+    mean = float(pred.mean())
+
+    def wrap(x):
+        return (x + prf / 2) % prf - prf / 2
+
+    # the body is where the lines are centred or the strongest line: both must disagree
+    offs = {}
+    for key in ("centre_hz", "peak_hz"):
+        offs[key] = min(abs(wrap(ext[key] - mean)), abs(wrap(ext[key] + mean)))
+    key = min(offs, key=offs.get)
+    obs, off = ext[key], offs[key]
+    if abs(wrap(mean)) <= tol or off <= tol:
+        return []
+    v_mean = float(np.interp(t, tt, v).mean())
+    return [("prf_hz, carrier_hz",
+             f"the body line stands at {obs:+.0f} Hz (the spectrum's strongest line and the centre of its lines "
+             f"{ext['peak_hz']:+.0f}, {ext['centre_hz']:+.0f} Hz), but the track's radial "
+             f"velocity {v_mean:+.2f} m/s puts it at {wrap(mean):+.0f} Hz at carrier_hz {_unit(float(a['carrier_hz']))}"
+             f" and prf_hz {prf:g} (they differ by {off:.0f} Hz, more than the {tol:.0f} Hz the track's spread and "
+             f"{TRACK_SPEED_TOL_MPS:g} m/s allow): check prf_hz, carrier_hz (or the track)",
+             "the body line at the track's Doppler -2 v / lambda")]
 
 
 def rotor_problems(flight, rev_s: list[float], *, source: str, ocfg: OrderConfig | None = None
