@@ -262,8 +262,9 @@ def estimate_rates(est) -> list[float]:
 
 def blade_count_hint(est) -> str | None:
     """A hint naming ``n_blades`` where the order is ambiguous and an alternative rate is
-    what another blade count reads the same blade-passing comb as (f B / B'), else
-    None."""
+    what another blade count B' (2-4, not B times a power of two: that ratio is a
+    sub-harmonic's or unequal blades') reads the same blade-passing comb as: f B / B'
+    within ``snap_rel``; else None."""
     o = (est.info or {}).get("order") or {}
     if not o.get("ambiguous"):
         return None
@@ -272,8 +273,8 @@ def blade_count_hint(est) -> str | None:
     if chosen <= 0:
         return None
     for alt in o.get("alternatives_rev_s", []):
-        for b in range(2, 7):
-            if b != B and abs(math.log(alt / chosen * b / B)) <= OrderConfig().snap_rel:
+        for b in range(2, 5):  # propellers of 2-4 blades; B' / B = 2^k reads like a sub-harmonic, not a count
+            if b != B and not math.log2(b / B).is_integer() and abs(math.log(alt / chosen * b / B)) <= OrderConfig().snap_rel:
                 return (f"n_blades: the lines fit {alt:.1f} rev/s as well as {chosen:.1f}, the rate {b} blades per "
                         f"rotor (not the declared {B}) read from the same comb: check n_blades")
     return None
