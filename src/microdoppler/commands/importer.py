@@ -15,9 +15,12 @@ away from 0 Hz, else "not measurable" -- a hovering rotor's spectrum is
 mirror-symmetric by nature; and the Doppler sign against the track); a doubtful one
 is warned about on stderr; both go into the store's ``import`` attribute. The declared
 set-up is checked before anything is written (carrier and PRF in a radar's range, at
-least one CPI of recording, a drone's blade tips not folding far past ±PRF/2): an
-implausible one is refused naming the field, or written with ``--force`` and the
-warning stored in the ``plausibility_warnings`` attribute.
+least one CPI of recording, a drone's blade tips not folding far past ±PRF/2), and a
+drone's against the recording itself (the spectrum's Doppler extent against the
+fastest plausible tips, the body line against the track's Doppler, the tips' speed at
+the estimated or logged rotor speeds: :mod:`microdoppler.rotors.plausibility`): an
+implausible one is refused naming the suspect fields, or written with ``--force`` and
+the warning stored in the ``plausibility_warnings`` attribute.
 
 Raw FMCW data (``.npy``/``.npz``/``.mat``: a cube [chirps, samples] or [chirps,
 samples, channels], real or complex) is read when its chirp parameters are given
@@ -130,7 +133,9 @@ def register(subparsers) -> None:
                         "with no visible sideband pair gets no estimate, and the reason is printed")
     p.add_argument("--force", action="store_true",
                    help="write the store even where the declared set-up looks implausible (a carrier or PRF outside "
-                        "a radar's range, a recording shorter than one CPI, blade tips folding far past ±PRF/2); "
+                        "a radar's range, a recording shorter than one CPI, blade tips folding far past ±PRF/2, a "
+                        "spectrum, body line or rotor speed that contradicts the declared PRF, carrier, blade count "
+                        "or blade length); "
                         "the warning is stored as the plausibility_warnings attribute and repeated by validate and "
                         "diagnose")
     p.add_argument("--quiet", action="store_true", help="no summary line on stderr (warnings are still shown)")
