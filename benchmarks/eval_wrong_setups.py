@@ -19,7 +19,8 @@ Doppler extent) for every recording and every wrong field, and ``estimate``
 ``--estimate-per-recording`` wrong fields per recording, in turn (the estimate takes
 seconds per recording). A wrong set-up counts as caught where the import exits 2 with
 a message naming the wrong field (the field's name in the line); a true one is a false
-refusal where the import exits 2. Intervals: Wilson 95 %. Writes
+refusal where the import exits 2. The ``estimate`` rows also count the hint naming
+``n_blades`` (printed, not a refusal). Intervals: Wilson 95 %. Writes
 ``benchmarks/records/eval_wrong_setups_seed<N>.json`` (or ``--json``).
 
     OMP_NUM_THREADS=1 PYTHONPATH=src .venv/bin/python benchmarks/eval_wrong_setups.py --seed 40000
@@ -117,12 +118,13 @@ def write_recording(flight, d: Path):
     return d / "rec.npz", decl, fixed
 
 
-def run_import(argv) -> tuple[int, str]:
+def run_import(argv) -> tuple[int, str, str | None]:
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         rc = cli([str(a) for a in argv])
     lines = [ln for ln in err.getvalue().splitlines() if ln.startswith("error:")]
-    return rc, (lines[0] if lines else "")
+    hints = [ln for ln in err.getvalue().splitlines() if ln.startswith("hint: n_blades")]
+    return rc, (lines[0] if lines else ""), (hints[0] if hints else None)
 
 
 def declared(decl: dict, kind: str | None) -> list:
@@ -159,8 +161,8 @@ def main(argv=None) -> int:
         for name, note, path, decl, fixed in jobs:
             kinds = [None, *WRONG]
             for kind in kinds:
-                rc, msg = run_import(["import", path, *declared(decl, kind), *fixed, "--quiet",
-                                      "--out", tmp / f"{name}_plain.zarr", "--overwrite"])
+                rc, msg, _ = run_import(["import", path, *declared(decl, kind), *fixed, "--quiet",
+                                         "--out", tmp / f"{name}_plain.zarr", "--overwrite"])
                 rows.append({"recording": name, "note": note, "mode": "plain", "wrong": kind, "rc": rc, "message": msg})
             est_kinds = [None]
             for _ in range(args.estimate_per_recording):
@@ -168,10 +170,10 @@ def main(argv=None) -> int:
                 k_est += 1
             if args.estimate_per_recording:
                 for kind in est_kinds:
-                    rc, msg = run_import(["import", path, *declared(decl, kind), *fixed, "--quiet", "--estimate-motors",
-                                          "--out", tmp / f"{name}_est.zarr", "--overwrite"])
+                    rc, msg, hint = run_import(["import", path, *declared(decl, kind), *fixed, "--quiet",
+                                                "--estimate-motors", "--out", tmp / f"{name}_est.zarr", "--overwrite"])
                     rows.append({"recording": name, "note": note, "mode": "estimate", "wrong": kind, "rc": rc,
-                                 "message": msg})
+                                 "message": msg, "n_blades_hint": hint})
             print(f"{name}: {sum(r['rc'] == 2 for r in rows if r['recording'] == name and r['wrong'])} of "
                   f"{sum(1 for r in rows if r['recording'] == name and r['wrong'])} wrong refused, right: "
                   f"{[r['rc'] for r in rows if r['recording'] == name and not r['wrong']]} ({time.time() - t0:.0f} s)",
@@ -179,8 +181,8 @@ def main(argv=None) -> int:
         for mode, extra in (("plain", []), ("estimate", ["--estimate-motors"])):
             for kind in (None, "prf x10"):
                 over = ["--prf-hz", "50001"] if kind else []
-                rc, msg = run_import(["import", npz, "--sidecar", sidecar, *over, *extra, "--quiet",
-                                      "--out", tmp / "stand.zarr", "--overwrite"])
+                rc, msg, _ = run_import(["import", npz, "--sidecar", sidecar, *over, *extra, "--quiet",
+                                         "--out", tmp / "stand.zarr", "--overwrite"])
                 rows.append({"recording": "docs stand example", "note": "docs/examples/make_stand_recording.py",
                              "mode": mode, "wrong": kind, "rc": rc, "message": msg})
     summary = {}
@@ -208,6 +210,11 @@ def main(argv=None) -> int:
             "misses": [{k: r[k] for k in ("recording", "note", "wrong", "rc", "message")} for r in wrong
                        if not (r["rc"] == 2 and WRONG[r["wrong"]][0] in r["message"])],
         }
+        if mode == "estimate":  # the n_blades hint (printed, not a refusal)
+            summary[mode]["n_blades_hint"] = {
+                "right": sum(bool(r.get("n_blades_hint")) for r in right),
+                "n_blades 2<->3": sum(bool(r.get("n_blades_hint")) for r in wrong if r["wrong"] == "n_blades 2<->3"),
+                "other wrong": sum(bool(r.get("n_blades_hint")) for r in wrong if r["wrong"] != "n_blades 2<->3")}
     record = {"benchmark": "eval_wrong_setups", "seed": args.seed, "n_any": args.n_any, "n_gen": args.n_gen,
               "duration_s": args.duration_s, "estimate_per_recording": args.estimate_per_recording,
               "wall_s": round(time.time() - t0, 1), "summary": summary, "rows": rows}

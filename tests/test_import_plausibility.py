@@ -201,16 +201,22 @@ def test_a_true_set_up_from_each_generator_passes(tmp_path, capsys, which):
     assert rc == 0 and not err, err
 
 
-def test_an_order_ambiguity_another_blade_count_explains_names_n_blades():
+def test_an_order_another_blade_count_explains_names_n_blades():
+    """The issue's stand recording declared with 3 blades instead of 2: the lines' comb
+    read with 3 blades gives 107.6 rev/s, the order check lists 161.4 (what 2 blades
+    give)."""
     from types import SimpleNamespace
 
     from microdoppler.rotors.plausibility import blade_count_hint
 
-    est = SimpleNamespace(n_blades=3, info={"order": {"ambiguous": True, "chosen_rev_s": 107.6,
-                                                      "alternatives_rev_s": [53.8, 161.4]}})
+    order = {"ambiguous": True, "lines_rev_s": 107.6, "chosen_rev_s": 107.6, "alternatives_rev_s": [53.8, 161.4]}
+    est = SimpleNamespace(n_blades=3, info={"order": order})
     hint = blade_count_hint(est)
-    assert hint.startswith("n_blades:") and "161.4 rev/s" in hint and "2 blades per rotor" in hint
-    est.info["order"]["alternatives_rev_s"] = [53.8]  # half the rate: a sub-harmonic, no blade count
-    assert blade_count_hint(est) is None
-    est.info["order"]["ambiguous"] = False
-    assert blade_count_hint(est) is None
+    assert hint.startswith("n_blades:") and "161.4 rev/s" in hint and "read with 2 blades" in hint
+    assert blade_count_hint(SimpleNamespace(n_blades=3, info={"order": {**order, "ambiguous": False}})) is None
+    # half the rate: a sub-harmonic, no blade count
+    assert blade_count_hint(SimpleNamespace(n_blades=3, info={"order": {**order, "alternatives_rev_s": [53.8]}})) is None
+    # the order check chose what 3 blades read from a comb declared with 2
+    chose = {"ambiguous": False, "lines_rev_s": 134.0, "chosen_rev_s": 89.3, "alternatives_rev_s": []}
+    assert "read with 3 blades 89.3 rev/s, which the order check chose" in blade_count_hint(
+        SimpleNamespace(n_blades=2, info={"order": chose}))

@@ -261,22 +261,29 @@ def estimate_rates(est) -> list[float]:
 
 
 def blade_count_hint(est) -> str | None:
-    """A hint naming ``n_blades`` where the order is ambiguous and an alternative rate is
-    what another blade count B' (2-4, not B times a power of two: that ratio is a
-    sub-harmonic's or unequal blades') reads the same blade-passing comb as: f B / B'
-    within ``snap_rel``; else None."""
+    """A hint naming ``n_blades`` where the rotor order's rates include one that another
+    blade count reads the same comb as, else None.
+
+    The lines' comb (spacing B f_lines, read with the declared B blades) gives f_lines
+    B / B' with B' blades. Where the order check chose such a rate, or lists it as an
+    alternative of an ambiguous order (within ``snap_rel``), for a B' of 2-4 (not B
+    times a power of two: that ratio is a sub-harmonic's or unequal blades'), the
+    declared blade count is in doubt.
+    """
     o = (est.info or {}).get("order") or {}
-    if not o.get("ambiguous"):
+    lines, chosen = float(o.get("lines_rev_s") or 0.0), float(o.get("chosen_rev_s") or 0.0)
+    if lines <= 0 or chosen <= 0:
         return None
     B = int(est.n_blades)
-    chosen = float(o.get("chosen_rev_s") or 0.0)
-    if chosen <= 0:
-        return None
-    for alt in o.get("alternatives_rev_s", []):
-        for b in range(2, 5):  # propellers of 2-4 blades; B' / B = 2^k reads like a sub-harmonic, not a count
-            if b != B and not math.log2(b / B).is_integer() and abs(math.log(alt / chosen * b / B)) <= OrderConfig().snap_rel:
-                return (f"n_blades: the lines fit {alt:.1f} rev/s as well as {chosen:.1f}, the rate {b} blades per "
-                        f"rotor (not the declared {B}) read from the same comb: check n_blades")
+    rates = [("chosen", chosen)] + ([("listed", float(a)) for a in o.get("alternatives_rev_s", [])]
+                                    if o.get("ambiguous") else [])
+    for how, r in rates:
+        for b in range(2, 5):
+            if b != B and not math.log2(b / B).is_integer() and abs(math.log(r / (lines * B / b))) <= \
+                    OrderConfig().snap_rel:
+                what = "chose" if how == "chosen" else f"lists beside {chosen:.1f} rev/s"
+                return (f"n_blades: the lines' comb read with {B} blades per rotor gives {lines:.1f} rev/s, read with "
+                        f"{b} blades {r:.1f} rev/s, which the order check {what}: check n_blades")
     return None
 
 
