@@ -15,9 +15,12 @@ away from 0 Hz, else "not measurable" -- a hovering rotor's spectrum is
 mirror-symmetric by nature; and the Doppler sign against the track); a doubtful one
 is warned about on stderr; both go into the store's ``import`` attribute. The declared
 set-up is checked before anything is written (carrier and PRF in a radar's range, at
-least one CPI of recording, a drone's blade tips not folding far past ±PRF/2): an
-implausible one is refused naming the field, or written with ``--force`` and the
-warning stored in the ``plausibility_warnings`` attribute.
+least one CPI of recording, a drone's blade tips not folding far past ±PRF/2), and a
+drone's against the recording itself (the spectrum's Doppler extent against the
+fastest plausible tips, the body line against the track's Doppler, the tips' speed at
+the estimated or logged rotor speeds: :mod:`microdoppler.rotors.plausibility`): an
+implausible one is refused naming the suspect fields, or written with ``--force`` and
+the warning stored in the ``plausibility_warnings`` attribute.
 
 Raw FMCW data (``.npy``/``.npz``/``.mat``: a cube [chirps, samples] or [chirps,
 samples, channels], real or complex) is read when its chirp parameters are given
@@ -130,7 +133,9 @@ def register(subparsers) -> None:
                         "with no visible sideband pair gets no estimate, and the reason is printed")
     p.add_argument("--force", action="store_true",
                    help="write the store even where the declared set-up looks implausible (a carrier or PRF outside "
-                        "a radar's range, a recording shorter than one CPI, blade tips folding far past ±PRF/2); "
+                        "a radar's range, a recording shorter than one CPI, blade tips folding far past ±PRF/2, a "
+                        "spectrum, body line or rotor speed that contradicts the declared PRF, carrier, blade count "
+                        "or blade length); "
                         "the warning is stored as the plausibility_warnings attribute and repeated by validate and "
                         "diagnose")
     p.add_argument("--quiet", action="store_true", help="no summary line on stderr (warnings are still shown)")
@@ -186,10 +191,30 @@ def run(args) -> int:
     flight, warns = import_recording(
         args.recording, options=_options(args), sidecar=sidecar, layout=args.layout, variable=args.variable,
         default_flight_id=default_flight_id_for(args.out), background=args.background, force=args.force)
+    check_recording(flight, args.recording, warns, force=args.force, rotors=False)
     flight = complete_flight(flight, warns, log=log, log_path=args.motor_log, estimate=args.estimate_motors)
+    flight = check_recording(flight, args.recording, warns, force=args.force)
     write_flight(args.out, flight)
     _report(_summary(args.recording, args.out, flight, warns), args.quiet)
     return 0
+
+
+def check_recording(flight, source, warns: list, *, force: bool = False, rotors: bool = True):
+    """Check the declared set-up against the recording itself
+    (:func:`microdoppler.rotors.plausibility.recording_problems`: the spectrum's
+    Doppler extent; with ``rotors``, the tips at the motor log's rates): a
+    contradiction raises :class:`InputError`, or with ``force`` is added to ``warns``
+    and the flight's ``plausibility_warnings``. Returns the flight. ``rotors=False``
+    checks the spectrum alone and stores nothing (the check with the rotors follows)."""
+    from ..io.plausibility import mark, settle
+    from ..rotors.plausibility import recording_problems, spectrum_problems
+
+    if not rotors:
+        settle(source, spectrum_problems(flight), force=force)  # refused early, before an estimate
+        return flight
+    found = settle(source, recording_problems(flight), force=force)
+    warns.extend(found)
+    return mark(flight, found)
 
 
 def load_motor_log(path, unit: str = "rpm"):
@@ -249,6 +274,9 @@ def estimate_motors(flight, warns: list):
     from ..rotors.order import ambiguity_line
     if (line := ambiguity_line(est)) is not None:
         print(line, file=sys.stderr)
+    from ..rotors.plausibility import blade_count_hint
+    if (hint := blade_count_hint(est)) is not None:
+        print(f"hint: {hint}", file=sys.stderr)
     return est.with_flight(flight)
 
 
@@ -336,9 +364,11 @@ def run_batch(args) -> int:
                 default_flight_id=default_flight_id_for(row["file"]), background=row.get("background"),
                 force=args.force)
             log = load_motor_log(row.get("motor_log"), row.get("motor_log_unit", args.motor_log_unit))
+            check_recording(flight, row["file"], warns, force=args.force, rotors=False)
             flight = complete_flight(
                 flight, warns, log=log, log_path=row.get("motor_log"),
                 estimate=args.estimate_motors and log is None and flight.attrs.get("target") == "drone")
+            flight = check_recording(flight, row["file"], warns, force=args.force)
             fid = flight.flight_id
             if fid in seen:
                 raise InputError(row["line"], "flight_id", f"{fid!r} is also the flight id of {seen[fid]}",

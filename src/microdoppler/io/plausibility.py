@@ -111,10 +111,23 @@ def check_setup(source, attrs: dict, n_pulses: int, *, force: bool = False) -> l
     """
     probs = setup_problems(prf_hz=float(attrs["prf_hz"]), carrier_hz=float(attrs["carrier_hz"]), n_pulses=n_pulses,
                            target=attrs.get("target"), blade_length_m=attrs.get("blade_length_m"))
+    return settle(source, probs, force=force)
+
+
+def settle(source, probs: list[tuple[str, str, str]], *, force: bool = False) -> list[str]:
+    """Refuse the contradictions ``probs`` (``(field, what the recording shows,
+    expected)`` each) in one line, or with ``force`` return them as warnings (one line
+    each, ``field: problem (expected ...)``); empty where there are none.
+
+    Raises
+    ------
+    InputError
+        Naming ``source``, every field and what the recording shows, unless ``force``.
+    """
     if not probs:
         return []
     if not force:
-        fields = ", ".join(dict.fromkeys(f for f, _, _ in probs))
+        fields = ", ".join(dict.fromkeys(f.strip() for fs, _, _ in probs for f in fs.split(",")))
         first = probs[0]
         more = "".join(f"; {f}: {p}" for f, p, _ in probs[1:])
         raise InputError(source, fields, f"{first[1]}{more}",
@@ -123,7 +136,7 @@ def check_setup(source, attrs: dict, n_pulses: int, *, force: bool = False) -> l
 
 
 def mark(flight, warnings: list[str]):
-    """``flight`` with ``warnings`` stored as its ``plausibility_warnings`` attribute."""
+    """``flight`` with ``warnings`` added to its ``plausibility_warnings`` attribute."""
     if warnings:
-        flight.attrs[ATTR] = list(warnings)
+        flight.attrs[ATTR] = list(flight.attrs.get(ATTR, [])) + list(warnings)
     return flight

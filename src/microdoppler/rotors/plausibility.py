@@ -1,0 +1,316 @@
+"""Does a drone recording agree with its declared set-up? The checks of ``microdoppler
+import`` that read the recording itself (the range checks that need only the declared
+numbers: :mod:`microdoppler.io.plausibility`).
+
+A drone's blade tips turn at a tip speed v = 2 pi f L (rotation rate f [rev/s], blade
+length L [m]) and return Doppler up to 2 v / lambda about the body's. Every limit
+below is the rotor-order resolver's (:class:`~microdoppler.rotors.order.OrderConfig`),
+not a new setting:
+
+- the spectrum's Doppler extent (:func:`doppler_extent`: how far from the body the
+  time-averaged spectrum stands ``line_db`` over its floor; the whole ±PRF/2 where it
+  fills it, a lower bound then) must not pass what tips at the fastest plausible speed
+  (``max_tip_mach`` times the speed of sound) reach: ``extent_range[1]`` x 2 v / lambda
+  plus the thin-wire flash's Bessel tail, ``tail_harmonics`` beta^(1/3) rotation
+  harmonics (beta = 4 pi L / lambda) at the fastest rate such tips allow (at most
+  ``max_rev_s``). Wider lines mean the PRF (a frequency axis stretched) or the carrier
+  (a wavelength too short) is off;
+- a moving target's body: the centre of the spectrum's lines (the body line, about
+  which the rotors' lines lie symmetric) against the track's Doppler -2 v / lambda
+  (averaged over the recording), where the track moves: the centre or the strongest
+  line (the body line, as a rule) must agree with it within the
+  track's own spread over the recording, :data:`TRACK_SPEED_TOL_MPS` and three bins
+  (the sign aside: a swapped I/Q is warned about separately). A body line at another
+  Doppler means the PRF (the frequency axis) or the carrier (the wavelength) is off;
+- with rotor speeds (estimated from the radar, ``--estimate-motors``, or logged): the
+  tips' speed 2 pi f L must lie in :data:`~microdoppler.io.plausibility.TIP_SPEED_RANGE_MPS`
+  (at most ``max_tip_mach``) and the spectrum's lines must not pass the tips' Doppler
+  at that rate (``extent_range[1]`` beta f plus the tail); an estimate's order
+  alternatives count as well (a set-up is refused only where no rate the lines allow
+  is plausible). A contradiction names ``n_blades``, ``blade_length_m``, ``prf_hz``
+  (the rate) or ``carrier_hz`` (the tips' Doppler).
+
+Each check returns ``(field, what the recording shows, expected)`` tuples, as
+:func:`microdoppler.io.plausibility.setup_problems`; empty where nothing contradicts.
+A recording without visible lines (only noise or a clutter line) has no extent and
+passes: the checks refuse what the recording contradicts, not what it cannot show.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.signal.windows import blackmanharris
+
+from ..io.plausibility import SPEED_OF_LIGHT_MPS, TIP_SPEED_RANGE_MPS, _unit
+from ..spectra.floor import FLOOR_PERCENTILE
+from .order import SOUND_MPS, OrderConfig
+
+#: how well a track's radial velocity is trusted [m/s] (a tracker's range rate): the
+#: body line and the track's Doppler -2 v / lambda disagree only beyond it
+TRACK_SPEED_TOL_MPS = 1.0
+#: segments of the time-averaged spectrum: this long [s] (a power of two of pulses,
+#: 256-4096), at most this many, evenly spread over the recording
+SEGMENT_S = 0.1
+MAX_SEGMENTS = 64
+
+
+def _limits(ocfg: OrderConfig | None = None) -> tuple[OrderConfig, float]:
+    ocfg = ocfg or OrderConfig()
+    return ocfg, min(TIP_SPEED_RANGE_MPS[1], ocfg.max_tip_mach * SOUND_MPS)
+
+
+def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = None) -> dict | None:
+    """How far the recording's time-averaged spectrum reaches from its body line.
+
+    The mean Blackman-Harris periodogram of :data:`SEGMENT_S` segments; a bin is
+    occupied where it stands ``line_db`` over the floor (the spectrum's
+    ``FLOOR_PERCENTILE``-th percentile), outside the clutter band (``clutter_guard_hz``
+    about 0 Hz), and counts with its two neighbours each side. A rotor's lines lie
+    symmetric about the body: the body is the centre about which most occupied bins
+    pair, the extent the farthest distance from it at which both sides are occupied
+    (a lone line, such as the body's image or a spur, has no partner).
+
+    Returns
+    -------
+    dict or None
+        ``extent_hz`` [Hz], ``centre_hz`` (the body) [Hz], ``peak_hz`` (the
+        strongest line outside the clutter band: the body line, as a rule) [Hz], ``filled`` (the extent is
+        ±PRF/2: a lower bound, the lines may fold), ``n_fft``; None where no bin
+        outside the clutter band is occupied in pairs.
+    """
+    ocfg = ocfg or OrderConfig()
+    iq = np.asarray(iq)
+    n = len(iq)
+    n_fft = int(min(4096, max(256, 2 ** round(math.log2(max(SEGMENT_S * prf_hz, 1.0))))))
+    if n < n_fft:
+        n_fft = 2 ** int(math.log2(max(n, 2)))
+        if n_fft < 64:
+            return None
+    starts = np.unique(np.linspace(0, n - n_fft, min(MAX_SEGMENTS, max(1, 2 * n // n_fft - 1))).astype(int))
+    w = blackmanharris(n_fft, sym=False)
+    p = np.zeros(n_fft)
+    for s in starts:
+        seg = iq[s:s + n_fft].astype(np.complex128)
+        p += np.abs(np.fft.fft((seg - seg.mean()) * w)) ** 2
+    db = 10 * np.log10(p / len(starts) + 1e-30)
+    floor = float(np.percentile(db, FLOOR_PERCENTILE))
+    f = np.fft.fftfreq(n_fft, 1.0 / prf_hz)
+    guard = np.abs(f) <= ocfg.clutter_guard_hz + 4 * prf_hz / n_fft  # the window's main lobe beyond it
+    occ = (db >= floor + ocfg.line_db) & ~guard
+    if not occ.any():
+        return None
+    # a bin counts with its neighbours (a line's main lobe, the rotors' spread)
+    wide = occ | np.roll(occ, 1) | np.roll(occ, -1) | np.roll(occ, 2) | np.roll(occ, -2)
+    # the centre of symmetry: the most occupied bins pairing about it (k and 2c - k), each
+    # pair weighted by its bins' heights over the threshold (the body line pairs with itself)
+    x = np.where(wide, 1.0 + np.clip(db - floor - ocfg.line_db, 0.0, None), 0.0)  # weighted by the height [dB]
+    pairs = np.real(np.fft.ifft(np.fft.fft(x) ** 2))         # [m]: pairs with k + k' = m (mod n_fft)
+    m = int(np.argmax(np.round(pairs, 6)))
+    d = np.arange(1, n_fft // 2 + 1)
+
+    def reach(c):
+        """The farthest distance [bins] from ``c`` with both sides occupied (0: none)."""
+        up = wide[np.floor(c + d).astype(int) % n_fft] | wide[np.ceil(c + d).astype(int) % n_fft]
+        down = wide[np.floor(c - d).astype(int) % n_fft] | wide[np.ceil(c - d).astype(int) % n_fft]
+        both = np.flatnonzero(up & down)
+        return int(d[both[-1]]) if len(both) else 0
+
+    # on the circle of bins a set symmetric about c is symmetric about c + n_fft / 2 too:
+    # the body is the centre the lines lie near
+    centre, reach_bins = min(((c, reach(c)) for c in (m / 2.0, m / 2.0 + n_fft / 2)), key=lambda x: x[1])
+    if reach_bins == 0:
+        return None
+    # beyond the clutter band where it is the only occupied stretch
+    filled = reach_bins >= n_fft // 2 - 2
+    centre_hz = float(((centre / n_fft + 0.5) % 1.0 - 0.5) * prf_hz)
+    peak = int(np.argmax(np.where(occ, db, -np.inf)))
+    return {"extent_hz": float(reach_bins * prf_hz / n_fft), "centre_hz": centre_hz, "peak_hz": float(f[peak]),
+            "filled": bool(filled), "n_fft": int(n_fft)}
+
+
+def tip_reach_hz(rev_s: float, blade_length_m: float, carrier_hz: float, ocfg: OrderConfig | None = None) -> float:
+    """How far from the body a rotor's lines can reach [Hz]: ``extent_range[1]`` times
+    the tips' Doppler 2 (2 pi f L) / lambda plus ``tail_harmonics`` beta^(1/3)
+    rotation harmonics (the thin-wire flash's Bessel tail)."""
+    ocfg = ocfg or OrderConfig()
+    beta = 4 * math.pi * blade_length_m * carrier_hz / SPEED_OF_LIGHT_MPS
+    return (ocfg.extent_range[1] * beta + ocfg.tail_harmonics * beta ** (1 / 3)) * rev_s
+
+
+def spectrum_problems(flight, *, ocfg: OrderConfig | None = None) -> list[tuple[str, str, str]]:
+    """The spectrum's Doppler extent against the fastest plausible blade tips (module
+    docstring); a drone's only, with a plausible carrier and PRF."""
+    a = flight.attrs
+    L = a.get("blade_length_m")
+    if a.get("target") != "drone" or not L:
+        return []
+    ocfg, v_max = _limits(ocfg)
+    prf, carrier, L = float(a["prf_hz"]), float(a["carrier_hz"]), float(L)
+    ext = doppler_extent(flight.iq, prf, ocfg=ocfg)
+    if ext is None:
+        return []
+    out = body_problems(flight, ext)
+    f_max = min(ocfg.max_rev_s, v_max / (2 * math.pi * L))
+    reach = tip_reach_hz(f_max, L, carrier, ocfg)
+    if ext["extent_hz"] <= reach:
+        return out
+    e = ext["extent_hz"]
+    shows = (f"the spectrum's lines fill ±PRF/2 = ±{e:.0f} Hz" if ext["filled"] else
+             f"the spectrum's lines reach ±{e:.0f} Hz about the body")
+    return out + [("prf_hz, carrier_hz",
+             f"{shows}, but tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} reach at most "
+             f"±{reach:.0f} Hz for tip speeds <= {v_max:.0f} m/s (a {e / reach:.2g}x wider Doppler): check prf_hz, "
+             "carrier_hz, blade_length_m",
+             f"lines within the blade tips' Doppler (prf_hz {prf:g} Hz as declared)")]
+
+
+def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
+    """The spectrum's body (``ext``, :func:`doppler_extent`) against the track's
+    Doppler, where the track moves (module docstring)."""
+    if ext is None or ext["filled"]:
+        return []
+    a = flight.attrs
+    prf, lam = float(a["prf_hz"]), SPEED_OF_LIGHT_MPS / float(a["carrier_hz"])
+    tt, v = np.asarray(flight.track_time_s, float), np.asarray(flight.track_radial_velocity_mps, float)
+    t = np.linspace(0.0, len(flight.iq) / prf, 64)
+    if len(tt) == 0 or not np.all(np.isfinite(v)):
+        return []
+    pred = -2 * np.interp(t, tt, v) / lam
+    tol = 3 * prf / ext["n_fft"] + (pred.max() - pred.min()) / 2 + 2 * TRACK_SPEED_TOL_MPS / lam
+    mean = float(pred.mean())
+
+    def wrap(x):
+        return (x + prf / 2) % prf - prf / 2
+
+    # the body is where the lines are centred or the strongest line: both must disagree
+    offs = {}
+    for key in ("centre_hz", "peak_hz"):
+        offs[key] = min(abs(wrap(ext[key] - mean)), abs(wrap(ext[key] + mean)))
+    key = min(offs, key=offs.get)
+    obs, off = ext[key], offs[key]
+    if abs(wrap(mean)) <= tol or off <= tol:
+        return []
+    v_mean = float(np.interp(t, tt, v).mean())
+    return [("prf_hz, carrier_hz",
+             f"the body line stands at {obs:+.0f} Hz (the spectrum's strongest line and the centre of its lines "
+             f"{ext['peak_hz']:+.0f}, {ext['centre_hz']:+.0f} Hz), but the track's radial "
+             f"velocity {v_mean:+.2f} m/s puts it at {wrap(mean):+.0f} Hz at carrier_hz {_unit(float(a['carrier_hz']))}"
+             f" and prf_hz {prf:g} (they differ by {off:.0f} Hz, more than the {tol:.0f} Hz the track's spread and "
+             f"{TRACK_SPEED_TOL_MPS:g} m/s allow): check prf_hz, carrier_hz (or the track)",
+             "the body line at the track's Doppler -2 v / lambda")]
+
+
+def rotor_problems(flight, rev_s: list[float], *, source: str, ocfg: OrderConfig | None = None
+                   ) -> list[tuple[str, str, str]]:
+    """The rotors' tip speed and Doppler at the rotation rates ``rev_s`` (the chosen
+    one first, then the alternatives the lines allow) against physics and the
+    spectrum's extent (module docstring): a problem only where no rate is plausible.
+
+    Parameters
+    ----------
+    rev_s : list of float
+        Mean rotation rates [rev/s]: the estimate's (then its order's alternatives) or
+        the motor log's median.
+    source : str
+        Where the rates come from, for the message (``the radar's rotor comb``).
+    """
+    a = flight.attrs
+    L = a.get("blade_length_m")
+    rates = [float(r) for r in rev_s if r is not None and np.isfinite(r) and r > 0]
+    if a.get("target") != "drone" or not L or not rates:
+        return []
+    ocfg, v_max = _limits(ocfg)
+    prf, carrier, L = float(a["prf_hz"]), float(a["carrier_hz"]), float(L)
+    ext = doppler_extent(flight.iq, prf, ocfg=ocfg)
+    v_lo = TIP_SPEED_RANGE_MPS[0]
+    why = []
+    for f in rates:
+        tip = 2 * math.pi * f * L
+        reach = tip_reach_hz(f, L, carrier, ocfg)
+        if not v_lo <= tip <= v_max:
+            why.append(("tip", f, tip, reach))
+        elif ext is not None and ext["extent_hz"] > reach:
+            why.append(("beyond", f, tip, reach))
+        else:
+            return []
+    kind, f, tip, reach = why[0]
+    alts = (f" (and {', '.join(f'{r:.1f}' for r in rates[1:])} rev/s, the order's alternatives)"
+            if len(rates) > 1 else "")
+    if kind == "tip":
+        return [("n_blades, blade_length_m, prf_hz",
+                 f"{source} turns at {f:.1f} rev/s{alts}: with blade_length_m {L:g} m the tips turn at {tip:.0f} m/s, "
+                 f"{'below' if tip < v_lo else 'above'} a drone's {v_lo:g}-{v_max:.0f} m/s: check n_blades, "
+                 "blade_length_m, prf_hz",
+                 f"blade tips at {v_lo:g}-{v_max:.0f} m/s")]
+    return [("carrier_hz, blade_length_m, n_blades",
+             f"the spectrum's lines reach ±{ext['extent_hz']:.0f} Hz about the body, but {source} at {f:.1f} "
+             f"rev/s{alts} puts tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} at most ±{reach:.0f} Hz "
+             "away: check carrier_hz, blade_length_m, n_blades",
+             "lines within the blade tips' Doppler")]
+
+
+def estimate_rates(est) -> list[float]:
+    """The estimate's mean rotation rate and its order's alternatives [rev/s]."""
+    v = est.valid
+    if not est.ok or not v.any():
+        return []
+    o = (est.info or {}).get("order") or {}
+    return [float(np.nanmedian(est.common_rev_s[v]))] + [float(x) for x in o.get("alternatives_rev_s", [])]
+
+
+def blade_count_hint(est) -> str | None:
+    """A hint naming ``n_blades`` where the rotor order's rates include one that another
+    blade count reads the same comb as, else None.
+
+    The lines' comb (spacing B f_lines, read with the declared B blades) gives f_lines
+    B / B' with B' blades. Where the order check chose such a rate, or lists it as an
+    alternative of an ambiguous order (within ``snap_rel``), for a B' of 2-4 (not B
+    times a power of two: that ratio is a sub-harmonic's or unequal blades'), the
+    declared blade count is in doubt.
+    """
+    o = (est.info or {}).get("order") or {}
+    lines, chosen = float(o.get("lines_rev_s") or 0.0), float(o.get("chosen_rev_s") or 0.0)
+    if lines <= 0 or chosen <= 0:
+        return None
+    B = int(est.n_blades)
+    rates = [("chosen", chosen)] + ([("listed", float(a)) for a in o.get("alternatives_rev_s", [])]
+                                    if o.get("ambiguous") else [])
+    for how, r in rates:
+        for b in range(2, 5):
+            if b != B and not math.log2(b / B).is_integer() and abs(math.log(r / (lines * B / b))) <= \
+                    OrderConfig().snap_rel:
+                what = "chose" if how == "chosen" else f"lists beside {chosen:.1f} rev/s"
+                return (f"n_blades: the lines' comb read with {B} blades per rotor gives {lines:.1f} rev/s, read with "
+                        f"{b} blades {r:.1f} rev/s, which the order check {what}: check n_blades")
+    return None
+
+
+def flight_rates(flight) -> tuple[list[float], str | None]:
+    """The flight's rotation rates [rev/s] and where they come from: the median of its
+    motor log (the radar's estimate or a logged one), then the radar order's
+    alternatives; ``([], None)`` without a motor log."""
+    rpm = getattr(flight, "motors_rpm", None)
+    if rpm is None or not np.size(rpm):
+        return [], None
+    r = np.asarray(rpm, np.float64)
+    r = r[np.isfinite(r) & (r > 0)]
+    if not r.size:
+        return [], None
+    radar = flight.attrs.get("motors_source") == "radar"
+    alts = (flight.attrs.get("motors_radar") or {}).get("rotor_order_alternatives_rev_s", []) if radar else []
+    return ([float(np.median(r)) / 60.0] + [float(a) for a in alts],
+            "the radar's rotor comb" if radar else "the motor log")
+
+
+def recording_problems(flight, *, rotors: bool = True, ocfg: OrderConfig | None = None
+                       ) -> list[tuple[str, str, str]]:
+    """Every check of this module on ``flight``: the spectrum's extent, and with
+    ``rotors`` the tips at the rates of its motor log (where it has one)."""
+    out = spectrum_problems(flight, ocfg=ocfg)
+    if rotors and not out:
+        rates, source = flight_rates(flight)
+        if rates:
+            out += rotor_problems(flight, rates, source=source, ocfg=ocfg)
+    return out
