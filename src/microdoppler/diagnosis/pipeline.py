@@ -197,7 +197,8 @@ def report_row(entry: dict, *, warnings=()) -> dict:
         "goodness_of_fit": "" if skipped or not gof else ("excess" if gof.get("excess") else "explained"),
         "excess_db": "" if gof.get("excess_db") is None else gof["excess_db"],
         "band_hz": "" if gof.get("band_hz") is None else _flat(gof["band_hz"]),
-        "reason": entry.get("reason", ""), "hint": skip_hint(entry.get("reason")) if skipped else "",
+        "reason": entry.get("reason", ""),
+        "hint": skip_hint(entry.get("reason")) if skipped else (gof.get("model_beyond") or {}).get("direction", ""),
         "plausibility_warnings": ";".join(warnings),
     }
 
