@@ -42,6 +42,11 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
   any level below that floor; NaN where the blade-passing lines are seen in fewer
   than ``nonmultiple_min_cpis`` of the scored CPIs (weak blades).
 
+A hovering or stand-mounted drone has its body line in the clutter notch (no CPI's
+body peak beyond ``highpass_hz + search_hz``, :func:`body_in_notch`): its lines are
+then placed and measured about the track's body Doppler instead of the body peak
+(the rotor lines stand symmetric about it, outside the notch).
+
 Per flight and feature one distance between twin and flight (:func:`distances`): the
 mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
 visible) and the scored CPIs for ``line_hz``, and |twin - measured| of the
@@ -232,6 +237,11 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     # the refined body peak
     st = Stft(10.0 ** (spec.power_db.astype(np.float64) / 10), spec.time_s, spec.doppler_hz, np.empty(0))
     f_body = refine_peak(st, body_hz, cfg.search_hz)
+    notched = body_in_notch(f_body, highpass_hz=highpass_hz, search_hz=cfg.search_hz)
+    if notched:
+        # a hovering or stand-mounted body: its line is high-passed away, the rotor
+        # lines stay symmetric about the known body Doppler
+        f_body = np.where(np.abs(body_hz) <= highpass_hz + cfg.search_hz, body_hz, f_body)
     snr_db = spec.power_db - noise_floor_db(spec)[:, None]
     line_hz = np.full(pair.shape, np.nan)
     for k in range(1, cfg.n_harmonics + 1):
@@ -257,7 +267,7 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     if motor_rev_s is not None and line_power is not None and window is not None:
         st_w = Stft(st.p, st.t_s, st.f_hz, np.asarray(window, float))
         nm = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
-                                highpass_hz=highpass_hz, cfg=cfg)
+                                highpass_hz=highpass_hz, cfg=cfg, notched=notched)
     return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - lines.body_db),
                        _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(lines.body_db),
                        floor - noise_floor_db(spec), hop_s, *nm)
@@ -308,22 +318,38 @@ def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max
     return sm
 
 
+def body_in_notch(f_body_hz, *, highpass_hz: float, search_hz: float) -> bool:
+    """True when no CPI's body line (``f_body_hz`` [n_t], Hz) lies beyond the clutter
+    notch (``highpass_hz`` + ``search_hz``): a hovering or stand-mounted drone, whose
+    features are measured about the known body Doppler instead of its line's peak."""
+    f = np.asarray(f_body_hz, float)
+    return not bool(np.any(np.isfinite(f) & (np.abs(f) > highpass_hz + search_hz)))
+
+
 def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_power, highpass_hz: float,
-                       cfg: FidelityConfig = FidelityConfig()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       cfg: FidelityConfig = FidelityConfig(),
+                       notched: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per CPI, the summed power of the rotation-rate lines at non-multiples of the
     blade count, of their blade-passing reference (module doc) and the summed power's
     noise variance (kappa (n_b fl^2 + 2 P fl) per line, ``rotation_line_powers``):
     float [n_t] each, 0 where nothing is measured. ``st`` is the spectrogram as a power periodogram with its
     analysis window; ``f_body_hz`` [n_t] the body line; ``motor_rev_s`` [n_t, n_motors]
     each motor's rate; ``line_power`` [cfg.rotation_orders + 1] one blade's own line
-    power per order."""
+    power per order.
+
+    The CPIs measured are those whose body line lies beyond the clutter notch
+    (``highpass_hz`` + ``cfg.search_hz``); with ``notched`` (:func:`body_in_notch`:
+    no CPI has its body there, a hovering or stand-mounted drone), those whose body
+    Doppler ``f_body_hz`` (then the track's) lies within it: the rotor lines about it
+    are clear of the notch where each line's own check (``rotation_line_powers``) says so."""
     rev = np.asarray(motor_rev_s, float)
     n_t, n_m = rev.shape
     if len(line_power) < cfg.rotation_orders + 1:
         raise ValueError(f"line_power has {len(line_power)} orders, expected {cfg.rotation_orders + 1}")
     f_body_hz = np.asarray(f_body_hz, float)
+    beyond = np.abs(f_body_hz) > highpass_hz + cfg.search_hz
     valid = (np.isfinite(f_body_hz) & np.all(np.isfinite(rev), axis=1) & np.all(rev > 0, axis=1)
-             & (np.abs(f_body_hz) > highpass_hz + cfg.search_hz))
+             & (~beyond if notched else beyond))
     floor = np.median(st.p, axis=1) / np.log(2.0)
     s = line_dilation(st, f_body_hz, rev, valid, n_blades=n_blades, max_rel=cfg.dilation_range)
     P, V, W, R = rotation_line_powers(st, f_body_hz, rev * s[:, None], valid, n_blades, cfg.rotation_orders, floor,
