@@ -217,3 +217,56 @@ def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
     assert lines[-1] == ("Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
                          "(3 drone flights left out, reasons above)")
     assert (out / "fig_fidelity.png").stat().st_size > 0
+
+
+# ---------------------------------------------------------------- the SNR of a drone on a stand
+
+def _stand_and_flying(folder):
+    """Two drone flights of tests/independent_generator.py at its 2.9 GHz / 9 kHz radar:
+    ``stand`` (body at 0 Hz, in the clutter notch) and ``flying`` (8 m/s)."""
+    from independent_generator import GenCase, make_flight
+
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for fid, speed in (("stand", 0.0), ("flying", 8.0)):
+        flight, _ = make_flight(GenCase(fid, seed=61, radar="gen_s", duration_s=6.0, speed_mps=speed))
+        write_flight(folder / f"{fid}.zarr", flight)
+        out[fid] = flight
+    return out
+
+
+def test_snr_of_a_drone_on_a_stand_is_read_on_its_rotor_lines(tmp_path):
+    """A stand-mounted drone's body line is high-passed away: its SNR (the split's, Table
+    III's, the images') is read on its rotor lines and says so; a flying drone's stays
+    the body line's, and Table III without a rotor-line flight has no snr_line column."""
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.tiles import tile_record
+    from microdoppler.datasets.workflow import split_and_table_iii
+    from microdoppler.spectra.snr import flight_body_snr_db, flight_line_snr_db
+
+    flights = _stand_and_flying(tmp_path / "measured")
+    spec_cfg = spectrogram_for_flights(None, tmp_path / "measured", log=lambda m: None)
+    body_stand = flight_body_snr_db(flights["stand"], spec_cfg=spec_cfg)
+    rotor_stand, line = flight_line_snr_db(flights["stand"], spec_cfg=spec_cfg)
+    assert line == "rotor"
+    # the generator's first sideband pair stands 8 dB below a 40 dB body: the rotor
+    # lines are well above the noise, the notched body line is not
+    assert np.median(rotor_stand) > 20.0 and np.median(body_stand) < 10.0
+    flying, line = flight_line_snr_db(flights["flying"], spec_cfg=spec_cfg)
+    assert line == "body" and np.array_equal(flying, flight_body_snr_db(flights["flying"], spec_cfg=spec_cfg))
+    _, snr, line = tile_record(flights["stand"], flights["stand"].iq, spec_cfg)
+    assert line == "rotor"
+
+    lines = []
+    split, table = split_and_table_iii(tmp_path / "measured", spec_cfg=spec_cfg, seed=1, log=lines.append)
+    assert split.set_index("flight_id").snr_line.to_dict() == {"flying": "body", "stand": "rotor"}
+    assert set(table.snr_line) <= {"body", "rotor", "body+rotor", ""}
+    assert table[table["class"] == "all"].snr_line.tolist() == [
+        "+".join(ln for ln in ("body", "rotor") if ln in set(split[split.set == s].snr_line)) for s in
+        ("train", "test", "validation")]
+    assert any(m.startswith("stand: ") and "rotor-line SNR (body in the clutter notch)" in m for m in lines)
+    assert any(m.startswith("flying: ") and "body SNR" in m for m in lines)
+
+    (tmp_path / "measured" / "stand.zarr").rename(tmp_path / "stand.zarr")
+    split, table = split_and_table_iii(tmp_path / "measured", spec_cfg=spec_cfg, seed=1, log=lambda m: None)
+    assert "snr_line" not in split.columns and "snr_line" not in table.columns
