@@ -92,7 +92,21 @@ def test_no_bird_flights_note(tmp_path):
     assert missing_class_note(folder) == (
         f"classifier left out: the campaign in {folder} has no bird flights (2 drone flights); "
         "add bird recordings to train a bird/drone classifier")
-    assert missing_class_note(folder, {"a": "drone", "b": "bird", "c": "none"}) == ""
+    both = {"a": "drone", "b": "bird", "c": "none", "d": "drone", "e": "bird", "f": "drone", "g": "bird"}
+    assert missing_class_note(folder, both) == ""
+
+
+def test_too_few_flights_for_a_split_note(tmp_path):
+    """Both classes, but too few flights of one to give each set of the split one:
+    the classifier is left out with one line naming the class and the minimum."""
+    folder = _drone_campaign(tmp_path / "measured")
+    targets = {"a": "drone", "b": "drone", "c": "drone", "d": "bird", "e": "bird"}
+    assert missing_class_note(folder, targets) == (
+        f"classifier left out: the campaign in {folder} has too few bird flights for a flight-disjoint "
+        "train/test/validation split (2 bird flights, 3 drone flights; expected >= 3 of each class, one per set); "
+        "add bird recordings")
+    note = missing_class_note(folder, {"a": "drone", "b": "bird"})
+    assert "\n" not in note and "too few bird and drone flights" in note
 
 
 def test_training_on_one_class_is_refused_in_one_line():
@@ -270,3 +284,52 @@ def test_snr_of_a_drone_on_a_stand_is_read_on_its_rotor_lines(tmp_path):
     (tmp_path / "measured" / "stand.zarr").rename(tmp_path / "stand.zarr")
     split, table = split_and_table_iii(tmp_path / "measured", spec_cfg=spec_cfg, seed=1, log=lambda m: None)
     assert "snr_line" not in split.columns and "snr_line" not in table.columns
+
+
+def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp_path):
+    """A drone flight whose rotor lines stay below the visibility threshold: Table VI
+    scores it on the body and floor features only, and fidelity_left_out.csv and the
+    log name it with the reason in one line; a flight with visible lines is scored whole."""
+    from independent_generator import GenCase, make_flight
+
+    from microdoppler.datasets.fidelity import ROTOR_LINE_DISTANCES, write_fidelity_report
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.injection import INJECTED_SCHEMA
+    from microdoppler.datasets.stores import put_array, writing_store
+    from microdoppler.io.inventory import ingest_flight_logs
+
+    measured = tmp_path / "measured"
+    measured.mkdir()
+    flights = {}
+    # the generator's first sideband pair stands first_sideband_db below a 40 dB body
+    for fid, below_db in (("lines", 8.0), ("dark", 45.0)):
+        flight, _ = make_flight(GenCase(fid, seed=71, radar="gen_s", duration_s=8.0, speed_mps=8.0,
+                                        first_sideband_db=below_db))
+        write_flight(measured / f"{fid}.zarr", flight)
+        flights[fid] = flight
+    logs = tmp_path / "motors" / "logs.zarr"
+    ingest_flight_logs(measured, logs, tmp_path / "motors" / "ingest.csv", log=lambda m: None)
+    # each "twin" is its flight's own recording: scoring needs no synthesis here
+    injected = {"sub_cpi": tmp_path / "injected" / "sub_cpi.zarr"}
+    with writing_store(injected["sub_cpi"], {"schema": INJECTED_SCHEMA, "variant": "sub_cpi"}) as root:
+        for fid, flight in flights.items():
+            g = root.require_group(fid)
+            g.attrs.update({"drone_model": flight.attrs["drone_model"], "calibration": {"holdout_block_cpis": 8}})
+            put_array(g, "iq", flight.iq)
+    lines = []
+    out = tmp_path / "reports"
+    table = write_fidelity_report(measured, logs, injected, out / "table_vi.csv", out / "fig_fidelity.png",
+                                  out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
+                                                                                                 log=lambda m: None),
+                                  left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
+    assert list(table.variant) == ["sub_cpi"] and table.n_flights.tolist() == [2]
+    left = pd.read_csv(out / "fidelity_left_out.csv")
+    assert left.flight_id.tolist() == ["dark"]
+    reason = left.reason.iloc[0]
+    assert reason.startswith("rotor lines not visible on the held-out CPIs (first sideband pair below 10 dB in all ")
+    assert "\n" not in reason and f"dark: left out of Table VI (sub_cpi): {reason}" in lines
+    per = pd.read_csv(out / "fidelity_flights.csv").set_index("flight_id")
+    assert "lines_visible" not in per.columns
+    assert per.loc["dark", list(ROTOR_LINE_DISTANCES)].isna().all()
+    assert np.isfinite(per.loc["dark", ["body_std_db", "floor_db"]].astype(float)).all()
+    assert np.isfinite(per.loc["lines", ["line_hz", "n_pairs", "first_pair_db"]].astype(float)).all()

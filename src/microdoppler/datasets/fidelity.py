@@ -484,9 +484,11 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
                   cfg: FidelityConfig = FidelityConfig(), cache: dict | None = None, log=print) -> pd.DataFrame:
     """Distances of every injected twin of one variant to its measured flight.
 
-    Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored
-    and the :data:`DISTANCES`. ``cache`` (flight_id -> measured CpiFeatures) spares
-    recomputing the measured flights across variants."""
+    Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored,
+    extension_source, the :data:`DISTANCES` and ``lines_visible``
+    (:func:`rotor_lines_visible`; where False, the :data:`ROTOR_LINE_DISTANCES` are
+    NaN: there are no measured lines to compare with). ``cache`` (flight_id -> measured
+    CpiFeatures) spares recomputing the measured flights across variants."""
     cache = {} if cache is None else cache
     root = open_store(injected_zarr, INJECTED_SCHEMA)
     rows = []
@@ -502,13 +504,29 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
         twin = flight_features(flight, np.asarray(g["iq"][...]), ml, spec_cfg=spec_cfg, cfg=cfg)
         mask, held_out = scoring_mask(dict(g.attrs.get("calibration", {})), len(twin.time_s))
         d = distances(cache[fid], twin, mask, cfg)
+        visible = rotor_lines_visible(cache[fid], mask)
+        if not visible:
+            d.update({k: float("nan") for k in ROTOR_LINE_DISTANCES})
         rows.append({"flight_id": fid, "variant": variant, "drone_model": g.attrs.get("drone_model", ""),
                      "held_out": held_out, "n_cpis_scored": int(mask.sum()),
-                     "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d})
+                     "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d,
+                     "lines_visible": visible})
         log(f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
             + " ".join(f"{k}={v:.3g}" for k, v in d.items()))
     return pd.DataFrame(rows, columns=["flight_id", "variant", "drone_model", "held_out", "n_cpis_scored",
-                                       "extension_source", *DISTANCES])
+                                       "extension_source", *DISTANCES, "lines_visible"])
+
+
+#: the distances read on the rotor lines (not measured on a flight without visible lines)
+ROTOR_LINE_DISTANCES = ("line_hz", "n_pairs", "first_pair_db", "asymmetry_db", "blade_std_db", "blade_timescale_s",
+                        "nonmultiple_db")
+
+
+def rotor_lines_visible(measured: CpiFeatures, mask) -> bool:
+    """Whether the measured flight shows its rotor lines: the first sideband pair
+    visible (``n_pairs`` >= 1) in at least one of the CPIs in ``mask``."""
+    mask = np.asarray(mask, bool)
+    return bool(np.any(np.asarray(measured.n_pairs)[mask] >= 1))
 
 
 def _order(variants) -> list[str]:
@@ -604,13 +622,16 @@ def _ingest_reasons(logs_zarr) -> dict[str, str]:
     return {r.flight_id: str(r.reason) for r in df.itertuples() if str(r.reason)}
 
 
-def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame) -> pd.DataFrame:
+def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame, *,
+                     cfg: FidelityConfig = FidelityConfig()) -> pd.DataFrame:
     """The drone flights that Table VI does not score, with the reason (one row per
     flight and reason; ``variants``: the variants it applies to, space-separated).
 
     Reasons: no twins are made of the flight's drone model (:func:`.split.twin_model`);
     no motor log; no background recording to inject a twin into; no twin in the
-    variant's store; no held-out CPI; no feature measurable on the held-out CPIs."""
+    variant's store; no held-out CPI; no feature measurable on the held-out CPIs. A
+    flight scored without visible rotor lines (``lines_visible`` False) is named too:
+    its rotor-line features are left out, the others scored."""
     flights = list_flights(measured_dir)
     drones = flights[flights.target == "drone"]
     ingest = _ingest_reasons(logs_zarr)
@@ -638,6 +659,10 @@ def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.Dat
                     why = "no held-out CPI to score (the calibration fitted every CPI)"
                 elif not np.isfinite(row[list(DISTANCES)].to_numpy(float)).any():
                     why = "no feature measurable on the held-out CPIs"
+                elif "lines_visible" in row.index and not bool(row["lines_visible"]):
+                    why = (f"rotor lines not visible on the held-out CPIs (first sideband pair below "
+                           f"{cfg.visible_db:g} dB in all {int(row['n_cpis_scored'])}): its rotor-line "
+                           f"features ({', '.join(ROTOR_LINE_DISTANCES)}) are left out, the others scored")
                 else:
                     continue
             reasons.setdefault((fl.flight_id, fl.drone_model, why), []).append(v)
@@ -717,7 +742,7 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
     per_flight = pd.concat([score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache,
                                           log=log) for v, path in injected.items()], ignore_index=True)
     table = fidelity_table(per_flight, n_boot=n_boot, seed=seed)
-    left = left_out_flights(measured_dir, logs_zarr, injected, per_flight)
+    left = left_out_flights(measured_dir, logs_zarr, injected, per_flight, cfg=cfg)
     for r in left.itertuples():
         log(f"{r.flight_id}: left out of Table VI ({r.variants}): {r.reason}")
     if table.empty:
@@ -727,7 +752,8 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
         for m in DISTANCES:
             if not np.isfinite(per_flight[m].to_numpy(float)).any():
                 log(f"Table VI: {m} was measured on no flight's held-out CPIs (its columns are empty)")
-    outputs = [(per_flight, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
+    flights = per_flight.drop(columns=["lines_visible"], errors="ignore")
+    outputs = [(flights, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
     for df, path in outputs:
         with atomic_file(path) as tmp:
             df.to_csv(tmp, index=False, float_format="%.6g")
