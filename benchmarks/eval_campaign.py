@@ -17,10 +17,13 @@ pipeline's default target runs on it in a scratch folder, then:
   interval excludes 0) and negative (the extended twins are closer);
 - per flight: the true imbalance, what the diagnosis named, the split's SNR line.
 
-From the repository root (about 15-20 min on 2 shared cores)::
+From the repository root (about 13 min on 2 shared cores)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/eval_campaign.py --seed 58 \\
         --workdir /tmp/eval_campaign --json benchmarks/records/eval_campaign_58.json
+
+``--check-only`` re-reads an earlier run's folder (``run.json`` holds its truth and
+exit status) without generating or running anything.
 """
 
 from __future__ import annotations
@@ -114,6 +117,10 @@ def check(work: Path, rc: int, log: str, truth: list[dict]) -> dict:
                                                       (bool(getattr(r, c)) if c.endswith("resolved")
                                                        else float(getattr(r, c)))) for c in cols}
                                       for r in t6.itertuples()}
+    ext = t6[t6.variant == "extended - sub_cpi"]
+    out["table_vi_extended_minus_sub_cpi"] = {} if ext.empty else {
+        c: (None if pd.isna(v) else (bool(v) if c.endswith("resolved") else float(v)))
+        for c, v in ext.iloc[0].items() if c != "variant"}
     gain = out["table_vi_nonmultiple_db"].get("extended - sub_cpi", {})
     out["nonmultiple_gain_resolved"] = bool(gain.get("nonmultiple_db_resolved"))
     out["nonmultiple_gain_negative"] = bool((gain.get("nonmultiple_db_mean") or 0) < 0)
@@ -159,27 +166,38 @@ def main(argv=None) -> int:
     ap.add_argument("--cores", type=int, default=2)
     ap.add_argument("--workdir", required=True, help="scratch folder (must not exist)")
     ap.add_argument("--json", default="")
+    ap.add_argument("--check-only", action="store_true",
+                    help="re-read the results of an earlier run in --workdir (no generation, no pipeline)")
     a = ap.parse_args(argv)
     if a.n_flights < 12:
         ap.error(f"--n-flights={a.n_flights}: the acceptance run needs at least 12 flights")
     work = Path(a.workdir)
-    if work.exists():
-        ap.error(f"--workdir {work} exists: give a new scratch folder")
-    t0 = time.perf_counter()
-    truth = make_campaign(work / "measured", seed=a.seed, n_flights=a.n_flights, duration_s=a.duration_s,
-                          radar=a.radar, imbalance_db=tuple(a.imbalance_db))
-    config = write_config(work, n_boot=a.n_boot)
-    snakemake = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
-    t1 = time.perf_counter()
-    r = subprocess.run([snakemake, "--cores", str(a.cores), "-s", str(REPO / "Snakefile"), "-d", str(work),
-                        "--configfile", str(config)], cwd=work, capture_output=True, text=True,
-                       env={**os.environ, "PYTHONPATH": os.environ.get("PYTHONPATH", str(REPO / "src"))})
-    t2 = time.perf_counter()
-    log = r.stdout + r.stderr
-    (work / "snakemake.log").write_text(log)
-    carrier, prf = RADARS[a.radar]
-    out = {"seed": a.seed, "args": vars(a), "carrier_hz": carrier, "prf_hz": prf,
-           "generate_s": round(t1 - t0, 1), "pipeline_s": round(t2 - t1, 1), **check(work, r.returncode, log, truth)}
+    if a.check_only:
+        if not (work / "run.json").exists():
+            ap.error(f"--check-only: {work / 'run.json'} does not exist (run without --check-only first)")
+        run = json.loads((work / "run.json").read_text())
+    else:
+        if work.exists():
+            ap.error(f"--workdir {work} exists: give a new scratch folder")
+        t0 = time.perf_counter()
+        truth = make_campaign(work / "measured", seed=a.seed, n_flights=a.n_flights, duration_s=a.duration_s,
+                              radar=a.radar, imbalance_db=tuple(a.imbalance_db))
+        config = write_config(work, n_boot=a.n_boot)
+        snakemake = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
+        t1 = time.perf_counter()
+        r = subprocess.run([snakemake, "--cores", str(a.cores), "-s", str(REPO / "Snakefile"), "-d", str(work),
+                            "--configfile", str(config)], cwd=work, capture_output=True, text=True,
+                           env={**os.environ, "PYTHONPATH": os.environ.get("PYTHONPATH", str(REPO / "src"))})
+        t2 = time.perf_counter()
+        (work / "snakemake.log").write_text(r.stdout + r.stderr)
+        run = {"args": vars(a), "truth": truth, "exit_status": r.returncode, "generate_s": round(t1 - t0, 1),
+               "pipeline_s": round(t2 - t1, 1)}
+        (work / "run.json").write_text(json.dumps(run, indent=1))
+    log = (work / "snakemake.log").read_text()
+    rc = int(run["exit_status"])
+    carrier, prf = RADARS[run["args"]["radar"]]
+    out = {"seed": run["args"]["seed"], "args": run["args"], "carrier_hz": carrier, "prf_hz": prf,
+           "generate_s": run["generate_s"], "pipeline_s": run["pipeline_s"], **check(work, rc, log, run["truth"])}
     holds = {"exit_0": out["exit_status"] == 0, "classifier_left_out_with_note": out["classifier_note_lines"] == 1
              and not out["table_v_written"], "no_empty_table": not out["empty_tables"],
              "no_blank_figure": not out["blank_figures"], "table_vi_row_per_variant": out.get("table_vi_row_per_variant"),
@@ -187,7 +205,7 @@ def main(argv=None) -> int:
              and out.get("nonmultiple_gain_negative", False)}
     out["acceptance"] = holds
     print(json.dumps(holds, indent=1))
-    if r.returncode != 0:
+    if rc != 0:
         print(log[-3000:], file=sys.stderr)
     if a.json:
         with atomic_file(a.json) as tmp:
