@@ -289,7 +289,8 @@ def test_snr_of_a_drone_on_a_stand_is_read_on_its_rotor_lines(tmp_path):
 def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp_path):
     """A drone flight whose rotor lines stay below the visibility threshold: Table VI
     scores it on the body and floor features only, and fidelity_left_out.csv and the
-    log name it with the reason in one line; a flight with visible lines is scored whole."""
+    log name it with the reason in one line; a flight with visible lines is scored whole;
+    a stand-mounted one on its rotor lines, named with why its body line is not."""
     from independent_generator import GenCase, make_flight
 
     from microdoppler.datasets.fidelity import ROTOR_LINE_DISTANCES, write_fidelity_report
@@ -302,8 +303,8 @@ def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp
     measured.mkdir()
     flights = {}
     # the generator's first sideband pair stands first_sideband_db below a 40 dB body
-    for fid, below_db in (("lines", 8.0), ("dark", 45.0)):
-        flight, _ = make_flight(GenCase(fid, seed=71, radar="gen_s", duration_s=8.0, speed_mps=8.0,
+    for fid, below_db, speed_mps in (("lines", 8.0, 8.0), ("dark", 45.0, 8.0), ("stand", 8.0, 0.0)):
+        flight, _ = make_flight(GenCase(fid, seed=71, radar="gen_s", duration_s=8.0, speed_mps=speed_mps,
                                         first_sideband_db=below_db))
         write_flight(measured / f"{fid}.zarr", flight)
         flights[fid] = flight
@@ -322,10 +323,10 @@ def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp
                                   out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
                                                                                                  log=lambda m: None),
                                   left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
-    assert list(table.variant) == ["sub_cpi"] and table.n_flights.tolist() == [2]
+    assert list(table.variant) == ["sub_cpi"] and table.n_flights.tolist() == [3]
     left = pd.read_csv(out / "fidelity_left_out.csv")
-    assert left.flight_id.tolist() == ["dark"]
-    reason = left.reason.iloc[0]
+    assert sorted(left.flight_id) == ["dark", "stand"]
+    reason = left.set_index("flight_id").reason["dark"]
     assert reason.startswith("rotor lines not visible on the held-out CPIs (first sideband pair below 10 dB in all ")
     assert "\n" not in reason and f"dark: left out of Table VI (sub_cpi): {reason}" in lines
     per = pd.read_csv(out / "fidelity_flights.csv").set_index("flight_id")
@@ -333,3 +334,9 @@ def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp
     assert per.loc["dark", list(ROTOR_LINE_DISTANCES)].isna().all()
     assert np.isfinite(per.loc["dark", ["body_std_db", "floor_db"]].astype(float)).all()
     assert np.isfinite(per.loc["lines", ["line_hz", "n_pairs", "first_pair_db"]].astype(float)).all()
+    # a stand-mounted drone: its body line is in the clutter notch, its rotor lines are scored
+    stand = left.set_index("flight_id").reason["stand"]
+    assert stand == ("body line in the clutter notch (hovering or stand-mounted): its body-line features "
+                     "(first_pair_db, body_std_db) are left out, the rotor lines scored about the track's body Doppler")
+    assert per.loc["stand", ["first_pair_db", "body_std_db"]].isna().all()
+    assert np.isfinite(per.loc["stand", ["line_hz", "n_pairs", "nonmultiple_db"]].astype(float)).all()

@@ -140,6 +140,9 @@ def test_nonmultiple_lines_of_a_body_in_the_clutter_notch(rng, odd_rel):
     assert (f.nonmultiple_ref > 0).mean() > 0.9
     # the HERM lines are placed about 0 Hz too: k B f_rot from the body Doppler
     assert np.nanmedian(np.abs(f.line_hz[0] - N_BLADES * REV_S)) < 0.5
+    # the features read on the (filtered-away) body line are not measured
+    assert f.body_in_notch and np.isnan(f.body_db).all() and np.isnan(f.first_pair_db).all()
+    assert np.isfinite(f.blade_db).all()
     # the flying path on the same spectrogram measures nothing
     spec = spectrogram(iq, PRF_HZ, full)
     n_t = len(spec.time_s)
@@ -153,6 +156,8 @@ def test_nonmultiple_lines_of_a_body_in_the_clutter_notch(rng, odd_rel):
     assert not ref.any() and not pw.any()
     # a flying body (60 Hz) is not in the notch: the features keep its line's peak
     assert not fidelity.body_in_notch(np.full(n_t, BODY_HZ), highpass_hz=full.highpass_hz, search_hz=cfg.search_hz)
+    g = features(rotation_lines(12.0, rng, odd_rel=odd_rel), cfg, spec_cfg=full)
+    assert not g.body_in_notch and np.isfinite(g.body_db).all()
 
 
 def test_asymmetry_sign_and_size(rng):

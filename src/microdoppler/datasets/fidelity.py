@@ -45,7 +45,8 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
 A hovering or stand-mounted drone has its body line in the clutter notch (no CPI's
 body peak beyond ``highpass_hz + search_hz``, :func:`body_in_notch`): its lines are
 then placed and measured about the track's body Doppler instead of the body peak
-(the rotor lines stand symmetric about it, outside the notch).
+(the rotor lines stand symmetric about it, outside the notch), and the features read
+on the body line (``first_pair_db``, ``body_std_db``) are not measured (NaN).
 
 Per flight and feature one distance between twin and flight (:func:`distances`): the
 mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
@@ -179,6 +180,10 @@ class CpiFeatures:
         blade count, their blade-passing reference and the summed power's noise
         variance (:func:`rotation_line_sums`; 0 where none is measured); None when
         per-motor rates were not given.
+    body_in_notch : bool
+        The body line lies in the clutter notch at every CPI (:func:`body_in_notch`):
+        ``body_db`` and ``first_pair_db`` (read on it) are NaN, the lines are placed
+        about the given body Doppler.
     """
 
     time_s: np.ndarray
@@ -194,6 +199,7 @@ class CpiFeatures:
     nonmultiple_pow: np.ndarray | None = None
     nonmultiple_ref: np.ndarray | None = None
     nonmultiple_var: np.ndarray | None = None
+    body_in_notch: bool = False
 
 
 def _finite(x) -> np.ndarray:
@@ -268,9 +274,10 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
         st_w = Stft(st.p, st.t_s, st.f_hz, np.asarray(window, float))
         nm = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
                                 highpass_hz=highpass_hz, cfg=cfg, notched=notched)
-    return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - lines.body_db),
-                       _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(lines.body_db),
-                       floor - noise_floor_db(spec), hop_s, *nm)
+    body_db = np.full(len(spec.time_s), np.nan) if notched else lines.body_db  # no body line to read
+    return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - body_db),
+                       _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(body_db),
+                       floor - noise_floor_db(spec), hop_s, *nm, body_in_notch=notched)
 
 
 #: dilation grid step of :func:`line_dilation` and the CPIs of its running median
@@ -485,9 +492,10 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
     """Distances of every injected twin of one variant to its measured flight.
 
     Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored,
-    extension_source, the :data:`DISTANCES` and ``lines_visible``
+    extension_source, the :data:`DISTANCES`, ``lines_visible``
     (:func:`rotor_lines_visible`; where False, the :data:`ROTOR_LINE_DISTANCES` are
-    NaN: there are no measured lines to compare with). ``cache`` (flight_id -> measured
+    NaN: there are no measured lines to compare with) and ``body_in_notch`` (the
+    measured flight's, :class:`CpiFeatures`). ``cache`` (flight_id -> measured
     CpiFeatures) spares recomputing the measured flights across variants."""
     cache = {} if cache is None else cache
     root = open_store(injected_zarr, INJECTED_SCHEMA)
@@ -510,13 +518,15 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
         rows.append({"flight_id": fid, "variant": variant, "drone_model": g.attrs.get("drone_model", ""),
                      "held_out": held_out, "n_cpis_scored": int(mask.sum()),
                      "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d,
-                     "lines_visible": visible})
+                     "lines_visible": visible, "body_in_notch": bool(cache[fid].body_in_notch)})
         log(f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
             + " ".join(f"{k}={v:.3g}" for k, v in d.items()))
     return pd.DataFrame(rows, columns=["flight_id", "variant", "drone_model", "held_out", "n_cpis_scored",
-                                       "extension_source", *DISTANCES, "lines_visible"])
+                                       "extension_source", *DISTANCES, "lines_visible", "body_in_notch"])
 
 
+#: the distances read on the body line (not measured on a body in the clutter notch)
+BODY_LINE_DISTANCES = ("first_pair_db", "body_std_db")
 #: the distances read on the rotor lines (not measured on a flight without visible lines)
 ROTOR_LINE_DISTANCES = ("line_hz", "n_pairs", "first_pair_db", "asymmetry_db", "blade_std_db", "blade_timescale_s",
                         "nonmultiple_db")
@@ -631,7 +641,9 @@ def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.Dat
     no motor log; no background recording to inject a twin into; no twin in the
     variant's store; no held-out CPI; no feature measurable on the held-out CPIs. A
     flight scored without visible rotor lines (``lines_visible`` False) is named too:
-    its rotor-line features are left out, the others scored."""
+    its rotor-line features are left out, the others scored; so is a flight whose body
+    line sits in the clutter notch (``body_in_notch``): its body-line features are left
+    out."""
     flights = list_flights(measured_dir)
     drones = flights[flights.target == "drone"]
     ingest = _ingest_reasons(logs_zarr)
@@ -659,12 +671,19 @@ def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.Dat
                     why = "no held-out CPI to score (the calibration fitted every CPI)"
                 elif not np.isfinite(row[list(DISTANCES)].to_numpy(float)).any():
                     why = "no feature measurable on the held-out CPIs"
-                elif "lines_visible" in row.index and not bool(row["lines_visible"]):
-                    why = (f"rotor lines not visible on the held-out CPIs (first sideband pair below "
-                           f"{cfg.visible_db:g} dB in all {int(row['n_cpis_scored'])}): its rotor-line "
-                           f"features ({', '.join(ROTOR_LINE_DISTANCES)}) are left out, the others scored")
                 else:
-                    continue
+                    parts = []
+                    if "lines_visible" in row.index and not bool(row["lines_visible"]):
+                        parts.append(f"rotor lines not visible on the held-out CPIs (first sideband pair below "
+                                     f"{cfg.visible_db:g} dB in all {int(row['n_cpis_scored'])}): its rotor-line "
+                                     f"features ({', '.join(ROTOR_LINE_DISTANCES)}) are left out, the others scored")
+                    if "body_in_notch" in row.index and bool(row["body_in_notch"]):
+                        parts.append("body line in the clutter notch (hovering or stand-mounted): its body-line "
+                                     f"features ({', '.join(BODY_LINE_DISTANCES)}) are left out, the rotor lines "
+                                     "scored about the track's body Doppler")
+                    if not parts:
+                        continue
+                    why = "; ".join(parts)
             reasons.setdefault((fl.flight_id, fl.drone_model, why), []).append(v)
     rows = [{"flight_id": fid, "drone_model": model, "variants": " ".join(vs), "reason": why}
             for (fid, model, why), vs in reasons.items()]
@@ -752,7 +771,7 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
         for m in DISTANCES:
             if not np.isfinite(per_flight[m].to_numpy(float)).any():
                 log(f"Table VI: {m} was measured on no flight's held-out CPIs (its columns are empty)")
-    flights = per_flight.drop(columns=["lines_visible"], errors="ignore")
+    flights = per_flight.drop(columns=["lines_visible", "body_in_notch"], errors="ignore")
     outputs = [(flights, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
     for df, path in outputs:
         with atomic_file(path) as tmp:
