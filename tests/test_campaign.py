@@ -92,7 +92,21 @@ def test_no_bird_flights_note(tmp_path):
     assert missing_class_note(folder) == (
         f"classifier left out: the campaign in {folder} has no bird flights (2 drone flights); "
         "add bird recordings to train a bird/drone classifier")
-    assert missing_class_note(folder, {"a": "drone", "b": "bird", "c": "none"}) == ""
+    both = {"a": "drone", "b": "bird", "c": "none", "d": "drone", "e": "bird", "f": "drone", "g": "bird"}
+    assert missing_class_note(folder, both) == ""
+
+
+def test_too_few_flights_for_a_split_note(tmp_path):
+    """Both classes, but too few flights of one to give each set of the split one:
+    the classifier is left out with one line naming the class and the minimum."""
+    folder = _drone_campaign(tmp_path / "measured")
+    targets = {"a": "drone", "b": "drone", "c": "drone", "d": "bird", "e": "bird"}
+    assert missing_class_note(folder, targets) == (
+        f"classifier left out: the campaign in {folder} has too few bird flights for a flight-disjoint "
+        "train/test/validation split (2 bird flights, 3 drone flights; expected >= 3 of each class, one per set); "
+        "add bird recordings")
+    note = missing_class_note(folder, {"a": "drone", "b": "bird"})
+    assert "\n" not in note and "too few bird and drone flights" in note
 
 
 def test_training_on_one_class_is_refused_in_one_line():
@@ -217,3 +231,112 @@ def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
     assert lines[-1] == ("Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
                          "(3 drone flights left out, reasons above)")
     assert (out / "fig_fidelity.png").stat().st_size > 0
+
+
+# ---------------------------------------------------------------- the SNR of a drone on a stand
+
+def _stand_and_flying(folder):
+    """Two drone flights of tests/independent_generator.py at its 2.9 GHz / 9 kHz radar:
+    ``stand`` (body at 0 Hz, in the clutter notch) and ``flying`` (8 m/s)."""
+    from independent_generator import GenCase, make_flight
+
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for fid, speed in (("stand", 0.0), ("flying", 8.0)):
+        flight, _ = make_flight(GenCase(fid, seed=61, radar="gen_s", duration_s=6.0, speed_mps=speed))
+        write_flight(folder / f"{fid}.zarr", flight)
+        out[fid] = flight
+    return out
+
+
+def test_snr_of_a_drone_on_a_stand_is_read_on_its_rotor_lines(tmp_path):
+    """A stand-mounted drone's body line is high-passed away: its SNR (the split's, Table
+    III's, the images') is read on its rotor lines and says so; a flying drone's stays
+    the body line's, and Table III without a rotor-line flight has no snr_line column."""
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.tiles import tile_record
+    from microdoppler.datasets.workflow import split_and_table_iii
+    from microdoppler.spectra.snr import flight_body_snr_db, flight_line_snr_db
+
+    flights = _stand_and_flying(tmp_path / "measured")
+    spec_cfg = spectrogram_for_flights(None, tmp_path / "measured", log=lambda m: None)
+    body_stand = flight_body_snr_db(flights["stand"], spec_cfg=spec_cfg)
+    rotor_stand, line = flight_line_snr_db(flights["stand"], spec_cfg=spec_cfg)
+    assert line == "rotor"
+    # the generator's first sideband pair stands 8 dB below a 40 dB body: the rotor
+    # lines are well above the noise, the notched body line is not
+    assert np.median(rotor_stand) > 20.0 and np.median(body_stand) < 10.0
+    flying, line = flight_line_snr_db(flights["flying"], spec_cfg=spec_cfg)
+    assert line == "body" and np.array_equal(flying, flight_body_snr_db(flights["flying"], spec_cfg=spec_cfg))
+    _, snr, line = tile_record(flights["stand"], flights["stand"].iq, spec_cfg)
+    assert line == "rotor"
+
+    lines = []
+    split, table = split_and_table_iii(tmp_path / "measured", spec_cfg=spec_cfg, seed=1, log=lines.append)
+    assert split.set_index("flight_id").snr_line.to_dict() == {"flying": "body", "stand": "rotor"}
+    assert set(table.snr_line) <= {"body", "rotor", "body+rotor", ""}
+    assert table[table["class"] == "all"].snr_line.tolist() == [
+        "+".join(ln for ln in ("body", "rotor") if ln in set(split[split.set == s].snr_line)) for s in
+        ("train", "test", "validation")]
+    assert any(m.startswith("stand: ") and "rotor-line SNR (body in the clutter notch)" in m for m in lines)
+    assert any(m.startswith("flying: ") and "body SNR" in m for m in lines)
+
+    (tmp_path / "measured" / "stand.zarr").rename(tmp_path / "stand.zarr")
+    split, table = split_and_table_iii(tmp_path / "measured", spec_cfg=spec_cfg, seed=1, log=lambda m: None)
+    assert "snr_line" not in split.columns and "snr_line" not in table.columns
+
+
+def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp_path):
+    """A drone flight whose rotor lines stay below the visibility threshold: Table VI
+    scores it on the body and floor features only, and fidelity_left_out.csv and the
+    log name it with the reason in one line; a flight with visible lines is scored whole;
+    a stand-mounted one on its rotor lines, named with why its body line is not."""
+    from independent_generator import GenCase, make_flight
+
+    from microdoppler.datasets.fidelity import ROTOR_LINE_DISTANCES, write_fidelity_report
+    from microdoppler.datasets.imaging import spectrogram_for_flights
+    from microdoppler.datasets.injection import INJECTED_SCHEMA
+    from microdoppler.datasets.stores import put_array, writing_store
+    from microdoppler.io.inventory import ingest_flight_logs
+
+    measured = tmp_path / "measured"
+    measured.mkdir()
+    flights = {}
+    # the generator's first sideband pair stands first_sideband_db below a 40 dB body
+    for fid, below_db, speed_mps in (("lines", 8.0, 8.0), ("dark", 45.0, 8.0), ("stand", 8.0, 0.0)):
+        flight, _ = make_flight(GenCase(fid, seed=71, radar="gen_s", duration_s=8.0, speed_mps=speed_mps,
+                                        first_sideband_db=below_db))
+        write_flight(measured / f"{fid}.zarr", flight)
+        flights[fid] = flight
+    logs = tmp_path / "motors" / "logs.zarr"
+    ingest_flight_logs(measured, logs, tmp_path / "motors" / "ingest.csv", log=lambda m: None)
+    # each "twin" is its flight's own recording: scoring needs no synthesis here
+    injected = {"sub_cpi": tmp_path / "injected" / "sub_cpi.zarr"}
+    with writing_store(injected["sub_cpi"], {"schema": INJECTED_SCHEMA, "variant": "sub_cpi"}) as root:
+        for fid, flight in flights.items():
+            g = root.require_group(fid)
+            g.attrs.update({"drone_model": flight.attrs["drone_model"], "calibration": {"holdout_block_cpis": 8}})
+            put_array(g, "iq", flight.iq)
+    lines = []
+    out = tmp_path / "reports"
+    table = write_fidelity_report(measured, logs, injected, out / "table_vi.csv", out / "fig_fidelity.png",
+                                  out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
+                                                                                                 log=lambda m: None),
+                                  left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
+    assert list(table.variant) == ["sub_cpi"] and table.n_flights.tolist() == [3]
+    left = pd.read_csv(out / "fidelity_left_out.csv")
+    assert sorted(left.flight_id) == ["dark", "stand"]
+    reason = left.set_index("flight_id").reason["dark"]
+    assert reason.startswith("rotor lines not visible on the held-out CPIs (first sideband pair below 10 dB in all ")
+    assert "\n" not in reason and f"dark: left out of Table VI (sub_cpi): {reason}" in lines
+    per = pd.read_csv(out / "fidelity_flights.csv").set_index("flight_id")
+    assert "lines_visible" not in per.columns
+    assert per.loc["dark", list(ROTOR_LINE_DISTANCES)].isna().all()
+    assert np.isfinite(per.loc["dark", ["body_std_db", "floor_db"]].astype(float)).all()
+    assert np.isfinite(per.loc["lines", ["line_hz", "n_pairs", "first_pair_db"]].astype(float)).all()
+    # a stand-mounted drone: its body line is in the clutter notch, its rotor lines are scored
+    stand = left.set_index("flight_id").reason["stand"]
+    assert stand == ("body line in the clutter notch (hovering or stand-mounted): its body-line features "
+                     "(first_pair_db, body_std_db) are left out, the rotor lines scored about the track's body Doppler")
+    assert per.loc["stand", ["first_pair_db", "body_std_db"]].isna().all()
+    assert np.isfinite(per.loc["stand", ["line_hz", "n_pairs", "nonmultiple_db"]].astype(float)).all()

@@ -54,12 +54,12 @@ def tones(duration_s, rng, *, asym_db=6.0, fade_db=None, n_noise=0.2):
     return (body + side + noise).astype(np.complex64)
 
 
-def features(iq, cfg=fidelity.FidelityConfig(), spec_cfg=SPEC, log_rev_s=REV_S):
+def features(iq, cfg=fidelity.FidelityConfig(), spec_cfg=SPEC, log_rev_s=REV_S, body_hz=BODY_HZ):
     """Features of ``iq`` with four motors logged at ``log_rev_s`` and wire-neutral
     line powers (every rotation harmonic of one blade equally strong)."""
     spec = spectrogram(iq, PRF_HZ, spec_cfg)
     n_t = len(spec.time_s)
-    return fidelity.cpi_features(spec, np.full(n_t, BODY_HZ), np.full(n_t, log_rev_s), n_blades=N_BLADES,
+    return fidelity.cpi_features(spec, np.full(n_t, body_hz), np.full(n_t, log_rev_s), n_blades=N_BLADES,
                                  highpass_hz=spec_cfg.highpass_hz, cfg=cfg, motor_rev_s=np.full((n_t, 4), log_rev_s),
                                  line_power=np.ones(cfg.rotation_orders + 1),
                                  window=blackmanharris(spec_cfg.n_fft, sym=False))
@@ -82,18 +82,18 @@ def test_features_of_known_lines(rng):
     assert s["n_pairs"] == 2.0 and abs(s["asymmetry_db"] - 6.0) < 0.3
 
 
-def rotation_lines(duration_s, rng, *, odd_rel, n_noise=0.05):
-    """Body at 60 Hz and rotation harmonics k = 1..8 of REV_S = 50 rev/s on both
-    sides: the blade-passing (even) lines fall off as exp(-0.15 k) in amplitude, the odd
-    lines stand ``odd_rel`` (amplitude) times the geometric mean of the even lines beside
-    them (k = 1: times its upper neighbour's), so their power ratio is odd_rel^2."""
+def rotation_lines(duration_s, rng, *, odd_rel, n_noise=0.05, body_hz=BODY_HZ):
+    """Body at ``body_hz`` (60 Hz) and rotation harmonics k = 1..8 of REV_S = 50 rev/s on
+    both sides: the blade-passing (even) lines fall off as exp(-0.15 k) in amplitude, the
+    odd lines stand ``odd_rel`` (amplitude) times the geometric mean of the even lines
+    beside them (k = 1: times its upper neighbour's), so their power ratio is odd_rel^2."""
     n = int(duration_s * PRF_HZ)
     t = np.arange(n) / PRF_HZ
-    x = np.exp(2j * np.pi * BODY_HZ * t)
+    x = np.exp(2j * np.pi * body_hz * t)
     for k in range(1, 9):
         amp = np.exp(-0.15 * k) * (odd_rel if k % 2 else 1.0)
         for sgn in (1, -1):
-            x = x + amp * np.exp(2j * np.pi * (BODY_HZ + sgn * k * REV_S) * t + 1j * rng.uniform(0, 2 * np.pi))
+            x = x + amp * np.exp(2j * np.pi * (body_hz + sgn * k * REV_S) * t + 1j * rng.uniform(0, 2 * np.pi))
     x = x + n_noise * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)
     return x.astype(np.complex64)
 
@@ -120,6 +120,44 @@ def test_nonmultiple_lines_level(rng, odd_rel, log_scale):
     n_t = len(spec.time_s)
     g = fidelity.cpi_features(spec, np.full(n_t, BODY_HZ), np.full(n_t, REV_S), n_blades=N_BLADES, cfg=cfg)
     assert g.nonmultiple_pow is None and np.isnan(fidelity.nonmultiple_db(g, np.ones(n_t, bool), cfg))
+
+
+@pytest.mark.parametrize("odd_rel", [0.3, 0.0])
+def test_nonmultiple_lines_of_a_body_in_the_clutter_notch(rng, odd_rel):
+    """A hovering or stand-mounted drone: the body at 0 Hz is high-passed away, its
+    rotor lines stand about it. nonmultiple_db is read about the known body Doppler
+    (the body line's own peak is not there to refer to): 20 log10 odd_rel, the floor
+    without odd lines. Measured about the peak (the flying path), no CPI qualifies."""
+    full = SpectrogramConfig(n_bins=0)
+    cfg = fidelity.FidelityConfig()
+    iq = rotation_lines(12.0, rng, odd_rel=odd_rel, body_hz=0.0)
+    f = features(iq, cfg, spec_cfg=full, body_hz=0.0)
+    got = fidelity.nonmultiple_db(f, np.ones(len(f.time_s), bool), cfg)
+    if odd_rel == 0:
+        assert got == cfg.nonmultiple_floor_db
+    else:
+        assert abs(got - 20 * np.log10(odd_rel)) < 0.5, got
+    assert (f.nonmultiple_ref > 0).mean() > 0.9
+    # the HERM lines are placed about 0 Hz too: k B f_rot from the body Doppler
+    assert np.nanmedian(np.abs(f.line_hz[0] - N_BLADES * REV_S)) < 0.5
+    # the features read on the (filtered-away) body line are not measured
+    assert f.body_in_notch and np.isnan(f.body_db).all() and np.isnan(f.first_pair_db).all()
+    assert np.isfinite(f.blade_db).all()
+    # the flying path on the same spectrogram measures nothing
+    spec = spectrogram(iq, PRF_HZ, full)
+    n_t = len(spec.time_s)
+    st = fidelity.Stft(10.0 ** (spec.power_db.astype(np.float64) / 10), spec.time_s, spec.doppler_hz,
+                       blackmanharris(full.n_fft, sym=False))
+    f_peak = fidelity.refine_peak(st, np.zeros(n_t), cfg.search_hz)
+    assert fidelity.body_in_notch(f_peak, highpass_hz=full.highpass_hz, search_hz=cfg.search_hz)
+    pw, ref, _ = fidelity.rotation_line_sums(st, f_peak, np.full((n_t, 4), REV_S), n_blades=N_BLADES,
+                                             line_power=np.ones(cfg.rotation_orders + 1),
+                                             highpass_hz=full.highpass_hz, cfg=cfg)
+    assert not ref.any() and not pw.any()
+    # a flying body (60 Hz) is not in the notch: the features keep its line's peak
+    assert not fidelity.body_in_notch(np.full(n_t, BODY_HZ), highpass_hz=full.highpass_hz, search_hz=cfg.search_hz)
+    g = features(rotation_lines(12.0, rng, odd_rel=odd_rel), cfg, spec_cfg=full)
+    assert not g.body_in_notch and np.isfinite(g.body_db).all()
 
 
 def test_asymmetry_sign_and_size(rng):

@@ -129,8 +129,8 @@ def test_physical_config_reproduces_bin_config_tiles_bit_for_bit(tmp_path, rng):
     bins = SpectrogramSettings.from_config({"n_fft": 4096, "n_bins": 480}).resolve(fl.prf_hz, fl.carrier_hz)
     phys = spectrogram_for_flights({"window_s": 0.56, "doppler_span_mps": 95.0, "n_fft": None, "n_bins": None},
                                    tmp_path, log=lambda m: None)
-    a, snr_a = tile_record(fl, fl.iq, bins)
-    b, snr_b = tile_record(fl, fl.iq, phys)
+    a, snr_a, _ = tile_record(fl, fl.iq, bins)
+    b, snr_b, _ = tile_record(fl, fl.iq, phys)
     assert a.shape == (2, 20, 480)
     assert a.dtype == b.dtype and a.tobytes() == b.tobytes() and np.array_equal(snr_a, snr_b, equal_nan=True)
 

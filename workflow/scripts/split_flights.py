@@ -12,7 +12,8 @@ with log_to(snakemake.log[0]):
         search_hz=snakemake.params.search_hz,
         **snakemake.params.split,
     )
-    cols = ["flight_id", "set", "target", "drone_model", "radar_id"]
+    # snr_line: only where some flight's SNR is read on its rotor lines (body in the notch)
+    cols = ["flight_id", "set", "target", "drone_model", "radar_id"] + (["snr_line"] if "snr_line" in split else [])
     write_csv(split[cols], snakemake.output.split)
     write_csv(table, snakemake.output.table)
     print(table.to_string())

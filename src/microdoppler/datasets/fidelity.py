@@ -42,6 +42,12 @@ Doppler and the HERM windows at ``body +/- k B f_rot`` from the flight's motor l
   any level below that floor; NaN where the blade-passing lines are seen in fewer
   than ``nonmultiple_min_cpis`` of the scored CPIs (weak blades).
 
+A hovering or stand-mounted drone has its body line in the clutter notch (no CPI's
+body peak beyond ``highpass_hz + search_hz``, :func:`body_in_notch`): its lines are
+then placed and measured about the track's body Doppler instead of the body peak
+(the rotor lines stand symmetric about it, outside the notch), and the features read
+on the body line (``first_pair_db``, ``body_std_db``) are not measured (NaN).
+
 Per flight and feature one distance between twin and flight (:func:`distances`): the
 mean |delta f| over the measured flight's visible harmonics (k = 1 when none is
 visible) and the scored CPIs for ``line_hz``, and |twin - measured| of the
@@ -175,6 +181,10 @@ class CpiFeatures:
         blade count, their blade-passing reference and the summed power's noise
         variance (:func:`rotation_line_sums`; 0 where none is measured); None when
         per-motor rates were not given.
+    body_in_notch : bool
+        The body line lies in the clutter notch at every CPI (:func:`body_in_notch`):
+        ``body_db`` and ``first_pair_db`` (read on it) are NaN, the lines are placed
+        about the given body Doppler.
     """
 
     time_s: np.ndarray
@@ -190,6 +200,7 @@ class CpiFeatures:
     nonmultiple_pow: np.ndarray | None = None
     nonmultiple_ref: np.ndarray | None = None
     nonmultiple_var: np.ndarray | None = None
+    body_in_notch: bool = False
 
 
 def _finite(x) -> np.ndarray:
@@ -233,6 +244,11 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     # the refined body peak
     st = Stft(10.0 ** (spec.power_db.astype(np.float64) / 10), spec.time_s, spec.doppler_hz, np.empty(0))
     f_body = refine_peak(st, body_hz, cfg.search_hz)
+    notched = body_in_notch(f_body, highpass_hz=highpass_hz, search_hz=cfg.search_hz)
+    if notched:
+        # a hovering or stand-mounted body: its line is high-passed away, the rotor
+        # lines stay symmetric about the known body Doppler
+        f_body = np.where(np.abs(body_hz) <= highpass_hz + cfg.search_hz, body_hz, f_body)
     snr_db = spec.power_db - noise_floor_db(spec)[:, None]
     line_hz = np.full(pair.shape, np.nan)
     for k in range(1, cfg.n_harmonics + 1):
@@ -258,10 +274,11 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     if motor_rev_s is not None and line_power is not None and window is not None:
         st_w = Stft(st.p, st.t_s, st.f_hz, np.asarray(window, float))
         nm = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
-                                highpass_hz=highpass_hz, cfg=cfg)
-    return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - lines.body_db),
-                       _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(lines.body_db),
-                       floor - noise_floor_db(spec), hop_s, *nm)
+                                highpass_hz=highpass_hz, cfg=cfg, notched=notched)
+    body_db = np.full(len(spec.time_s), np.nan) if notched else lines.body_db  # no body line to read
+    return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - body_db),
+                       _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(body_db),
+                       floor - noise_floor_db(spec), hop_s, *nm, body_in_notch=notched)
 
 
 #: dilation grid step of :func:`line_dilation` and the CPIs of its running median
@@ -309,22 +326,38 @@ def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max
     return sm
 
 
+def body_in_notch(f_body_hz, *, highpass_hz: float, search_hz: float) -> bool:
+    """True when no CPI's body line (``f_body_hz`` [n_t], Hz) lies beyond the clutter
+    notch (``highpass_hz`` + ``search_hz``): a hovering or stand-mounted drone, whose
+    features are measured about the known body Doppler instead of its line's peak."""
+    f = np.asarray(f_body_hz, float)
+    return not bool(np.any(np.isfinite(f) & (np.abs(f) > highpass_hz + search_hz)))
+
+
 def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_power, highpass_hz: float,
-                       cfg: FidelityConfig = FidelityConfig()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       cfg: FidelityConfig = FidelityConfig(),
+                       notched: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per CPI, the summed power of the rotation-rate lines at non-multiples of the
     blade count, of their blade-passing reference (module doc) and the summed power's
     noise variance (kappa (n_b fl^2 + 2 P fl) per line, ``rotation_line_powers``):
     float [n_t] each, 0 where nothing is measured. ``st`` is the spectrogram as a power periodogram with its
     analysis window; ``f_body_hz`` [n_t] the body line; ``motor_rev_s`` [n_t, n_motors]
     each motor's rate; ``line_power`` [cfg.rotation_orders + 1] one blade's own line
-    power per order."""
+    power per order.
+
+    The CPIs measured are those whose body line lies beyond the clutter notch
+    (``highpass_hz`` + ``cfg.search_hz``); with ``notched`` (:func:`body_in_notch`:
+    no CPI has its body there, a hovering or stand-mounted drone), those whose body
+    Doppler ``f_body_hz`` (then the track's) lies within it: the rotor lines about it
+    are clear of the notch where each line's own check (``rotation_line_powers``) says so."""
     rev = np.asarray(motor_rev_s, float)
     n_t, n_m = rev.shape
     if len(line_power) < cfg.rotation_orders + 1:
         raise ValueError(f"line_power has {len(line_power)} orders, expected {cfg.rotation_orders + 1}")
     f_body_hz = np.asarray(f_body_hz, float)
+    beyond = np.abs(f_body_hz) > highpass_hz + cfg.search_hz
     valid = (np.isfinite(f_body_hz) & np.all(np.isfinite(rev), axis=1) & np.all(rev > 0, axis=1)
-             & (np.abs(f_body_hz) > highpass_hz + cfg.search_hz))
+             & (~beyond if notched else beyond))
     floor = np.median(st.p, axis=1) / np.log(2.0)
     s = line_dilation(st, f_body_hz, rev, valid, n_blades=n_blades, max_rel=cfg.dilation_range)
     P, V, W, R = rotation_line_powers(st, f_body_hz, rev * s[:, None], valid, n_blades, cfg.rotation_orders, floor,
@@ -459,9 +492,12 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
                   cfg: FidelityConfig = FidelityConfig(), cache: dict | None = None, log=print) -> pd.DataFrame:
     """Distances of every injected twin of one variant to its measured flight.
 
-    Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored
-    and the :data:`DISTANCES`. ``cache`` (flight_id -> measured CpiFeatures) spares
-    recomputing the measured flights across variants."""
+    Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored,
+    extension_source, the :data:`DISTANCES`, ``lines_visible``
+    (:func:`rotor_lines_visible`; where False, the :data:`ROTOR_LINE_DISTANCES` are
+    NaN: there are no measured lines to compare with) and ``body_in_notch`` (the
+    measured flight's, :class:`CpiFeatures`). ``cache`` (flight_id -> measured
+    CpiFeatures) spares recomputing the measured flights across variants."""
     cache = {} if cache is None else cache
     root = open_store(injected_zarr, INJECTED_SCHEMA)
     rows = []
@@ -477,13 +513,31 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
         twin = flight_features(flight, np.asarray(g["iq"][...]), ml, spec_cfg=spec_cfg, cfg=cfg)
         mask, held_out = scoring_mask(dict(g.attrs.get("calibration", {})), len(twin.time_s))
         d = distances(cache[fid], twin, mask, cfg)
+        visible = rotor_lines_visible(cache[fid], mask)
+        if not visible:
+            d.update({k: float("nan") for k in ROTOR_LINE_DISTANCES})
         rows.append({"flight_id": fid, "variant": variant, "drone_model": g.attrs.get("drone_model", ""),
                      "held_out": held_out, "n_cpis_scored": int(mask.sum()),
-                     "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d})
+                     "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d,
+                     "lines_visible": visible, "body_in_notch": bool(cache[fid].body_in_notch)})
         log(f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
             + " ".join(f"{k}={v:.3g}" for k, v in d.items()))
     return pd.DataFrame(rows, columns=["flight_id", "variant", "drone_model", "held_out", "n_cpis_scored",
-                                       "extension_source", *DISTANCES])
+                                       "extension_source", *DISTANCES, "lines_visible", "body_in_notch"])
+
+
+#: the distances read on the body line (not measured on a body in the clutter notch)
+BODY_LINE_DISTANCES = ("first_pair_db", "body_std_db")
+#: the distances read on the rotor lines (not measured on a flight without visible lines)
+ROTOR_LINE_DISTANCES = ("line_hz", "n_pairs", "first_pair_db", "asymmetry_db", "blade_std_db", "blade_timescale_s",
+                        "nonmultiple_db")
+
+
+def rotor_lines_visible(measured: CpiFeatures, mask) -> bool:
+    """Whether the measured flight shows its rotor lines: the first sideband pair
+    visible (``n_pairs`` >= 1) in at least one of the CPIs in ``mask``."""
+    mask = np.asarray(mask, bool)
+    return bool(np.any(np.asarray(measured.n_pairs)[mask] >= 1))
 
 
 def _order(variants) -> list[str]:
@@ -579,13 +633,18 @@ def _ingest_reasons(logs_zarr) -> dict[str, str]:
     return {r.flight_id: str(r.reason) for r in df.itertuples() if str(r.reason)}
 
 
-def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame) -> pd.DataFrame:
+def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame, *,
+                     cfg: FidelityConfig = FidelityConfig()) -> pd.DataFrame:
     """The drone flights that Table VI does not score, with the reason (one row per
     flight and reason; ``variants``: the variants it applies to, space-separated).
 
     Reasons: no twins are made of the flight's drone model (:func:`.split.twin_model`);
     no motor log; no background recording to inject a twin into; no twin in the
-    variant's store; no held-out CPI; no feature measurable on the held-out CPIs."""
+    variant's store; no held-out CPI; no feature measurable on the held-out CPIs. A
+    flight scored without visible rotor lines (``lines_visible`` False) is named too:
+    its rotor-line features are left out, the others scored; so is a flight whose body
+    line sits in the clutter notch (``body_in_notch``): its body-line features are left
+    out."""
     flights = list_flights(measured_dir)
     drones = flights[flights.target == "drone"]
     ingest = _ingest_reasons(logs_zarr)
@@ -614,7 +673,18 @@ def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.Dat
                 elif not np.isfinite(row[list(DISTANCES)].to_numpy(float)).any():
                     why = "no feature measurable on the held-out CPIs"
                 else:
-                    continue
+                    parts = []
+                    if "lines_visible" in row.index and not bool(row["lines_visible"]):
+                        parts.append(f"rotor lines not visible on the held-out CPIs (first sideband pair below "
+                                     f"{cfg.visible_db:g} dB in all {int(row['n_cpis_scored'])}): its rotor-line "
+                                     f"features ({', '.join(ROTOR_LINE_DISTANCES)}) are left out, the others scored")
+                    if "body_in_notch" in row.index and bool(row["body_in_notch"]):
+                        parts.append("body line in the clutter notch (hovering or stand-mounted): its body-line "
+                                     f"features ({', '.join(BODY_LINE_DISTANCES)}) are left out, the rotor lines "
+                                     "scored about the track's body Doppler")
+                    if not parts:
+                        continue
+                    why = "; ".join(parts)
             reasons.setdefault((fl.flight_id, fl.drone_model, why), []).append(v)
     rows = [{"flight_id": fid, "drone_model": model, "variants": " ".join(vs), "reason": why}
             for (fid, model, why), vs in reasons.items()]
@@ -692,7 +762,7 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
     per_flight = pd.concat([score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache,
                                           log=log) for v, path in injected.items()], ignore_index=True)
     table = fidelity_table(per_flight, n_boot=n_boot, seed=seed)
-    left = left_out_flights(measured_dir, logs_zarr, injected, per_flight)
+    left = left_out_flights(measured_dir, logs_zarr, injected, per_flight, cfg=cfg)
     for r in left.itertuples():
         log(f"{r.flight_id}: left out of Table VI ({r.variants}): {r.reason}")
     if table.empty:
@@ -702,7 +772,8 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
         for m in DISTANCES:
             if not np.isfinite(per_flight[m].to_numpy(float)).any():
                 log(f"Table VI: {m} was measured on no flight's held-out CPIs (its columns are empty)")
-    outputs = [(per_flight, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
+    flights = per_flight.drop(columns=["lines_visible", "body_in_notch"], errors="ignore")
+    outputs = [(flights, flights_csv), (table, table_csv)] + ([(left, left_out_csv)] if left_out_csv else [])
     for df, path in outputs:
         with atomic_file(path) as tmp:
             df.to_csv(tmp, index=False, float_format="%.6g")

@@ -14,19 +14,22 @@ import pandas as pd
 from ..io.flightzarr import Flight
 from ..io.outputs import atomic_file
 from ..spectra.spectrogram import SpectrogramConfig
-from ..spectra.snr import flight_body_snr_db  # noqa: F401 (the one SNR measure, re-exported)
+from ..spectra.snr import SNR_LINES
+from ..spectra.snr import flight_body_snr_db, flight_line_snr_db  # noqa: F401 (the one SNR measure, re-exported)
 from .split import CLASSES, SETS, n_images
 
 
 def flight_snr_row(flight: Flight, *, spec_cfg: SpectrogramConfig, search_hz: float = 10.0) -> dict:
-    """images, SNR mean and std over timesteps, and the per-timestep SNRs of one flight."""
-    s = flight_body_snr_db(flight, spec_cfg=spec_cfg, search_hz=search_hz)
+    """images, SNR mean and std over timesteps, the per-timestep SNRs of one flight and
+    the line they are measured on (``snr_line``: ``body``, or ``rotor`` for a drone
+    whose body sits in the clutter notch, :func:`microdoppler.spectra.snr.snr_line`)."""
+    s, line = flight_line_snr_db(flight, spec_cfg=spec_cfg, search_hz=search_hz)
     f = s[np.isfinite(s)]
     return dict(images=n_images(len(flight.iq), spec_cfg), snr_mean_db=float(np.mean(f)) if f.size else np.nan,
-                snr_std_db=float(np.std(f)) if f.size else np.nan, snr_db=f)
+                snr_std_db=float(np.std(f)) if f.size else np.nan, snr_line=line, snr_db=f)
 
 
-def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray]) -> pd.DataFrame:
+def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray], snr_line: dict[str, str] | None = None) -> pd.DataFrame:
     """Composition of the sets (paper Table III).
 
     Parameters
@@ -34,7 +37,12 @@ def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray]) -> pd.DataFrame:
     split : DataFrame
         flight_id, set, class, radar_id, images.
     snr : dict flight_id -> ndarray
-        Per-timestep body SNR [dB] of each flight.
+        Per-timestep SNR [dB] of each flight (its body line's, or its rotor lines').
+    snr_line : dict flight_id -> str, optional
+        The line each flight's SNR is measured on (``body`` or ``rotor``,
+        :func:`flight_snr_row`). When some flight's is ``rotor``, a column ``snr_line``
+        says which lines each row's SNR pools (``body``, ``rotor`` or ``body+rotor``);
+        without any, the table has no such column (the body line throughout).
 
     Returns
     -------
@@ -44,6 +52,8 @@ def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray]) -> pd.DataFrame:
     flight_snr_std_std_db (mean and spread over flights of each flight's SNR std).
     """
     radars = sorted(split.radar_id.astype(str).unique())
+    snr_line = snr_line or {}
+    with_line = any(ln != "body" for ln in snr_line.values())
     rows = []
     for s in SETS:
         in_set = split[split.set == s]
@@ -63,6 +73,9 @@ def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray]) -> pd.DataFrame:
                 flight_snr_std_mean_db=float(np.mean(stds)) if stds.size else np.nan,
                 flight_snr_std_std_db=float(np.std(stds)) if stds.size else np.nan,
             )
+            if with_line:
+                used = [ln for ln in SNR_LINES if ln in {snr_line.get(f, "body") for f in part.flight_id}]
+                row["snr_line"] = "+".join(used)
             rows.append(row)
     return pd.DataFrame(rows)
 

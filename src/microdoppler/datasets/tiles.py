@@ -3,8 +3,12 @@
 ``results/tiles/{dataset}.zarr`` holds ``images`` float32 [n, T, n_bins] (dB, T =
 ``tile_timesteps``) and, in the same folder, ``labels.csv`` (index, flight_id, set,
 target, drone_model, radar_id, snr_db); ``snr_db`` is the image's mean body-line SNR
-(the one SNR measure). ``real`` tiles every measured flight of the split; a variant
-tiles the injected twins (labelled with their measured flight's set).
+(the one SNR measure). A drone whose body sits in the clutter notch (hovering,
+stand-mounted) has its SNR read on its strongest rotor line instead; where a store
+holds such images, ``labels.csv`` has a column ``snr_line`` (``body`` or ``rotor``)
+saying which line each image's SNR was measured on. ``real`` tiles every measured
+flight of the split; a variant tiles the injected twins (labelled with their
+measured flight's set).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import pandas as pd
 
 from ..errors import InputError
 from ..io.flightzarr import Flight, read_flight
+from ..spectra.snr import record_snr_db, snr_line
 from ..spectra.spectrogram import SpectrogramConfig, spectrogram, tiles
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, finite_mean, measure_lines
@@ -27,22 +32,29 @@ LABEL_COLUMNS = ["index", "flight_id", "set", "target", "drone_model", "radar_id
 
 
 def tile_record(flight: Flight, iq: np.ndarray, spec_cfg: SpectrogramConfig, search_hz: float = 10.0):
-    """Images of one record and each image's mean body SNR.
+    """Images of one record, each image's mean SNR and the line it is measured on.
 
     Returns
     -------
     images : ndarray, float32 [n_tiles, tile_timesteps, n_bins]
     snr_db : ndarray [n_tiles]
+    snr_line : str
+        ``body``, or ``rotor`` for a drone whose body sits in the clutter notch
+        (:func:`microdoppler.spectra.snr.snr_line`).
     """
     if len(iq) < spec_cfg.n_fft:
-        return np.empty((0, spec_cfg.tile_timesteps, spec_cfg.n_bins), np.float32), np.empty(0)
+        return np.empty((0, spec_cfg.tile_timesteps, spec_cfg.n_bins), np.float32), np.empty(0), "body"
     spec = spectrogram(iq, flight.prf_hz, spec_cfg)
     imgs = tiles(spec, spec_cfg.tile_timesteps).astype(np.float32)
     body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
-    s = measure_lines(spec, body, None, search_hz=search_hz).body_db
+    line = snr_line(flight.attrs.get("target", ""), body, highpass_hz=spec_cfg.highpass_hz, search_hz=search_hz)
+    if line == "body":
+        s = measure_lines(spec, body, None, search_hz=search_hz).body_db
+    else:
+        s = record_snr_db(spec, body, line, highpass_hz=spec_cfg.highpass_hz, search_hz=search_hz)
     T = spec_cfg.tile_timesteps
     snr = np.array([finite_mean(s[i * T:(i + 1) * T]) for i in range(len(imgs))])
-    return imgs, snr
+    return imgs, snr, line
 
 
 def measured_records(measured_dir, split: pd.DataFrame) -> Iterator[tuple[Flight, np.ndarray]]:
@@ -73,7 +85,7 @@ def build_tiles(records: Iterable[tuple[Flight, np.ndarray]], split: pd.DataFram
                              "spectrogram": {k: getattr(spec_cfg, k) for k in spec_cfg.__dataclass_fields__}}) as root:
         z = root.create_array("images", shape=(0, T, nb), dtype=np.float32, chunks=(64, T, nb))
         for fl, iq in records:
-            imgs, snr = tile_record(fl, iq, spec_cfg, search_hz)
+            imgs, snr, line = tile_record(fl, iq, spec_cfg, search_hz)
             if imgs.shape[1:] != (T, nb):
                 raise InputError(fl.flight_id, "spectrogram", f"gives images {imgs.shape[1:]}", f"({T}, {nb})")
             if len(imgs):
@@ -81,9 +93,12 @@ def build_tiles(records: Iterable[tuple[Flight, np.ndarray]], split: pd.DataFram
             a = fl.attrs
             for s in snr:
                 labels.append(dict(flight_id=fl.flight_id, set=sets.loc[fl.flight_id, "set"], target=a["target"],
-                                   drone_model=a.get("drone_model", ""), radar_id=a["radar_id"], snr_db=float(s)))
-            log(f"{fl.flight_id}: {len(imgs)} images")
-        df = pd.DataFrame(labels, columns=LABEL_COLUMNS[1:])
+                                   drone_model=a.get("drone_model", ""), radar_id=a["radar_id"], snr_db=float(s),
+                                   snr_line=line))
+            log(f"{fl.flight_id}: {len(imgs)} images" + ("" if line == "body" else
+                                                        " (SNR on the rotor lines: body in the clutter notch)"))
+        rotor = any(r["snr_line"] != "body" for r in labels)
+        df = pd.DataFrame(labels, columns=LABEL_COLUMNS[1:] + (["snr_line"] if rotor else []))
         df.insert(0, "index", np.arange(len(df)))
         if z.shape[0] != len(df):
             raise InputError(out, "images", f"has {z.shape[0]} images", f"{len(df)} labels")

@@ -17,21 +17,27 @@ def split_and_table_iii(measured_dir, *, spec_cfg: SpectrogramConfig, search_hz:
 
     Returns
     -------
-    split : DataFrame (flight_id, set, target, drone_model, radar_id, class, images)
+    split : DataFrame (flight_id, set, target, drone_model, radar_id, class, images; and
+        ``snr_line`` when some flight's SNR is measured on its rotor lines)
     table : DataFrame (see :func:`tables.table_iii`)
     """
     flights = list_flights(measured_dir)
-    rows, snr = [], {}
+    rows, snr, line = [], {}, {}
     for fl in flights.itertuples():
         if flight_class(fl.target, fl.drone_model) is None:
             log(f"{fl.flight_id}: target {fl.target!r}: not a class, left out of the split")
             continue
         d = flight_snr_row(read_flight(fl.path), spec_cfg=spec_cfg, search_hz=search_hz)
         snr[fl.flight_id] = d.pop("snr_db")
+        line[fl.flight_id] = d.pop("snr_line")
         rows.append(dict(flight_id=fl.flight_id, target=fl.target, drone_model=fl.drone_model, radar_id=fl.radar_id, **d))
-        log(f"{fl.flight_id}: {d['images']} images, body SNR {d['snr_mean_db']:.1f} +/- {d['snr_std_db']:.1f} dB")
+        what = ("body SNR" if line[fl.flight_id] == "body"
+                else "rotor-line SNR (body in the clutter notch)")
+        log(f"{fl.flight_id}: {d['images']} images, {what} {d['snr_mean_db']:.1f} +/- {d['snr_std_db']:.1f} dB")
     split = split_flights(pd.DataFrame(rows), seed=seed, fractions=fractions or PAPER_FRACTIONS, n_trials=n_trials)
-    return split, table_iii(split, snr)
+    if any(v != "body" for v in line.values()):
+        split["snr_line"] = [line[f] for f in split.flight_id]
+    return split, table_iii(split, snr, line)
 
 
 def load_extensions(path):

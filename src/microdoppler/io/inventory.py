@@ -67,18 +67,31 @@ def flight_targets(measured_dir) -> dict[str, str]:
     return out
 
 
-def missing_class_note(measured_dir, targets: dict[str, str] | None = None) -> str:
+#: flights of each class a flight-disjoint train/test/validation split needs (one per set)
+MIN_SPLIT_FLIGHTS = 3
+
+
+def missing_class_note(measured_dir, targets: dict[str, str] | None = None, *,
+                       min_flights: int = MIN_SPLIT_FLIGHTS) -> str:
     """Why the flights in ``measured_dir`` cannot train a bird/drone classifier, in
-    one line, or ``""`` when they hold both classes (or no store at all: the stages
-    that read them say so)."""
+    one line, or ``""`` when they hold both classes with at least ``min_flights``
+    flights each (one per set of the flight-disjoint train/test/validation split), or
+    no store at all (the stages that read them say so)."""
     targets = flight_targets(measured_dir) if targets is None else targets
     counts = {c: sum(t == c for t in targets.values()) for c in CLASSES}
-    if not targets or all(counts.values()):
+    if not targets:
         return ""
-    missing = [c for c in CLASSES if not counts[c]]
     held = ", ".join(f"{n} {c} flight{'s' if n != 1 else ''}" for c, n in counts.items() if n) or "no bird or drone"
-    return (f"classifier left out: the campaign in {measured_dir} has no {' or '.join(missing)} flights ({held}); "
-            f"add {' and '.join(missing)} recordings to train a bird/drone classifier")
+    missing = [c for c in CLASSES if not counts[c]]
+    if missing:
+        return (f"classifier left out: the campaign in {measured_dir} has no {' or '.join(missing)} flights ({held}); "
+                f"add {' and '.join(missing)} recordings to train a bird/drone classifier")
+    few = [c for c in CLASSES if counts[c] < min_flights]
+    if few:
+        return (f"classifier left out: the campaign in {measured_dir} has too few {' and '.join(few)} flights for a "
+                f"flight-disjoint train/test/validation split ({held}; expected >= {min_flights} of each class, "
+                f"one per set); add {' and '.join(few)} recordings")
+    return ""
 
 
 def read_flights_table(path) -> pd.DataFrame:

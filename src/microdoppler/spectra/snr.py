@@ -83,6 +83,49 @@ def body_doppler_hz(track_time_s, radial_velocity_mps, wavelength_m: float, time
     return -2.0 * v / wavelength_m
 
 
+#: the line a flight's SNR is measured on: the body line, or (a drone whose body sits in
+#: the clutter notch: hovering, stand-mounted) the strongest rotor line
+SNR_LINES = ("body", "rotor")
+
+
+def snr_line(target: str, body_hz, *, highpass_hz: float, search_hz: float = 10.0) -> str:
+    """Which line a record's SNR is measured on (:data:`SNR_LINES`).
+
+    ``body``, unless the record is a drone (``target``) whose body Doppler ``body_hz``
+    [n_timesteps, Hz] (from the track) lies within the clutter notch
+    (``highpass_hz`` + ``search_hz``) at every timestep: then its body line is
+    high-passed away and its rotor lines carry its signal (``rotor``)."""
+    b = np.asarray(body_hz, float)
+    notched = b.size > 0 and not np.any(np.isfinite(b) & (np.abs(b) > highpass_hz + search_hz))
+    return "rotor" if target == "drone" and notched else "body"
+
+
+def record_snr_db(spec: Spectrogram, body_hz, line: str, *, highpass_hz: float, search_hz: float = 10.0) -> np.ndarray:
+    """SNR per timestep [dB] on ``line`` (:func:`snr_line`): the body line's within
+    ``search_hz`` of ``body_hz``, or the strongest rotor line's (the strongest bin beyond
+    the clutter notch, ``highpass_hz`` + ``search_hz`` from 0 Hz)."""
+    if line == "rotor":
+        return line_snr_db(spec, None, notch_hz=highpass_hz + search_hz)
+    if line != "body":
+        raise ValueError(f"line={line!r} must be one of {SNR_LINES}")
+    return line_snr_db(spec, body_hz, search_hz=search_hz)
+
+
+def flight_line_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(),
+                       search_hz: float = 10.0) -> tuple[np.ndarray, str]:
+    """SNR of every spectrogram timestep of a flight on the line that carries its
+    signal [dB], and that line's name (:func:`snr_line`): the body line
+    (:func:`flight_body_snr_db`) unless the flight is a drone whose body sits in the
+    clutter notch (hovering, stand-mounted), then its strongest rotor line."""
+    iq = flight.iq if iq is None else iq
+    if len(iq) < spec_cfg.n_fft:
+        return np.empty(0), "body"
+    spec = spectrogram(iq, flight.prf_hz, spec_cfg)
+    body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
+    line = snr_line(flight.attrs.get("target", ""), body, highpass_hz=spec_cfg.highpass_hz, search_hz=search_hz)
+    return record_snr_db(spec, body, line, highpass_hz=spec_cfg.highpass_hz, search_hz=search_hz), line
+
+
 def flight_body_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(),
                        search_hz: float = 10.0) -> np.ndarray:
     """Body-line SNR of every spectrogram timestep of a flight (Table III's measure) [dB].
