@@ -42,14 +42,25 @@ REPO = Path(__file__).resolve().parents[1]
 MODULE = "src/microdoppler/datasets/calibration.py"
 #: the calibration before the capped, linear-STFT fit
 OLD_REV = "89148458dc1bfedf9d056750ba12f04345be9ca7"
-TERMS = ("alpha_s", "log10_s_body", "log10_s_blade", "abs_body_error_db", "abs_sideband1_error_db",
-         "pairs_error", "heldout_first_pair_db", "heldout_body_std_db", "heldout_n_pairs", "heldout_line_hz")
+TERMS = (
+    "alpha_s",
+    "log10_s_body",
+    "log10_s_blade",
+    "abs_body_error_db",
+    "abs_sideband1_error_db",
+    "pairs_error",
+    "heldout_first_pair_db",
+    "heldout_body_std_db",
+    "heldout_n_pairs",
+    "heldout_line_hz",
+)
 
 
 def load_old(rev: str):
     """The calibration module as of git revision ``rev`` (run inside the package)."""
-    src = subprocess.run(["git", "show", f"{rev}:{MODULE}"], cwd=REPO, capture_output=True, text=True,
-                         check=True).stdout
+    src = subprocess.run(
+        ["git", "show", f"{rev}:{MODULE}"], cwd=REPO, capture_output=True, text=True, check=True
+    ).stdout
     name = "microdoppler.datasets._calibration_old"
     spec = importlib.util.spec_from_loader(name, loader=None)
     mod = importlib.util.module_from_spec(spec)
@@ -65,10 +76,19 @@ def specs(n: int, duration_s: float, seed: int) -> list[FlightSpec]:
     for k in range(n):
         model = ("inspire2", "matrice300")[k % 2]
         radar = ("radar1", "radar2")[k // 2 % 2]
-        out.append(FlightSpec(f"{model[:3]}{k:02d}", "drone", drone_model=model, radar_id=radar,
-                              duration_s=duration_s, mean_range_m=float(rng.uniform(800, 2500)),
-                              speed_mps=float(rng.uniform(3, 10)), snr_db=float(rng.uniform(38, 46)),
-                              seed=int(rng.integers(2**31))))
+        out.append(
+            FlightSpec(
+                f"{model[:3]}{k:02d}",
+                "drone",
+                drone_model=model,
+                radar_id=radar,
+                duration_s=duration_s,
+                mean_range_m=float(rng.uniform(800, 2500)),
+                speed_mps=float(rng.uniform(3, 10)),
+                snr_db=float(rng.uniform(38, 46)),
+                seed=int(rng.integers(2**31)),
+            )
+        )
     return out
 
 
@@ -87,18 +107,28 @@ def run_flight(spec: FlightSpec, fits: dict, spec_cfg: SpectrogramConfig, flip: 
     rev_s = resample("sub_cpi", log, len(flight.iq), flight.prf_hz)
     meas = fidelity.flight_features(flight, flight.iq, log, spec_cfg=spec_cfg)
     rows = []
-    for name in (list(fits)[::-1] if flip else list(fits)):
+    for name in list(fits)[::-1] if flip else list(fits):
         fit, cfg = fits[name]
         t0 = time.perf_counter()
         iq, res = fit(flight, rev_s, log, spec_cfg=spec_cfg, cfg=cfg, seed=spec.seed)
         wall = time.perf_counter() - t0
-        rows.append({"flight_id": spec.flight_id, "drone_model": spec.drone_model, "fit": name, "wall_s": wall,
-                     "n_search_cpis": res.get("n_search_cpis", res["n_fit_cpis"]), "status": res["status"],
-                     "alpha_s": res["alpha_s"], "log10_s_body": np.log10(res["s_body"]),
-                     "log10_s_blade": np.log10(res["s_blade"]), "abs_body_error_db": abs(res["body_error_db"]),
-                     "abs_sideband1_error_db": abs(res["sideband1_error_db"]),
-                     "pairs_error": res["n_pairs_twin"] - res["n_pairs_measured"],
-                     **heldout(flight, log, iq, res, spec_cfg, meas)})
+        rows.append(
+            {
+                "flight_id": spec.flight_id,
+                "drone_model": spec.drone_model,
+                "fit": name,
+                "wall_s": wall,
+                "n_search_cpis": res.get("n_search_cpis", res["n_fit_cpis"]),
+                "status": res["status"],
+                "alpha_s": res["alpha_s"],
+                "log10_s_body": np.log10(res["s_body"]),
+                "log10_s_blade": np.log10(res["s_blade"]),
+                "abs_body_error_db": abs(res["body_error_db"]),
+                "abs_sideband1_error_db": abs(res["sideband1_error_db"]),
+                "pairs_error": res["n_pairs_twin"] - res["n_pairs_measured"],
+                **heldout(flight, log, iq, res, spec_cfg, meas),
+            }
+        )
     return rows
 
 
@@ -110,13 +140,31 @@ def summarise(df: pd.DataFrame, seed: int) -> pd.DataFrame:
     for name in [f for f in df.fit.unique() if f != "old"]:
         nw = df[df.fit == name].set_index("flight_id").loc[old.index]
         r = ratio_replicates(nw.wall_s.to_numpy(), old.wall_s.to_numpy(), draws)
-        out.append({"fit": name, "term": "wall_s new/old", "old": old.wall_s.mean(), "new": nw.wall_s.mean(),
-                    "diff_or_ratio": nw.wall_s.sum() / old.wall_s.sum(), "ci95": interval(r), "resolved": None})
+        out.append(
+            {
+                "fit": name,
+                "term": "wall_s new/old",
+                "old": old.wall_s.mean(),
+                "new": nw.wall_s.mean(),
+                "diff_or_ratio": nw.wall_s.sum() / old.wall_s.sum(),
+                "ci95": interval(r),
+                "resolved": None,
+            }
+        )
         for t in TERMS:
             d = nw[t].to_numpy(float) - old[t].to_numpy(float)
             lo, hi = interval(ratio_replicates(d, ones, draws))
-            out.append({"fit": name, "term": f"{t} new-old", "old": old[t].mean(), "new": nw[t].mean(),
-                        "diff_or_ratio": float(np.mean(d)), "ci95": (lo, hi), "resolved": resolved(lo, hi)})
+            out.append(
+                {
+                    "fit": name,
+                    "term": f"{t} new-old",
+                    "old": old[t].mean(),
+                    "new": nw[t].mean(),
+                    "diff_or_ratio": float(np.mean(d)),
+                    "ci95": (lo, hi),
+                    "resolved": resolved(lo, hi),
+                }
+            )
     return pd.DataFrame(out)
 
 
@@ -137,7 +185,7 @@ def main(argv=None) -> int:
     rows = []
     for k, s in enumerate(specs(a.n_flights, a.duration_s, a.seed)):
         rows += run_flight(s, fits, spec_cfg, flip=bool(k % 2))
-        print(pd.DataFrame(rows[-len(fits):]).round(4).to_string(index=False), flush=True)
+        print(pd.DataFrame(rows[-len(fits) :]).round(4).to_string(index=False), flush=True)
     df = pd.DataFrame(rows)
     print()
     print(summarise(df, a.seed).round(4).to_string(index=False))

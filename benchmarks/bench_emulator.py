@@ -22,11 +22,13 @@ def main() -> None:
     ap.add_argument("--profile", default="test")
     ap.add_argument("--duration", type=float, default=30.0)
     a = ap.parse_args()
-    specs = [FlightSpec("b_inspire", "drone", drone_model="inspire2", duration_s=a.duration, seed=1),
-             FlightSpec("b_matrice", "drone", drone_model="matrice300", duration_s=a.duration, seed=2),
-             FlightSpec("b_mini", "drone", drone_model="mini2", duration_s=a.duration, seed=3),
-             FlightSpec("b_single", "bird", bird_kind="single", duration_s=a.duration, seed=4),
-             FlightSpec("b_flock", "bird", bird_kind="large_flock", duration_s=a.duration, seed=5)]
+    specs = [
+        FlightSpec("b_inspire", "drone", drone_model="inspire2", duration_s=a.duration, seed=1),
+        FlightSpec("b_matrice", "drone", drone_model="matrice300", duration_s=a.duration, seed=2),
+        FlightSpec("b_mini", "drone", drone_model="mini2", duration_s=a.duration, seed=3),
+        FlightSpec("b_single", "bird", bird_kind="single", duration_s=a.duration, seed=4),
+        FlightSpec("b_flock", "bird", bird_kind="large_flock", duration_s=a.duration, seed=5),
+    ]
     print("single process, emulate_flight (iq + background/iq):")
     for s in specs:
         t0 = time.perf_counter()
@@ -39,8 +41,10 @@ def main() -> None:
         rows = emulate_world(a.profile, 1, d, progress=False, workers=a.workers)
         dt = time.perf_counter() - t0
         flown = sum(r["duration_s"] for r in rows)
-        print(f"emulate_world profile={a.profile} ({n} flights, {flown:.0f} s of flight, {a.workers} workers): "
-              f"{dt:.1f} s wall, {flown / dt:.1f} s of flight per s")
+        print(
+            f"emulate_world profile={a.profile} ({n} flights, {flown:.0f} s of flight, {a.workers} workers): "
+            f"{dt:.1f} s wall, {flown / dt:.1f} s of flight per s"
+        )
 
 
 if __name__ == "__main__":

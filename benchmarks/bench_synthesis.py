@@ -46,8 +46,11 @@ def config(alpha: float, method: str = "auto", **kw):
     from microdoppler.synthesis.model import Envelope, Scaling, SynthesisConfig
 
     margin = kw.pop("margin_pulses", 4096)
-    return SynthesisConfig.of(scaling=Scaling(kw.pop("s_body", 1.0), 1.0, alpha),
-                              envelope=Envelope(method, margin_pulses=margin), **KW, **kw)
+    return SynthesisConfig.of(
+        scaling=Scaling(kw.pop("s_body", 1.0), 1.0, alpha), envelope=Envelope(method, margin_pulses=margin), **KW, **kw
+    )
+
+
 ALPHA = 5.5e-3  # Table IV, smallest Inspire alpha [s]
 
 
@@ -92,8 +95,9 @@ def throughput(n: int, repeats: int) -> dict:
         res[name] = m / min(ts)
         res[name + " median"] = m / float(np.median(ts))
     for name in kernels:  # speed-up over the reference within each repeat, median over repeats
-        res[name + " x reference median"] = float(np.median(
-            [(n / t) / (n_ref / tr_) for t, tr_ in zip(times[name], times["reference"])]))
+        res[name + " x reference median"] = float(
+            np.median([(n / t) / (n_ref / tr_) for t, tr_ in zip(times[name], times["reference"])])
+        )
     fast = synthesize(config(0.0), tr, rref, initial_cycles=start)
     res["max_abs_diff_vs_reference"] = float(np.max(np.abs(fast - ref)))
     res["max_abs_reference"] = float(np.max(np.abs(ref)))
@@ -104,7 +108,7 @@ def throughput(n: int, repeats: int) -> dict:
     s = slice(n_cmp // 8, n_cmp - n_cmp // 8)
     d, r = np.abs(h - f)[s], np.abs(f[s])
     res["harmonic_vs_fft_max_rel"] = float(np.max(d) / np.max(r))
-    res["harmonic_vs_fft_rms_rel"] = float(np.sqrt(np.mean(d ** 2) / np.mean(r ** 2)))
+    res["harmonic_vs_fft_rms_rel"] = float(np.sqrt(np.mean(d**2) / np.mean(r**2)))
     return res
 
 
@@ -155,10 +159,17 @@ def memory(n: int, workdir: str) -> list[dict]:
         fh.write(MEMORY_CHILD)
     results = []
     for alpha in (ALPHA, 0.0):
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.dirname(os.path.abspath(__file__)),
-                                                           os.environ.get("PYTHONPATH", "")]))
-        r = subprocess.run([sys.executable, child, os.path.abspath(__file__), str(n), str(alpha), store],
-                           capture_output=True, text=True, env=env, check=True)
+        env = dict(
+            os.environ,
+            PYTHONPATH=os.pathsep.join([os.path.dirname(os.path.abspath(__file__)), os.environ.get("PYTHONPATH", "")]),
+        )
+        r = subprocess.run(
+            [sys.executable, child, os.path.abspath(__file__), str(n), str(alpha), store],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        )
         results.append(json.loads(r.stdout.strip().splitlines()[-1]))
     return results
 
@@ -173,33 +184,52 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     import tempfile
 
-    res = {"machine": platform.processor() or platform.machine(), "python": platform.python_version(),
-           "numpy": np.__version__, "pulses": args.pulses}
+    res = {
+        "machine": platform.processor() or platform.machine(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "pulses": args.pulses,
+    }
     res["throughput_pulses_per_s"] = thr = throughput(args.pulses, args.repeats)
     print(f"synthesis, 4 motors x 2 blades, one core, {args.pulses} pulses ({args.repeats} repeats)")
-    print(f"{'kernel':<36}{'best [pulses/s]':>16}{'median':>12}{'x real time':>13}{'x reference':>13}"
-          "  (medians; x reference: per repeat, then median)")
+    print(
+        f"{'kernel':<36}{'best [pulses/s]':>16}{'median':>12}{'x real time':>13}{'x reference':>13}"
+        "  (medians; x reference: per repeat, then median)"
+    )
     for name in ("alpha>0", "alpha>0 fft", "alpha=0", "reference"):
-        label = {"alpha>0": f"synthesize, alpha={ALPHA:g} s harmonic",
-                 "alpha>0 fft": f"synthesize, alpha={ALPHA:g} s fft",
-                 "alpha=0": "synthesize, alpha=0", "reference": "reference (per-pulse loop)"}[name]
+        label = {
+            "alpha>0": f"synthesize, alpha={ALPHA:g} s harmonic",
+            "alpha>0 fft": f"synthesize, alpha={ALPHA:g} s fft",
+            "alpha=0": "synthesize, alpha=0",
+            "reference": "reference (per-pulse loop)",
+        }[name]
         med = thr[name + " median"]
-        print(f"{label:<36}{thr[name]:>16.4g}{med:>12.4g}{med / PRF:>13.1f}"
-              f"{thr.get(name + ' x reference median', 1.0):>13.0f}")
-    print(f"max |fast - reference| = {thr['max_abs_diff_vs_reference']:.3g} "
-          f"(|reference| <= {thr['max_abs_reference']:.3g}), alpha = 0")
-    print(f"harmonic envelope vs FFT filter (alpha={ALPHA:g} s): max |diff| / max |x| = "
-          f"{thr['harmonic_vs_fft_max_rel']:.2e}, rms ratio = {thr['harmonic_vs_fft_rms_rel']:.2e}")
+        print(
+            f"{label:<36}{thr[name]:>16.4g}{med:>12.4g}{med / PRF:>13.1f}"
+            f"{thr.get(name + ' x reference median', 1.0):>13.0f}"
+        )
+    print(
+        f"max |fast - reference| = {thr['max_abs_diff_vs_reference']:.3g} "
+        f"(|reference| <= {thr['max_abs_reference']:.3g}), alpha = 0"
+    )
+    print(
+        f"harmonic envelope vs FFT filter (alpha={ALPHA:g} s): max |diff| / max |x| = "
+        f"{thr['harmonic_vs_fft_max_rel']:.2e}, rms ratio = {thr['harmonic_vs_fft_rms_rel']:.2e}"
+    )
     if not args.skip_memory:
         n = int(round(args.flight_min * 60 * PRF))
         with tempfile.TemporaryDirectory() as d:
             res["memory"] = mem = memory(n, d)
-        print(f"\npeak memory beyond the output, {args.flight_min:g}-minute flight ({n / 1e6:.2f} M pulses, "
-              f"output {mem[0]['output_bytes'] / 2**20:.0f} MiB), speeds from Zarr")
+        print(
+            f"\npeak memory beyond the output, {args.flight_min:g}-minute flight ({n / 1e6:.2f} M pulses, "
+            f"output {mem[0]['output_bytes'] / 2**20:.0f} MiB), speeds from Zarr"
+        )
         print(f"{'alpha [s]':<12}{'tracemalloc peak':>18}{'peak RSS - RSS before':>24}{'seconds':>10}")
         for m in mem:
-            print(f"{m['alpha_s']:<12g}{m['tracemalloc_peak_bytes'] / 2**20:>14.1f} MiB"
-                  f"{m['peak_rss_beyond_baseline_bytes'] / 2**20:>20.1f} MiB{m['seconds_with_tracemalloc']:>10.1f}")
+            print(
+                f"{m['alpha_s']:<12g}{m['tracemalloc_peak_bytes'] / 2**20:>14.1f} MiB"
+                f"{m['peak_rss_beyond_baseline_bytes'] / 2**20:>20.1f} MiB{m['seconds_with_tracemalloc']:>10.1f}"
+            )
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(res, fh, indent=2)

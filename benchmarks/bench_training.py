@@ -37,7 +37,9 @@ from microdoppler.classifier.models import build_model
 
 N_TRAIN, N_VAL, N_TEST, N_RUNS = 7256, 713, 3632, 54
 WALL: list = []  # wall-clock rates of the last measurements (contention shows as wall << CPU rate)
-STARTUP_S = 8.0  # per run: python + torch import, snakemake job, reading tiles (train + evaluate jobs; measured ~3-4 s each)
+STARTUP_S = (
+    8.0  # per run: python + torch import, snakemake job, reading tiles (train + evaluate jobs; measured ~3-4 s each)
+)
 
 
 def throughput(model, threads: int, batches: int, batch: int = 16, shape=(20, 480)) -> tuple[float, float]:
@@ -97,8 +99,14 @@ def _epoch(model, opt, gen, xt, yt, xv, yv, batch_size):
     tr_loss, tr_acc = train_epoch(model, opt, gen, xt, yt, batch_size)
     c1 = time.process_time()
     va_loss, va_acc = _evaluate(model, xv, yv, 256)
-    return dict(train_loss=tr_loss, train_accuracy=tr_acc, val_loss=va_loss,
-                val_accuracy=va_acc, cpu_train_s=c1 - c0, cpu_val_s=time.process_time() - c1)
+    return dict(
+        train_loss=tr_loss,
+        train_accuracy=tr_acc,
+        val_loss=va_loss,
+        val_accuracy=va_acc,
+        cpu_train_s=c1 - c0,
+        cpu_val_s=time.process_time() - c1,
+    )
 
 
 def schedules(train_set, val_set, test_set, cfg, seed: int, schedules=SCHEDULES) -> dict:
@@ -115,11 +123,14 @@ def schedules(train_set, val_set, test_set, cfg, seed: int, schedules=SCHEDULES)
     from microdoppler.classifier.training import average_states, setup_determinism, stop_epoch
 
     def new_model():
-        return build_model(cfg.architecture, compact=cfg.compact, colormap=cfg.colormap, normalisation=cfg.normalisation)
+        return build_model(
+            cfg.architecture, compact=cfg.compact, colormap=cfg.colormap, normalisation=cfg.normalisation
+        )
 
     def new_opt(model):
-        return torch.optim.SGD(model.parameters(), lr=cfg.learning_rate, momentum=cfg.momentum,
-                               weight_decay=cfg.weight_decay)
+        return torch.optim.SGD(
+            model.parameters(), lr=cfg.learning_rate, momentum=cfg.momentum, weight_decay=cfg.weight_decay
+        )
 
     out, kept = {}, {}
     c0 = time.process_time()
@@ -136,8 +147,14 @@ def schedules(train_set, val_set, test_set, cfg, seed: int, schedules=SCHEDULES)
     snaps, rows, states = {}, [], []
     for e in range(cfg.max_epochs):
         if e in branch_at:
-            snaps[e] = (copy.deepcopy(model.state_dict()), copy.deepcopy(opt.state_dict()), torch.get_rng_state(),
-                        gen.get_state(), list(states), list(rows))
+            snaps[e] = (
+                copy.deepcopy(model.state_dict()),
+                copy.deepcopy(opt.state_dict()),
+                torch.get_rng_state(),
+                gen.get_state(),
+                list(states),
+                list(rows),
+            )
         row = _epoch(model, opt, gen, xt, yt, xv, yv, cfg.batch_size)
         row["lr"] = opt.param_groups[0]["lr"]
         sched.step()
@@ -155,13 +172,20 @@ def schedules(train_set, val_set, test_set, cfg, seed: int, schedules=SCHEDULES)
         m.eval()
         kept[name] = m.state_dict()
         met = seed_metrics(predictions_table(test_set, predict(m, test_set.images, cfg.normalisation)))
-        out[name] = dict(metrics=met, epochs=len(rw), average_last_epochs=average, lr=[r["lr"] for r in rw],
-                         cpu_train_s=sum(r["cpu_train_s"] for r in rw), cpu_val_s=sum(r["cpu_val_s"] for r in rw),
-                         cpu_test_s=time.process_time() - c)
+        out[name] = dict(
+            metrics=met,
+            epochs=len(rw),
+            average_last_epochs=average,
+            lr=[r["lr"] for r in rw],
+            cpu_train_s=sum(r["cpu_train_s"] for r in rw),
+            cpu_val_s=sum(r["cpu_val_s"] for r in rw),
+            cpu_test_s=time.process_time() - c,
+        )
         print(f"seed {seed} {name}: test accuracy {met['accuracy']:.4f}", flush=True)
 
-    evaluate(f"e{cfg.max_epochs}_s{cfg.lr_step_epochs}_a{cfg.average_last_epochs}", states, rows,
-             cfg.average_last_epochs)
+    evaluate(
+        f"e{cfg.max_epochs}_s{cfg.lr_step_epochs}_a{cfg.average_last_epochs}", states, rows, cfg.average_last_epochs
+    )
     for epochs, step, average in schedules:
         model_state, opt_state, rng, gen_state, st, rw = snaps[min(step, epochs)]
         m = new_model()
@@ -199,8 +223,10 @@ def _check_branching(train_set, val_set, test_set, cfg) -> None:
     va, te = val_set.subset(np.arange(len(val_set)) < 60), test_set.subset(np.arange(len(test_set)) < 60)
     small = replace(cfg, max_epochs=7, lr_step_epochs=5, average_last_epochs=4)
     got = schedules(tr, va, te, small, seed=2, schedules=((6, 4, 3),))["states"]
-    for name, c in (("e7_s5_a4", small), ("e6_s4_a3", replace(cfg, max_epochs=6, lr_step_epochs=4,
-                                                                 average_last_epochs=3))):
+    for name, c in (
+        ("e7_s5_a4", small),
+        ("e6_s4_a3", replace(cfg, max_epochs=6, lr_step_epochs=4, average_last_epochs=3)),
+    ):
         ref = train(tr, va, c, seed=2).model.state_dict()
         same = all(torch.equal(got[name][k], ref[k]) for k in ref)
         print(f"check {name}: branched run {'==' if same else '!='} train()")
@@ -253,15 +279,21 @@ def main(argv=None) -> None:
         t_2x1 = N_RUNS * run_seconds(*r1, args.epochs) / 2
         t_1x2 = N_RUNS * run_seconds(*r2, args.epochs)
         rows.append((name, *r2, *r1, min(t_2x1, t_1x2) / 60, "2x1" if t_2x1 <= t_1x2 else "1x2"))
-    print(f"paper profile: {N_TRAIN} train + {N_VAL} validation, {N_TEST} test images; {N_RUNS} runs; "
-          f"{args.epochs} epochs per run (cap reached, worst case); {STARTUP_S:.0f} s start-up per run")
-    print(f"{'model':<20}{'train img/s':>12}{'eval img/s':>12}{'train img/s':>12}{'eval img/s':>12}"
-          f"{'paper 54 runs':>15}{'jobs':>6}")
+    print(
+        f"paper profile: {N_TRAIN} train + {N_VAL} validation, {N_TEST} test images; {N_RUNS} runs; "
+        f"{args.epochs} epochs per run (cap reached, worst case); {STARTUP_S:.0f} s start-up per run"
+    )
+    print(
+        f"{'model':<20}{'train img/s':>12}{'eval img/s':>12}{'train img/s':>12}{'eval img/s':>12}"
+        f"{'paper 54 runs':>15}{'jobs':>6}"
+    )
     print(f"{'':<20}{'(2 threads)':>12}{'(2 threads)':>12}{'(1 thread)':>12}{'(1 thread)':>12}{'[min, 2 cores]':>15}")
     for name, tr2, ev2, tr1, ev1, minutes, how in rows:
         print(f"{name:<20}{tr2:>12.0f}{ev2:>12.0f}{tr1:>12.0f}{ev1:>12.0f}{minutes:>15.0f}{how:>6}")
-    print("rates are per CPU second x threads (idle-machine rates); wall-clock rates seen now: "
-          + "; ".join(f"{k}: " + "/".join(f"{w:.0f}" for w in v) for k, v in walls.items()))
+    print(
+        "rates are per CPU second x threads (idle-machine rates); wall-clock rates seen now: "
+        + "; ".join(f"{k}: " + "/".join(f"{w:.0f}" for w in v) for k, v in walls.items())
+    )
     paper = N_RUNS * run_seconds(*compact_1thread, args.epochs, reevaluate_train=True) / 2 / 60
     print(f"compact with reevaluate_train: true (the paper's per-epoch training-set evaluation): {paper:.0f} min")
     ok = rows[0][5] <= 90

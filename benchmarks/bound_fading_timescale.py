@@ -48,13 +48,14 @@ def draw(seed: int, noise_db2: float, window_pulses: int, duration_s: float) -> 
     hop = window_pulses // 2
     starts = np.arange(0, len(x) - len(w2), hop // STEP)
     power = 10 ** (x / 10)
-    y = 10 * np.log10(np.array([power[k:k + len(w2)] @ w2 for k in starts]))
+    y = 10 * np.log10(np.array([power[k : k + len(w2)] @ w2 for k in starts]))
     y += rng.normal(size=len(y)) * np.sqrt(noise_db2)
     t = starts * dt
     X = np.column_stack([np.ones_like(t), t])
     y -= X @ np.linalg.lstsq(X, y, rcond=None)[0]
-    fit = fit_gain_process_ml(y, np.ones(len(y), bool), np.full(len(y), noise_db2), hop / PRF_HZ, window,
-                              PRF_HZ, (sigma, tau), design=X)
+    fit = fit_gain_process_ml(
+        y, np.ones(len(y), bool), np.full(len(y), noise_db2), hop / PRF_HZ, window, PRF_HZ, (sigma, tau), design=X
+    )
     a_hat = (x[1:] @ x[:-1]) / (x[:-1] @ x[:-1])
     return tau, sigma, fit["timescale_s"], fit["sigma_db"], -dt / np.log(a_hat)
 
@@ -68,22 +69,27 @@ def main(argv=None) -> int:
     ap.add_argument("--duration-s", type=float, default=180.0)
     ap.add_argument("--workers", type=int, default=1)
     args = ap.parse_args(argv)
-    print("| window [pulses] | noise [dB^2] | draws | T within 20 % | within 30 % | median error "
-          "| sigma within 20 % | ideal observer: T within 20 % |")
+    print(
+        "| window [pulses] | noise [dB^2] | draws | T within 20 % | within 30 % | median error "
+        "| sigma within 20 % | ideal observer: T within 20 % |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for wp in args.window_pulses:
         for nv in args.noise_db2:
             t0 = time.time()
             seeds = [args.seed * 100_000 + k for k in range(args.draws)]
             with ProcessPoolExecutor(args.workers) as pool:
-                rows = np.array(list(pool.map(draw, seeds, [nv] * len(seeds), [wp] * len(seeds),
-                                              [args.duration_s] * len(seeds))))
+                rows = np.array(
+                    list(pool.map(draw, seeds, [nv] * len(seeds), [wp] * len(seeds), [args.duration_s] * len(seeds)))
+                )
             err = rows[:, 2] / rows[:, 0] - 1
-            print(f"| {wp} | {nv:g} | {len(rows)} | {np.mean(np.abs(err) < 0.2):.1%} | {np.mean(np.abs(err) < 0.3):.1%} "
-                  f"| {np.median(err):+.1%} "
-                  f"| {np.mean(np.abs(rows[:, 3] / rows[:, 1] - 1) < 0.2):.1%} "
-                  f"| {np.mean(np.abs(rows[:, 4] / rows[:, 0] - 1) < 0.2):.1%} |  ({time.time() - t0:.0f} s)",
-                  flush=True)
+            print(
+                f"| {wp} | {nv:g} | {len(rows)} | {np.mean(np.abs(err) < 0.2):.1%} | {np.mean(np.abs(err) < 0.3):.1%} "
+                f"| {np.median(err):+.1%} "
+                f"| {np.mean(np.abs(rows[:, 3] / rows[:, 1] - 1) < 0.2):.1%} "
+                f"| {np.mean(np.abs(rows[:, 4] / rows[:, 0] - 1) < 0.2):.1%} |  ({time.time() - t0:.0f} s)",
+                flush=True,
+            )
     return 0
 
 

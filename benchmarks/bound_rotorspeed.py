@@ -119,8 +119,9 @@ def _truth(flight, start: int, n_fft: int, M: int):
     tt = (k - n_fft / 2) / prf
     tt = tt - np.sum(wk * tt)
     rev = flight.motors_rpm.astype(np.float64) / 60.0
-    g = np.array([np.sum(wk * tt * np.interp(tc + tt, flight.motors_time_s, rev[:, m])) / np.sum(wk * tt ** 2)
-                  for m in range(M)])
+    g = np.array(
+        [np.sum(wk * tt * np.interp(tc + tt, flight.motors_time_s, rev[:, m])) / np.sum(wk * tt**2) for m in range(M)]
+    )
     return f, g
 
 
@@ -150,7 +151,7 @@ def _white_flips(G, p_chosen, p_echo_chosen, q_echo, cost, n_draws: int, seed, t
     than the truth-started one and its mean speed (before a spare joins a line) is off
     by over 1 %. Returns the share of draws that flip."""
     xm = (G.A @ G.c) / G.w  # the model's echo, unweighted (every column carries the window)
-    sigma = np.sqrt(cost / (2.0 * np.sum(G.w ** 2)))  # per real part, unweighted
+    sigma = np.sqrt(cost / (2.0 * np.sum(G.w**2)))  # per real part, unweighted
     rng = np.random.default_rng(seed)
     flips = 0
     for _ in range(n_draws):
@@ -160,7 +161,7 @@ def _white_flips(G, p_chosen, p_echo_chosen, q_echo, cost, n_draws: int, seed, t
         _, ct = H.fit(q_echo.copy(), N)
         wrong = [H.fit(s.copy(), N) for s in (p_chosen, p_echo_chosen)]
         pw, cw = min(wrong, key=lambda a: a[1])
-        flips += int(cw < ct and abs(pw[2:2 + G.M].mean() / tm - 1) > 0.01)
+        flips += int(cw < ct and abs(pw[2 : 2 + G.M].mean() / tm - 1) > 0.01)
     return flips / n_draws
 
 
@@ -176,8 +177,10 @@ def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0
     for k, v in fit.items():
         if k not in fields:
             if not (k.isupper() and hasattr(rf, k)):
-                raise ValueError(f"--fit {k}=...: not a FitConfig field ({list(rf.FitConfig.__dataclass_fields__)}) "
-                                 f"nor a constant of microdoppler.rotors.fit")
+                raise ValueError(
+                    f"--fit {k}=...: not a FitConfig field ({list(rf.FitConfig.__dataclass_fields__)}) "
+                    f"nor a constant of microdoppler.rotors.fit"
+                )
             setattr(rf, k, v)
     cfg = replace(rf.FitConfig(), **fields)
     est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=cfg))
@@ -204,44 +207,58 @@ def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0
         noise = cost / (2 * len(x))  # residual variance per real sample at the chosen fit
         extra = {}
         if echo is not None:
-            G = rf._Model(echo[start:start + n_fft], float(flight.prf_hz), est.n_blades, M, cfg)
+            G = rf._Model(echo[start : start + n_fft], float(flight.prf_hz), est.n_blades, M, cfg)
             G.g0, G.s2 = F.g0, F.s2  # the same rate prior as the recorded CPI's fit
             pc, cc = G.fit(p.copy(), rec["N"])
             pq, cq = G.fit(q.copy(), rec["N"])
-            extra = {"clean_dcost": float((cc - cq) / noise), "clean_err": float(pc[2:2 + M].mean() / tm - 1),
-                     "clean_err_truth_fit": float(pq[2:2 + M].mean() / tm - 1)}
+            extra = {
+                "clean_dcost": float((cc - cq) / noise),
+                "clean_err": float(pc[2 : 2 + M].mean() / tm - 1),
+                "clean_err_truth_fit": float(pq[2 : 2 + M].mean() / tm - 1),
+            }
             err = float(rec["res"].speeds_rev_s.mean() / tm - 1)
-            noise_class = (abs(err) > 0.01 and abs(q[2:2 + M].mean() / tm - 1) <= 0.01
-                           and (cost - cost_t) / noise <= margin and extra["clean_dcost"] > margin)
+            noise_class = (
+                abs(err) > 0.01
+                and abs(q[2 : 2 + M].mean() / tm - 1) <= 0.01
+                and (cost - cost_t) / noise <= margin
+                and extra["clean_dcost"] > margin
+            )
             if parts and noise_class:
                 extra["without"] = {}
                 for part in sorted(world.bg.PARTS):
                     if part not in without:
                         without[part] = _recorded(spec, world.bg.PARTS - {part})
-                    H = rf._Model(without[part][start:start + n_fft], float(flight.prf_hz), est.n_blades, M, cfg)
+                    H = rf._Model(without[part][start : start + n_fft], float(flight.prf_hz), est.n_blades, M, cfg)
                     H.g0, H.s2 = F.g0, F.s2
                     ch, qh = H.fit(p.copy(), rec["N"])[1], H.fit(q.copy(), rec["N"])[1]
                     extra["without"][part] = float((ch - qh) / noise)  # > margin: the truth wins without it
-            if white and abs(err) > 0.01 and abs(pq[2:2 + M].mean() / tm - 1) <= 0.01:
-                extra["white_flip"] = _white_flips(G, p, pc, pq, cost, white, [spec.seed, start, 2027], tm,
-                                                   rec["N"])
-        out["cpis"].append({
-            "err": float(rec["res"].speeds_rev_s.mean() / tm - 1),
-            "z": float((rec["res"].speeds_rev_s.mean() - tm) / rec["res"].mean_std_rev_s),
-            "err_truth_fit": float(q[2:2 + M].mean() / tm - 1),
-            "err_fit": float(p[2:2 + M].mean() / tm - 1),  # the chosen fit before a spare joins a line
-            "dcost": float((cost - cost_t) / noise),  # > 0: the truth start fits better
-            "balance": float(rec["res"].balance),
-            "start": rec["res"].start,
-            "n_pairs": int(rec["kw"]["n_pairs"]),
-            # in bins at n = 1 from the true mean: the truth, the chosen fit (before a
-            # spare joins a line), the truth-started fit, the periodogram's lines
-            "bins": {k: ((np.asarray(v, float) - tm) * est.n_blades * n_fft / flight.prf_hz).round(2).tolist()
-                     for k, v in (("true", f_true), ("fit", p[2:2 + M]), ("truth_fit", q[2:2 + M]),
-                                  ("lines", rec["kw"]["lines_rev_s"]))},
-            "power_db": (10 * np.log10(np.maximum(pow_chosen, 1e-30) / pow_chosen.max())).round(1).tolist(),
-            **extra,
-        })
+            if white and abs(err) > 0.01 and abs(pq[2 : 2 + M].mean() / tm - 1) <= 0.01:
+                extra["white_flip"] = _white_flips(G, p, pc, pq, cost, white, [spec.seed, start, 2027], tm, rec["N"])
+        out["cpis"].append(
+            {
+                "err": float(rec["res"].speeds_rev_s.mean() / tm - 1),
+                "z": float((rec["res"].speeds_rev_s.mean() - tm) / rec["res"].mean_std_rev_s),
+                "err_truth_fit": float(q[2 : 2 + M].mean() / tm - 1),
+                "err_fit": float(p[2 : 2 + M].mean() / tm - 1),  # the chosen fit before a spare joins a line
+                "dcost": float((cost - cost_t) / noise),  # > 0: the truth start fits better
+                "balance": float(rec["res"].balance),
+                "start": rec["res"].start,
+                "n_pairs": int(rec["kw"]["n_pairs"]),
+                # in bins at n = 1 from the true mean: the truth, the chosen fit (before a
+                # spare joins a line), the truth-started fit, the periodogram's lines
+                "bins": {
+                    k: ((np.asarray(v, float) - tm) * est.n_blades * n_fft / flight.prf_hz).round(2).tolist()
+                    for k, v in (
+                        ("true", f_true),
+                        ("fit", p[2 : 2 + M]),
+                        ("truth_fit", q[2 : 2 + M]),
+                        ("lines", rec["kw"]["lines_rev_s"]),
+                    )
+                },
+                "power_db": (10 * np.log10(np.maximum(pow_chosen, 1e-30) / pow_chosen.max())).round(1).tolist(),
+                **extra,
+            }
+        )
     return out
 
 
@@ -260,19 +277,40 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--margin", type=float, default=1.0, help="noise variances a cost must win by (default 1)")
     ap.add_argument("--json", default=None)
-    ap.add_argument("--clean", action="store_true",
-                    help="also refit each CPI on the target's echo alone (splits the likelihood class)")
-    ap.add_argument("--white", type=int, default=0, metavar="K",
-                    help="with --clean: each tail CPI redrawn K times with the model exact and the background "
-                         "white at the recorded level (how often the likelihood itself flips)")
-    ap.add_argument("--parts", action="store_true",
-                    help="with --clean: refit each noise-class CPI on the recording without each part of the "
-                         "background in turn (which part tips it)")
-    ap.add_argument("--fit", action="append", default=[], metavar="KEY=VALUE",
-                    help="a FitConfig field or a fixed setting of microdoppler.rotors.fit for the estimator's fit "
-                         "(repeatable), e.g. --fit KEEP=3, --fit MOVE_PASSES=0, --fit move_rel=0.2")
-    ap.add_argument("--from-json", nargs="+", default=None, metavar="JSON",
-                    help="summarise saved --json records (several: pooled) instead of running")
+    ap.add_argument(
+        "--clean",
+        action="store_true",
+        help="also refit each CPI on the target's echo alone (splits the likelihood class)",
+    )
+    ap.add_argument(
+        "--white",
+        type=int,
+        default=0,
+        metavar="K",
+        help="with --clean: each tail CPI redrawn K times with the model exact and the background "
+        "white at the recorded level (how often the likelihood itself flips)",
+    )
+    ap.add_argument(
+        "--parts",
+        action="store_true",
+        help="with --clean: refit each noise-class CPI on the recording without each part of the "
+        "background in turn (which part tips it)",
+    )
+    ap.add_argument(
+        "--fit",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a FitConfig field or a fixed setting of microdoppler.rotors.fit for the estimator's fit "
+        "(repeatable), e.g. --fit KEEP=3, --fit MOVE_PASSES=0, --fit move_rel=0.2",
+    )
+    ap.add_argument(
+        "--from-json",
+        nargs="+",
+        default=None,
+        metavar="JSON",
+        help="summarise saved --json records (several: pooled) instead of running",
+    )
     args = ap.parse_args(argv)
     if (args.white or args.parts) and not args.clean:
         ap.error("--white and --parts need --clean (they build on the echo-alone refits)")
@@ -290,8 +328,7 @@ def main(argv=None) -> int:
         specs = ev.flight_specs(np.random.default_rng([args.seed, 4242]), args.per_model, args.duration)
         with Pool(args.workers) as pool:
             fit = {k: ast.literal_eval(v) for k, v in (a.split("=", 1) for a in args.fit)}
-            rows = pool.starmap(evaluate, [(s, args.margin, fit, args.clean, args.white, args.parts)
-                                           for s in specs])
+            rows = pool.starmap(evaluate, [(s, args.margin, fit, args.clean, args.white, args.parts) for s in specs])
     rows = [r for r in rows if r["cpis"]]
     draws = draw_flights([r["flight"] for r in rows], seed=0)
     m = args.margin
@@ -305,25 +342,33 @@ def main(argv=None) -> int:
     like = [c for c in tail if within(c["err_truth_fit"]) and c["dcost"] <= m]
     drift = [c for c in tail if not within(c["err_truth_fit"])]
     print(f"seed {args.seed}: {len(rows)} flights, {len(cps)} CPIs with >= 2 pairs, {time.perf_counter() - t0:.0f} s")
-    print(f"within 1 %: the fit {100 * a:.1f} % [{100 * interval(ra)[0]:.1f}, {100 * interval(ra)[1]:.1f}]; "
-          f"min-cost with the truth start {100 * b:.1f} % [{100 * interval(rb)[0]:.1f}, {100 * interval(rb)[1]:.1f}]; "
-          f"difference {100 * (b - a):+.1f} [{100 * interval(rb - ra)[0]:+.1f}, {100 * interval(rb - ra)[1]:+.1f}] points")
+    print(
+        f"within 1 %: the fit {100 * a:.1f} % [{100 * interval(ra)[0]:.1f}, {100 * interval(ra)[1]:.1f}]; "
+        f"min-cost with the truth start {100 * b:.1f} % [{100 * interval(rb)[0]:.1f}, {100 * interval(rb)[1]:.1f}]; "
+        f"difference {100 * (b - a):+.1f} [{100 * interval(rb - ra)[0]:+.1f}, {100 * interval(rb - ra)[1]:+.1f}] points"
+    )
     print(f"tail {len(tail)} CPIs: search {len(search)}, likelihood {len(like)}, drift {len(drift)}")
     if like:
         d = np.array([c["dcost"] for c in like])
-        print(f"  likelihood: the chosen fit's cost below the truth start's by median {np.median(-d):.1f} "
-              f"noise variances (p10 {np.percentile(-d, 10):.1f}, p90 {np.percentile(-d, 90):.1f})")
+        print(
+            f"  likelihood: the chosen fit's cost below the truth start's by median {np.median(-d):.1f} "
+            f"noise variances (p10 {np.percentile(-d, 10):.1f}, p90 {np.percentile(-d, 90):.1f})"
+        )
     if like and "clean_dcost" in like[0]:
         noise_ = [c for c in like if c["clean_dcost"] > m]
         model = [c for c in like if c["clean_dcost"] < -m]
         tie = [c for c in like if abs(c["clean_dcost"]) <= m]
-        print(f"  likelihood, on the echo alone: noise {len(noise_)}, model {len(model)}, tie {len(tie)} "
-              f"(of the ties, the fit within 1 % before a spare joins a line: "
-              f"{sum(within(c['err_fit']) for c in tie)})")
+        print(
+            f"  likelihood, on the echo alone: noise {len(noise_)}, model {len(model)}, tie {len(tie)} "
+            f"(of the ties, the fit within 1 % before a spare joins a line: "
+            f"{sum(within(c['err_fit']) for c in tie)})"
+        )
         if model:
             d = np.array([-c["clean_dcost"] for c in model])
-            print(f"  model: the chosen fit's cost on the echo alone below the truth start's by median "
-                  f"{np.median(d):.1f} noise variances (max {d.max():.0f})")
+            print(
+                f"  model: the chosen fit's cost on the echo alone below the truth start's by median "
+                f"{np.median(d):.1f} noise variances (max {d.max():.0f})"
+            )
     split = [c for c in cps if "without" in c]
     if split:
         by: dict = {}
@@ -331,25 +376,40 @@ def main(argv=None) -> int:
             lifted = [k for k, v in sorted(c["without"].items()) if v > m]
             key = "+".join(lifted) if lifted else "no single part"
             by[key] = by.get(key, 0) + 1
-        print(f"  noise class, the part whose removal turns the cost to the truth: "
-              + ", ".join(f"{k} {v}" for k, v in sorted(by.items(), key=lambda kv: -kv[1])))
+        print(
+            "  noise class, the part whose removal turns the cost to the truth: "
+            + ", ".join(f"{k} {v}" for k, v in sorted(by.items(), key=lambda kv: -kv[1]))
+        )
     tested = [c for c in cps if "white_flip" in c]
     if tested:
         e, re_ = _share(rows, lambda c: c.get("white_flip", 0.0), draws)
-        print(f"  white background, model exact ({args.white} draws per tail CPI, {len(tested)} tested): "
-              f"the likelihood flips to the chosen composition in {100 * e:.2f} % "
-              f"[{100 * interval(re_)[0]:.2f}, {100 * interval(re_)[1]:.2f}] of all CPIs "
-              f"(expected; {sum(c['white_flip'] > 0 for c in tested)} CPIs flip at least once)")
-        cls = lambda c: ("search" if c["dcost"] > m else "noise" if c["clean_dcost"] > m  # noqa: E731
-                         else "model" if c["clean_dcost"] < -m else "tie")
+        print(
+            f"  white background, model exact ({args.white} draws per tail CPI, {len(tested)} tested): "
+            f"the likelihood flips to the chosen composition in {100 * e:.2f} % "
+            f"[{100 * interval(re_)[0]:.2f}, {100 * interval(re_)[1]:.2f}] of all CPIs "
+            f"(expected; {sum(c['white_flip'] > 0 for c in tested)} CPIs flip at least once)"
+        )
+        cls = lambda c: (
+            "search"
+            if c["dcost"] > m
+            else "noise"
+            if c["clean_dcost"] > m  # noqa: E731
+            else "model"
+            if c["clean_dcost"] < -m
+            else "tie"
+        )
         for name in ("search", "noise", "model", "tie"):
             g = [c["white_flip"] for c in tested if cls(c) == name]
             if g:
-                print(f"    {name}: {len(g)} CPIs, mean flip share {np.mean(g):.2f}, {sum(x > 0 for x in g)} flip "
-                      f"at least once")
+                print(
+                    f"    {name}: {len(g)} CPIs, mean flip share {np.mean(g):.2f}, {sum(x > 0 for x in g)} flip "
+                    f"at least once"
+                )
     fine = [c for c in cps if within(c["err"])]
-    print(f"  CPIs within 1 %: the truth start fits better by > {m:g} in {sum(c['dcost'] > m for c in fine)} "
-          f"of {len(fine)}; stays within 1 % in {sum(within(c['err_truth_fit']) for c in fine)}")
+    print(
+        f"  CPIs within 1 %: the truth start fits better by > {m:g} in {sum(c['dcost'] > m for c in fine)} "
+        f"of {len(fine)}; stays within 1 % in {sum(within(c['err_truth_fit']) for c in fine)}"
+    )
     if not args.from_json:
         ev.write_json(args, rows)
     return 0

@@ -39,8 +39,10 @@ def resources(table: pd.DataFrame, *, scale: float = 1.0, headroom: float = 1.5)
     out = {}
     for rule, r in table.iterrows():
         rss = r["max_rss"] if math.isfinite(r["max_rss"]) else 500.0
-        out[rule] = {"mem_mb": int(max(500, math.ceil(headroom * rss / 100) * 100)),
-                     "runtime": int(math.ceil(2 * headroom * scale * r["s"] / 60) + 5)}
+        out[rule] = {
+            "mem_mb": int(max(500, math.ceil(headroom * rss / 100) * 100)),
+            "runtime": int(math.ceil(2 * headroom * scale * r["s"] / 60) + 5),
+        }
     return out
 
 

@@ -53,8 +53,13 @@ def paired(names, a, b, num_a, num_b, den=None) -> dict:
         return {"n": 0}
     draws = draw_flights(list(names), seed=0)
     lo, hi = interval(ratio_replicates(nb, d, draws) - ratio_replicates(na, d, draws))
-    return {"n": int(d.sum()), "before": int(na.sum()), "after": int(nb.sum()),
-            "diff": float((nb.sum() - na.sum()) / d.sum()), "ci95": [float(lo), float(hi)]}
+    return {
+        "n": int(d.sum()),
+        "before": int(na.sum()),
+        "after": int(nb.sum()),
+        "diff": float((nb.sum() - na.sum()) / d.sum()),
+        "ci95": [float(lo), float(hi)],
+    }
 
 
 def off_any(r) -> bool:
@@ -73,26 +78,48 @@ def compare(a: dict, b: dict) -> dict:
     vis = [n for n in names if a[n]["visible"]]
     both = [n for n in names if a[n]["ok"] and b[n]["ok"]]
     same_cpis = [n for n in vis if a[n]["ok"] and b[n]["ok"] and a[n]["n_cpi"] == b[n]["n_cpi"]]
-    out = {"n_recordings": len(names), "only_in_one": sorted(set(a) ^ set(b)),
-           "within 2 % (visible)": paired(vis, a, b, within, within),
-           "off > 10 % unmarked (estimate in both)": paired(both, a, b, off_unmarked, off_unmarked),
-           "off > 10 % marked or not (estimate in both)": paired(both, a, b, off_any, off_any),
-           "visible CPIs within 2 sigma (same CPIs)": paired(
-               same_cpis, a, b, lambda r: r["n_2sigma"], lambda r: r["n_2sigma"], den=lambda n: a[n]["n_cpi"]),
-           "changed": []}
+    out = {
+        "n_recordings": len(names),
+        "only_in_one": sorted(set(a) ^ set(b)),
+        "within 2 % (visible)": paired(vis, a, b, within, within),
+        "off > 10 % unmarked (estimate in both)": paired(both, a, b, off_unmarked, off_unmarked),
+        "off > 10 % marked or not (estimate in both)": paired(both, a, b, off_any, off_any),
+        "visible CPIs within 2 sigma (same CPIs)": paired(
+            same_cpis, a, b, lambda r: r["n_2sigma"], lambda r: r["n_2sigma"], den=lambda n: a[n]["n_cpi"]
+        ),
+        "changed": [],
+    }
     for n in names:
         if changed(a[n], b[n]):
-            out["changed"].append({"name": n, **{k: [a[n].get(k), b[n].get(k)] for k in (
-                "carrier_ghz", "n_blades", "visible", "error", "ambiguous", "n_2sigma", "n_cpi",
-                "alternatives_rev_s")}})
+            out["changed"].append(
+                {
+                    "name": n,
+                    **{
+                        k: [a[n].get(k), b[n].get(k)]
+                        for k in (
+                            "carrier_ghz",
+                            "n_blades",
+                            "visible",
+                            "error",
+                            "ambiguous",
+                            "n_2sigma",
+                            "n_cpi",
+                            "alternatives_rev_s",
+                        )
+                    },
+                }
+            )
     return out
 
 
 def fmt_row(c) -> str:
     def one(i):
         e = c["error"][i]
-        return (f"{'-' if e is None else f'{100 * e:+.2f} %'} amb={int(bool(c['ambiguous'][i]))} "
-                f"2s {c['n_2sigma'][i]}/{c['n_cpi'][i]}")
+        return (
+            f"{'-' if e is None else f'{100 * e:+.2f} %'} amb={int(bool(c['ambiguous'][i]))} "
+            f"2s {c['n_2sigma'][i]}/{c['n_cpi'][i]}"
+        )
+
     return f"{c['name']} {c['carrier_ghz'][0]} GHz B{c['n_blades'][0]} vis={int(c['visible'][0])}: {one(0)} -> {one(1)}"
 
 
@@ -100,19 +127,28 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", nargs="+", required=True, metavar="JSON")
     ap.add_argument("--after", nargs="+", required=True, metavar="JSON")
-    ap.add_argument("--before-update", nargs="+", default=[], metavar="JSON",
-                    help="rows that replace the same recordings' rows in --before (a later run of some)")
+    ap.add_argument(
+        "--before-update",
+        nargs="+",
+        default=[],
+        metavar="JSON",
+        help="rows that replace the same recordings' rows in --before (a later run of some)",
+    )
     ap.add_argument("--json", default=None, help="write the comparison here")
-    ap.add_argument("--rest-unchanged", action="store_true",
-                    help="recordings only in --before count as unchanged (the change cannot reach them)")
+    ap.add_argument(
+        "--rest-unchanged",
+        action="store_true",
+        help="recordings only in --before count as unchanged (the change cannot reach them)",
+    )
     args = ap.parse_args(argv)
     before, after = load(args.before), load(args.after)
     for path in args.before_update:  # in order: a later file's rows replace an earlier one's
         update = load([path])
         extra = sorted(set(update) - set(before))
         if extra:
-            raise SystemExit(f"--before-update: {path}: {extra[:5]}: not in --before (expected a later run of "
-                             "some of them)")
+            raise SystemExit(
+                f"--before-update: {path}: {extra[:5]}: not in --before (expected a later run of some of them)"
+            )
         before.update(update)
     if args.rest_unchanged:
         extra = sorted(set(after) - set(before))
@@ -121,23 +157,39 @@ def main(argv=None) -> int:
         after = {**before, **after}
     out = compare(before, after)
     out["rest_unchanged"] = bool(args.rest_unchanged)
-    print(f"recordings {out['n_recordings']}" + (f" (in one run only: {out['only_in_one']})"
-                                                 if out["only_in_one"] else ""))
-    for k in ("within 2 % (visible)", "off > 10 % unmarked (estimate in both)",
-              "off > 10 % marked or not (estimate in both)", "visible CPIs within 2 sigma (same CPIs)"):
+    print(
+        f"recordings {out['n_recordings']}"
+        + (f" (in one run only: {out['only_in_one']})" if out["only_in_one"] else "")
+    )
+    for k in (
+        "within 2 % (visible)",
+        "off > 10 % unmarked (estimate in both)",
+        "off > 10 % marked or not (estimate in both)",
+        "visible CPIs within 2 sigma (same CPIs)",
+    ):
         p = out[k]
         if p["n"]:
-            print(f"{k}: {p['before']} -> {p['after']} of {p['n']}, difference {100 * p['diff']:+.1f} "
-                  f"[{100 * p['ci95'][0]:+.1f}, {100 * p['ci95'][1]:+.1f}] points")
+            print(
+                f"{k}: {p['before']} -> {p['after']} of {p['n']}, difference {100 * p['diff']:+.1f} "
+                f"[{100 * p['ci95'][0]:+.1f}, {100 * p['ci95'][1]:+.1f}] points"
+            )
     print(f"changed: {len(out['changed'])}")
     for c in out["changed"]:
         print("  " + fmt_row(c))
     if args.json:
-        Path(args.json).write_text(json.dumps({"script": "benchmarks/compare_any_radar_runs.py",
-                                               "before": list(args.before),
-                                               "before_update": list(args.before_update),
-                                               "after": list(args.after), **out},
-                                              indent=1, default=float))
+        Path(args.json).write_text(
+            json.dumps(
+                {
+                    "script": "benchmarks/compare_any_radar_runs.py",
+                    "before": list(args.before),
+                    "before_update": list(args.before_update),
+                    "after": list(args.after),
+                    **out,
+                },
+                indent=1,
+                default=float,
+            )
+        )
     return 0
 
 

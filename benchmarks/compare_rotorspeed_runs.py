@@ -38,8 +38,12 @@ def main(argv=None) -> int:
         ea, eb = np.abs(np.asarray(a[f]["mean_err"], float)), np.abs(np.asarray(b[f]["mean_err"], float))
         za, zb = np.abs(np.asarray(a[f]["z"], float)), np.abs(np.asarray(b[f]["z"], float))
         n = min(len(ea), len(eb))
-        sel = ((np.asarray(a[f]["n_pairs"])[:n] >= 2) & (np.asarray(b[f]["n_pairs"])[:n] >= 2)
-               & np.isfinite(ea[:n]) & np.isfinite(eb[:n]))
+        sel = (
+            (np.asarray(a[f]["n_pairs"])[:n] >= 2)
+            & (np.asarray(b[f]["n_pairs"])[:n] >= 2)
+            & np.isfinite(ea[:n])
+            & np.isfinite(eb[:n])
+        )
         den.append(float(sel.sum()))
         rows["within 1 %"][0].append(float(np.sum(ea[:n][sel] <= 0.01)))
         rows["within 1 %"][1].append(float(np.sum(eb[:n][sel] <= 0.01)))
@@ -54,10 +58,12 @@ def main(argv=None) -> int:
         na, nb = np.array(na), np.array(nb)
         ra, rb = ratio_replicates(na, den, draws), ratio_replicates(nb, den, draws)
         (la, ha), (lb, hb), (ld, hd) = interval(ra), interval(rb), interval(rb - ra)
-        print(f"| {name} | {100 * na.sum() / den.sum():.1f} % [{100 * la:.1f}, {100 * ha:.1f}] "
-              f"| {100 * nb.sum() / den.sum():.1f} % [{100 * lb:.1f}, {100 * hb:.1f}] "
-              f"| {100 * (nb.sum() - na.sum()) / den.sum():+.2f} [{100 * ld:+.2f}, {100 * hd:+.2f}] points "
-              f"| {int(np.sum(nb > na))} / {int(np.sum(nb < na))} |")
+        print(
+            f"| {name} | {100 * na.sum() / den.sum():.1f} % [{100 * la:.1f}, {100 * ha:.1f}] "
+            f"| {100 * nb.sum() / den.sum():.1f} % [{100 * lb:.1f}, {100 * hb:.1f}] "
+            f"| {100 * (nb.sum() - na.sum()) / den.sum():+.2f} [{100 * ld:+.2f}, {100 * hd:+.2f}] points "
+            f"| {int(np.sum(nb > na))} / {int(np.sum(nb < na))} |"
+        )
     return 0
 
 

@@ -40,7 +40,7 @@ def diagnose_with_fit(flight) -> tuple[list, dict, str | None, dict]:
     from microdoppler.diagnosis import Undiagnosable, diagnose_flight
 
     try:
-        e = diagnose_flight(flight, config={"figures": False})   # sees the flight only
+        e = diagnose_flight(flight, config={"figures": False})  # sees the flight only
         named = [c["cause"] for c in e["causes"]]
         fits = {c["cause"]: (c.get("extension") or c).get("params", {}) for c in e["causes"]}
         gof = e.get("evidence", {}).get("goodness_of_fit", {})
@@ -58,8 +58,13 @@ def diagnose_store(path: Path) -> dict:
     flight = read_flight(path)
     t0 = time.perf_counter()
     named, fits, reason = diagnose(flight)
-    return {"flight_id": flight.flight_id, "named": named, "fits": fits, "reason": reason,
-            "seconds_diagnose": round(time.perf_counter() - t0, 2)}
+    return {
+        "flight_id": flight.flight_id,
+        "named": named,
+        "fits": fits,
+        "reason": reason,
+        "seconds_diagnose": round(time.perf_counter() - t0, 2),
+    }
 
 
 def main(argv=None) -> int:
@@ -72,8 +77,11 @@ def main(argv=None) -> int:
     for i, s in enumerate(stores, 1):
         r = diagnose_store(s)
         out[r["flight_id"]] = r
-        print(f"[{i}/{len(stores)}] {r['flight_id']} named={r['named']} {r['reason'] or ''} "
-              f"({r['seconds_diagnose']:.1f} s)", flush=True)
+        print(
+            f"[{i}/{len(stores)}] {r['flight_id']} named={r['named']} {r['reason'] or ''} "
+            f"({r['seconds_diagnose']:.1f} s)",
+            flush=True,
+        )
     Path(a.out).write_text(json.dumps(out, indent=1, default=float))
     return 0
 

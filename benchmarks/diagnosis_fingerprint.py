@@ -50,17 +50,24 @@ FLIGHTS = [
     ("pn", "inspire2", "radar1", {"phase_noise": {"rms_rad": 0.015}}, 17),
     ("imb", "matrice300", "radar1", {"blade_imbalance": {"imbalance_db": 8.0}}, 18),
     ("lagscale", "inspire2", "radar1", {"motor_log_lag": {"lag_s": -0.5}, "motor_speed_scale": {"scale": 0.93}}, 19),
-    ("pnasym", "matrice300", "radar1", {"phase_noise": {"rms_rad": 0.012},
-                                        "sideband_asymmetry": {"asymmetry_db": -4.0}}, 20),
+    (
+        "pnasym",
+        "matrice300",
+        "radar1",
+        {"phase_noise": {"rms_rad": 0.012}, "sideband_asymmetry": {"asymmetry_db": -4.0}},
+        20,
+    ),
 ]
 #: one of every cause's extension, for the twins' hash
-ALL_EFFECTS = {"sideband_asymmetry": {"asymmetry_db": 3.5},
-               "sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.2},
-               "body_fluctuation": {"body_std_db": 3.0, "timescale_s": 0.4},
-               "motor_log_lag": {"lag_s": 0.4},
-               "motor_speed_scale": {"scale": 1.06},
-               "phase_noise": {"rms_rad": 0.01},
-               "blade_imbalance": {"imbalance_db": 6.0}}
+ALL_EFFECTS = {
+    "sideband_asymmetry": {"asymmetry_db": 3.5},
+    "sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.2},
+    "body_fluctuation": {"body_std_db": 3.0, "timescale_s": 0.4},
+    "motor_log_lag": {"lag_s": 0.4},
+    "motor_speed_scale": {"scale": 1.06},
+    "phase_noise": {"rms_rad": 0.01},
+    "blade_imbalance": {"imbalance_db": 6.0},
+}
 
 
 def _update(h, x):
@@ -114,8 +121,18 @@ def main(argv=None):
     hw, hr = hashlib.sha256(), hashlib.sha256()
     entries, models = [], {}
     for fid, model, radar, effects, seed in FLIGHTS:
-        spec = FlightSpec(fid, "drone", drone_model=model, radar_id=radar, duration_s=40.0, mean_range_m=1500.0,
-                          speed_mps=8.0, snr_db=48.0, effects=effects, seed=seed)
+        spec = FlightSpec(
+            fid,
+            "drone",
+            drone_model=model,
+            radar_id=radar,
+            duration_s=40.0,
+            mean_range_m=1500.0,
+            speed_mps=8.0,
+            snr_db=48.0,
+            effects=effects,
+            seed=seed,
+        )
         flight, truth = emulate_flight(spec)
         for x in (flight.iq, flight.background_iq, flight.motors_time_s, flight.motors_rpm):
             _update(hw, np.asarray(x))

@@ -83,22 +83,44 @@ def evaluate(case) -> dict:
     est = estimate_rotor_speeds(flight)
     dt = time.process_time() - t0
     o = est.info.get("order", {}) if est.ok else {}
-    row = {"name": case.name, "seed": case.seed, "carrier_ghz": case.carrier_hz / 1e9, "prf_hz": case.prf_hz,
-           "n_rotors": case.n_rotors, "n_blades": case.n_blades, "blade_length_m": case.blade_length_m,
-           "setup": case.setup, "balance": case.balance, "weak_blade_db": case.weak_blade_db,
-           "visible": truth["visible"], "first_pair_db": truth["first_pair_db"], "duration_s": case.duration_s,
-           "seconds": dt, "ok": est.ok, "reason": est.reason, "ambiguous": bool(o.get("ambiguous", False)),
-           "alternatives_rev_s": o.get("alternatives_rev_s", []),
-           "relative_likelihood": o.get("relative_likelihood", []), "ratio_to_lines": o.get("ratio_to_lines"),
-           "remeasured": o.get("remeasured"), "coverage": o.get("coverage"),
-           "extent_hz": o.get("extent_hz"), "extent_over_tip_doppler": o.get("extent_over_tip_doppler"),
-           "top_db": o.get("top_db"), "tail_harmonics": o.get("tail_harmonics"),
-           "n_rotors_to_median": o.get("n_rotors_to_median"), "chosen_rev_s": o.get("chosen_rev_s"),
-           "departs": o.get("departs"),
-           "candidates": [{k: c.get(k) for k in ("rev_s", "loglik", "extent_ratio", "tip_mach", "origin")}
-                          for c in o.get("candidates", [])],
-           "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0,
-           "lone_pair": est.info.get("lone_pair"), "rescued": o.get("rescued")}
+    row = {
+        "name": case.name,
+        "seed": case.seed,
+        "carrier_ghz": case.carrier_hz / 1e9,
+        "prf_hz": case.prf_hz,
+        "n_rotors": case.n_rotors,
+        "n_blades": case.n_blades,
+        "blade_length_m": case.blade_length_m,
+        "setup": case.setup,
+        "balance": case.balance,
+        "weak_blade_db": case.weak_blade_db,
+        "visible": truth["visible"],
+        "first_pair_db": truth["first_pair_db"],
+        "duration_s": case.duration_s,
+        "seconds": dt,
+        "ok": est.ok,
+        "reason": est.reason,
+        "ambiguous": bool(o.get("ambiguous", False)),
+        "alternatives_rev_s": o.get("alternatives_rev_s", []),
+        "relative_likelihood": o.get("relative_likelihood", []),
+        "ratio_to_lines": o.get("ratio_to_lines"),
+        "remeasured": o.get("remeasured"),
+        "coverage": o.get("coverage"),
+        "extent_hz": o.get("extent_hz"),
+        "extent_over_tip_doppler": o.get("extent_over_tip_doppler"),
+        "top_db": o.get("top_db"),
+        "tail_harmonics": o.get("tail_harmonics"),
+        "n_rotors_to_median": o.get("n_rotors_to_median"),
+        "chosen_rev_s": o.get("chosen_rev_s"),
+        "departs": o.get("departs"),
+        "candidates": [
+            {k: c.get(k) for k in ("rev_s", "loglik", "extent_ratio", "tip_mach", "origin")}
+            for c in o.get("candidates", [])
+        ],
+        "n_cpi_departing": est.info.get("n_cpi_departing", 0) if est.ok else 0,
+        "lone_pair": est.info.get("lone_pair"),
+        "rescued": o.get("rescued"),
+    }
     if not est.ok:
         row.update({"error": None, "true_rev_s": float(np.mean(truth["rev_s"])), "n_cpi": 0, "n_2sigma": 0})
         return row
@@ -110,10 +132,17 @@ def evaluate(case) -> dict:
     chosen = float(np.median(est.common_rev_s[v]))
     true_mean = float(np.median(tm[v]))
     listed = [chosen] + list(row["alternatives_rev_s"])
-    row.update({"error": e, "true_rev_s": true_mean, "est_rev_s": chosen, "n_cpi": int(v.sum()),
-                "n_2sigma": int(np.sum(np.abs(z) <= 2)), "median_sigma_rel": float(np.median(
-                    est.common_std_rev_s[v] / est.common_rev_s[v])),
-                "truth_listed": bool(any(abs(s / true_mean - 1) <= 0.03 for s in listed))})
+    row.update(
+        {
+            "error": e,
+            "true_rev_s": true_mean,
+            "est_rev_s": chosen,
+            "n_cpi": int(v.sum()),
+            "n_2sigma": int(np.sum(np.abs(z) <= 2)),
+            "median_sigma_rel": float(np.median(est.common_std_rev_s[v] / est.common_rev_s[v])),
+            "truth_listed": bool(any(abs(s / true_mean - 1) <= 0.03 for s in listed)),
+        }
+    )
     return row
 
 
@@ -165,18 +194,21 @@ def table(rows) -> list[dict]:
     out = []
     for name, sel in groups:
         vis = lambda r, sel=sel: sel(r) and r["visible"]  # noqa: E731
-        out.append({
-            "group": name,
-            "recordings": sum(1 for r in rows if sel(r)),
-            "visible": sum(1 for r in rows if vis(r)),
-            "with estimate (visible)": sum(1 for r in rows if vis(r) and r["ok"]),
-            "within 2 % (visible)": fmt(share(rows, within, vis)),
-            "ambiguous (visible)": fmt(share(rows, lambda r: r["ambiguous"], vis)),
-            "off > 10 % unmarked (all with estimate)": fmt(share(rows, off_unmarked, lambda r, sel=sel: sel(r)
-                                                                 and r["ok"])),
-            "CPIs within 2 sigma (visible)": fmt(cpi_share(rows, vis)),
-            "CPIs within 2 sigma (all)": fmt(cpi_share(rows, sel)),
-        })
+        out.append(
+            {
+                "group": name,
+                "recordings": sum(1 for r in rows if sel(r)),
+                "visible": sum(1 for r in rows if vis(r)),
+                "with estimate (visible)": sum(1 for r in rows if vis(r) and r["ok"]),
+                "within 2 % (visible)": fmt(share(rows, within, vis)),
+                "ambiguous (visible)": fmt(share(rows, lambda r: r["ambiguous"], vis)),
+                "off > 10 % unmarked (all with estimate)": fmt(
+                    share(rows, off_unmarked, lambda r, sel=sel: sel(r) and r["ok"])
+                ),
+                "CPIs within 2 sigma (visible)": fmt(cpi_share(rows, vis)),
+                "CPIs within 2 sigma (all)": fmt(cpi_share(rows, sel)),
+            }
+        )
     return out
 
 
@@ -189,33 +221,54 @@ def summary(rows, wall: float) -> list[str]:
     dur = sum(r["duration_s"] for r in rows)
     sub = [r for r in rows if r["n_rotors"] == 4 and r["prf_hz"] <= 10000]
     per_min_sub = 60 * sum(r["seconds"] for r in sub) / max(sum(r["duration_s"] for r in sub), 1e-9)
-    return [f"visible recordings within 2 %: {sum(within(r) for r in vis)} of {len(vis)}; of the others "
-            f"{sum(1 for r in amb_vis_listed if r['truth_listed'])} of {len(amb_vis_listed)} ambiguous with the "
-            f"truth listed",
-            f"off by > 10 % and not marked ambiguous: {len(bad)} of {sum(r['ok'] for r in rows)} with an estimate"
-            + "".join(f"; {r['name']} {100 * r['error']:+.1f} %" for r in bad),
-            f"estimator CPU: {60 * secs / dur:.1f} s per minute of recording over all ({secs:.0f} s for {dur:.0f} s); "
-            f"4 rotors at <= 10 kHz: {per_min_sub:.1f} s per minute ({len(sub)} recordings); wall {wall:.0f} s"]
+    return [
+        f"visible recordings within 2 %: {sum(within(r) for r in vis)} of {len(vis)}; of the others "
+        f"{sum(1 for r in amb_vis_listed if r['truth_listed'])} of {len(amb_vis_listed)} ambiguous with the "
+        f"truth listed",
+        f"off by > 10 % and not marked ambiguous: {len(bad)} of {sum(r['ok'] for r in rows)} with an estimate"
+        + "".join(f"; {r['name']} {100 * r['error']:+.1f} %" for r in bad),
+        f"estimator CPU: {60 * secs / dur:.1f} s per minute of recording over all ({secs:.0f} s for {dur:.0f} s); "
+        f"4 rotors at <= 10 kHz: {per_min_sub:.1f} s per minute ({len(sub)} recordings); wall {wall:.0f} s",
+    ]
 
 
 def timing_run(seconds: float = 60.0) -> dict:
     """CPU seconds of one estimate of a 60 s recording: 4 two-blade rotors at 10 kHz PRF,
     3.3 GHz, flying (the issue's cost target: <= 60 s per minute on one core)."""
-    case = draw_case(7, duration_s=seconds, carrier_hz=3.3e9, prf_hz=10000.0, n_rotors=4, n_blades=2,
-                     blade_length_m=0.12, tip_speed_mps=85.0, setup="flying", radial_speed_mps=6.0,
-                     weak_blade_db=0.0, blade_to_body_db=0.0)
+    case = draw_case(
+        7,
+        duration_s=seconds,
+        carrier_hz=3.3e9,
+        prf_hz=10000.0,
+        n_rotors=4,
+        n_blades=2,
+        blade_length_m=0.12,
+        tip_speed_mps=85.0,
+        setup="flying",
+        radial_speed_mps=6.0,
+        weak_blade_db=0.0,
+        blade_to_body_db=0.0,
+    )
     flight, _ = make_recording(case)
     parts = {}
-    for name, kw in (("lines", dict(config=RotorSpeedConfig(refine=False), order=False)),
-                     ("lines + order", dict(config=RotorSpeedConfig(refine=False))),
-                     ("default (lines + order + I/Q fit)", {})):
+    for name, kw in (
+        ("lines", dict(config=RotorSpeedConfig(refine=False), order=False)),
+        ("lines + order", dict(config=RotorSpeedConfig(refine=False))),
+        ("default (lines + order + I/Q fit)", {}),
+    ):
         t0 = time.process_time()
         est = estimate_rotor_speeds(flight, **kw)
         parts[name] = 60 * (time.process_time() - t0) / seconds
     dt = parts["default (lines + order + I/Q fit)"] * seconds / 60
-    return {"recording_s": seconds, "cpu_s": dt, "cpu_s_per_minute": 60 * dt / seconds, "n_cpi": len(est.time_s),
-            "cpu_s_per_minute_by_part": parts, "ok": est.ok,
-            "order": {k: est.info.get("order", {}).get(k) for k in ("ratio_to_lines", "ambiguous")}}
+    return {
+        "recording_s": seconds,
+        "cpu_s": dt,
+        "cpu_s_per_minute": 60 * dt / seconds,
+        "n_cpi": len(est.time_s),
+        "cpu_s_per_minute_by_part": parts,
+        "ok": est.ok,
+        "order": {k: est.info.get("order", {}).get(k) for k in ("ratio_to_lines", "ambiguous")},
+    }
 
 
 def join(args) -> int:
@@ -232,8 +285,19 @@ def join(args) -> int:
     timing = next((run["timing"] for run in runs if run.get("timing")), None)
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"joined": list(args.join), "summary_lines": lines, "rows": rows, "table": tab,
-                       "timing": timing, "wall_s": wall}, fh, indent=1, default=float)
+            json.dump(
+                {
+                    "joined": list(args.join),
+                    "summary_lines": lines,
+                    "rows": rows,
+                    "table": tab,
+                    "timing": timing,
+                    "wall_s": wall,
+                },
+                fh,
+                indent=1,
+                default=float,
+            )
     if args.csv:
         with open(args.csv, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(tab[0]))
@@ -246,15 +310,26 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=60, help="recordings (default 60)")
     ap.add_argument("--seed", type=int, default=1000, help="first seed (default 1000; seeds 1-99 were used to tune)")
-    ap.add_argument("--seeds", type=int, nargs="+", default=None, metavar="SEED",
-                    help="instead of --n/--seed: these seeds (e.g. a set's recordings a change can reach)")
+    ap.add_argument(
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="SEED",
+        help="instead of --n/--seed: these seeds (e.g. a set's recordings a change can reach)",
+    )
     ap.add_argument("--duration", type=float, default=6.0, help="recording length [s] (default 6)")
     ap.add_argument("--json", default=None, help="write every recording's numbers here")
     ap.add_argument("--csv", default=None, help="write the table here")
     ap.add_argument("--timing", action="store_true", help="also time one 60 s recording (4 rotors, 10 kHz)")
-    ap.add_argument("--join", nargs="+", default=None, metavar="HALF_JSON",
-                    help="instead of running: join these runs' rows (halves run side by side) in seed order, "
-                         "their table and summary to --json/--csv")
+    ap.add_argument(
+        "--join",
+        nargs="+",
+        default=None,
+        metavar="HALF_JSON",
+        help="instead of running: join these runs' rows (halves run side by side) in seed order, "
+        "their table and summary to --json/--csv",
+    )
     args = ap.parse_args(argv)
     if args.join:
         return join(args)
@@ -265,10 +340,13 @@ def main(argv=None) -> int:
         r = evaluate(case)
         rows.append(r)
         e = "   -   " if r["error"] is None else f"{100 * r['error']:+6.2f}%"
-        print(f"{r['name']} {r['carrier_ghz']:4.1f} GHz prf {r['prf_hz']:6.0f} M{r['n_rotors']} B{r['n_blades']} "
-              f"{r['setup']:6s} {r['balance']:14s} vis={int(r['visible'])} err {e} amb={int(r['ambiguous'])} "
-              f"listed={int(r.get('truth_listed', False))} 2sig {r['n_2sigma']}/{r['n_cpi']} {r['seconds']:.1f} s"
-              + ("" if r["ok"] else f"  no estimate: {r['reason'][:70]}"), flush=True)
+        print(
+            f"{r['name']} {r['carrier_ghz']:4.1f} GHz prf {r['prf_hz']:6.0f} M{r['n_rotors']} B{r['n_blades']} "
+            f"{r['setup']:6s} {r['balance']:14s} vis={int(r['visible'])} err {e} amb={int(r['ambiguous'])} "
+            f"listed={int(r.get('truth_listed', False))} 2sig {r['n_2sigma']}/{r['n_cpi']} {r['seconds']:.1f} s"
+            + ("" if r["ok"] else f"  no estimate: {r['reason'][:70]}"),
+            flush=True,
+        )
     wall = time.perf_counter() - t0
     tab = table(rows)
     print()
@@ -283,13 +361,19 @@ def main(argv=None) -> int:
     timing = None
     if args.timing:
         timing = timing_run()
-        print(f"timing run: {timing['recording_s']:.0f} s recording, 4 rotors, 10 kHz PRF: {timing['cpu_s']:.1f} CPU s "
-              f"({timing['cpu_s_per_minute']:.1f} s per minute, {timing['n_cpi']} CPIs); per minute by part: "
-              + ", ".join(f"{k} {v:.1f} s" for k, v in timing["cpu_s_per_minute_by_part"].items()))
+        print(
+            f"timing run: {timing['recording_s']:.0f} s recording, 4 rotors, 10 kHz PRF: {timing['cpu_s']:.1f} CPU s "
+            f"({timing['cpu_s_per_minute']:.1f} s per minute, {timing['n_cpi']} CPIs); per minute by part: "
+            + ", ".join(f"{k} {v:.1f} s" for k, v in timing["cpu_s_per_minute_by_part"].items())
+        )
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"args": vars(args), "rows": rows, "table": tab, "timing": timing, "wall_s": wall}, fh,
-                      indent=1, default=float)
+            json.dump(
+                {"args": vars(args), "rows": rows, "table": tab, "timing": timing, "wall_s": wall},
+                fh,
+                indent=1,
+                default=float,
+            )
     if args.csv:
         with open(args.csv, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=keys)

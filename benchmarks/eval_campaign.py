@@ -53,8 +53,9 @@ VARIANTS = ["sub_cpi", "per_cpi", "single_motor", "fixed_speeds", "extended"]
 NOTE = "classifier left out: the campaign in measured has no bird flights"
 
 
-def make_campaign(folder: Path, *, seed: int, n_flights: int, duration_s: float, radar: str,
-                  imbalance_db: tuple[float, float]) -> list[dict]:
+def make_campaign(
+    folder: Path, *, seed: int, n_flights: int, duration_s: float, radar: str, imbalance_db: tuple[float, float]
+) -> list[dict]:
     """Write ``n_flights`` stand recordings without motor logs; every other one with a
     weak blade. Returns the truth per flight."""
     rng = np.random.default_rng([seed, 58])
@@ -65,8 +66,11 @@ def make_campaign(folder: Path, *, seed: int, n_flights: int, duration_s: float,
         db = float(rng.uniform(*imbalance_db)) if weak else 0.0
         eff = {"blade_imbalance": {"imbalance_db": db}} if weak else {}
         fid = f"stand{i:02d}"
-        flight, _ = make_flight(GenCase(fid, seed=int(rng.integers(1 << 30)), radar=radar, effects=eff,
-                                        duration_s=duration_s, speed_mps=0.0))
+        flight, _ = make_flight(
+            GenCase(
+                fid, seed=int(rng.integers(1 << 30)), radar=radar, effects=eff, duration_s=duration_s, speed_mps=0.0
+            )
+        )
         flight = dataclasses.replace(flight, motors_time_s=None, motors_rpm=None)  # speeds from the radar
         write_flight(folder / f"{fid}.zarr", flight)
         truth.append({"flight_id": fid, "imbalance_db": db})
@@ -94,8 +98,11 @@ def blank_png(path: Path) -> bool:
 def check(work: Path, rc: int, log: str, truth: list[dict]) -> dict:
     res = work / "results"
     reports = res / "reports"
-    out: dict = {"exit_status": rc, "classifier_note_lines": log.count(NOTE),
-                 "table_v_written": (reports / "table_v.csv").exists()}
+    out: dict = {
+        "exit_status": rc,
+        "classifier_note_lines": log.count(NOTE),
+        "table_v_written": (reports / "table_v.csv").exists(),
+    }
     empty_tables, blank_figures = [], []
     for csv in sorted(reports.glob("*.csv")):
         if csv.name != "fidelity_left_out.csv" and len(pd.read_csv(csv)) == 0:
@@ -111,16 +118,34 @@ def check(work: Path, rc: int, log: str, truth: list[dict]) -> dict:
     t6 = pd.read_csv(reports / "table_vi.csv")
     out["table_vi_variants"] = [v for v in t6.variant if " - " not in v]
     out["table_vi_row_per_variant"] = all(v in out["table_vi_variants"] for v in VARIANTS)
-    cols = ["n_flights", "nonmultiple_db_mean", "nonmultiple_db_ci95_low", "nonmultiple_db_ci95_high",
-            "nonmultiple_db_resolved"]
-    out["table_vi_nonmultiple_db"] = {r.variant: {c: (None if pd.isna(getattr(r, c)) else
-                                                      (bool(getattr(r, c)) if c.endswith("resolved")
-                                                       else float(getattr(r, c)))) for c in cols}
-                                      for r in t6.itertuples()}
+    cols = [
+        "n_flights",
+        "nonmultiple_db_mean",
+        "nonmultiple_db_ci95_low",
+        "nonmultiple_db_ci95_high",
+        "nonmultiple_db_resolved",
+    ]
+    out["table_vi_nonmultiple_db"] = {
+        r.variant: {
+            c: (
+                None
+                if pd.isna(getattr(r, c))
+                else (bool(getattr(r, c)) if c.endswith("resolved") else float(getattr(r, c)))
+            )
+            for c in cols
+        }
+        for r in t6.itertuples()
+    }
     ext = t6[t6.variant == "extended - sub_cpi"]
-    out["table_vi_extended_minus_sub_cpi"] = {} if ext.empty else {
-        c: (None if pd.isna(v) else (bool(v) if c.endswith("resolved") else float(v)))
-        for c, v in ext.iloc[0].items() if c != "variant"}
+    out["table_vi_extended_minus_sub_cpi"] = (
+        {}
+        if ext.empty
+        else {
+            c: (None if pd.isna(v) else (bool(v) if c.endswith("resolved") else float(v)))
+            for c, v in ext.iloc[0].items()
+            if c != "variant"
+        }
+    )
     gain = out["table_vi_nonmultiple_db"].get("extended - sub_cpi", {})
     out["nonmultiple_gain_resolved"] = bool(gain.get("nonmultiple_db_resolved"))
     out["nonmultiple_gain_negative"] = bool((gain.get("nonmultiple_db_mean") or 0) < 0)
@@ -137,11 +162,15 @@ def check(work: Path, rc: int, log: str, truth: list[dict]) -> dict:
         d = named.get(fid, {})
         causes = {c["cause"]: c.get("extension", {}).get("params", {}) for c in d.get("causes") or []}
         nm = per[per.flight_id == fid].set_index("variant")["nonmultiple_db"]
-        row = {**t, "diagnosis": d.get("cause"), "reason": d.get("reason"),
-               "named_imbalance_db": causes.get("blade_imbalance", {}).get("imbalance_db"),
-               "other_causes": sorted(c for c in causes if c != "blade_imbalance"),
-               "nonmultiple_dist_sub_cpi": float(nm.get("sub_cpi", np.nan)),
-               "nonmultiple_dist_extended": float(nm.get("extended", np.nan))}
+        row = {
+            **t,
+            "diagnosis": d.get("cause"),
+            "reason": d.get("reason"),
+            "named_imbalance_db": causes.get("blade_imbalance", {}).get("imbalance_db"),
+            "other_causes": sorted(c for c in causes if c != "blade_imbalance"),
+            "nonmultiple_dist_sub_cpi": float(nm.get("sub_cpi", np.nan)),
+            "nonmultiple_dist_extended": float(nm.get("extended", np.nan)),
+        }
         if fid in split.index:
             for c in ("set", "snr_db", "snr_line"):
                 if c in split.columns:
@@ -166,8 +195,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cores", type=int, default=2)
     ap.add_argument("--workdir", required=True, help="scratch folder (must not exist)")
     ap.add_argument("--json", default="")
-    ap.add_argument("--check-only", action="store_true",
-                    help="re-read the results of an earlier run in --workdir (no generation, no pipeline)")
+    ap.add_argument(
+        "--check-only",
+        action="store_true",
+        help="re-read the results of an earlier run in --workdir (no generation, no pipeline)",
+    )
     a = ap.parse_args(argv)
     if a.n_flights < 12:
         ap.error(f"--n-flights={a.n_flights}: the acceptance run needs at least 12 flights")
@@ -180,29 +212,65 @@ def main(argv=None) -> int:
         if work.exists():
             ap.error(f"--workdir {work} exists: give a new scratch folder")
         t0 = time.perf_counter()
-        truth = make_campaign(work / "measured", seed=a.seed, n_flights=a.n_flights, duration_s=a.duration_s,
-                              radar=a.radar, imbalance_db=tuple(a.imbalance_db))
+        truth = make_campaign(
+            work / "measured",
+            seed=a.seed,
+            n_flights=a.n_flights,
+            duration_s=a.duration_s,
+            radar=a.radar,
+            imbalance_db=tuple(a.imbalance_db),
+        )
         config = write_config(work, n_boot=a.n_boot)
         snakemake = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
         t1 = time.perf_counter()
-        r = subprocess.run([snakemake, "--cores", str(a.cores), "-s", str(REPO / "Snakefile"), "-d", str(work),
-                            "--configfile", str(config)], cwd=work, capture_output=True, text=True,
-                           env={**os.environ, "PYTHONPATH": os.environ.get("PYTHONPATH", str(REPO / "src"))})
+        r = subprocess.run(
+            [
+                snakemake,
+                "--cores",
+                str(a.cores),
+                "-s",
+                str(REPO / "Snakefile"),
+                "-d",
+                str(work),
+                "--configfile",
+                str(config),
+            ],
+            cwd=work,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": os.environ.get("PYTHONPATH", str(REPO / "src"))},
+        )
         t2 = time.perf_counter()
         (work / "snakemake.log").write_text(r.stdout + r.stderr)
-        run = {"args": vars(a), "truth": truth, "exit_status": r.returncode, "generate_s": round(t1 - t0, 1),
-               "pipeline_s": round(t2 - t1, 1)}
+        run = {
+            "args": vars(a),
+            "truth": truth,
+            "exit_status": r.returncode,
+            "generate_s": round(t1 - t0, 1),
+            "pipeline_s": round(t2 - t1, 1),
+        }
         (work / "run.json").write_text(json.dumps(run, indent=1))
     log = (work / "snakemake.log").read_text()
     rc = int(run["exit_status"])
     carrier, prf = RADARS[run["args"]["radar"]]
-    out = {"seed": run["args"]["seed"], "args": run["args"], "carrier_hz": carrier, "prf_hz": prf,
-           "generate_s": run["generate_s"], "pipeline_s": run["pipeline_s"], **check(work, rc, log, run["truth"])}
-    holds = {"exit_0": out["exit_status"] == 0, "classifier_left_out_with_note": out["classifier_note_lines"] == 1
-             and not out["table_v_written"], "no_empty_table": not out["empty_tables"],
-             "no_blank_figure": not out["blank_figures"], "table_vi_row_per_variant": out.get("table_vi_row_per_variant"),
-             "nonmultiple_gain_resolved_and_negative": out.get("nonmultiple_gain_resolved", False)
-             and out.get("nonmultiple_gain_negative", False)}
+    out = {
+        "seed": run["args"]["seed"],
+        "args": run["args"],
+        "carrier_hz": carrier,
+        "prf_hz": prf,
+        "generate_s": run["generate_s"],
+        "pipeline_s": run["pipeline_s"],
+        **check(work, rc, log, run["truth"]),
+    }
+    holds = {
+        "exit_0": out["exit_status"] == 0,
+        "classifier_left_out_with_note": out["classifier_note_lines"] == 1 and not out["table_v_written"],
+        "no_empty_table": not out["empty_tables"],
+        "no_blank_figure": not out["blank_figures"],
+        "table_vi_row_per_variant": out.get("table_vi_row_per_variant"),
+        "nonmultiple_gain_resolved_and_negative": out.get("nonmultiple_gain_resolved", False)
+        and out.get("nonmultiple_gain_negative", False),
+    }
     out["acceptance"] = holds
     print(json.dumps(holds, indent=1))
     if rc != 0:

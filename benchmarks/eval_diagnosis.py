@@ -116,8 +116,10 @@ CAUSE_LIST = [c for c in CATALOG if c not in ("none", UNEXPLAINED)]
 #: causes the code before issue 34 could name (the paired before/after comparison)
 OLD_CAUSES = [c for c in CAUSE_LIST if c != "blade_imbalance"]
 #: out-of-catalog effects per generator, in turn (module docstring)
-OUTSIDE = {"independent": ["second_scatterer", "true_n_blades", "range_straddle"],
-           "emulator": ["second_scatterer", "declared_n_blades", "range_straddle"]}
+OUTSIDE = {
+    "independent": ["second_scatterer", "true_n_blades", "range_straddle"],
+    "emulator": ["second_scatterer", "declared_n_blades", "range_straddle"],
+}
 REPO = Path(__file__).resolve().parents[1]
 HIGH_SNR_DB = 36.0
 #: bins of measured body SNR for the detectable range [dB]
@@ -166,8 +168,13 @@ def draw_params(cause: str, rng: np.random.Generator) -> dict:
 def draw_outside(kind: str, rng: np.random.Generator) -> dict:
     """One out-of-catalog effect (as ``benchmarks/eval_unexplained.py`` draws it)."""
     if kind == "second_scatterer":
-        return {kind: {"offset_hz": float(rng.choice([-1, 1]) * rng.uniform(20, 60)),
-                       "level_db": float(rng.uniform(-18, -8)), "wander_hz": float(rng.uniform(0, 4))}}
+        return {
+            kind: {
+                "offset_hz": float(rng.choice([-1, 1]) * rng.uniform(20, 60)),
+                "level_db": float(rng.uniform(-18, -8)),
+                "wander_hz": float(rng.uniform(0, 4)),
+            }
+        }
     if kind in ("true_n_blades", "declared_n_blades"):
         return {kind: 3}
     if kind == "range_straddle":
@@ -175,9 +182,18 @@ def draw_outside(kind: str, rng: np.random.Generator) -> dict:
     raise ValueError(kind)
 
 
-def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s: float,
-              high_share: float, causes: list[str] | None = None, falloff_db: tuple | None = None,
-              generators: str = "both", outside: int = 0) -> list[dict]:
+def make_plan(
+    seed: int,
+    per_cause: int,
+    two_cause: int,
+    clean: int,
+    duration_s: float,
+    high_share: float,
+    causes: list[str] | None = None,
+    falloff_db: tuple | None = None,
+    generators: str = "both",
+    outside: int = 0,
+) -> list[dict]:
     """The flights to make, drawn from ``seed``: one dict per flight (JSON-able).
 
     ``causes``: restrict the one-cause flights and the two-cause pairs to these
@@ -214,14 +230,23 @@ def make_plan(seed: int, per_cause: int, two_cause: int, clean: int, duration_s:
         j = count[gen] = count.get(gen, -1) + 1
         radar = {"emulator": ["radar1", "radar2"], "independent": ["gen_l", "gen_s"]}[gen][j % 2]
         hi = rng.uniform() < high_share
-        p = {"kind": kind, "generator": gen, "radar": radar,
-             "effects": {c: draw_params(c, rng) for c in causes},
-             "target_snr_db": float(rng.uniform(36, 48) if hi else rng.uniform(20, 36)),
-             "duration_s": duration_s, "seed": int(rng.integers(2 ** 31))}
+        p = {
+            "kind": kind,
+            "generator": gen,
+            "radar": radar,
+            "effects": {c: draw_params(c, rng) for c in causes},
+            "target_snr_db": float(rng.uniform(36, 48) if hi else rng.uniform(20, 36)),
+            "duration_s": duration_s,
+            "seed": int(rng.integers(2**31)),
+        }
         if gen == "emulator":
-            p.update(drone_model=str(rng.choice(["inspire2", "matrice300"])),
-                     mean_range_m=float(rng.uniform(1000, 3000)), height_m=float(rng.choice([60.0, 80.0, 100.0])),
-                     speed_mps=float(rng.uniform(3, 12)), direction=int(rng.choice([1, -1])))
+            p.update(
+                drone_model=str(rng.choice(["inspire2", "matrice300"])),
+                mean_range_m=float(rng.uniform(1000, 3000)),
+                height_m=float(rng.choice([60.0, 80.0, 100.0])),
+                speed_mps=float(rng.uniform(3, 12)),
+                direction=int(rng.choice([1, -1])),
+            )
             if falloff_db is not None:
                 lo, hi = np.log(falloff_db[0]), np.log(falloff_db[1])
                 p["harmonic_falloff_db"] = float(np.exp(rng_falloff.uniform(lo, hi)))
@@ -288,11 +313,22 @@ def _emulate_outside(spec: FlightSpec, oddities: dict, seed: int):
 def _make(p: dict, nominal_snr_db: float):
     odd = p.get("oddities", {})
     if p["generator"] == "emulator":
-        spec = FlightSpec(p["flight_id"], "drone", drone_model=p["drone_model"], radar_id=p["radar"],
-                          duration_s=p["duration_s"], mean_range_m=p["mean_range_m"], height_m=p["height_m"],
-                          speed_mps=p["speed_mps"], direction=p["direction"], snr_db=nominal_snr_db,
-                          effects=p["effects"], seed=p["seed"], harmonic_falloff_db=p.get("harmonic_falloff_db"),
-                          airframe=f"{p['drone_model']}-weak" if "blade_imbalance" in p["effects"] else "")
+        spec = FlightSpec(
+            p["flight_id"],
+            "drone",
+            drone_model=p["drone_model"],
+            radar_id=p["radar"],
+            duration_s=p["duration_s"],
+            mean_range_m=p["mean_range_m"],
+            height_m=p["height_m"],
+            speed_mps=p["speed_mps"],
+            direction=p["direction"],
+            snr_db=nominal_snr_db,
+            effects=p["effects"],
+            seed=p["seed"],
+            harmonic_falloff_db=p.get("harmonic_falloff_db"),
+            airframe=f"{p['drone_model']}-weak" if "blade_imbalance" in p["effects"] else "",
+        )
         if odd:
             return _emulate_outside(spec, odd, p["seed"])
         flight, _ = emulate_flight(spec)
@@ -300,8 +336,16 @@ def _make(p: dict, nominal_snr_db: float):
     eff = {c: dict(v) for c, v in p["effects"].items()}
     if "phase_noise" in eff:
         eff["phase_noise"]["shape"] = p["pn_shape"]
-    case = GenCase(p["flight_id"], p["seed"], p["radar"], eff, duration_s=p["duration_s"], snr_db=nominal_snr_db,
-                   speed_mps=p["speed_mps"], oddities=odd)
+    case = GenCase(
+        p["flight_id"],
+        p["seed"],
+        p["radar"],
+        eff,
+        duration_s=p["duration_s"],
+        snr_db=nominal_snr_db,
+        speed_mps=p["speed_mps"],
+        oddities=odd,
+    )
     return make_flight(case)[0]
 
 
@@ -320,6 +364,7 @@ def _snr_db(flight) -> float:
 def _floor_rise_db(flight) -> float:
     """Median floor 35-95 Hz from the clutter line: flight over its background [dB]
     (Hann periodograms of 4096 pulses, half overlap)."""
+
     def floor(iq):
         n, hop = 4096, 2048
         w = np.hanning(n)
@@ -352,7 +397,9 @@ def param_error(name: str, kind: str, truth: float, fit: float) -> tuple[float, 
 OU_PARAMS = {"sideband_fading": ("fading_std_db", "timescale_s"), "body_fluctuation": ("body_std_db", "timescale_s")}
 
 
-def ideal_within(size_db: float, tau_s: float, duration_s: float, n_sim: int = 400, seed: int = 0) -> tuple[float, float]:
+def ideal_within(
+    size_db: float, tau_s: float, duration_s: float, n_sim: int = 400, seed: int = 0
+) -> tuple[float, float]:
     """Probability that an ideal observer gets the size and the 1/e time of a dB
     Ornstein-Uhlenbeck gain within :data:`REL_TOL` of the truth.
 
@@ -372,12 +419,12 @@ def ideal_within(size_db: float, tau_s: float, duration_s: float, n_sim: int = 4
     dt = min(0.05, tau_s / 10)
     n = int(duration_s / dt)
     phi = np.exp(-dt / tau_s)
-    e = rng.standard_normal((n_sim, n)) * size_db * np.sqrt(1 - phi ** 2)
+    e = rng.standard_normal((n_sim, n)) * size_db * np.sqrt(1 - phi**2)
     zi = phi * size_db * rng.standard_normal((n_sim, 1))
     x, _ = lfilter([1.0], [1.0, -phi], e, axis=1, zi=zi)
     x -= x.mean(axis=1, keepdims=True)
-    var = np.mean(x ** 2, axis=1)
-    rho = np.sum(x[:, 1:] * x[:, :-1], axis=1) / np.sum(x ** 2, axis=1)
+    var = np.mean(x**2, axis=1)
+    rho = np.sum(x[:, 1:] * x[:, :-1], axis=1) / np.sum(x**2, axis=1)
     tau_hat = np.where(rho > 0, -dt / np.log(np.clip(rho, 1e-12, 1 - 1e-12)), 0.0)
     p_size = float(np.mean(np.abs(np.sqrt(var) / size_db - 1) <= REL_TOL))
     p_tau = float(np.mean(np.abs(tau_hat / tau_s - 1) <= REL_TOL))
@@ -427,7 +474,7 @@ def oddity_rise_db(p: dict, flight, nominal_snr_db: float) -> dict | None:
     use = np.flatnonzero(M.valid)
     a = g["_band_args"]
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)   # bands the guards empty
+        warnings.simplefilter("ignore", RuntimeWarning)  # bands the guards empty
         pw = np.nanmean([band_power(M.stft, i, M.f_body_hz[i], **a) for i in use], axis=0)
         po = np.nanmean([band_power(other, i, M.f_body_hz[i], **a) for i in use], axis=0)
     rise = 10 * np.log10(pw / po)
@@ -460,7 +507,7 @@ def evaluate_flight(p: dict, store_dir: str | None = None) -> dict:
         write_flight(path, flight)
         flight = read_flight(path)
     t1 = time.perf_counter()
-    named, fits, reason, gof = diagnose_with_fit(flight)   # sees the flight only
+    named, fits, reason, gof = diagnose_with_fit(flight)  # sees the flight only
     t2 = time.perf_counter()
     errors = {}
     for c, truth in p["effects"].items():
@@ -474,13 +521,25 @@ def evaluate_flight(p: dict, store_dir: str | None = None) -> dict:
             errors[f"{c}.{k}"] = {"error": err, "ok": ok, "truth": truth[k], "fit": fits[c][k]}
     add_ideal(errors, p)
     odd_rise = oddity_rise_db(p, flight, tries[-1][0]) if p["kind"] == "outside" else None
-    return {**{k: p[k] for k in ("flight_id", "kind", "generator", "radar", "drone_model", "effects", "duration_s")},
-            "oddities": p.get("oddities", {}), "stored": stored,
-            "harmonic_falloff_db": p.get("harmonic_falloff_db"),
-            "true": sorted(p["effects"]), "named": named, "fits": fits, "reason": reason, "gof": gof,
-            "snr_db": round(snr, 2), "target_snr_db": round(target, 2), "snr_tries": tries,
-            "pn_floor_rise_db": None if rise is None else round(rise, 2), "oddity_rise": odd_rise, "errors": errors,
-            "seconds_make": round(t1 - t0, 2), "seconds_diagnose": round(t2 - t1, 2)}
+    return {
+        **{k: p[k] for k in ("flight_id", "kind", "generator", "radar", "drone_model", "effects", "duration_s")},
+        "oddities": p.get("oddities", {}),
+        "stored": stored,
+        "harmonic_falloff_db": p.get("harmonic_falloff_db"),
+        "true": sorted(p["effects"]),
+        "named": named,
+        "fits": fits,
+        "reason": reason,
+        "gof": gof,
+        "snr_db": round(snr, 2),
+        "target_snr_db": round(target, 2),
+        "snr_tries": tries,
+        "pn_floor_rise_db": None if rise is None else round(rise, 2),
+        "oddity_rise": odd_rise,
+        "errors": errors,
+        "seconds_make": round(t1 - t0, 2),
+        "seconds_diagnose": round(t2 - t1, 2),
+    }
 
 
 # ----------------------------------------------------------------------------- summaries
@@ -542,8 +601,14 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
     band = np.array([band_of(r) for r in rows])
     gen = np.array([r["generator"] for r in rows])
     kind = np.array([r["kind"] for r in rows])
-    subsets = [("≥36", "all"), ("≥36", "emulator"), ("≥36", "independent"),
-               ("<36", "all"), ("<36", "emulator"), ("<36", "independent")]
+    subsets = [
+        ("≥36", "all"),
+        ("≥36", "emulator"),
+        ("≥36", "independent"),
+        ("<36", "all"),
+        ("<36", "emulator"),
+        ("<36", "independent"),
+    ]
 
     def sel(b, g):
         return (band == b) & ((gen == g) if g != "all" else True)
@@ -555,11 +620,14 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
     n_named = np.array([len(_catalog_named(r)) for r in rows])
     skipped = np.array([r["reason"] is not None for r in rows])
     out: dict = {"overall": {}, "per_cause": {}, "params": {}, "snr_bins": {}}
-    lines = ["### Detection (95 % flight-bootstrap CIs)", "",
-             "| SNR | generator | flights | true causes named | spurious, two-cause flights (flights) | "
-             "spurious, two-cause flights (share of named causes) | spurious, one-cause flights | "
-             "false alarms, clean flights | skipped |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "### Detection (95 % flight-bootstrap CIs)",
+        "",
+        "| SNR | generator | flights | true causes named | spurious, two-cause flights (flights) | "
+        "spurious, two-cause flights (share of named causes) | spurious, one-cause flights | "
+        "false alarms, clean flights | skipped |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for b, g in subsets:
         m = sel(b, g)
         rec = S.ratio(n_hit * m, n_true * m)
@@ -567,18 +635,31 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
         sp2n = S.ratio(n_spur * m * (kind == "two"), n_named * m * (kind == "two"))
         sp1 = S.ratio(spur * m * (kind == "one"), m * (kind == "one"))
         fa = S.ratio(spur * m * (kind == "clean"), m * (kind == "clean"))
-        out["overall"][f"{b} {g}"] = {"flights": int(m.sum()), "recall": rec, "spurious_two": sp2,
-                                     "spurious_two_of_named": sp2n, "spurious_one": sp1, "false_alarm": fa,
-                                     "skipped": int((skipped & m).sum())}
-        lines.append(f"| {b} dB | {g} | {int(m.sum())} | {_fmt(*rec[:3])} ({int(n_hit[m].sum())}/{rec[3]}) | "
-                     f"{_fmt(*sp2[:3])} ({int((spur * m * (kind == 'two')).sum())}/{sp2[3]}) | "
-                     f"{_fmt(*sp2n[:3])} ({int((n_spur * m * (kind == 'two')).sum())}/{sp2n[3]}) | "
-                     f"{_fmt(*sp1[:3])} ({int((spur * m * (kind == 'one')).sum())}/{sp1[3]}) | "
-                     f"{_fmt(*fa[:3])} ({int((spur * m * (kind == 'clean')).sum())}/{fa[3]}) | "
-                     f"{int((skipped & m).sum())} |")
+        out["overall"][f"{b} {g}"] = {
+            "flights": int(m.sum()),
+            "recall": rec,
+            "spurious_two": sp2,
+            "spurious_two_of_named": sp2n,
+            "spurious_one": sp1,
+            "false_alarm": fa,
+            "skipped": int((skipped & m).sum()),
+        }
+        lines.append(
+            f"| {b} dB | {g} | {int(m.sum())} | {_fmt(*rec[:3])} ({int(n_hit[m].sum())}/{rec[3]}) | "
+            f"{_fmt(*sp2[:3])} ({int((spur * m * (kind == 'two')).sum())}/{sp2[3]}) | "
+            f"{_fmt(*sp2n[:3])} ({int((n_spur * m * (kind == 'two')).sum())}/{sp2n[3]}) | "
+            f"{_fmt(*sp1[:3])} ({int((spur * m * (kind == 'one')).sum())}/{sp1[3]}) | "
+            f"{_fmt(*fa[:3])} ({int((spur * m * (kind == 'clean')).sum())}/{fa[3]}) | "
+            f"{int((skipped & m).sum())} |"
+        )
     radar = np.array([r["radar"] for r in rows])
-    lines += ["", "### By radar", "", "| radar | SNR | flights | true causes named | false alarms, clean | "
-              "spurious, one- and two-cause flights |", "|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "### By radar",
+        "",
+        "| radar | SNR | flights | true causes named | false alarms, clean | spurious, one- and two-cause flights |",
+        "|---|---|---|---|---|---|",
+    ]
     for rd in ("radar1", "radar2", "gen_l", "gen_s"):
         for b in ("≥36", "<36"):
             m = (radar == rd) & (band == b)
@@ -586,37 +667,56 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
             fa = S.ratio(spur * m * (kind == "clean"), m * (kind == "clean"))
             sp = S.ratio(spur * m * (kind != "clean"), m * (kind != "clean"))
             out["overall"][f"{b} {rd}"] = {"flights": int(m.sum()), "recall": rec, "false_alarm": fa, "spurious": sp}
-            lines.append(f"| {rd} | {b} dB | {int(m.sum())} | {_fmt(*rec[:3])} ({int(n_hit[m].sum())}/{rec[3]}) | "
-                         f"{_fmt(*fa[:3])} ({int((spur * m * (kind == 'clean')).sum())}/{fa[3]}) | "
-                         f"{_fmt(*sp[:3])} ({int((spur * m * (kind != 'clean')).sum())}/{sp[3]}) |")
-    lines += ["", "### Per cause: recall and precision", "",
-              "| cause | recall ≥36 all | recall ≥36 emulator | recall ≥36 independent | precision ≥36 | "
-              "recall <36 all | precision <36 |", "|---|---|---|---|---|---|---|"]
+            lines.append(
+                f"| {rd} | {b} dB | {int(m.sum())} | {_fmt(*rec[:3])} ({int(n_hit[m].sum())}/{rec[3]}) | "
+                f"{_fmt(*fa[:3])} ({int((spur * m * (kind == 'clean')).sum())}/{fa[3]}) | "
+                f"{_fmt(*sp[:3])} ({int((spur * m * (kind != 'clean')).sum())}/{sp[3]}) |"
+            )
+    lines += [
+        "",
+        "### Per cause: recall and precision",
+        "",
+        "| cause | recall ≥36 all | recall ≥36 emulator | recall ≥36 independent | precision ≥36 | "
+        "recall <36 all | precision <36 |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for c in CAUSE_LIST:
         has = np.array([c in r["true"] for r in rows])
         got = np.array([c in r["named"] for r in rows])
         cells, res = [], {}
-        for key, m, num, den in [("recall ≥36 all", sel("≥36", "all"), has & got, has),
-                                 ("recall ≥36 emulator", sel("≥36", "emulator"), has & got, has),
-                                 ("recall ≥36 independent", sel("≥36", "independent"), has & got, has),
-                                 ("precision ≥36", sel("≥36", "all"), has & got, got),
-                                 ("recall <36 all", sel("<36", "all"), has & got, has),
-                                 ("precision <36", sel("<36", "all"), has & got, got)]:
+        for key, m, num, den in [
+            ("recall ≥36 all", sel("≥36", "all"), has & got, has),
+            ("recall ≥36 emulator", sel("≥36", "emulator"), has & got, has),
+            ("recall ≥36 independent", sel("≥36", "independent"), has & got, has),
+            ("precision ≥36", sel("≥36", "all"), has & got, got),
+            ("recall <36 all", sel("<36", "all"), has & got, has),
+            ("precision <36", sel("<36", "all"), has & got, got),
+        ]:
             v = S.ratio(num * m, den * m)
             res[key] = v
             cells.append(f"{_fmt(*v[:3])} ({int((num * m).sum())}/{v[3]})")
         out["per_cause"][c] = res
         lines.append(f"| {c} | " + " | ".join(cells) + " |")
-    lines += ["", "### Canonical parameters of named true causes",
-              "error: absolute for asymmetry_db [dB] and lag_s [s], else relative (scale: of scale - 1; "
-              "skirt_dbc_hz: of the linear density); target 20 % / 1 dB / 0.1 s", "",
-              "| parameter | SNR | generator | n | median abs error | within target | median signed error |",
-              "|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "### Canonical parameters of named true causes",
+        "error: absolute for asymmetry_db [dB] and lag_s [s], else relative (scale: of scale - 1; "
+        "skirt_dbc_hz: of the linear density); target 20 % / 1 dB / 0.1 s",
+        "",
+        "| parameter | SNR | generator | n | median abs error | within target | median signed error |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for c, ps in PARAMS.items():
         for k in ps:
             key = f"{c}.{k}"
-            err = np.array([r["errors"][key]["error"] if key in r["errors"] and r["errors"][key]["error"] is not None
-                            else np.nan for r in rows])
+            err = np.array(
+                [
+                    r["errors"][key]["error"]
+                    if key in r["errors"] and r["errors"][key]["error"] is not None
+                    else np.nan
+                    for r in rows
+                ]
+            )
             has = np.array([key in r["errors"] for r in rows])
             ok = np.array([key in r["errors"] and r["errors"][key]["ok"] for r in rows])
             for b, g in subsets:
@@ -626,23 +726,34 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
                 med = S.median_abs(np.nan_to_num(err, nan=np.inf), m)
                 w = S.ratio(ok * m, m)
                 signed = float(np.nanmedian(err[m])) if np.isfinite(err[m]).any() else float("nan")
-                ideal = np.array([r["errors"][key].get("ideal", np.nan) if key in r["errors"] else np.nan
-                                  for r in rows])
+                ideal = np.array(
+                    [r["errors"][key].get("ideal", np.nan) if key in r["errors"] else np.nan for r in rows]
+                )
                 im = m & np.isfinite(ideal)
                 ideal_w = S.ratio(np.nan_to_num(ideal) * im, im) if im.any() else None
                 ideal_d = S.ratio((ok - np.nan_to_num(ideal)) * im, im) if im.any() else None
-                out["params"][f"{key} {b} {g}"] = {"n": int(m.sum()), "median_abs": med, "within": w,
-                                                   "median_signed": signed, "ideal": ideal_w, "minus_ideal": ideal_d,
-                                                   "max_abs": float(np.max(np.abs(np.nan_to_num(err[m], nan=np.inf))))}
+                out["params"][f"{key} {b} {g}"] = {
+                    "n": int(m.sum()),
+                    "median_abs": med,
+                    "within": w,
+                    "median_signed": signed,
+                    "ideal": ideal_w,
+                    "minus_ideal": ideal_d,
+                    "max_abs": float(np.max(np.abs(np.nan_to_num(err[m], nan=np.inf)))),
+                }
                 pct = ps[k] != "abs"
-                medtxt = (f"{100 * med[0]:.0f} % [{100 * med[1]:.0f}, {100 * med[2]:.0f}]" if pct
-                          else _fmt(*med, pct=False))
+                medtxt = (
+                    f"{100 * med[0]:.0f} % [{100 * med[1]:.0f}, {100 * med[2]:.0f}]" if pct else _fmt(*med, pct=False)
+                )
                 sg = f"{100 * signed:+.0f} %" if pct else f"{signed:+.3g}"
                 lines.append(f"| {key} | {b} | {g} | {int(m.sum())} | {medtxt} | {_fmt(*w[:3])} | {sg} |")
-    lines += ["", "### Recall per cause in bins of measured body SNR (named/true)", "",
-              "| cause | " + " | ".join(_bin_name(i) for i in range(len(SNR_BINS_DB) - 1))
-              + " | recall ≥ 90 % from |",
-              "|---|" + "---|" * (len(SNR_BINS_DB))]
+    lines += [
+        "",
+        "### Recall per cause in bins of measured body SNR (named/true)",
+        "",
+        "| cause | " + " | ".join(_bin_name(i) for i in range(len(SNR_BINS_DB) - 1)) + " | recall ≥ 90 % from |",
+        "|---|" + "---|" * (len(SNR_BINS_DB)),
+    ]
     snr = np.array([r["snr_db"] for r in rows])
     for c in CAUSE_LIST:
         cells, recs = [], []
@@ -656,11 +767,18 @@ def summarise(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[str, dict]
         lines.append(f"| {c} | " + " | ".join(cells) + f" | {_detectable_from(recs)} |")
     pn = [r for r in rows if "phase_noise" in r["true"]]
     if pn:
-        lines += ["", "Phase noise by floor rise 35-95 Hz from the clutter line (flight over background): "
-                  + ", ".join(f"{lab}: {sum('phase_noise' in r['named'] for r in sub)}/{len(sub)}" for lab, sub in [
-                      ("rise < 3 dB", [r for r in pn if r["pn_floor_rise_db"] < 3]),
-                      ("3-6 dB", [r for r in pn if 3 <= r["pn_floor_rise_db"] < 6]),
-                      ("≥ 6 dB", [r for r in pn if r["pn_floor_rise_db"] >= 6])])]
+        lines += [
+            "",
+            "Phase noise by floor rise 35-95 Hz from the clutter line (flight over background): "
+            + ", ".join(
+                f"{lab}: {sum('phase_noise' in r['named'] for r in sub)}/{len(sub)}"
+                for lab, sub in [
+                    ("rise < 3 dB", [r for r in pn if r["pn_floor_rise_db"] < 3]),
+                    ("3-6 dB", [r for r in pn if 3 <= r["pn_floor_rise_db"] < 6]),
+                    ("≥ 6 dB", [r for r in pn if r["pn_floor_rise_db"] >= 6]),
+                ]
+            ),
+        ]
     return "\n".join(lines), out
 
 
@@ -691,19 +809,31 @@ def targets(out: dict) -> str:
     """Pass/fail of the issue's targets at body SNR >= 36 dB, on the point estimates
     (the CI says how sure that is)."""
     o = out["overall"]["≥36 all"]
-    lines = ["### Targets at body SNR ≥ 36 dB (pass/fail on the point estimate)", "",
-             "| target | value [95 % CI] | pass |", "|---|---|---|"]
-    for name, v, ok in [("≥ 90 % of true causes named", o["recall"], o["recall"][0] >= 0.9),
-                        ("≤ 5 % spurious causes (two-cause flights naming a cause they lack)", o["spurious_two"],
-                         o["spurious_two"][0] <= 0.05),
-                        ("≤ 5 % false alarms (clean flights naming any cause)", o["false_alarm"],
-                         o["false_alarm"][0] <= 0.05)]:
+    lines = [
+        "### Targets at body SNR ≥ 36 dB (pass/fail on the point estimate)",
+        "",
+        "| target | value [95 % CI] | pass |",
+        "|---|---|---|",
+    ]
+    for name, v, ok in [
+        ("≥ 90 % of true causes named", o["recall"], o["recall"][0] >= 0.9),
+        (
+            "≤ 5 % spurious causes (two-cause flights naming a cause they lack)",
+            o["spurious_two"],
+            o["spurious_two"][0] <= 0.05,
+        ),
+        ("≤ 5 % false alarms (clean flights naming any cause)", o["false_alarm"], o["false_alarm"][0] <= 0.05),
+    ]:
         lines.append(f"| {name} | {_fmt(*v[:3])} (n={v[3]}) | {'PASS' if ok else 'FAIL'} |")
-    lines += ["", "Canonical parameters within 20 % (asymmetry 1 dB, lag 0.1 s), of the named true causes at "
-              "≥ 36 dB: strict = every estimate, or >= 90 % of them", "",
-              "| parameter | n | within target [95 % CI] | largest abs error | strict | ≥ 90 % | ideal observer, "
-              "same flights | ours − ideal [95 % CI] |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "Canonical parameters within 20 % (asymmetry 1 dB, lag 0.1 s), of the named true causes at "
+        "≥ 36 dB: strict = every estimate, or >= 90 % of them",
+        "",
+        "| parameter | n | within target [95 % CI] | largest abs error | strict | ≥ 90 % | ideal observer, "
+        "same flights | ours − ideal [95 % CI] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for c, ps in PARAMS.items():
         for k, kind in ps.items():
             v = out["params"].get(f"{c}.{k} ≥36 all")
@@ -714,13 +844,17 @@ def targets(out: dict) -> str:
             mx = f"{100 * v['max_abs']:.0f} %" if kind != "abs" else f"{v['max_abs']:.3g}"
             idl, dif = v.get("ideal"), v.get("minus_ideal")
             idl_txt = f"{100 * idl[0]:.0f} %" if idl else "–"
-            dif_txt = (f"{100 * dif[0]:+.0f} [{100 * dif[1]:+.0f}, {100 * dif[2]:+.0f}] points"
-                       if dif else "–")
-            lines.append(f"| {c}.{k} | {w[3]} | {_fmt(*w[:3])} | {mx} | {'PASS' if w[0] == 1.0 else 'FAIL'} | "
-                         f"{'PASS' if w[0] >= 0.9 else 'FAIL'} | {idl_txt} | {dif_txt} |")
-    lines += ["", "Ideal observer: the share of the same flights' true (size, timescale) an exact AR(1) fit "
-              "to the noise-free process itself gets within 20 % (`ideal_within`); no estimator from "
-              "spectrograms can beat it, so a per-estimate target above it is out of reach at this flight length."]
+            dif_txt = f"{100 * dif[0]:+.0f} [{100 * dif[1]:+.0f}, {100 * dif[2]:+.0f}] points" if dif else "–"
+            lines.append(
+                f"| {c}.{k} | {w[3]} | {_fmt(*w[:3])} | {mx} | {'PASS' if w[0] == 1.0 else 'FAIL'} | "
+                f"{'PASS' if w[0] >= 0.9 else 'FAIL'} | {idl_txt} | {dif_txt} |"
+            )
+    lines += [
+        "",
+        "Ideal observer: the share of the same flights' true (size, timescale) an exact AR(1) fit "
+        "to the noise-free process itself gets within 20 % (`ideal_within`); no estimator from "
+        "spectrograms can beat it, so a per-estimate target above it is out of reach at this flight length.",
+    ]
     return "\n".join(lines)
 
 
@@ -759,37 +893,75 @@ def issue34_flags(rows: list[dict]) -> dict:
     f["balanced"] = f["catalog_only"] & ~f["has_imb"]
     # an effect the goodness of fit can resolve: every out-of-catalog effect but a
     # second scatterer that raises no band the test reads by its margin (oddity_rise_db)
-    f["resolvable"] = f["outside"] & np.array([not r.get("oddity_rise")
-                                               or r["oddity_rise"]["rise_db"] >= r["gof"].get("margin_db", 7.0)
-                                               for r in rows])
+    f["resolvable"] = f["outside"] & np.array(
+        [not r.get("oddity_rise") or r["oddity_rise"]["rise_db"] >= r["gof"].get("margin_db", 7.0) for r in rows]
+    )
     return f
 
 
 #: issue 34's rates: (key, label, numerator, denominator) over :func:`issue34_flags`
 ISSUE34_RATES = [
-    ("imb_named", "blade_imbalance named, flights with a blade 3-10 dB weaker (target ≥ 90 %)",
-     lambda f: f["named_imb"] & f["has_imb"], lambda f: f["has_imb"]),
-    ("imb_db_within", "imbalance_db within 1.5 dB, of those named",
-     lambda f: f["imb_ok"] & f["named_imb"] & f["has_imb"], lambda f: f["named_imb"] & f["has_imb"]),
-    ("imb_spurious", "spurious blade_imbalance, balanced flights incl. other causes (target ≤ 5 %)",
-     lambda f: f["named_imb"] & f["balanced"], lambda f: f["balanced"]),
-    ("unexpl_outside", "unexplained, out-of-catalog flights (target ≥ 90 %)",
-     lambda f: f["unexpl"] & f["outside"], lambda f: f["outside"]),
-    ("none_outside", "none, out-of-catalog flights (must be 0)",
-     lambda f: f["none"] & f["outside"], lambda f: f["outside"]),
-    ("none_outside_resolvable", "none, out-of-catalog flights whose effect raises a band the goodness of fit "
-     "reads by ≥ its margin",
-     lambda f: f["none"] & f["resolvable"], lambda f: f["resolvable"]),
-    ("skipped_outside", "skipped (undiagnosable), out-of-catalog flights",
-     lambda f: f["skipped"] & f["outside"], lambda f: f["outside"]),
-    ("unexpl_catalog", "unexplained, flights holding only catalog causes (target ≤ 5 %)",
-     lambda f: f["unexpl"] & f["catalog_only"], lambda f: f["catalog_only"]),
-    ("unexpl_with_cause", "unexplained, of those: one- and two-cause flights",
-     lambda f: f["unexpl"] & f["with_cause"], lambda f: f["with_cause"]),
-    ("unexpl_clean", "unexplained, of those: clean flights",
-     lambda f: f["unexpl"] & f["clean"], lambda f: f["clean"]),
-    ("unexpl_all_named", "unexplained, of those: every true cause named (a missed cause left out)",
-     lambda f: f["unexpl"] & f["catalog_only"] & f["all_named"], lambda f: f["catalog_only"] & f["all_named"]),
+    (
+        "imb_named",
+        "blade_imbalance named, flights with a blade 3-10 dB weaker (target ≥ 90 %)",
+        lambda f: f["named_imb"] & f["has_imb"],
+        lambda f: f["has_imb"],
+    ),
+    (
+        "imb_db_within",
+        "imbalance_db within 1.5 dB, of those named",
+        lambda f: f["imb_ok"] & f["named_imb"] & f["has_imb"],
+        lambda f: f["named_imb"] & f["has_imb"],
+    ),
+    (
+        "imb_spurious",
+        "spurious blade_imbalance, balanced flights incl. other causes (target ≤ 5 %)",
+        lambda f: f["named_imb"] & f["balanced"],
+        lambda f: f["balanced"],
+    ),
+    (
+        "unexpl_outside",
+        "unexplained, out-of-catalog flights (target ≥ 90 %)",
+        lambda f: f["unexpl"] & f["outside"],
+        lambda f: f["outside"],
+    ),
+    (
+        "none_outside",
+        "none, out-of-catalog flights (must be 0)",
+        lambda f: f["none"] & f["outside"],
+        lambda f: f["outside"],
+    ),
+    (
+        "none_outside_resolvable",
+        "none, out-of-catalog flights whose effect raises a band the goodness of fit reads by ≥ its margin",
+        lambda f: f["none"] & f["resolvable"],
+        lambda f: f["resolvable"],
+    ),
+    (
+        "skipped_outside",
+        "skipped (undiagnosable), out-of-catalog flights",
+        lambda f: f["skipped"] & f["outside"],
+        lambda f: f["outside"],
+    ),
+    (
+        "unexpl_catalog",
+        "unexplained, flights holding only catalog causes (target ≤ 5 %)",
+        lambda f: f["unexpl"] & f["catalog_only"],
+        lambda f: f["catalog_only"],
+    ),
+    (
+        "unexpl_with_cause",
+        "unexplained, of those: one- and two-cause flights",
+        lambda f: f["unexpl"] & f["with_cause"],
+        lambda f: f["with_cause"],
+    ),
+    ("unexpl_clean", "unexplained, of those: clean flights", lambda f: f["unexpl"] & f["clean"], lambda f: f["clean"]),
+    (
+        "unexpl_all_named",
+        "unexplained, of those: every true cause named (a missed cause left out)",
+        lambda f: f["unexpl"] & f["catalog_only"] & f["all_named"],
+        lambda f: f["catalog_only"] & f["all_named"],
+    ),
 ]
 
 
@@ -810,13 +982,19 @@ def margin_table(rows: list[dict], f: dict, S, out: dict) -> list[str]:
         return []
     big = np.array([r["gof"].get("largest_significant_db", 0.0) if r.get("gof") else 0.0 for r in rows])
     hi = np.array([band_of(r) == "≥36" for r in rows])
-    groups = [("catalog-only, every true cause named", f["catalog_only"] & f["all_named"] & has & hi),
-              ("out-of-catalog", f["outside"] & has & hi)]
+    groups = [
+        ("catalog-only, every true cause named", f["catalog_only"] & f["all_named"] & has & hi),
+        ("out-of-catalog", f["outside"] & has & hi),
+    ]
     out["margin"] = {}
-    lines = ["", "#### Goodness-of-fit margin: flights whose largest significant band residual reaches m dB "
-             "(≥ 36 dB; 95 % flight-bootstrap CIs)", "",
-             "| m [dB] | " + " | ".join(f"{g} (n={int(m.sum())})" for g, m in groups) + " |",
-             "|---|" + "---|" * len(groups)]
+    lines = [
+        "",
+        "#### Goodness-of-fit margin: flights whose largest significant band residual reaches m dB "
+        "(≥ 36 dB; 95 % flight-bootstrap CIs)",
+        "",
+        "| m [dB] | " + " | ".join(f"{g} (n={int(m.sum())})" for g, m in groups) + " |",
+        "|---|" + "---|" * len(groups),
+    ]
     for mdb in MARGINS_DB:
         cells = []
         for g, m in groups:
@@ -827,10 +1005,16 @@ def margin_table(rows: list[dict], f: dict, S, out: dict) -> list[str]:
     # the other path to unexplained: a sideband gain that follows the body's
     common = np.array([_common_gain_db(r) for r in rows], dtype=float)
     straddle = np.array([r["kind"] == "outside" and "range_straddle" in r["oddities"] for r in rows])
-    lines += ["", "Unexplained for a sideband gain that follows the body's (a gain on the whole target; "
-              "std [dB], ≥ 36 dB):", ""]
-    for g, m in [("catalog-only flights", f["catalog_only"] & hi), ("out-of-catalog range straddles", straddle & hi),
-                 ("other out-of-catalog flights", f["outside"] & ~straddle & hi)]:
+    lines += [
+        "",
+        "Unexplained for a sideband gain that follows the body's (a gain on the whole target; std [dB], ≥ 36 dB):",
+        "",
+    ]
+    for g, m in [
+        ("catalog-only flights", f["catalog_only"] & hi),
+        ("out-of-catalog range straddles", straddle & hi),
+        ("other out-of-catalog flights", f["outside"] & ~straddle & hi),
+    ]:
         v = common[m & np.isfinite(common)]
         rng_txt = f", std {v.min():.2f}-{v.max():.2f} dB" if len(v) else ""
         out["margin"][f"common {g}"] = [int(len(v)), int(m.sum())]
@@ -852,20 +1036,28 @@ def below_margin(rows: list[dict], f: dict, out: dict) -> list[str]:
     out["below_margin"] = []
     if not sub:
         return []
-    lines = ["", "#### Out-of-catalog flights below the goodness of fit's reach (≥ 36 dB)", "",
-             "The effect's largest rise over the same flight without it, in the bands the test reads; "
-             "explained flights whose model misfits by at least as much (what a margin that low would "
-             "also flag):", ""]
+    lines = [
+        "",
+        "#### Out-of-catalog flights below the goodness of fit's reach (≥ 36 dB)",
+        "",
+        "The effect's largest rise over the same flight without it, in the bands the test reads; "
+        "explained flights whose model misfits by at least as much (what a margin that low would "
+        "also flag):",
+        "",
+    ]
     for r in sub:
         q = r["oddity_rise"]
         k = int(np.sum(base & (expl >= q["rise_db"])))
         n = int(base.sum())
-        out["below_margin"].append({"flight_id": r["flight_id"], **q, "named": r["named"],
-                                    "explained_at_least": [k, n]})
-        lines.append(f"- {r['flight_id']} ({r['generator']}, {r['radar']}): +{q['rise_db']:.1f} dB in "
-                     f"{q['band_hz'][0]:+.0f}..{q['band_hz'][1]:+.0f} Hz from the body (margin "
-                     f"{r['gof'].get('margin_db', 7.0):.0f} dB); named {', '.join(r['named']) or 'none'}; "
-                     f"explained flights misfit by ≥ that: {k} of {n} ({100 * k / max(n, 1):.0f} %)")
+        out["below_margin"].append(
+            {"flight_id": r["flight_id"], **q, "named": r["named"], "explained_at_least": [k, n]}
+        )
+        lines.append(
+            f"- {r['flight_id']} ({r['generator']}, {r['radar']}): +{q['rise_db']:.1f} dB in "
+            f"{q['band_hz'][0]:+.0f}..{q['band_hz'][1]:+.0f} Hz from the body (margin "
+            f"{r['gof'].get('margin_db', 7.0):.0f} dB); named {', '.join(r['named']) or 'none'}; "
+            f"explained flights misfit by ≥ that: {k} of {n} ({100 * k / max(n, 1):.0f} %)"
+        )
     return lines
 
 
@@ -888,9 +1080,12 @@ def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[st
     gen = np.array([r["generator"] for r in rows])
     cols = [("≥36", "all"), ("≥36", "emulator"), ("≥36", "independent"), ("<36", "all"), ("all", "all")]
     out: dict = {"rates": {}, "outside": {}, "imbalance_db_errors": {}}
-    lines = ["### Issue 34: blade_imbalance and unexplained (95 % flight-bootstrap CIs)", "",
-             "| rate | " + " | ".join(f"{b} dB {g}" if b != "all" else "all SNR" for b, g in cols) + " |",
-             "|---|" + "---|" * len(cols)]
+    lines = [
+        "### Issue 34: blade_imbalance and unexplained (95 % flight-bootstrap CIs)",
+        "",
+        "| rate | " + " | ".join(f"{b} dB {g}" if b != "all" else "all SNR" for b, g in cols) + " |",
+        "|---|" + "---|" * len(cols),
+    ]
     for key, label, num_f, den_f in ISSUE34_RATES:
         num, den = num_f(f), den_f(f)
         cells = []
@@ -901,22 +1096,37 @@ def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[st
             cells.append(_cell(v, int((num & m).sum())))
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     # imbalance_db errors of the named
-    err = np.array([r["errors"]["blade_imbalance.imbalance_db"]["error"]
-                    if "blade_imbalance.imbalance_db" in r["errors"]
-                    and r["errors"]["blade_imbalance.imbalance_db"]["error"] is not None else np.nan for r in rows])
+    err = np.array(
+        [
+            r["errors"]["blade_imbalance.imbalance_db"]["error"]
+            if "blade_imbalance.imbalance_db" in r["errors"]
+            and r["errors"]["blade_imbalance.imbalance_db"]["error"] is not None
+            else np.nan
+            for r in rows
+        ]
+    )
     for b in ("≥36", "<36"):
         m = (band == b) & np.isfinite(err)
         if m.any():
-            out["imbalance_db_errors"][b] = {"n": int(m.sum()), "median_abs_db": float(np.median(np.abs(err[m]))),
-                                             "max_abs_db": float(np.max(np.abs(err[m]))),
-                                             "median_signed_db": float(np.median(err[m]))}
-            lines.append(f"\nimbalance_db error (fit − truth) at {b} dB: n={int(m.sum())}, median |error| "
-                         f"{np.median(np.abs(err[m])):.2f} dB, largest {np.max(np.abs(err[m])):.2f} dB, "
-                         f"median signed {np.median(err[m]):+.2f} dB")
+            out["imbalance_db_errors"][b] = {
+                "n": int(m.sum()),
+                "median_abs_db": float(np.median(np.abs(err[m]))),
+                "max_abs_db": float(np.max(np.abs(err[m]))),
+                "median_signed_db": float(np.median(err[m])),
+            }
+            lines.append(
+                f"\nimbalance_db error (fit − truth) at {b} dB: n={int(m.sum())}, median |error| "
+                f"{np.median(np.abs(err[m])):.2f} dB, largest {np.max(np.abs(err[m])):.2f} dB, "
+                f"median signed {np.median(err[m]):+.2f} dB"
+            )
     # the out-of-catalog flights per effect
-    lines += ["", "#### Out-of-catalog flights per effect (all SNR; ≥ 36 dB in brackets)", "",
-              "| effect | generator | flights | unexplained | none | skipped | catalog causes named |",
-              "|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "#### Out-of-catalog flights per effect (all SNR; ≥ 36 dB in brackets)",
+        "",
+        "| effect | generator | flights | unexplained | none | skipped | catalog causes named |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for g in ("independent", "emulator"):
         for eff in OUTSIDE[g]:
             sub = [r for r in rows if r["kind"] == "outside" and r["generator"] == g and eff in r["oddities"]]
@@ -927,33 +1137,53 @@ def summarise_issue34(rows: list[dict], boot_seed: int, n_boot: int) -> tuple[st
             def cnt(cond, rs):
                 return sum(1 for r in rs if cond(r))
 
-            conds = {"unexplained": lambda r: UNEXPLAINED in r["named"],
-                     "none": lambda r: r["reason"] is None and not r["named"],
-                     "skipped": lambda r: r["reason"] is not None}
+            conds = {
+                "unexplained": lambda r: UNEXPLAINED in r["named"],
+                "none": lambda r: r["reason"] is None and not r["named"],
+                "skipped": lambda r: r["reason"] is not None,
+            }
             named: dict = {}
             for r in sub:
                 for c in _catalog_named(r):
                     named[c] = named.get(c, 0) + 1
-            out["outside"][f"{eff} {g}"] = {"n": len(sub), "n_high": len(hi),
-                                            **{k: [cnt(c, sub), cnt(c, hi)] for k, c in conds.items()},
-                                            "catalog_named": named}
-            lines.append(f"| {eff} | {g} | {len(sub)} ({len(hi)}) | "
-                         + " | ".join(f"{cnt(c, sub)} ({cnt(c, hi)})" for c in conds.values())
-                         + f" | {', '.join(f'{k} {v}' for k, v in sorted(named.items())) or '–'} |")
+            out["outside"][f"{eff} {g}"] = {
+                "n": len(sub),
+                "n_high": len(hi),
+                **{k: [cnt(c, sub), cnt(c, hi)] for k, c in conds.items()},
+                "catalog_named": named,
+            }
+            lines.append(
+                f"| {eff} | {g} | {len(sub)} ({len(hi)}) | "
+                + " | ".join(f"{cnt(c, sub)} ({cnt(c, hi)})" for c in conds.values())
+                + f" | {', '.join(f'{k} {v}' for k, v in sorted(named.items())) or '–'} |"
+            )
     lines += margin_table(rows, f, S, out)
     lines += below_margin(rows, f, out)
     # targets at >= 36 dB
-    lines += ["", "#### Issue 34's targets at body SNR ≥ 36 dB (pass/fail on the point estimate)", "",
-              "| target | value [95 % CI] (k/n) | pass |", "|---|---|---|"]
-    for key, label, test in [("imb_named", "blade_imbalance named ≥ 90 %", lambda v: v >= 0.9),
-                             ("imb_db_within", "imbalance_db within 1.5 dB (share of those named; "
-                                               "no threshold given, 90 % used)", lambda v: v >= 0.9),
-                             ("imb_spurious", "spurious blade_imbalance ≤ 5 %", lambda v: v <= 0.05),
-                             ("unexpl_outside", "unexplained on outside flights ≥ 90 %", lambda v: v >= 0.9),
-                             ("none_outside", "none on outside flights = 0", lambda v: v == 0),
-                             ("none_outside_resolvable", "none on outside flights = 0, of those whose effect "
-                                                         "reaches the margin", lambda v: v == 0),
-                             ("unexpl_catalog", "unexplained on catalog-only flights ≤ 5 %", lambda v: v <= 0.05)]:
+    lines += [
+        "",
+        "#### Issue 34's targets at body SNR ≥ 36 dB (pass/fail on the point estimate)",
+        "",
+        "| target | value [95 % CI] (k/n) | pass |",
+        "|---|---|---|",
+    ]
+    for key, label, test in [
+        ("imb_named", "blade_imbalance named ≥ 90 %", lambda v: v >= 0.9),
+        (
+            "imb_db_within",
+            "imbalance_db within 1.5 dB (share of those named; no threshold given, 90 % used)",
+            lambda v: v >= 0.9,
+        ),
+        ("imb_spurious", "spurious blade_imbalance ≤ 5 %", lambda v: v <= 0.05),
+        ("unexpl_outside", "unexplained on outside flights ≥ 90 %", lambda v: v >= 0.9),
+        ("none_outside", "none on outside flights = 0", lambda v: v == 0),
+        (
+            "none_outside_resolvable",
+            "none on outside flights = 0, of those whose effect reaches the margin",
+            lambda v: v == 0,
+        ),
+        ("unexpl_catalog", "unexplained on catalog-only flights ≤ 5 %", lambda v: v <= 0.05),
+    ]:
         v = out["rates"][f"{key} ≥36 all"]
         num = int(round(v[0] * v[3])) if v[3] else 0
         ok = "–" if v[3] == 0 else ("PASS" if test(v[0]) else "FAIL")
@@ -976,12 +1206,16 @@ def summarise_paired(rows: list[dict], before: dict, boot_seed: int, n_boot: int
     kind = np.array([r["kind"] for r in P])
     out: dict = {"flights": len(P), "per_cause": {}, "overall": {}}
     bands = [("≥36", band == "≥36"), ("<36", band == "<36"), ("all", np.ones(len(P), bool))]
-    lines = ["### Before/after on the same stores (existing causes; 95 % flight-bootstrap CIs)", "",
-             f"{len(P)} flights holding only catalog causes other than blade_imbalance (one-cause, two-cause, "
-             "clean), each written once as a flight-zarr store and diagnosed by both codes. Resolved: the CI of "
-             "after − before excludes 0.", "",
-             "| cause | SNR | flights with it | recall before | recall after | after − before |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "### Before/after on the same stores (existing causes; 95 % flight-bootstrap CIs)",
+        "",
+        f"{len(P)} flights holding only catalog causes other than blade_imbalance (one-cause, two-cause, "
+        "clean), each written once as a flight-zarr store and diagnosed by both codes. Resolved: the CI of "
+        "after − before excludes 0.",
+        "",
+        "| cause | SNR | flights with it | recall before | recall after | after − before |",
+        "|---|---|---|---|---|---|",
+    ]
     for c in OLD_CAUSES:
         has = np.array([c in r["true"] for r in P])
         hit_a = np.array([c in r["named"] for r in P]) & has
@@ -992,8 +1226,10 @@ def summarise_paired(rows: list[dict], before: dict, boot_seed: int, n_boot: int
             vb, va = S.ratio(hit_b & m, has & m), S.ratio(hit_a & m, has & m)
             d = S.ratio((hit_a.astype(float) - hit_b) * m, has & m)
             out["per_cause"][f"{c} {bn}"] = {"before": vb, "after": va, "diff": d}
-            lines.append(f"| {c} | {bn} | {int((has & m).sum())} | {_cell(vb, int((hit_b & m).sum()))} | "
-                         f"{_cell(va, int((hit_a & m).sum()))} | {_diff_cell(d)} |")
+            lines.append(
+                f"| {c} | {bn} | {int((has & m).sum())} | {_cell(vb, int((hit_b & m).sum()))} | "
+                f"{_cell(va, int((hit_a & m).sum()))} | {_diff_cell(d)} |"
+            )
     n_true = np.array([len(r["true"]) for r in P])
     n_hit_a = np.array([len(set(r["true"]) & set(r["named"])) for r in P])
     n_hit_b = np.array([len(set(r["true"]) & set(b["named"])) for r, b in zip(P, B)])
@@ -1006,24 +1242,47 @@ def summarise_paired(rows: list[dict], before: dict, boot_seed: int, n_boot: int
     unex_a = np.array([UNEXPLAINED in r["named"] for r in P])
     lines += ["", "| measure | SNR | n | before | after | after − before |", "|---|---|---|---|---|---|"]
     for label, key, nb, na, den in [
-            ("true causes named (recall over all true causes)", "recall", n_hit_b, n_hit_a, n_true),
-            ("flights naming a catalog cause they lack (the six earlier causes)", "spurious", spur_b, spur_a,
-             np.ones(len(P))),
-            ("… of those: two-cause flights", "spurious_two", spur_b * (kind == "two"), spur_a * (kind == "two"),
-             kind == "two"),
-            ("… of those: clean flights (false alarms)", "false_alarm", spur_b * (kind == "clean"),
-             spur_a * (kind == "clean"), kind == "clean"),
-            ("flights naming a catalog cause they lack, blade_imbalance counted (after only)", "spurious_any",
-             spur_b, spur_a_imb, np.ones(len(P))),
-            ("skipped (undiagnosable)", "skipped", skip_b, skip_a, np.ones(len(P))),
-            ("unexplained (after only)", "unexplained", np.zeros(len(P)), unex_a, np.ones(len(P)))]:
+        ("true causes named (recall over all true causes)", "recall", n_hit_b, n_hit_a, n_true),
+        (
+            "flights naming a catalog cause they lack (the six earlier causes)",
+            "spurious",
+            spur_b,
+            spur_a,
+            np.ones(len(P)),
+        ),
+        (
+            "… of those: two-cause flights",
+            "spurious_two",
+            spur_b * (kind == "two"),
+            spur_a * (kind == "two"),
+            kind == "two",
+        ),
+        (
+            "… of those: clean flights (false alarms)",
+            "false_alarm",
+            spur_b * (kind == "clean"),
+            spur_a * (kind == "clean"),
+            kind == "clean",
+        ),
+        (
+            "flights naming a catalog cause they lack, blade_imbalance counted (after only)",
+            "spurious_any",
+            spur_b,
+            spur_a_imb,
+            np.ones(len(P)),
+        ),
+        ("skipped (undiagnosable)", "skipped", skip_b, skip_a, np.ones(len(P))),
+        ("unexplained (after only)", "unexplained", np.zeros(len(P)), unex_a, np.ones(len(P))),
+    ]:
         for bn, m in bands:
             vb = S.ratio(np.asarray(nb, float) * m, np.asarray(den, float) * m)
             va = S.ratio(np.asarray(na, float) * m, np.asarray(den, float) * m)
             d = S.ratio((np.asarray(na, float) - np.asarray(nb, float)) * m, np.asarray(den, float) * m)
             out["overall"][f"{key} {bn}"] = {"before": vb, "after": va, "diff": d}
-            lines.append(f"| {label} | {bn} | {vb[3]} | {_cell(vb, int(round(np.sum(np.asarray(nb) * m))))} | "
-                         f"{_cell(va, int(round(np.sum(np.asarray(na) * m))))} | {_diff_cell(d)} |")
+            lines.append(
+                f"| {label} | {bn} | {vb[3]} | {_cell(vb, int(round(np.sum(np.asarray(nb) * m))))} | "
+                f"{_cell(va, int(round(np.sum(np.asarray(na) * m))))} | {_diff_cell(d)} |"
+            )
     # issue 34's known hole: phase noise with a sideband cause
     side = ("sideband_fading", "sideband_asymmetry")
     pn = [(r, b) for r, b in zip(P, B) if "phase_noise" in r["true"] and any(c in r["true"] for c in side)]
@@ -1031,8 +1290,10 @@ def summarise_paired(rows: list[dict], before: dict, boot_seed: int, n_boot: int
         sb = sum(any(c in b["named"] for c in side if c in r["true"]) for r, b in pn)
         sa = sum(any(c in r["named"] for c in side if c in r["true"]) for r, b in pn)
         out["pn_sideband"] = {"n": len(pn), "before": sb, "after": sa}
-        lines.append(f"\nPhase noise with a sideband cause: the sideband cause named on {sb}/{len(pn)} flights "
-                     f"before, {sa}/{len(pn)} after.")
+        lines.append(
+            f"\nPhase noise with a sideband cause: the sideband cause named on {sb}/{len(pn)} flights "
+            f"before, {sa}/{len(pn)} after."
+        )
     return "\n".join(lines), out
 
 
@@ -1067,13 +1328,20 @@ def run_before(store_dir: str, before_src: str) -> tuple[dict, dict]:
     out = Path(store_dir) / "_before.json"
     env = {**os.environ, "PYTHONPATH": str(Path(before_src).resolve()), "OMP_NUM_THREADS": "1"}
     t0, c0 = time.time(), os.times()
-    subprocess.run([sys.executable, str(Path(__file__).with_name("diagnose_stores.py")), store_dir,
-                    "--out", str(out)], env=env, check=True)
+    subprocess.run(
+        [sys.executable, str(Path(__file__).with_name("diagnose_stores.py")), store_dir, "--out", str(out)],
+        env=env,
+        check=True,
+    )
     c1 = os.times()
-    commit = subprocess.run(["git", "-C", str(Path(before_src).resolve()), "rev-parse", "HEAD"],
-                            capture_output=True, text=True).stdout.strip()
-    info = {"commit": commit or None, "wall_s": round(time.time() - t0, 1),
-            "cpu_s": round((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system), 1)}
+    commit = subprocess.run(
+        ["git", "-C", str(Path(before_src).resolve()), "rev-parse", "HEAD"], capture_output=True, text=True
+    ).stdout.strip()
+    info = {
+        "commit": commit or None,
+        "wall_s": round(time.time() - t0, 1),
+        "cpu_s": round((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system), 1),
+    }
     return json.loads(out.read_text()), info
 
 
@@ -1084,12 +1352,21 @@ def resummarise(a) -> int:
     remade at its last nominal SNR) where the rows predate them."""
     data = json.loads(Path(a.summarise).read_text())
     rows, seed = data["rows"], data["seed"]
-    plan = {p["flight_id"]: p for p in make_plan(seed, data["args"]["flights_per_cause"], data["args"]["two_cause"],
-                                                  data["args"]["clean"], data["args"]["duration_s"],
-                                                  data["args"]["high_snr_share"], data["args"].get("causes"),
-                                                  data["args"].get("falloff_db"),
-                                                  data["args"].get("generators", "both"),
-                                                  data["args"].get("outside", 0))}
+    plan = {
+        p["flight_id"]: p
+        for p in make_plan(
+            seed,
+            data["args"]["flights_per_cause"],
+            data["args"]["two_cause"],
+            data["args"]["clean"],
+            data["args"]["duration_s"],
+            data["args"]["high_snr_share"],
+            data["args"].get("causes"),
+            data["args"].get("falloff_db"),
+            data["args"].get("generators", "both"),
+            data["args"].get("outside", 0),
+        )
+    }
     for r in rows:
         p = plan[r["flight_id"]]
         r.setdefault("duration_s", p["duration_s"])
@@ -1115,34 +1392,71 @@ def main(argv=None) -> int:
     ap.add_argument("--flights-per-cause", type=int, default=10, help="one-cause flights per cause (default 10)")
     ap.add_argument("--two-cause", type=int, default=20, help="flights with two causes at once (default 20)")
     ap.add_argument("--clean", type=int, default=10, help="flights without an effect (default 10)")
-    ap.add_argument("--outside", type=int, default=0,
-                    help="flights with an out-of-catalog effect, half emulated and altered, half from the "
-                         "independent generator (default 0)")
+    ap.add_argument(
+        "--outside",
+        type=int,
+        default=0,
+        help="flights with an out-of-catalog effect, half emulated and altered, half from the "
+        "independent generator (default 0)",
+    )
     ap.add_argument("--seed", type=int, default=None, help="seed of the plan (default: fresh random, printed)")
     ap.add_argument("--duration-s", type=float, default=40.0, help="flight duration [s] (default 40)")
-    ap.add_argument("--high-snr-share", type=float, default=0.6,
-                    help="share of flights with a target body SNR >= 36 dB (default 0.6)")
-    ap.add_argument("--causes", type=lambda v: [c for c in v.split(",") if c], default=None,
-                    help="comma-separated catalog causes to restrict the one- and two-cause flights to "
-                         "(default: all); e.g. sideband_fading,body_fluctuation")
-    ap.add_argument("--falloff-db", type=lambda v: tuple(float(x) for x in v.split(",")), default=None,
-                    metavar="LO,HI", help="draw the emulator flights' sideband fall-off per harmonic log-uniformly "
-                                          "in LO-HI dB (default: the emulator's own draw, 4-16 dB); e.g. 10,16")
-    ap.add_argument("--generators", choices=("both", "emulator", "independent"), default="both",
-                    help="which generator makes the flights (default both, alternating)")
-    ap.add_argument("--json", default="", help="write the per-flight rows and the summary here (with --summarise: "
-                                               "the earlier record with this code's summary)")
+    ap.add_argument(
+        "--high-snr-share",
+        type=float,
+        default=0.6,
+        help="share of flights with a target body SNR >= 36 dB (default 0.6)",
+    )
+    ap.add_argument(
+        "--causes",
+        type=lambda v: [c for c in v.split(",") if c],
+        default=None,
+        help="comma-separated catalog causes to restrict the one- and two-cause flights to "
+        "(default: all); e.g. sideband_fading,body_fluctuation",
+    )
+    ap.add_argument(
+        "--falloff-db",
+        type=lambda v: tuple(float(x) for x in v.split(",")),
+        default=None,
+        metavar="LO,HI",
+        help="draw the emulator flights' sideband fall-off per harmonic log-uniformly "
+        "in LO-HI dB (default: the emulator's own draw, 4-16 dB); e.g. 10,16",
+    )
+    ap.add_argument(
+        "--generators",
+        choices=("both", "emulator", "independent"),
+        default="both",
+        help="which generator makes the flights (default both, alternating)",
+    )
+    ap.add_argument(
+        "--json",
+        default="",
+        help="write the per-flight rows and the summary here (with --summarise: "
+        "the earlier record with this code's summary)",
+    )
     ap.add_argument("--markdown", default="", help="write the tables here")
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     ap.add_argument("--n-boot", type=int, default=2000, help="bootstrap replicates (default 2000)")
-    ap.add_argument("--summarise", default="", metavar="JSON",
-                    help="summarise the rows of an earlier run's --json file again (no flights are made)")
-    ap.add_argument("--before-src", default="", metavar="DIR",
-                    help="the src/ folder of an older checkout: diagnose the catalog-cause flights' stores with it "
-                         "too, after the loop, and compare before/after on the same flights")
-    ap.add_argument("--stores", default="", metavar="DIR",
-                    help="where the paired flights' flight-zarr stores go (default: a temporary folder, removed "
-                         "at the end); only with --before-src")
+    ap.add_argument(
+        "--summarise",
+        default="",
+        metavar="JSON",
+        help="summarise the rows of an earlier run's --json file again (no flights are made)",
+    )
+    ap.add_argument(
+        "--before-src",
+        default="",
+        metavar="DIR",
+        help="the src/ folder of an older checkout: diagnose the catalog-cause flights' stores with it "
+        "too, after the loop, and compare before/after on the same flights",
+    )
+    ap.add_argument(
+        "--stores",
+        default="",
+        metavar="DIR",
+        help="where the paired flights' flight-zarr stores go (default: a temporary folder, removed "
+        "at the end); only with --before-src",
+    )
     a = ap.parse_args(argv)
     if a.summarise:
         return resummarise(a)
@@ -1166,18 +1480,33 @@ def main(argv=None) -> int:
         ap.error(f"--causes: {unknown} not in the catalog {CAUSE_LIST}")
     seed = a.seed if a.seed is not None else secrets.randbits(32)
     print(f"seed {seed} (rerun: --seed {seed})", flush=True)
-    plan = make_plan(seed, a.flights_per_cause, a.two_cause, a.clean, a.duration_s, a.high_snr_share, a.causes,
-                     a.falloff_db, a.generators, a.outside)
+    plan = make_plan(
+        seed,
+        a.flights_per_cause,
+        a.two_cause,
+        a.clean,
+        a.duration_s,
+        a.high_snr_share,
+        a.causes,
+        a.falloff_db,
+        a.generators,
+        a.outside,
+    )
     n = len(plan)
     if n == 0:
         ap.error("no flights planned")
     n_paired = sum(is_paired(p) for p in plan) if a.before_src else 0
-    est = (n * (EMU_S_PER_FLIGHT_S * a.duration_s * EMULATIONS_PER_FLIGHT + DIAG_S * a.duration_s)
-           + n_paired * DIAG_BEFORE_S * a.duration_s) / a.workers
+    est = (
+        n * (EMU_S_PER_FLIGHT_S * a.duration_s * EMULATIONS_PER_FLIGHT + DIAG_S * a.duration_s)
+        + n_paired * DIAG_BEFORE_S * a.duration_s
+    ) / a.workers
     n_causes = len(a.causes) if a.causes else len(CAUSE_LIST)
-    print(f"{n} flights ({a.flights_per_cause} per cause x {n_causes}, {a.two_cause} two-cause, "
-          f"{a.clean} clean, {a.outside} outside; {n_paired} also diagnosed by the earlier code), "
-          f"{a.duration_s:g} s each, {a.workers} worker(s): estimated {est / 60:.1f} min", flush=True)
+    print(
+        f"{n} flights ({a.flights_per_cause} per cause x {n_causes}, {a.two_cause} two-cause, "
+        f"{a.clean} clean, {a.outside} outside; {n_paired} also diagnosed by the earlier code), "
+        f"{a.duration_s:g} s each, {a.workers} worker(s): estimated {est / 60:.1f} min",
+        flush=True,
+    )
     tmp_stores = None
     store_dir = None
     if a.before_src:
@@ -1201,17 +1530,24 @@ def main(argv=None) -> int:
     for r in it:
         rows.append(r)
         el = time.time() - t0
-        print(f"[{len(rows)}/{n} {el:.0f} s, eta {el / len(rows) * (n - len(rows)):.0f} s] {r['flight_id']} "
-              f"{r['generator'][:3]} {r['radar']:6s} snr={r['snr_db']:5.1f} true={r['true']} named={r['named']} "
-              f"{r['reason'] or ''} ({r['seconds_make']:.1f}+{r['seconds_diagnose']:.1f} s)", flush=True)
+        print(
+            f"[{len(rows)}/{n} {el:.0f} s, eta {el / len(rows) * (n - len(rows)):.0f} s] {r['flight_id']} "
+            f"{r['generator'][:3]} {r['radar']:6s} snr={r['snr_db']:5.1f} true={r['true']} named={r['named']} "
+            f"{r['reason'] or ''} ({r['seconds_make']:.1f}+{r['seconds_diagnose']:.1f} s)",
+            flush=True,
+        )
     if a.workers > 1:
         pool.close()
         pool.join()
     rows.sort(key=lambda r: r["flight_id"])
     wall = time.time() - t0
     c1 = os.times()
-    cpu = (c1.user - c0.user) + (c1.system - c0.system) + (c1.children_user - c0.children_user) + (
-        c1.children_system - c0.children_system)
+    cpu = (
+        (c1.user - c0.user)
+        + (c1.system - c0.system)
+        + (c1.children_user - c0.children_user)
+        + (c1.children_system - c0.children_system)
+    )
     before, before_info = {}, None
     if a.before_src:
         print(f"diagnosing {sum(r['stored'] for r in rows)} stores with the code in {a.before_src}", flush=True)
@@ -1227,12 +1563,16 @@ def main(argv=None) -> int:
             tmp.write_text(json.dumps({"seed": seed, "args": args, "rows": rows}, indent=1, default=float))
     text, out = report(rows, seed, a.n_boot, before)
     per = np.mean([r["seconds_make"] + r["seconds_diagnose"] for r in rows])
-    footer = (f"\n{n} flights, seed {seed}, {a.duration_s:g} s each; wall {wall:.0f} s, CPU {cpu:.0f} s with "
-              f"{a.workers} worker(s) ({per:.1f} s per flight: make {np.mean([r['seconds_make'] for r in rows]):.1f} s, "
-              f"diagnose {np.mean([r['seconds_diagnose'] for r in rows]):.1f} s)")
+    footer = (
+        f"\n{n} flights, seed {seed}, {a.duration_s:g} s each; wall {wall:.0f} s, CPU {cpu:.0f} s with "
+        f"{a.workers} worker(s) ({per:.1f} s per flight: make {np.mean([r['seconds_make'] for r in rows]):.1f} s, "
+        f"diagnose {np.mean([r['seconds_diagnose'] for r in rows]):.1f} s)"
+    )
     if before_info:
-        footer += (f"; the earlier code ({before_info['commit']}) on {len(before)} stores: wall "
-                   f"{before_info['wall_s']:.0f} s, CPU {before_info['cpu_s']:.0f} s")
+        footer += (
+            f"; the earlier code ({before_info['commit']}) on {len(before)} stores: wall "
+            f"{before_info['wall_s']:.0f} s, CPU {before_info['cpu_s']:.0f} s"
+        )
     reasons: dict = {}
     for r in rows:
         if r["reason"]:
@@ -1242,9 +1582,21 @@ def main(argv=None) -> int:
     print("\n" + text + "\n" + footer, flush=True)
     if a.json:
         with atomic_file(a.json) as tmp:
-            tmp.write_text(json.dumps({"seed": seed, "args": args, "rows": rows, "summary": out,
-                                       "before": before_info, "wall_s": round(wall, 1), "cpu_s": round(cpu, 1)},
-                                      indent=1, default=float))
+            tmp.write_text(
+                json.dumps(
+                    {
+                        "seed": seed,
+                        "args": args,
+                        "rows": rows,
+                        "summary": out,
+                        "before": before_info,
+                        "wall_s": round(wall, 1),
+                        "cpu_s": round(cpu, 1),
+                    },
+                    indent=1,
+                    default=float,
+                )
+            )
     if a.markdown:
         with atomic_file(a.markdown) as tmp:
             tmp.write_text(text + "\n" + footer + "\n")

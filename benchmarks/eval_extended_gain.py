@@ -82,8 +82,11 @@ def evaluate_flight(p: dict) -> dict:
     row.update(true=sorted(p["effects"]), snr_db=round(snr, 2))
     try:
         e = diagnose_flight(flight, config={"figures": False})
-        named = {c["cause"]: catalog_params(c["cause"], (c.get("extension") or {}).get("params"))
-                 for c in e["causes"] if c["cause"] != UNEXPLAINED}   # a goodness of fit: no extension
+        named = {
+            c["cause"]: catalog_params(c["cause"], (c.get("extension") or {}).get("params"))
+            for c in e["causes"]
+            if c["cause"] != UNEXPLAINED
+        }  # a goodness of fit: no extension
     except Undiagnosable as exc:
         row.update(named=[], reason=f"skipped: {exc.reason}")
         return row
@@ -98,15 +101,18 @@ def evaluate_flight(p: dict) -> dict:
     out = {}
     for variant in ("sub_cpi", "extended"):
         use = ext if variant == "extended" else ExtensionSet({})
-        rev, _ = resample_flight("sub_cpi", use.transform_log(ml), n, prf, model, settings=SUB_CPI,
-                                 n_fft=spec_cfg.n_fft, seed=seed)
+        rev, _ = resample_flight(
+            "sub_cpi", use.transform_log(ml), n, prf, model, settings=SUB_CPI, n_fft=spec_cfg.n_fft, seed=seed
+        )
         kw = {}
         if use.effects:
             # as the pipeline's extended twins (datasets.calibration): the synthesis's
             # extensions, the post-processing and each blade's amplitude (blade_imbalance)
-            kw = dict(extensions=lambda s: use.model_extensions(prf_hz=prf, n_pulses=n, seed=s),
-                      post=lambda x: use.post(x, prf_hz=prf, seed=seed),
-                      blade_amplitudes=use.blade_amplitudes(int(flight.attrs["n_blades"])))
+            kw = dict(
+                extensions=lambda s: use.model_extensions(prf_hz=prf, n_pulses=n, seed=s),
+                post=lambda x: use.post(x, prf_hz=prf, seed=seed),
+                blade_amplitudes=use.blade_amplitudes(int(flight.attrs["n_blades"])),
+            )
         iq, res = fit_twin(flight, rev, use.transform_log(ml), spec_cfg=spec_cfg, cfg=cfg, seed=seed, **kw)
         injected = inject(iq, flight.background_iq, effects=dict(use.effects), prf_hz=prf, seed=seed)
         twin = flight_features(flight, injected, ml, spec_cfg=spec_cfg)
@@ -121,8 +127,10 @@ def summarise(rows: list[dict], seed: int, n_boot: int) -> tuple[str, dict]:
     with flight-bootstrap CIs, on flights with and without the cause."""
     rows = [r for r in rows if "distances" in r]
     draws = draw_flights([r["flight_id"] for r in rows], n_boot=n_boot, seed=seed)
-    lines = ["| cause | feature | flights | sub_cpi | extended | extended − sub_cpi [95 % CI] | resolved |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        "| cause | feature | flights | sub_cpi | extended | extended − sub_cpi [95 % CI] | resolved |",
+        "|---|---|---|---|---|---|---|",
+    ]
     out = {}
 
     def stat(v, m):
@@ -141,15 +149,25 @@ def summarise(rows: list[dict], seed: int, n_boot: int) -> tuple[str, dict]:
                     continue
                 a, b, d = stat(s, m), stat(x, m), stat(x - s, m)
                 res = resolved(d[1], d[2])
-                out[f"{cause} {feat} {label}"] = {"n": int(m.sum()), "sub_cpi": a, "extended": b, "diff": d,
-                                                  "resolved": res}
-                lines.append(f"| {cause} ({label}) | {feat} [{DISTANCES[feat]}] | {int(m.sum())} | {a[0]:.3g} | "
-                             f"{b[0]:.3g} | {d[0]:+.3g} [{d[1]:+.3g}, {d[2]:+.3g}] | {'yes' if res else 'no'} |")
+                out[f"{cause} {feat} {label}"] = {
+                    "n": int(m.sum()),
+                    "sub_cpi": a,
+                    "extended": b,
+                    "diff": d,
+                    "resolved": res,
+                }
+                lines.append(
+                    f"| {cause} ({label}) | {feat} [{DISTANCES[feat]}] | {int(m.sum())} | {a[0]:.3g} | "
+                    f"{b[0]:.3g} | {d[0]:+.3g} [{d[1]:+.3g}, {d[2]:+.3g}] | {'yes' if res else 'no'} |"
+                )
     named_true = sum(len(set(r["named"]) & set(r["true"])) for r in rows)
     n_true = sum(len(r["true"]) for r in rows)
     spurious = sum(len(set(r["named"]) - set(r["true"])) for r in rows)
-    lines += ["", f"{len(rows)} flights twinned; diagnosis named {named_true} of {n_true} true causes, "
-              f"{spurious} spurious (the extended twins carry what was named, not the truth)"]
+    lines += [
+        "",
+        f"{len(rows)} flights twinned; diagnosis named {named_true} of {n_true} true causes, "
+        f"{spurious} spurious (the extended twins carry what was named, not the truth)",
+    ]
     return "\n".join(lines), out
 
 
@@ -182,22 +200,31 @@ def main(argv=None) -> int:
         rows.append(r)
         el = time.time() - t0
         d = r.get("distances", {})
-        brief = " ".join(f"{f}:{d['sub_cpi'][f]:.3g}->{d['extended'][f]:.3g}"
-                         for c in r["true"] for f in CAUSE_FEATURES[c]) if d else r.get("reason", "")
-        print(f"[{len(rows)}/{len(plan)} {el:.0f} s] {r['flight_id']} {r['generator'][:3]} snr={r['snr_db']:.1f} "
-              f"true={r['true']} named={r.get('named')} {brief}", flush=True)
+        brief = (
+            " ".join(f"{f}:{d['sub_cpi'][f]:.3g}->{d['extended'][f]:.3g}" for c in r["true"] for f in CAUSE_FEATURES[c])
+            if d
+            else r.get("reason", "")
+        )
+        print(
+            f"[{len(rows)}/{len(plan)} {el:.0f} s] {r['flight_id']} {r['generator'][:3]} snr={r['snr_db']:.1f} "
+            f"true={r['true']} named={r.get('named')} {brief}",
+            flush=True,
+        )
     if a.workers > 1:
         pool.close()
         pool.join()
     rows.sort(key=lambda r: r["flight_id"])
     text, out = summarise(rows, seed=a.seed ^ 0x6A1, n_boot=a.n_boot)
-    text += f"\n\n{len(plan)} flights, seed {a.seed}, {a.duration_s:g} s each; wall {time.time() - t0:.0f} s, " \
-            f"{a.workers} worker(s)"
+    text += (
+        f"\n\n{len(plan)} flights, seed {a.seed}, {a.duration_s:g} s each; wall {time.time() - t0:.0f} s, "
+        f"{a.workers} worker(s)"
+    )
     print("\n" + text, flush=True)
     if a.json:
         with atomic_file(a.json) as tmp:
-            tmp.write_text(json.dumps({"seed": a.seed, "args": vars(a), "rows": rows, "summary": out}, indent=1,
-                                      default=float))
+            tmp.write_text(
+                json.dumps({"seed": a.seed, "args": vars(a), "rows": rows, "summary": out}, indent=1, default=float)
+            )
     if a.markdown:
         with atomic_file(a.markdown) as tmp:
             tmp.write_text(text + "\n")

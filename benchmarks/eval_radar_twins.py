@@ -71,15 +71,30 @@ def one_flight(spec: FlightSpec, spec_cfg: SpectrogramConfig) -> list[dict]:
         twin_features = flight_features(flight, iq + flight.background_iq, logs["log"], spec_cfg=spec_cfg)
         mask, _ = scoring_mask(res, len(twin_features.time_s))
         vi = distances(measured_features, twin_features, mask)
-        rows.append({"flight_id": spec.flight_id, "drone_model": spec.drone_model, "radar_id": spec.radar_id,
-                     "source": source, "status": res["status"],
-                     "line_error_pct": float(np.nanmedian(rel)) if np.isfinite(rel).any() else np.nan,
-                     "body_error_db": res["body_error_db"], "sideband1_error_db": res["sideband1_error_db"],
-                     "pairs_error": res["n_pairs_twin"] - res["n_pairs_measured"],
-                     **{f"vi_{k}": v for k, v in vi.items()}})
+        rows.append(
+            {
+                "flight_id": spec.flight_id,
+                "drone_model": spec.drone_model,
+                "radar_id": spec.radar_id,
+                "source": source,
+                "status": res["status"],
+                "line_error_pct": float(np.nanmedian(rel)) if np.isfinite(rel).any() else np.nan,
+                "body_error_db": res["body_error_db"],
+                "sideband1_error_db": res["sideband1_error_db"],
+                "pairs_error": res["n_pairs_twin"] - res["n_pairs_measured"],
+                **{f"vi_{k}": v for k, v in vi.items()},
+            }
+        )
     if not est.ok:
-        rows.append({"flight_id": spec.flight_id, "drone_model": spec.drone_model, "radar_id": spec.radar_id,
-                     "source": "radar", "status": f"no estimate: {est.reason}"})
+        rows.append(
+            {
+                "flight_id": spec.flight_id,
+                "drone_model": spec.drone_model,
+                "radar_id": spec.radar_id,
+                "source": "radar",
+                "status": f"no estimate: {est.reason}",
+            }
+        )
     return rows
 
 
@@ -100,10 +115,20 @@ def summarise(df: pd.DataFrame, seed: int) -> pd.DataFrame:
             b = np.abs(both[(t, first)].to_numpy(float))
             ra, rb = ratio_replicates(a, ones, draws), ratio_replicates(b, ones, draws)
             lo, hi = interval(rb - ra)
-            out.append({"difference": f"{first} - {second}", "term": f"|{t}|", "second": a.mean(),
-                        "second_ci95": interval(ra), "first": b.mean(), "first_ci95": interval(rb),
-                        "first_minus_second": b.mean() - a.mean(), "diff_ci95": (lo, hi),
-                        "resolved": resolved(lo, hi), "n_flights": len(both)})
+            out.append(
+                {
+                    "difference": f"{first} - {second}",
+                    "term": f"|{t}|",
+                    "second": a.mean(),
+                    "second_ci95": interval(ra),
+                    "first": b.mean(),
+                    "first_ci95": interval(rb),
+                    "first_minus_second": b.mean() - a.mean(),
+                    "diff_ci95": (lo, hi),
+                    "resolved": resolved(lo, hi),
+                    "n_flights": len(both),
+                }
+            )
     return pd.DataFrame(out)
 
 
@@ -118,10 +143,17 @@ def main(argv=None) -> int:
     rows = []
     for model in ("inspire2", "matrice300"):
         for k in range(a.per_model):
-            spec = FlightSpec(f"{model[:3]}{k:02d}", "drone", drone_model=model, radar_id=("radar1", "radar2")[k % 2],
-                              duration_s=a.duration_s, mean_range_m=float(rng.uniform(800, 2500)),
-                              speed_mps=float(rng.uniform(3, 10)), snr_db=float(rng.uniform(38, 46)),
-                              seed=int(rng.integers(2**31)))
+            spec = FlightSpec(
+                f"{model[:3]}{k:02d}",
+                "drone",
+                drone_model=model,
+                radar_id=("radar1", "radar2")[k % 2],
+                duration_s=a.duration_s,
+                mean_range_m=float(rng.uniform(800, 2500)),
+                speed_mps=float(rng.uniform(3, 10)),
+                snr_db=float(rng.uniform(38, 46)),
+                seed=int(rng.integers(2**31)),
+            )
             rows += one_flight(spec, spec_cfg)
             print(pd.DataFrame(rows[-3:]).round(4).to_string(index=False, header=len(rows) <= 3), flush=True)
     df = pd.DataFrame(rows)

@@ -105,8 +105,13 @@ def flight_ci(tables: list[pd.DataFrame], n_boot: int) -> tuple[float, float]:
 
     flights = tables[0].groupby("flight_id", sort=True)["target"].first()
     draws = draw_flights(flights.index, strata=flights.to_numpy(), n_seeds=len(tables), n_boot=n_boot, seed=0)
-    num = np.array([(t["target"] == t["predicted"]).groupby(t["flight_id"]).sum().reindex(flights.index).to_numpy()
-                    for t in tables], float)
+    num = np.array(
+        [
+            (t["target"] == t["predicted"]).groupby(t["flight_id"]).sum().reindex(flights.index).to_numpy()
+            for t in tables
+        ],
+        float,
+    )
     den = tables[0].groupby("flight_id").size().reindex(flights.index).to_numpy(float)
     lo, hi = interval(ratio_replicates(num, den, draws))
     return 100 * lo, 100 * hi

@@ -40,8 +40,9 @@ def main() -> None:
 
     with open(a.config) as fh:
         sc = (yaml.safe_load(fh) or {}).get("spectrogram", {})
-    spec_cfg = SpectrogramConfig(n_fft=sc.get("n_fft", 4096), overlap=sc.get("overlap", 0.5),
-                                 highpass_hz=sc.get("highpass_hz", 15.0))
+    spec_cfg = SpectrogramConfig(
+        n_fft=sc.get("n_fft", 4096), overlap=sc.get("overlap", 0.5), highpass_hz=sc.get("highpass_hz", 15.0)
+    )
     n_tile = int(sc.get("tile_timesteps", 20))
     res = Path(a.results)
     split = pd.read_csv(res / "splits" / "flights.csv")
@@ -55,25 +56,41 @@ def main() -> None:
         f = flight_features(flight, flight.iq, ml, spec_cfg=spec_cfg)
         has = f.n_pairs >= 1
         for i in range(0, len(has) - n_tile + 1, n_tile):
-            rows.append({"flight_id": s.flight_id, "drone_model": s.drone_model, "radar_id": s.radar_id,
-                         "share_with_pair": float(has[i:i + n_tile].mean()),
-                         "mean_pairs": float(f.n_pairs[i:i + n_tile].mean()),
-                         "body_snr_db": float(np.nanmean(f.body_db[i:i + n_tile]))})
+            rows.append(
+                {
+                    "flight_id": s.flight_id,
+                    "drone_model": s.drone_model,
+                    "radar_id": s.radar_id,
+                    "share_with_pair": float(has[i : i + n_tile].mean()),
+                    "mean_pairs": float(f.n_pairs[i : i + n_tile].mean()),
+                    "body_snr_db": float(np.nanmean(f.body_db[i : i + n_tile])),
+                }
+            )
     df = pd.DataFrame(rows)
     print(f"{len(df)} images of {df.flight_id.nunique()} large-drone flights ({a.sets})")
     for key, g in [("all", df), *df.groupby(["drone_model", "radar_id"])]:
-        print(f"  {str(key):28s} images {len(g):4d}  mean pairs {g.mean_pairs.mean():.2f}  "
-              + "  ".join(f"<{int(100 * q)} % of CPIs with a pair: {100 * (g.share_with_pair < q).mean():.1f} %"
-                          for q in (0.25, 0.5, 0.75))
-              + f"  body SNR {g.body_snr_db.mean():.1f} dB")
-    print(f"  least share of CPIs with a pair in one image: {100 * df.share_with_pair.min():.0f} %; "
-          f"images with a pair in every CPI: {100 * (df.share_with_pair == 1).mean():.1f} %")
+        print(
+            f"  {str(key):28s} images {len(g):4d}  mean pairs {g.mean_pairs.mean():.2f}  "
+            + "  ".join(
+                f"<{int(100 * q)} % of CPIs with a pair: {100 * (g.share_with_pair < q).mean():.1f} %"
+                for q in (0.25, 0.5, 0.75)
+            )
+            + f"  body SNR {g.body_snr_db.mean():.1f} dB"
+        )
+    print(
+        f"  least share of CPIs with a pair in one image: {100 * df.share_with_pair.min():.0f} %; "
+        f"images with a pair in every CPI: {100 * (df.share_with_pair == 1).mean():.1f} %"
+    )
     bins = [-np.inf, 20, 25, 30, 35, 40, np.inf]
-    for (lo, hi), g in zip(zip(bins[:-1], bins[1:]), [df[(df.body_snr_db >= lo) & (df.body_snr_db < hi)]
-                                                      for lo, hi in zip(bins[:-1], bins[1:])]):
+    for (lo, hi), g in zip(
+        zip(bins[:-1], bins[1:]),
+        [df[(df.body_snr_db >= lo) & (df.body_snr_db < hi)] for lo, hi in zip(bins[:-1], bins[1:])],
+    ):
         if len(g):
-            print(f"  body SNR {lo:>5} to {hi:<5} dB: {len(g):4d} images, mean pairs {g.mean_pairs.mean():.2f}, "
-                  f"share of CPIs with a pair {100 * g.share_with_pair.mean():.1f} % (min {100 * g.share_with_pair.min():.0f} %)")
+            print(
+                f"  body SNR {lo:>5} to {hi:<5} dB: {len(g):4d} images, mean pairs {g.mean_pairs.mean():.2f}, "
+                f"share of CPIs with a pair {100 * g.share_with_pair.mean():.1f} % (min {100 * g.share_with_pair.min():.0f} %)"
+            )
 
 
 if __name__ == "__main__":

@@ -50,8 +50,14 @@ from microdoppler.spectra.snr import flight_body_snr_db  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from independent_generator import GenCase, make_flight  # noqa: E402
 
-OTHER = ["sideband_asymmetry", "sideband_fading", "motor_log_lag", "motor_speed_scale", "body_fluctuation",
-         "phase_noise"]
+OTHER = [
+    "sideband_asymmetry",
+    "sideband_fading",
+    "motor_log_lag",
+    "motor_speed_scale",
+    "body_fluctuation",
+    "phase_noise",
+]
 OUTSIDE = ["second_scatterer", "true_n_blades", "range_straddle"]
 
 
@@ -65,7 +71,10 @@ def draw_cause(cause: str, rng) -> dict:
     if cause == "motor_speed_scale":
         return {"scale": float(1 + rng.choice([-1, 1]) * rng.uniform(0.05, 0.12))}
     if cause == "body_fluctuation":
-        return {"body_std_db": float(rng.uniform(3, 6)), "timescale_s": float(np.exp(rng.uniform(np.log(0.05), np.log(3))))}
+        return {
+            "body_std_db": float(rng.uniform(3, 6)),
+            "timescale_s": float(np.exp(rng.uniform(np.log(0.05), np.log(3)))),
+        }
     if cause == "phase_noise":
         return {"skirt_dbc_hz": float(rng.uniform(-72, -60)), "shape": str(rng.choice(["gauss", "flicker"]))}
     raise ValueError(cause)
@@ -73,8 +82,13 @@ def draw_cause(cause: str, rng) -> dict:
 
 def draw_outside(kind: str, rng) -> dict:
     if kind == "second_scatterer":
-        return {kind: {"offset_hz": float(rng.choice([-1, 1]) * rng.uniform(20, 60)),
-                       "level_db": float(rng.uniform(-18, -8)), "wander_hz": float(rng.uniform(0, 4))}}
+        return {
+            kind: {
+                "offset_hz": float(rng.choice([-1, 1]) * rng.uniform(20, 60)),
+                "level_db": float(rng.uniform(-18, -8)),
+                "wander_hz": float(rng.uniform(0, 4)),
+            }
+        }
     if kind == "true_n_blades":
         return {kind: 3}
     return {kind: {"depth_db": float(rng.uniform(4, 8)), "period_s": float(rng.uniform(8, 16))}}
@@ -96,16 +110,31 @@ def make_plan(seed: int, per_group: int, duration_s: float) -> list[dict]:
                 eff[c] = draw_cause(c, rng)
             elif group == "outside":
                 odd = draw_outside(OUTSIDE[i % len(OUTSIDE)], rng)
-            plan.append({"group": group, "radar": "gen_l" if i % 2 == 0 else "gen_s", "effects": eff,
-                         "oddities": odd, "seed": int(rng.integers(2**31)), "snr_db": float(rng.uniform(38, 46)),
-                         "duration_s": duration_s})
+            plan.append(
+                {
+                    "group": group,
+                    "radar": "gen_l" if i % 2 == 0 else "gen_s",
+                    "effects": eff,
+                    "oddities": odd,
+                    "seed": int(rng.integers(2**31)),
+                    "snr_db": float(rng.uniform(38, 46)),
+                    "duration_s": duration_s,
+                }
+            )
     order = rng.permutation(len(plan))
     return [dict(plan[j], flight_id=f"f{k:04d}") for k, j in enumerate(order)]
 
 
 def evaluate(p: dict) -> dict:
-    case = GenCase(p["flight_id"], p["seed"], p["radar"], p["effects"], duration_s=p["duration_s"],
-                   snr_db=p["snr_db"], oddities=p["oddities"])
+    case = GenCase(
+        p["flight_id"],
+        p["seed"],
+        p["radar"],
+        p["effects"],
+        duration_s=p["duration_s"],
+        snr_db=p["snr_db"],
+        oddities=p["oddities"],
+    )
     flight, truth = make_flight(case)
     t0 = time.perf_counter()
     try:
@@ -114,9 +143,16 @@ def evaluate(p: dict) -> dict:
         return {**p, "skipped": str(exc), "named": [], "seconds": time.perf_counter() - t0}
     named = [c["cause"] for c in e["causes"]]
     imb = next((c["extension"]["params"]["imbalance_db"] for c in e["causes"] if c["cause"] == "blade_imbalance"), None)
-    return {**p, "skipped": None, "named": named, "imbalance_db_fit": imb,
-            "snr_measured_db": float(np.mean(flight_body_snr_db(flight))), "excess": e["evidence"]["goodness_of_fit"],
-            "not_testable": e.get("not_testable", {}), "seconds": time.perf_counter() - t0}
+    return {
+        **p,
+        "skipped": None,
+        "named": named,
+        "imbalance_db_fit": imb,
+        "snr_measured_db": float(np.mean(flight_body_snr_db(flight))),
+        "excess": e["evidence"]["goodness_of_fit"],
+        "not_testable": e.get("not_testable", {}),
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def rate(hits: np.ndarray, rng, n_boot: int = 2000) -> tuple[float, float, float, int]:
@@ -134,14 +170,19 @@ def summarise(rows: list[dict], seed: int) -> dict:
     ok = [r for r in rows if r["skipped"] is None]
     g = {k: [r for r in ok if r["group"] == k] for k in ("imbalance", "catalog", "outside", "clean")}
     named_imb = [("blade_imbalance" in r["named"]) for r in g["imbalance"]]
-    err = [abs(r["imbalance_db_fit"] - r["effects"]["blade_imbalance"]["imbalance_db"]) <= 1.5
-           for r in g["imbalance"] if r["imbalance_db_fit"] is not None]
+    err = [
+        abs(r["imbalance_db_fit"] - r["effects"]["blade_imbalance"]["imbalance_db"]) <= 1.5
+        for r in g["imbalance"]
+        if r["imbalance_db_fit"] is not None
+    ]
     balanced = g["catalog"] + g["clean"]
     catalog_only = g["catalog"] + g["clean"] + g["imbalance"]
     out = {
         "blade_imbalance named on imbalance flights": rate(named_imb, rng),
         "imbalance_db within 1.5 dB (of those named)": rate(err, rng),
-        "spurious blade_imbalance on balanced flights": rate([("blade_imbalance" in r["named"]) for r in balanced], rng),
+        "spurious blade_imbalance on balanced flights": rate(
+            [("blade_imbalance" in r["named"]) for r in balanced], rng
+        ),
         "unexplained on outside flights": rate([("unexplained" in r["named"]) for r in g["outside"]], rng),
         "none on outside flights": rate([(not r["named"]) for r in g["outside"]], rng),
         "unexplained on catalog-only flights": rate([("unexplained" in r["named"]) for r in catalog_only], rng),
@@ -166,8 +207,11 @@ def main(argv=None) -> int:
     for i, p in enumerate(plan, 1):
         rows.append(evaluate(p))
         r = rows[-1]
-        print(f"[{i}/{len(plan)}] {r['flight_id']} {r['group']:<9} {r['radar']} named={r['named']} "
-              f"truth={sorted(r['effects']) + sorted(r['oddities'])} {r['seconds']:.1f}s", flush=True)
+        print(
+            f"[{i}/{len(plan)}] {r['flight_id']} {r['group']:<9} {r['radar']} named={r['named']} "
+            f"truth={sorted(r['effects']) + sorted(r['oddities'])} {r['seconds']:.1f}s",
+            flush=True,
+        )
     summary = summarise(rows, a.seed)
     print("\nrate [95 % CI over flights] (n)")
     for k, v in summary.items():
@@ -178,8 +222,11 @@ def main(argv=None) -> int:
     if a.json:
         a.json.parent.mkdir(parents=True, exist_ok=True)
         with atomic_file(a.json) as tmp:
-            tmp.write_text(json.dumps({"seed": a.seed, "per_group": a.per_group, "summary": summary,
-                                       "rows": rows}, indent=1, default=str))
+            tmp.write_text(
+                json.dumps(
+                    {"seed": a.seed, "per_group": a.per_group, "summary": summary, "rows": rows}, indent=1, default=str
+                )
+            )
     return 0
 
 

@@ -54,10 +54,17 @@ def main(argv=None) -> pd.DataFrame:
             flight, truth = emulate_flight(replace(s, with_background=False))
             snr = flight_body_snr_db(flight)
             snr = snr[np.isfinite(snr)]
-            rows.append({"flight_id": s.flight_id, "class": cls, "radar_id": s.radar_id,
-                         "duration_s": s.duration_s, "mean_snr_db": float(np.mean(snr)),
-                         "std_snr_db": float(np.std(snr)),
-                         "effects": ",".join(sorted(truth["effects"])) or "none"})
+            rows.append(
+                {
+                    "flight_id": s.flight_id,
+                    "class": cls,
+                    "radar_id": s.radar_id,
+                    "duration_s": s.duration_s,
+                    "mean_snr_db": float(np.mean(snr)),
+                    "std_snr_db": float(np.std(snr)),
+                    "effects": ",".join(sorted(truth["effects"])) or "none",
+                }
+            )
         print(f"{cls}: {sum(r['class'] == cls for r in rows)} flights ({time.perf_counter() - t0:.0f} s)", flush=True)
     df = pd.DataFrame(rows)
     if args.csv:
@@ -72,8 +79,14 @@ def main(argv=None) -> pd.DataFrame:
         for col, paper in (("mean_snr_db", p_mean), ("std_snr_db", p_std)):
             m = float(d[col].mean())
             lo, hi = interval(w @ d[col].to_numpy())
-            row.update({col: round(m, 2), f"{col}_ci95": f"[{lo:.1f}, {hi:.1f}]", f"{col}_paper": paper,
-                        f"{col}_minus_paper": round(m - paper, 2)})
+            row.update(
+                {
+                    col: round(m, 2),
+                    f"{col}_ci95": f"[{lo:.1f}, {hi:.1f}]",
+                    f"{col}_paper": paper,
+                    f"{col}_minus_paper": round(m - paper, 2),
+                }
+            )
         out.append(row)
     table = pd.DataFrame(out)
     with pd.option_context("display.width", 200, "display.max_columns", 20):

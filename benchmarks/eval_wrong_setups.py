@@ -63,8 +63,15 @@ WRONG = {
     "blade_length x0.5": ("blade_length_m", lambda v: v * 0.5),
 }
 #: the wrong fields the rotor estimate can reach (the others are refused before it)
-ESTIMATE_KINDS = ("prf x0.5", "prf x2", "carrier x0.5", "carrier x2", "n_blades 2<->3", "blade_length x2",
-                  "blade_length x0.5")
+ESTIMATE_KINDS = (
+    "prf x0.5",
+    "prf x2",
+    "carrier x0.5",
+    "carrier x2",
+    "n_blades 2<->3",
+    "blade_length x2",
+    "blade_length x0.5",
+)
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> list:
@@ -82,15 +89,20 @@ def recordings(args):
     for i in range(args.n_any):
         case = draw_case(args.seed + i, duration_s=args.duration_s)
         flight, _ = make_recording(case)
-        yield (case.name, flight, f"any_radar {case.carrier_hz / 1e9:g} GHz, PRF {case.prf_hz:.0f} Hz, "
-               f"{case.n_rotors}x{case.n_blades} blades, L {case.blade_length_m:.3f} m, tip "
-               f"{case.tip_speed_mps:.0f} m/s, {case.setup}, weak {case.weak_blade_db:.1f} dB")
+        yield (
+            case.name,
+            flight,
+            f"any_radar {case.carrier_hz / 1e9:g} GHz, PRF {case.prf_hz:.0f} Hz, "
+            f"{case.n_rotors}x{case.n_blades} blades, L {case.blade_length_m:.3f} m, tip "
+            f"{case.tip_speed_mps:.0f} m/s, {case.setup}, weak {case.weak_blade_db:.1f} dB",
+        )
     for i in range(args.n_gen):
         seed = args.seed + 500 + i
         radar = ("gen_l", "gen_s")[i % 2]
         eff = {"blade_imbalance": {"imbalance_db": 6.0}} if i % 3 == 2 else {}
-        flight, _ = make_flight(GenCase(flight_id=f"gen{seed}", seed=seed, radar=radar, effects=eff,
-                                        duration_s=args.duration_s))
+        flight, _ = make_flight(
+            GenCase(flight_id=f"gen{seed}", seed=seed, radar=radar, effects=eff, duration_s=args.duration_s)
+        )
         yield flight.flight_id, flight, f"independent_generator {radar}, {'weak blade' if eff else 'equal blades'}"
 
 
@@ -98,8 +110,9 @@ def stand_recording(tmp: Path):
     """The docs' stand example, from its own script: (npz, sidecar)."""
     d = tmp / "stand"
     d.mkdir()
-    subprocess.run([sys.executable, str(ROOT / "docs/examples/make_stand_recording.py")], cwd=d, check=True,
-                   capture_output=True)
+    subprocess.run(
+        [sys.executable, str(ROOT / "docs/examples/make_stand_recording.py")], cwd=d, check=True, capture_output=True
+    )
     return d / "stand_3p3ghz.npz", d / "stand.yaml"
 
 
@@ -113,8 +126,18 @@ def write_recording(flight, d: Path):
             fh.write(f"{t:.4f},{r:.3f},{v:.4f}\n")
     a = flight.attrs
     decl = {k: a[k] for k in ("prf_hz", "carrier_hz", "n_blades", "blade_length_m")}
-    fixed = ["--target", "drone", "--radar-id", "eval", "--drone-model", "eval", "--n-motors", str(a["n_motors"]),
-             "--track", str(track)]
+    fixed = [
+        "--target",
+        "drone",
+        "--radar-id",
+        "eval",
+        "--drone-model",
+        "eval",
+        "--n-motors",
+        str(a["n_motors"]),
+        "--track",
+        str(track),
+    ]
     return d / "rec.npz", decl, fixed
 
 
@@ -144,8 +167,12 @@ def main(argv=None) -> int:
     ap.add_argument("--n-any", type=int, default=48)
     ap.add_argument("--n-gen", type=int, default=12)
     ap.add_argument("--duration-s", type=float, default=3.0)
-    ap.add_argument("--estimate-per-recording", type=int, default=1,
-                    help="wrong fields imported with --estimate-motors per recording (in turn); 0: none")
+    ap.add_argument(
+        "--estimate-per-recording",
+        type=int,
+        default=1,
+        help="wrong fields imported with --estimate-motors per recording (in turn); 0: none",
+    )
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
     t0 = time.time()
@@ -161,8 +188,18 @@ def main(argv=None) -> int:
         for name, note, path, decl, fixed in jobs:
             kinds = [None, *WRONG]
             for kind in kinds:
-                rc, msg, _ = run_import(["import", path, *declared(decl, kind), *fixed, "--quiet",
-                                         "--out", tmp / f"{name}_plain.zarr", "--overwrite"])
+                rc, msg, _ = run_import(
+                    [
+                        "import",
+                        path,
+                        *declared(decl, kind),
+                        *fixed,
+                        "--quiet",
+                        "--out",
+                        tmp / f"{name}_plain.zarr",
+                        "--overwrite",
+                    ]
+                )
                 rows.append({"recording": name, "note": note, "mode": "plain", "wrong": kind, "rc": rc, "message": msg})
             est_kinds = [None]
             for _ in range(args.estimate_per_recording):
@@ -170,21 +207,64 @@ def main(argv=None) -> int:
                 k_est += 1
             if args.estimate_per_recording:
                 for kind in est_kinds:
-                    rc, msg, hint = run_import(["import", path, *declared(decl, kind), *fixed, "--quiet",
-                                                "--estimate-motors", "--out", tmp / f"{name}_est.zarr", "--overwrite"])
-                    rows.append({"recording": name, "note": note, "mode": "estimate", "wrong": kind, "rc": rc,
-                                 "message": msg, "n_blades_hint": hint})
-            print(f"{name}: {sum(r['rc'] == 2 for r in rows if r['recording'] == name and r['wrong'])} of "
-                  f"{sum(1 for r in rows if r['recording'] == name and r['wrong'])} wrong refused, right: "
-                  f"{[r['rc'] for r in rows if r['recording'] == name and not r['wrong']]} ({time.time() - t0:.0f} s)",
-                  file=sys.stderr, flush=True)
+                    rc, msg, hint = run_import(
+                        [
+                            "import",
+                            path,
+                            *declared(decl, kind),
+                            *fixed,
+                            "--quiet",
+                            "--estimate-motors",
+                            "--out",
+                            tmp / f"{name}_est.zarr",
+                            "--overwrite",
+                        ]
+                    )
+                    rows.append(
+                        {
+                            "recording": name,
+                            "note": note,
+                            "mode": "estimate",
+                            "wrong": kind,
+                            "rc": rc,
+                            "message": msg,
+                            "n_blades_hint": hint,
+                        }
+                    )
+            print(
+                f"{name}: {sum(r['rc'] == 2 for r in rows if r['recording'] == name and r['wrong'])} of "
+                f"{sum(1 for r in rows if r['recording'] == name and r['wrong'])} wrong refused, right: "
+                f"{[r['rc'] for r in rows if r['recording'] == name and not r['wrong']]} ({time.time() - t0:.0f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
         for mode, extra in (("plain", []), ("estimate", ["--estimate-motors"])):
             for kind in (None, "prf x10"):
                 over = ["--prf-hz", "50001"] if kind else []
-                rc, msg, _ = run_import(["import", npz, "--sidecar", sidecar, *over, *extra, "--quiet",
-                                         "--out", tmp / "stand.zarr", "--overwrite"])
-                rows.append({"recording": "docs stand example", "note": "docs/examples/make_stand_recording.py",
-                             "mode": mode, "wrong": kind, "rc": rc, "message": msg})
+                rc, msg, _ = run_import(
+                    [
+                        "import",
+                        npz,
+                        "--sidecar",
+                        sidecar,
+                        *over,
+                        *extra,
+                        "--quiet",
+                        "--out",
+                        tmp / "stand.zarr",
+                        "--overwrite",
+                    ]
+                )
+                rows.append(
+                    {
+                        "recording": "docs stand example",
+                        "note": "docs/examples/make_stand_recording.py",
+                        "mode": mode,
+                        "wrong": kind,
+                        "rc": rc,
+                        "message": msg,
+                    }
+                )
     summary = {}
     for mode in ("plain", "estimate"):
         mr = [r for r in rows if r["mode"] == mode]
@@ -195,36 +275,61 @@ def main(argv=None) -> int:
             if not kr:
                 continue
             caught = [r for r in kr if r["rc"] == 2 and field in r["message"]]
-            per[kind] = {"n": len(kr), "refused_naming_field": len(caught),
-                         "refused_other": sum(r["rc"] == 2 and field not in r["message"] for r in kr),
-                         "rate": round(len(caught) / len(kr), 4), "wilson95": wilson(len(caught), len(kr))}
+            per[kind] = {
+                "n": len(kr),
+                "refused_naming_field": len(caught),
+                "refused_other": sum(r["rc"] == 2 and field not in r["message"] for r in kr),
+                "rate": round(len(caught) / len(kr), 4),
+                "wilson95": wilson(len(caught), len(kr)),
+            }
         wrong = [r for r in mr if r["wrong"] is not None]
         n_caught = sum(r["rc"] == 2 and WRONG[r["wrong"]][0] in r["message"] for r in wrong)
         summary[mode] = {
-            "right": {"n": len(right), "false_refusals": sum(r["rc"] == 2 for r in right),
-                      "wilson95": wilson(sum(r["rc"] == 2 for r in right), len(right)),
-                      "refused": [r for r in right if r["rc"] == 2]},
-            "wrong": {"n": len(wrong), "refused_naming_field": n_caught, "rate": round(n_caught / max(len(wrong), 1), 4),
-                      "wilson95": wilson(n_caught, len(wrong))},
+            "right": {
+                "n": len(right),
+                "false_refusals": sum(r["rc"] == 2 for r in right),
+                "wilson95": wilson(sum(r["rc"] == 2 for r in right), len(right)),
+                "refused": [r for r in right if r["rc"] == 2],
+            },
+            "wrong": {
+                "n": len(wrong),
+                "refused_naming_field": n_caught,
+                "rate": round(n_caught / max(len(wrong), 1), 4),
+                "wilson95": wilson(n_caught, len(wrong)),
+            },
             "per_wrong_field": per,
-            "misses": [{k: r[k] for k in ("recording", "note", "wrong", "rc", "message")} for r in wrong
-                       if not (r["rc"] == 2 and WRONG[r["wrong"]][0] in r["message"])],
+            "misses": [
+                {k: r[k] for k in ("recording", "note", "wrong", "rc", "message")}
+                for r in wrong
+                if not (r["rc"] == 2 and WRONG[r["wrong"]][0] in r["message"])
+            ],
         }
         if mode == "estimate":  # the n_blades hint (printed, not a refusal)
             summary[mode]["n_blades_hint"] = {
                 "right": sum(bool(r.get("n_blades_hint")) for r in right),
                 "n_blades 2<->3": sum(bool(r.get("n_blades_hint")) for r in wrong if r["wrong"] == "n_blades 2<->3"),
-                "other wrong": sum(bool(r.get("n_blades_hint")) for r in wrong if r["wrong"] != "n_blades 2<->3")}
-    record = {"benchmark": "eval_wrong_setups", "seed": args.seed, "n_any": args.n_any, "n_gen": args.n_gen,
-              "duration_s": args.duration_s, "estimate_per_recording": args.estimate_per_recording,
-              "wall_s": round(time.time() - t0, 1), "summary": summary, "rows": rows}
+                "other wrong": sum(bool(r.get("n_blades_hint")) for r in wrong if r["wrong"] != "n_blades 2<->3"),
+            }
+    record = {
+        "benchmark": "eval_wrong_setups",
+        "seed": args.seed,
+        "n_any": args.n_any,
+        "n_gen": args.n_gen,
+        "duration_s": args.duration_s,
+        "estimate_per_recording": args.estimate_per_recording,
+        "wall_s": round(time.time() - t0, 1),
+        "summary": summary,
+        "rows": rows,
+    }
     out = Path(args.json) if args.json else ROOT / "benchmarks" / "records" / f"eval_wrong_setups_seed{args.seed}.json"
     tmp_out = out.with_suffix(".json.tmp")
     tmp_out.write_text(json.dumps(record, indent=1) + "\n")
     os.replace(tmp_out, out)
     for mode, s in summary.items():
-        print(f"{mode}: right refused {s['right']['false_refusals']} of {s['right']['n']}; wrong refused naming the "
-              f"field {s['wrong']['refused_naming_field']} of {s['wrong']['n']} {s['wrong']['wilson95']}")
+        print(
+            f"{mode}: right refused {s['right']['false_refusals']} of {s['right']['n']}; wrong refused naming the "
+            f"field {s['wrong']['refused_naming_field']} of {s['wrong']['n']} {s['wrong']['wilson95']}"
+        )
         for kind, p in s["per_wrong_field"].items():
             print(f"  {kind:18s} {p['refused_naming_field']:3d} / {p['n']:3d}  {p['wilson95']}")
     print(f"wrote {out} ({time.time() - t0:.0f} s)")

@@ -35,8 +35,10 @@ def pool(runs, updates) -> tuple[dict, dict]:
     for p in runs:
         for n, r in load([p]).items():
             if n in rows:
-                raise SystemExit(f"--runs: {p}: {n} is also in {source[n]} (expected disjoint runs; a later run of "
-                                 "the same recordings goes to --update)")
+                raise SystemExit(
+                    f"--runs: {p}: {n} is also in {source[n]} (expected disjoint runs; a later run of "
+                    "the same recordings goes to --update)"
+                )
             rows[n], source[n] = r, str(p)
     for p in updates:
         new = load([p])
@@ -55,10 +57,11 @@ def listed(r) -> bool:
 def summary(rows: list) -> dict:
     vis = lambda r: r["visible"]  # noqa: E731
     out = {}
-    for key, num, sel in (("within 2 % (visible)", within, vis),
-                          ("within 2 % or ambiguous with the truth listed (visible)",
-                           lambda r: within(r) or listed(r), vis),
-                          ("off > 10 % unmarked (with estimate)", off_unmarked, lambda r: r["ok"])):
+    for key, num, sel in (
+        ("within 2 % (visible)", within, vis),
+        ("within 2 % or ambiguous with the truth listed (visible)", lambda r: within(r) or listed(r), vis),
+        ("off > 10 % unmarked (with estimate)", off_unmarked, lambda r: r["ok"]),
+    ):
         n, p, lo, hi = share(rows, num, sel)
         out[key] = {"n": n, "count": int(sum(num(r) for r in rows if sel(r))), "share": p, "ci95": [lo, hi]}
     n, p, lo, hi = cpi_share(rows, vis)
@@ -68,15 +71,21 @@ def summary(rows: list) -> dict:
         "ambiguous": [r["name"] for r in miss if r["ok"] and r["ambiguous"]],
         "ambiguous, truth listed": [r["name"] for r in miss if listed(r)],
         "no estimate": [r["name"] for r in miss if not r["ok"]],
-        "unmarked": [r["name"] for r in miss if r["ok"] and not r["ambiguous"]]}
+        "unmarked": [r["name"] for r in miss if r["ok"] and not r["ambiguous"]],
+    }
     return out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", nargs="+", required=True, metavar="JSON", help="disjoint runs (seed sets)")
-    ap.add_argument("--update", nargs="+", default=[], metavar="JSON",
-                    help="later runs of some of those recordings; their rows replace the earlier ones, in order")
+    ap.add_argument(
+        "--update",
+        nargs="+",
+        default=[],
+        metavar="JSON",
+        help="later runs of some of those recordings; their rows replace the earlier ones, in order",
+    )
     ap.add_argument("--min-seed", type=int, default=None)
     ap.add_argument("--max-seed", type=int, default=None)
     ap.add_argument("--json", default=None, help="write the pooled numbers here")
@@ -97,10 +106,22 @@ def main(argv=None) -> int:
         by_file = {}
         for r in keep:
             by_file.setdefault(source[r["name"]], []).append(r["seed"])
-        Path(args.json).write_text(json.dumps({
-            "script": "benchmarks/pool_any_radar_runs.py", "runs": list(args.runs), "update": list(args.update),
-            "min_seed": args.min_seed, "max_seed": args.max_seed, "n_recordings": len(keep),
-            "rows_from": {p: len(s) for p, s in by_file.items()}, **out}, indent=1, default=float))
+        Path(args.json).write_text(
+            json.dumps(
+                {
+                    "script": "benchmarks/pool_any_radar_runs.py",
+                    "runs": list(args.runs),
+                    "update": list(args.update),
+                    "min_seed": args.min_seed,
+                    "max_seed": args.max_seed,
+                    "n_recordings": len(keep),
+                    "rows_from": {p: len(s) for p, s in by_file.items()},
+                    **out,
+                },
+                indent=1,
+                default=float,
+            )
+        )
     return 0
 
 

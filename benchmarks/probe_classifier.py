@@ -43,8 +43,8 @@ def main(argv=None) -> None:
         out = x.copy()
         for i in range(len(x)):
             m = np.zeros(n_dopp, bool)
-            m[max(0, peak[i] - hi):peak[i] + hi + 1] = True
-            m[max(0, peak[i] - lo + 1):peak[i] + lo] = False
+            m[max(0, peak[i] - hi) : peak[i] + hi + 1] = True
+            m[max(0, peak[i] - lo + 1) : peak[i] + lo] = False
             out[i][:, m if lo > 0 else ~m] = np.median(x[i])
         return out
 
@@ -55,8 +55,9 @@ def main(argv=None) -> None:
         "Doppler flipped": x[:, :, ::-1].copy(),
         "only +-25 bins around the body": masked(0, 25),
         "bins 5-30 from the body at the floor": masked(5, 30),
-        "each row's peak on one bin": np.stack([np.stack([np.roll(r, n_dopp // 2 - int(np.argmax(r))) for r in t])
-                                                for t in x]),
+        "each row's peak on one bin": np.stack(
+            [np.stack([np.roll(r, n_dopp // 2 - int(np.argmax(r))) for r in t]) for t in x]
+        ),
     }
     print(f"{'manipulation':40s}" + "".join(f"{c:>12s}" for c in CLASSES))
     for name, xm in cases.items():

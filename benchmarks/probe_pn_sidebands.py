@@ -40,15 +40,27 @@ def plan(seed: int, n: int, snrs: list[float], variants: list[str]) -> list[dict
         for side in (FD, AS):
             for snr in snrs:
                 radar = ["gen_l", "gen_s"][(k + (side == AS)) % 2]
-                sp = {FD: {"fading_std_db": float(rng.uniform(3, 6)), "timescale_s": float(rng.uniform(1, 2))},
-                      AS: {"asymmetry_db": float(rng.choice([-1, 1]) * rng.uniform(3, 6))}}[side]
+                sp = {
+                    FD: {"fading_std_db": float(rng.uniform(3, 6)), "timescale_s": float(rng.uniform(1, 2))},
+                    AS: {"asymmetry_db": float(rng.choice([-1, 1]) * rng.uniform(3, 6))},
+                }[side]
                 pn = {"skirt_dbc_hz": float(rng.uniform(-72, -60)), "shape": str(rng.choice(["gauss", "flicker"]))}
-                s = int(rng.integers(2 ** 31))
+                s = int(rng.integers(2**31))
                 speed = float(rng.uniform(5, 20))
                 for variant in variants:
                     eff = {"pn+side": {side: sp, PN: pn}, "side": {side: sp}, "pn": {PN: pn}}[variant]
-                    out.append({"id": f"{side[9:11]}{k}_{snr:g}_{variant}", "variant": variant, "side": side,
-                                "radar": radar, "snr_db": snr, "speed_mps": speed, "seed": s, "effects": eff})
+                    out.append(
+                        {
+                            "id": f"{side[9:11]}{k}_{snr:g}_{variant}",
+                            "variant": variant,
+                            "side": side,
+                            "radar": radar,
+                            "snr_db": snr,
+                            "speed_mps": speed,
+                            "seed": s,
+                            "effects": eff,
+                        }
+                    )
     return out
 
 
@@ -65,12 +77,31 @@ def run(p: dict) -> dict:
     tests = {}
     for c in (FD, AS, PN):
         t = ev["tests"][c]
-        tests[c] = {k: t.get(k) for k in ("testable", "log_evalue", "relevant", "n_heldout_obs", "n_pairs_used",
-                                          "fading_std_db", "asymmetry_db", "skirt_dbc_hz", "model_floor_rise_db",
-                                          "reason")}
-    return {**p, "measured_snr_db": round(snr, 2), "named": [c["cause"] for c in e["causes"]],
-            "threshold": ev["log_evalue_threshold"], "steps": ev["steps"], "tests": tests,
-            "dropped": ev["dropped_with_the_others_in_both_models"], "seconds": round(time.perf_counter() - t0, 1)}
+        tests[c] = {
+            k: t.get(k)
+            for k in (
+                "testable",
+                "log_evalue",
+                "relevant",
+                "n_heldout_obs",
+                "n_pairs_used",
+                "fading_std_db",
+                "asymmetry_db",
+                "skirt_dbc_hz",
+                "model_floor_rise_db",
+                "reason",
+            )
+        }
+    return {
+        **p,
+        "measured_snr_db": round(snr, 2),
+        "named": [c["cause"] for c in e["causes"]],
+        "threshold": ev["log_evalue_threshold"],
+        "steps": ev["steps"],
+        "tests": tests,
+        "dropped": ev["dropped_with_the_others_in_both_models"],
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
 
 
 def main(argv=None) -> int:
@@ -87,20 +118,27 @@ def main(argv=None) -> int:
         rows.append(r)
         t = r.get("tests", {})
         side = t.get(r["side"], {})
-        print(f"{r['id']:22s} {r['radar']} snr={r['measured_snr_db']:5.1f} true={sorted(r['effects'])} "
-              f"named={r['named']} | {r['side'][9:]}: testable={side.get('testable')} "
-              f"logE={side.get('log_evalue')} thr={r.get('threshold')} rel={side.get('relevant')} "
-              f"pairs={side.get('n_pairs_used')} | pn logE={t.get(PN, {}).get('log_evalue')}", flush=True)
+        print(
+            f"{r['id']:22s} {r['radar']} snr={r['measured_snr_db']:5.1f} true={sorted(r['effects'])} "
+            f"named={r['named']} | {r['side'][9:]}: testable={side.get('testable')} "
+            f"logE={side.get('log_evalue')} thr={r.get('threshold')} rel={side.get('relevant')} "
+            f"pairs={side.get('n_pairs_used')} | pn logE={t.get(PN, {}).get('log_evalue')}",
+            flush=True,
+        )
     both = [r for r in rows if r["variant"] == "pn+side"]
-    print(f"\nPN + sideband flights with the sideband cause named: {sum(r['side'] in r['named'] for r in both)}"
-          f"/{len(both)}; with PN named: {sum(PN in r['named'] for r in both)}/{len(both)}")
+    print(
+        f"\nPN + sideband flights with the sideband cause named: {sum(r['side'] in r['named'] for r in both)}"
+        f"/{len(both)}; with PN named: {sum(PN in r['named'] for r in both)}/{len(both)}"
+    )
     for v in ("side", "pn"):
         sub = [r for r in rows if r["variant"] == v]
         if sub:
             want = (lambda r: r["side"]) if v == "side" else (lambda r: PN)
             spur = sum(bool(set(r["named"]) - set(r["effects"]) - {"unexplained"}) for r in sub)
-            print(f"{v} alone: named {sum(want(r) in r['named'] for r in sub)}/{len(sub)}, spurious catalog causes "
-                  f"{spur}/{len(sub)}")
+            print(
+                f"{v} alone: named {sum(want(r) in r['named'] for r in sub)}/{len(sub)}, spurious catalog causes "
+                f"{spur}/{len(sub)}"
+            )
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1, default=float))
     return 0

@@ -35,11 +35,17 @@ def score(run_dir) -> dict:
         if k is None:
             continue
         truth = k["effects"]
-        named = {c["cause"]: ((c.get("extension") or {}).get("params") or c.get("params") or {})
-                 for c in f.get("causes", [])}
-        out["flights"][fid] = {"skipped": f.get("cause") == "skipped", "truth": truth, "named": named,
-                               "weak_blades": bool(k["truth"].get("weak_blades", False)),
-                               "airframe": k.get("airframe", ""), "not_testable": f.get("not_testable", {})}
+        named = {
+            c["cause"]: ((c.get("extension") or {}).get("params") or c.get("params") or {}) for c in f.get("causes", [])
+        }
+        out["flights"][fid] = {
+            "skipped": f.get("cause") == "skipped",
+            "truth": truth,
+            "named": named,
+            "weak_blades": bool(k["truth"].get("weak_blades", False)),
+            "airframe": k.get("airframe", ""),
+            "not_testable": f.get("not_testable", {}),
+        }
     for cause, c in CAUSES.items():
         if cause == "none":
             continue
@@ -47,15 +53,20 @@ def score(run_dir) -> dict:
         rows = [r for r in out["flights"].values() if not r["skipped"]]
         has = [r for r in rows if cause in r["truth"]]
         hit = [r for r in has if cause in r["named"]]
-        errs = [r["named"][cause][p] - r["truth"][cause][p] for r in hit
-                if p in r["named"][cause] and r["named"][cause][p] is not None
-                and np.isfinite(r["named"][cause][p])]
+        errs = [
+            r["named"][cause][p] - r["truth"][cause][p]
+            for r in hit
+            if p in r["named"][cause] and r["named"][cause][p] is not None and np.isfinite(r["named"][cause][p])
+        ]
         out["causes"][cause] = {
-            "true": len(has), "true_visible_blades": sum(not r["weak_blades"] for r in has),
-            "named_where_true": len(hit), "named_where_true_visible": sum(not r["weak_blades"] for r in hit),
+            "true": len(has),
+            "true_visible_blades": sum(not r["weak_blades"] for r in has),
+            "named_where_true": len(hit),
+            "named_where_true_visible": sum(not r["weak_blades"] for r in hit),
             "named_where_absent": sum(cause in r["named"] and cause not in r["truth"] for r in rows),
             "absent": sum(cause not in r["truth"] for r in rows),
-            f"{p}_errors": [round(float(e), 4) for e in errs]}
+            f"{p}_errors": [round(float(e), 4) for e in errs],
+        }
     return out
 
 
@@ -69,17 +80,21 @@ def main(argv=None):
     print(f"{'cause':22s} true (visible blades)  named where true (visible)  named where absent / absent  errors")
     for cause, c in s["causes"].items():
         e = next(v for k, v in c.items() if k.endswith("_errors"))
-        print(f"{cause:22s} {c['true']:4d} ({c['true_visible_blades']:2d})            {c['named_where_true']:4d} "
-              f"({c['named_where_true_visible']:2d})                 {c['named_where_absent']:3d} / {c['absent']:3d}"
-              f"        {e}")
+        print(
+            f"{cause:22s} {c['true']:4d} ({c['true_visible_blades']:2d})            {c['named_where_true']:4d} "
+            f"({c['named_where_true_visible']:2d})                 {c['named_where_absent']:3d} / {c['absent']:3d}"
+            f"        {e}"
+        )
     p = CAUSES[a.cause].main_param
     print(f"\n{a.cause}: per flight")
     for fid, r in sorted(s["flights"].items()):
         if a.cause in r["truth"] or a.cause in r["named"]:
             t = r["truth"].get(a.cause, {}).get(p)
             n = r["named"].get(a.cause, {}).get(p)
-            print(f"  {fid:18s} airframe {r['airframe']:13s} weak_blades {r['weak_blades']!s:5s} skipped "
-                  f"{r['skipped']!s:5s} truth {t} named {n}  causes named {list(r['named'])}")
+            print(
+                f"  {fid:18s} airframe {r['airframe']:13s} weak_blades {r['weak_blades']!s:5s} skipped "
+                f"{r['skipped']!s:5s} truth {t} named {n}  causes named {list(r['named'])}"
+            )
     if a.json:
         Path(a.json).write_text(json.dumps(s, indent=1, default=float))
 

@@ -76,7 +76,9 @@ sphinx_gallery_conf = {
 
 # the results page: built from a pipeline run's own tables and figures
 generate_results.write_page(
-    Path(os.environ.get("MICRODOPPLER_RESULTS", HERE.parent / "results")), HERE / "results.md", HERE / "_static" / "results"
+    Path(os.environ.get("MICRODOPPLER_RESULTS", HERE.parent / "results")),
+    HERE / "results.md",
+    HERE / "_static" / "results",
 )
 
 # the benchmark page, from the records the benchmark scripts wrote

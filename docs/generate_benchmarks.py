@@ -61,14 +61,20 @@ def _load(records: Path, pattern: str):
 
 def shares(d: dict):
     """Rows for the record's metrics stored as ``{n, count?, share, ci95}``."""
-    return [(k, v["n"], v.get("count", ""), interval(v["share"], *v["ci95"])) for k, v in d.items()
-            if isinstance(v, dict) and {"share", "ci95"} <= set(v)]
+    return [
+        (k, v["n"], v.get("count", ""), interval(v["share"], *v["ci95"]))
+        for k, v in d.items()
+        if isinstance(v, dict) and {"share", "ci95"} <= set(v)
+    ]
 
 
 def paired(d: dict):
     """Rows for the record's paired differences stored as ``{n, before, after, diff, ci95}``."""
-    return [(k, v["n"], v["before"], v["after"], interval(v["diff"], *v["ci95"], digits=2)) for k, v in d.items()
-            if isinstance(v, dict) and {"diff", "ci95", "before", "after"} <= set(v)]
+    return [
+        (k, v["n"], v["before"], v["after"], interval(v["diff"], *v["ci95"], digits=2))
+        for k, v in d.items()
+        if isinstance(v, dict) and {"diff", "ci95", "before", "after"} <= set(v)
+    ]
 
 
 def rate(v) -> str:
@@ -77,32 +83,68 @@ def rate(v) -> str:
 
 
 def section_any_radar(records: Path) -> list[str]:
-    out = ["## Rotor speeds on recordings from any radar (`eval_any_radar.py`)", "",
-           "Recordings drawn by the independent generator (`microdoppler.examples`), estimated with the default "
-           "`estimate_rotor_speeds`. Shares in % with 95 % intervals.", "",
-           "### Pooled over the runs at the current code", ""]
+    out = [
+        "## Rotor speeds on recordings from any radar (`eval_any_radar.py`)",
+        "",
+        "Recordings drawn by the independent generator (`microdoppler.examples`), estimated with the default "
+        "`estimate_rotor_speeds`. Shares in % with 95 % intervals.",
+        "",
+        "### Pooled over the runs at the current code",
+        "",
+    ]
     for name, d in _load(records, "pooled_any_radar_*.json"):
-        out += [f"{d['n_recordings']} recordings" + (f", seeds from {d['min_seed']}" if d.get("min_seed") else "")
-                + " " + provenance(name, d), "", table(("metric", "n", "count", "share % [95 % CI]"), shares(d)), ""]
+        out += [
+            f"{d['n_recordings']} recordings"
+            + (f", seeds from {d['min_seed']}" if d.get("min_seed") else "")
+            + " "
+            + provenance(name, d),
+            "",
+            table(("metric", "n", "count", "share % [95 % CI]"), shares(d)),
+            "",
+        ]
     rows = []
     for name, d in _load(records, "eval_any_radar_*seed*.json"):
         all_row = next((r for r in d.get("table", []) if r.get("group") == "all"), None)
         if all_row is not None:
-            rows.append((f"`{name}`", str(d.get("code", "")).split(" ")[0], all_row["recordings"],
-                         all_row["within 2 % (visible)"], all_row["CPIs within 2 sigma (visible)"],
-                         f"{d['wall_s']:.0f}" if d.get("wall_s") else ""))
-    out += ["### Each run", "", table(("record", "code", "recordings", "within 2 % (visible)",
-                                       "CPIs within 2 sigma (visible)", "wall [s]"), rows), ""]
-    out += ["### Paired comparisons (`compare_any_radar_runs.py`)", "",
-            "The same recordings before and after a change; differences in points of share, paired bootstrap.", ""]
+            rows.append(
+                (
+                    f"`{name}`",
+                    str(d.get("code", "")).split(" ")[0],
+                    all_row["recordings"],
+                    all_row["within 2 % (visible)"],
+                    all_row["CPIs within 2 sigma (visible)"],
+                    f"{d['wall_s']:.0f}" if d.get("wall_s") else "",
+                )
+            )
+    out += [
+        "### Each run",
+        "",
+        table(
+            ("record", "code", "recordings", "within 2 % (visible)", "CPIs within 2 sigma (visible)", "wall [s]"), rows
+        ),
+        "",
+    ]
+    out += [
+        "### Paired comparisons (`compare_any_radar_runs.py`)",
+        "",
+        "The same recordings before and after a change; differences in points of share, paired bootstrap.",
+        "",
+    ]
     for name, d in _load(records, "*_paired_any_radar.json"):
         rows = paired(d)
         if rows:
-            out += [provenance(name, d), "", table(("metric", "n", "before", "after", "after − before [95 % CI]"),
-                                                   rows), ""]
+            out += [
+                provenance(name, d),
+                "",
+                table(("metric", "n", "before", "after", "after − before [95 % CI]"), rows),
+                "",
+            ]
         elif "n_equal" in d:
-            out += [f"{provenance(name, d)}: {d['n_equal']} of {d['n_recordings']} recordings give the same "
-                    f"result ({d.get('equal_means', '')})", ""]
+            out += [
+                f"{provenance(name, d)}: {d['n_equal']} of {d['n_recordings']} recordings give the same "
+                f"result ({d.get('equal_means', '')})",
+                "",
+            ]
     return out
 
 
@@ -131,38 +173,80 @@ def section_timing(records: Path) -> list[str]:
         date = d.get("date") or d.get("date_utc", "")
         for code, v in by_code.items():
             rows.append((f"`{name}`", date, code, " / ".join(f"{x:.1f}" for x in v)))
-    return ["## Rotor-speed estimator cost (`eval_any_radar.py`'s timing run)", "",
-            "CPU seconds per minute of a 60 s recording (4 rotors, 10 kHz PRF), one core, alternating runs.", "",
-            table(("record", "date", "code", "CPU s per minute, each run"), rows), ""]
+    return [
+        "## Rotor-speed estimator cost (`eval_any_radar.py`'s timing run)",
+        "",
+        "CPU seconds per minute of a 60 s recording (4 rotors, 10 kHz PRF), one core, alternating runs.",
+        "",
+        table(("record", "date", "code", "CPU s per minute, each run"), rows),
+        "",
+    ]
 
 
 def section_diagnosis(records: Path) -> list[str]:
-    out = ["## The diagnosis on flights with known causes (`eval_diagnosis.py`)", "",
-           "Rates in % with 95 % flight-bootstrap intervals; ≥36 / <36: flights at or above / below 36 dB "
-           "body SNR.", ""]
+    out = [
+        "## The diagnosis on flights with known causes (`eval_diagnosis.py`)",
+        "",
+        "Rates in % with 95 % flight-bootstrap intervals; ≥36 / <36: flights at or above / below 36 dB body SNR.",
+        "",
+    ]
     for name, d in _load(records, "eval_diagnosis_*.json"):
         s = d["summary"]
-        rows = [(g, v["flights"], rate(v["recall"]), rate(v["spurious_two"]), rate(v["spurious_one"]),
-                 rate(v["false_alarm"])) for g, v in s["overall"].items() if g.endswith(("all", "emulator",
-                                                                                          "independent"))]
-        causes = [(c, rate(v["recall ≥36 all"]), rate(v["precision ≥36"]), rate(v["recall <36 all"]))
-                  for c, v in s["per_cause"].items()]
-        out += [f"### Seed {d['seed']}: `{name}`", "", provenance(name, d), "",
-                table(("flights", "n", "recall", "spurious (two causes)", "spurious (one cause)", "false alarm"), rows),
-                "", table(("cause", "recall ≥36", "precision ≥36", "recall <36"), causes), ""]
+        rows = [
+            (
+                g,
+                v["flights"],
+                rate(v["recall"]),
+                rate(v["spurious_two"]),
+                rate(v["spurious_one"]),
+                rate(v["false_alarm"]),
+            )
+            for g, v in s["overall"].items()
+            if g.endswith(("all", "emulator", "independent"))
+        ]
+        causes = [
+            (c, rate(v["recall ≥36 all"]), rate(v["precision ≥36"]), rate(v["recall <36 all"]))
+            for c, v in s["per_cause"].items()
+        ]
+        out += [
+            f"### Seed {d['seed']}: `{name}`",
+            "",
+            provenance(name, d),
+            "",
+            table(("flights", "n", "recall", "spurious (two causes)", "spurious (one cause)", "false alarm"), rows),
+            "",
+            table(("cause", "recall ≥36", "precision ≥36", "recall <36"), causes),
+            "",
+        ]
     return out
 
 
 def section_extended(records: Path) -> list[str]:
-    out = ["## What the `extended` twins gain (`eval_extended_gain.py`)", "",
-           "Per cause's measure: the twins' distance from their flights, `sub_cpi` and `extended`, on flights with "
-           "and without the cause (95 % intervals; resolved: the difference's interval excludes 0).", ""]
+    out = [
+        "## What the `extended` twins gain (`eval_extended_gain.py`)",
+        "",
+        "Per cause's measure: the twins' distance from their flights, `sub_cpi` and `extended`, on flights with "
+        "and without the cause (95 % intervals; resolved: the difference's interval excludes 0).",
+        "",
+    ]
     for name, d in _load(records, "eval_extended_gain_*.json"):
-        rows = [(k, v["n"], interval(*v["sub_cpi"], scale=1, digits=2), interval(*v["extended"], scale=1, digits=2),
-                 interval(*v["diff"], scale=1, digits=2), "yes" if v["resolved"] else "no")
-                for k, v in d["summary"].items()]
-        out += [provenance(name, d), "", table(("cause, measure, flights", "n", "sub_cpi", "extended",
-                                                "extended − sub_cpi", "resolved"), rows), ""]
+        rows = [
+            (
+                k,
+                v["n"],
+                interval(*v["sub_cpi"], scale=1, digits=2),
+                interval(*v["extended"], scale=1, digits=2),
+                interval(*v["diff"], scale=1, digits=2),
+                "yes" if v["resolved"] else "no",
+            )
+            for k, v in d["summary"].items()
+        ]
+        out += [
+            provenance(name, d),
+            "",
+            table(("cause, measure, flights", "n", "sub_cpi", "extended", "extended − sub_cpi", "resolved"), rows),
+            "",
+        ]
     return out
 
 
@@ -179,36 +263,68 @@ def section_paper_profile(records: Path) -> list[str]:
     v = records / "paper_profile_table_v.csv"
     if v.is_file():
         df = pd.read_csv(v)
-        rows = [(r.trainset, r.n_seeds, interval(r.accuracy_mean, r.accuracy_ci95_low, r.accuracy_ci95_high, scale=1),
-                 r.paper_accuracy, r.drone_recall, r.bird_recall) for r in df.itertuples()]
-        out += ["Table V: " + f"*record `{v.name}`*", "", table(("training set", "seeds", "accuracy % [95 % CI]",
-                                                                "paper", "drone recall", "bird recall"), rows), ""]
+        rows = [
+            (
+                r.trainset,
+                r.n_seeds,
+                interval(r.accuracy_mean, r.accuracy_ci95_low, r.accuracy_ci95_high, scale=1),
+                r.paper_accuracy,
+                r.drone_recall,
+                r.bird_recall,
+            )
+            for r in df.itertuples()
+        ]
+        out += [
+            "Table V: " + f"*record `{v.name}`*",
+            "",
+            table(("training set", "seeds", "accuracy % [95 % CI]", "paper", "drone recall", "bird recall"), rows),
+            "",
+        ]
     vi = records / "paper_profile_table_vi.csv"
     if vi.is_file():
         df = pd.read_csv(vi)
         cols = [c[:-5] for c in df.columns if c.endswith("_mean")]
         rows = [(r["variant"], r["n_flights"], *(f"{r[c + '_mean']:.2f}" for c in cols)) for _, r in df.iterrows()]
-        out += ["Table VI (distance of the twins from their flights, means): " + f"*record `{vi.name}`*", "",
-                table(("variant", "flights", *cols), rows), ""]
+        out += [
+            "Table VI (distance of the twins from their flights, means): " + f"*record `{vi.name}`*",
+            "",
+            table(("variant", "flights", *cols), rows),
+            "",
+        ]
     for name, d in _load(records, "paper_profile_diagnosis.json"):
-        out += [f"Diagnosis, flights per first cause: *record `{name}`*, {d.get('source', '')}", "",
-                table(("cause", "flights"), sorted(d["counts"].items(), key=lambda kv: -kv[1])), ""]
+        out += [
+            f"Diagnosis, flights per first cause: *record `{name}`*, {d.get('source', '')}",
+            "",
+            table(("cause", "flights"), sorted(d["counts"].items(), key=lambda kv: -kv[1])),
+            "",
+        ]
     return out
 
 
-SECTIONS = (section_any_radar, section_rotorspeed, section_timing, section_diagnosis, section_extended,
-            section_unexplained, section_paper_profile)
+SECTIONS = (
+    section_any_radar,
+    section_rotorspeed,
+    section_timing,
+    section_diagnosis,
+    section_extended,
+    section_unexplained,
+    section_paper_profile,
+)
 
 
 def render(records: Path) -> str:
     """The page's Markdown from the records in ``records``."""
     records = Path(records)
-    lines = ["# Benchmark results", "",
-             "Rendered from the record files in `benchmarks/records/` at every build of these pages "
-             "(`docs/generate_benchmarks.py`): no number here is typed by hand. What each benchmark measures and "
-             "how to run it is in `benchmarks/README.md`; the decisions the numbers led to are in "
-             "[experiments](experiments.md). Intervals are 95 % flight-bootstrap intervals "
-             "(`microdoppler.stats.bootstrap`) unless a table says otherwise.", ""]
+    lines = [
+        "# Benchmark results",
+        "",
+        "Rendered from the record files in `benchmarks/records/` at every build of these pages "
+        "(`docs/generate_benchmarks.py`): no number here is typed by hand. What each benchmark measures and "
+        "how to run it is in `benchmarks/README.md`; the decisions the numbers led to are in "
+        "[experiments](experiments.md). Intervals are 95 % flight-bootstrap intervals "
+        "(`microdoppler.stats.bootstrap`) unless a table says otherwise.",
+        "",
+    ]
     for section in SECTIONS:
         lines += section(records)
     return "\n".join(lines)

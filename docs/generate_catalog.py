@@ -18,8 +18,10 @@ def causes_table() -> str:
     def cell(text: str) -> str:
         return str(text).replace("|", "\\|").replace("\n", " ")
 
-    rows = ["| cause | what is different in the measured data | parameter | unit | meaning | detectable |",
-            "|---|---|---|---|---|---|"]
+    rows = [
+        "| cause | what is different in the measured data | parameter | unit | meaning | detectable |",
+        "|---|---|---|---|---|---|",
+    ]
     for cause in CAUSES.values():
         params = cause.params or [None]
         for i, p in enumerate(params):

@@ -23,15 +23,35 @@ import pandas as pd
 
 # (file under results/, title, what it shows, columns kept (None: all), float digits)
 TABLES = [
-    ("reports/table_iii.csv", "Table III: composition of the sets",
-     "Flights and 20-timestep images per set and class, with the body SNR.", None, 1),
-    ("reports/table_v.csv", "Table V: classifier results",
-     "Mean over the classifier seeds with the flight-bootstrap intervals, per training set.", None, 1),
-    ("reports/table_iv.csv", "Table IV: calibrated simulation parameters",
-     "Per variant, drone model and radar: S_body, S_blade and alpha as fitted on the measured flights.", None, 3),
-    ("reports/table_vi.csv", "Table VI: fidelity of the twins",
-     "Distance of each variant's twins from their measured flights on held-out CPIs (flight-bootstrap 95 % "
-     "intervals; `resolved` marks a paired difference whose interval excludes zero).", None, 2),
+    (
+        "reports/table_iii.csv",
+        "Table III: composition of the sets",
+        "Flights and 20-timestep images per set and class, with the body SNR.",
+        None,
+        1,
+    ),
+    (
+        "reports/table_v.csv",
+        "Table V: classifier results",
+        "Mean over the classifier seeds with the flight-bootstrap intervals, per training set.",
+        None,
+        1,
+    ),
+    (
+        "reports/table_iv.csv",
+        "Table IV: calibrated simulation parameters",
+        "Per variant, drone model and radar: S_body, S_blade and alpha as fitted on the measured flights.",
+        None,
+        3,
+    ),
+    (
+        "reports/table_vi.csv",
+        "Table VI: fidelity of the twins",
+        "Distance of each variant's twins from their measured flights on held-out CPIs (flight-bootstrap 95 % "
+        "intervals; `resolved` marks a paired difference whose interval excludes zero).",
+        None,
+        2,
+    ),
 ]
 # (glob under results/, title)
 FIGURES = [
@@ -62,11 +82,12 @@ def _diagnosis_summary(report_json: Path) -> str:
     first = Counter(f.get("cause", "?") for f in flights)
     every = Counter(c.get("cause", "?") for f in flights for c in f.get("causes", []))
     df = pd.DataFrame(
-        [{"cause": k, "flights (first cause)": first.get(k, 0), "flights (any position)": every.get(k, 0)}
-         for k in sorted(set(first) | set(every))]
+        [
+            {"cause": k, "flights (first cause)": first.get(k, 0), "flights (any position)": every.get(k, 0)}
+            for k in sorted(set(first) | set(every))
+        ]
     )
-    return (f"{len(flights)} flights in `{report_json.name}` ({report.get('schema', '?')}).\n\n"
-            + _markdown_table(df, 0))
+    return f"{len(flights)} flights in `{report_json.name}` ({report.get('schema', '?')}).\n\n" + _markdown_table(df, 0)
 
 
 def write_page(results: Path, page: Path, static: Path) -> Path:
@@ -76,12 +97,18 @@ def write_page(results: Path, page: Path, static: Path) -> Path:
     results = Path(results)
     lines = ["# Results", ""]
     if not (results / "reports").is_dir():
-        lines += [f"No pipeline run was found at `{results}`. Run `snakemake --cores 2` (or set "
-                  "`MICRODOPPLER_RESULTS` to a run's `results/` folder) and build the docs again.", ""]
+        lines += [
+            f"No pipeline run was found at `{results}`. Run `snakemake --cores 2` (or set "
+            "`MICRODOPPLER_RESULTS` to a run's `results/` folder) and build the docs again.",
+            "",
+        ]
         page.write_text("\n".join(lines))
         return page
-    lines += [f"Generated from the pipeline run in `{results}` by `docs/generate_results.py`: every table "
-              "below is that run's CSV file, every figure its PNG. Rebuild the docs after a run to update it.", ""]
+    lines += [
+        f"Generated from the pipeline run in `{results}` by `docs/generate_results.py`: every table "
+        "below is that run's CSV file, every figure its PNG. Rebuild the docs after a run to update it.",
+        "",
+    ]
     for rel, title, what, cols, digits in TABLES:
         f = results / rel
         if not f.exists():
@@ -92,8 +119,14 @@ def write_page(results: Path, page: Path, static: Path) -> Path:
         lines += [f"## {title}", "", f"{what} Source: `results/{rel}`.", "", _markdown_table(df, digits), ""]
     report = results / "diagnosis" / "report.json"
     if report.exists():
-        lines += ["## Diagnosis summary", "", "Causes named per flight (see [the diagnosis](diagnosis.md)). "
-                  "Source: `results/diagnosis/report.json`.", "", _diagnosis_summary(report), ""]
+        lines += [
+            "## Diagnosis summary",
+            "",
+            "Causes named per flight (see [the diagnosis](diagnosis.md)). Source: `results/diagnosis/report.json`.",
+            "",
+            _diagnosis_summary(report),
+            "",
+        ]
     if static.exists():
         shutil.rmtree(static)
     static.mkdir(parents=True)
@@ -102,8 +135,12 @@ def write_page(results: Path, page: Path, static: Path) -> Path:
         for src in sorted(results.glob(pattern)):
             dst = static / src.name
             shutil.copyfile(src, dst)
-            figs += [f"### {title}: `{src.name}`" if "*" in pattern else f"### {title}", "",
-                     f"![{title}](_static/results/{src.name})", ""]
+            figs += [
+                f"### {title}: `{src.name}`" if "*" in pattern else f"### {title}",
+                "",
+                f"![{title}](_static/results/{src.name})",
+                "",
+            ]
     if figs:
         lines += ["## Figures", "", *figs]
     page.write_text("\n".join(lines))

@@ -47,9 +47,17 @@ def pytest_xdist_auto_num_workers(config):
 #: the modules that take longest, longest first (CPU seconds per module on 2 cores,
 #: 2026-11-26: 140 with its cluster jobs, 98, 76, 74, 59, 53, 32, 31, 25), handed to
 #: the workers first; the others follow in their collection order
-LONGEST_FIRST = ("test_workflow_runs", "test_rotorspeed", "test_rotorfit_uncertainty", "test_diagnosis",
-                 "test_diagnosis_independent", "test_datasets_workflow", "test_rotorfit", "test_rotor_order",
-                 "test_fading_fine")
+LONGEST_FIRST = (
+    "test_workflow_runs",
+    "test_rotorspeed",
+    "test_rotorfit_uncertainty",
+    "test_diagnosis",
+    "test_diagnosis_independent",
+    "test_datasets_workflow",
+    "test_rotorfit",
+    "test_rotor_order",
+    "test_fading_fine",
+)
 
 
 def pytest_collection_modifyitems(config, items):
@@ -69,8 +77,11 @@ def ulog_path():
     """The real PX4 log. Missing is a failure, not a skip: the tests that use it (ULog
     parsing, corruption handling, motor-model calibration) must never vanish silently."""
     if not ULOG_FIXTURE.is_file():
-        pytest.fail(f"real motor log not found: expected {ULOG_FIXTURE.resolve()} "
-                    f"(../shared/data/motor-logs/px4_esc_status.ulg next to the repository {REPO})", pytrace=False)
+        pytest.fail(
+            f"real motor log not found: expected {ULOG_FIXTURE.resolve()} "
+            f"(../shared/data/motor-logs/px4_esc_status.ulg next to the repository {REPO})",
+            pytrace=False,
+        )
     return ULOG_FIXTURE
 
 
@@ -89,12 +100,26 @@ def make_flight(fid="f1", n=4096, rng=None, with_log=True):
     from microdoppler.io.flightzarr import Flight
 
     rng = rng if rng is not None else np.random.default_rng(0)
-    attrs = dict(schema="flight-zarr/1", flight_id=fid, target="drone", radar_id="radar1", prf_hz=7300.0,
-                 carrier_hz=1.35e9, drone_model="inspire2", n_motors=4, n_blades=2, blade_length_m=0.19)
+    attrs = dict(
+        schema="flight-zarr/1",
+        flight_id=fid,
+        target="drone",
+        radar_id="radar1",
+        prf_hz=7300.0,
+        carrier_hz=1.35e9,
+        drone_model="inspire2",
+        n_motors=4,
+        n_blades=2,
+        blade_length_m=0.19,
+    )
     iq = (rng.standard_normal(n) + 1j * rng.standard_normal(n)).astype(np.complex64)
-    f = Flight(attrs=attrs, iq=iq, track_time_s=np.array([0.0, 0.5, 1.0]),
-               track_range_m=np.array([1000.0, 1002.5, 1005.0]),
-               track_radial_velocity_mps=np.array([5.0, 5.0, 5.0]))
+    f = Flight(
+        attrs=attrs,
+        iq=iq,
+        track_time_s=np.array([0.0, 0.5, 1.0]),
+        track_range_m=np.array([1000.0, 1002.5, 1005.0]),
+        track_radial_velocity_mps=np.array([5.0, 5.0, 5.0]),
+    )
     if with_log:
         f.motors_time_s = np.arange(20) / 30.0
         f.motors_rpm = np.full((20, 4), 4800.0, np.float32)

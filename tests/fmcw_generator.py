@@ -89,7 +89,7 @@ def _beat(scene: FmcwScene, r_m: np.ndarray, amp: complex) -> np.ndarray:
     slope = scene.bandwidth_hz * scene.sample_rate_hz / scene.n_samples
     tau = 2 * r_m / C_MPS
     tf = np.arange(scene.n_samples)[None, :] / scene.sample_rate_hz
-    base = amp * np.exp(2j * np.pi * (f0 * tau + slope * tau * tf - slope * tau ** 2 / 2))
+    base = amp * np.exp(2j * np.pi * (f0 * tau + slope * tau * tf - slope * tau**2 / 2))
     # channel c: delay tau + d_c; the factor is exact but for the cross term S tau d_c,
     # taken at the point's mean delay (its change over the recording is < 1e-4 rad)
     tbar = float(np.mean(tau))
@@ -135,7 +135,14 @@ def generate(scene: FmcwScene) -> tuple[np.ndarray, dict]:
         out = out.astype(np.complex64)
     t0 = np.arange(m) / scene.chirp_rate_hz
     v = np.full(m, scene.radial_speed_mps)
-    truth = {"time_s": t0, "range_m": scene.range0_m + scene.radial_speed_mps * t0, "radial_velocity_mps": v,
-             "body_doppler_hz": -2 * v / scene.wavelength_m, "rotor_rev_s": tuple(scene.rotor_rev_s),
-             "n_blades": scene.n_blades, "wavelength_m": scene.wavelength_m, "range_bin_m": scene.range_bin_m}
+    truth = {
+        "time_s": t0,
+        "range_m": scene.range0_m + scene.radial_speed_mps * t0,
+        "radial_velocity_mps": v,
+        "body_doppler_hz": -2 * v / scene.wavelength_m,
+        "rotor_rev_s": tuple(scene.rotor_rev_s),
+        "n_blades": scene.n_blades,
+        "wavelength_m": scene.wavelength_m,
+        "range_bin_m": scene.range_bin_m,
+    }
     return out, truth

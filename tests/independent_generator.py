@@ -72,7 +72,7 @@ class GenCase:
     radar: str = "gen_l"
     effects: dict = field(default_factory=dict)
     duration_s: float = 40.0
-    snr_db: float = 40.0          # body line over the noise per bin of a 4096-pulse CPI (Hann gain)
+    snr_db: float = 40.0  # body line over the noise per bin of a 4096-pulse CPI (Hann gain)
     first_sideband_db: float = 8.0
     speed_mps: float | None = None  # radial speed; default drawn (7-11 m/s at gen_l, scaled for gen_s)
     oddities: dict = field(default_factory=dict)  # out-of-catalog effects (module docstring)
@@ -100,7 +100,7 @@ def _phase_noise(n: int, prf: float, skirt_dbc_hz: float, shape: str, rng) -> np
     m = n
     f = np.fft.rfftfreq(m, 1.0 / prf)
     if shape == "gauss":
-        s = np.exp(-f ** 2 / (2 * 60.0 ** 2))
+        s = np.exp(-(f**2) / (2 * 60.0**2))
     elif shape == "flicker":
         s = np.where(f < 400.0, 1.0 / (f + 5.0), 0.0)
     else:
@@ -149,12 +149,15 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
     vr = np.where(turned, -vr, vr)
     # rotor speeds: common slow variation and per-motor offsets (relative 3 %)
     tc = np.arange(-3.0, case.duration_s + 3.0, 0.01)
-    common = HOVER_REV_S * rng.uniform(0.9, 1.1) * (1 + 0.05 * np.sin(2 * np.pi * tc / rng.uniform(6, 12))
-                                                       + 0.03 * np.sin(2 * np.pi * tc / rng.uniform(2.5, 4)))
+    common = (
+        HOVER_REV_S
+        * rng.uniform(0.9, 1.1)
+        * (1 + 0.05 * np.sin(2 * np.pi * tc / rng.uniform(6, 12)) + 0.03 * np.sin(2 * np.pi * tc / rng.uniform(2.5, 4)))
+    )
     offs = 1 + rng.normal(0, 0.03, N_MOTORS)
     wob = np.array([0.01 * np.sin(2 * np.pi * tc / rng.uniform(1.5, 3) + rng.uniform(0, 6.3)) for _ in range(N_MOTORS)])
-    rev_c = common[None, :] * (offs[:, None] + wob)                       # [motors, n_c]
-    rev = np.array([np.interp(t, tc, rm) for rm in rev_c])               # [motors, n]
+    rev_c = common[None, :] * (offs[:, None] + wob)  # [motors, n_c]
+    rev = np.array([np.interp(t, tc, rm) for rm in rev_c])  # [motors, n]
     phi = np.cumsum(rev, axis=1) / prf + rng.uniform(0, 1, (N_MOTORS, 1))
     odd = case.oddities
     nb_true = int(odd.get("true_n_blades", N_BLADES))
@@ -167,18 +170,18 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
     # envelope relative to the body: exp(-alpha |f|), asymmetry, one FFT over the record
     fgrid = np.fft.fftfreq(n, 1.0 / prf)
     h = N_BLADES * HOVER_REV_S
-    alpha = 5.5 / (20 * np.log10(np.e) * h)   # ~5.5 dB per harmonic beyond the wire's own roll-off
+    alpha = 5.5 / (20 * np.log10(np.e) * h)  # ~5.5 dB per harmonic beyond the wire's own roll-off
     H = np.exp(-alpha * np.abs(fgrid))
     a_db = eff.get("sideband_asymmetry", {}).get("asymmetry_db", 0.0)
     H = H * np.where(fgrid > 0, 10 ** (a_db / 40), np.where(fgrid < 0, 10 ** (-a_db / 40), 0.0))
     blades = np.fft.ifft(np.fft.fft(blades) * H)
     # levels: body line SNR per CPI bin; first sideband pair first_sideband_db below the body
     w = np.hanning(4096)
-    g_bin = (w.sum() ** 2) / (w ** 2).sum()
+    g_bin = (w.sum() ** 2) / (w**2).sum()
     a_body = np.sqrt(10 ** (case.snr_db / 10) / g_bin)
     bl_spec = np.abs(np.fft.fft(blades)) ** 2
-    band = (np.abs(np.abs(fgrid) - h * np.median(offs) * common.mean() / HOVER_REV_S) < 0.25 * h)
-    p1 = bl_spec[band].sum() / n / 2                                      # mean power of one first sideband
+    band = np.abs(np.abs(fgrid) - h * np.median(offs) * common.mean() / HOVER_REV_S) < 0.25 * h
+    p1 = bl_spec[band].sum() / n / 2  # mean power of one first sideband
     blades *= a_body * 10 ** (-case.first_sideband_db / 20) / np.sqrt(max(p1 / n, 1e-30))
     # slow gains
     dtg = 0.005
@@ -207,11 +210,12 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
         p = odd["range_straddle"]
         drift_db = -p["depth_db"] * 0.5 * (1 - np.cos(2 * np.pi * t / p["period_s"] + rng.uniform(0, 6.3)))
         target = target * 10 ** (drift_db / 20)
+
     # clutter: a stationary line (CNR 45 dB per pulse) with a little wind-blown spread
     # (Gaussian spectrum, 1.5 Hz rms: no far tails)
     def clutter(rr):
         c0 = 10 ** (45 / 20) * np.exp(1j * rr.uniform(0, 2 * np.pi))
-        sp = (rr.standard_normal(n) + 1j * rr.standard_normal(n)) * np.exp(-fgrid ** 2 / (4 * 1.5 ** 2))
+        sp = (rr.standard_normal(n) + 1j * rr.standard_normal(n)) * np.exp(-(fgrid**2) / (4 * 1.5**2))
         wind = np.fft.ifft(sp)
         return c0 + 10 ** (20 / 20) * wind / max(np.abs(wind).std(), 1e-12)
 
@@ -232,15 +236,33 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
     tt = np.arange(0.0, case.duration_s, 0.05)
     track_r = np.interp(tt, t, r) + rng.normal(0, 0.5, len(tt))
     track_v = np.interp(tt, t, vr) + rng.normal(0, 0.05, len(tt))
-    attrs = {"schema": "flight-zarr/1", "flight_id": case.flight_id, "target": "drone", "radar_id": case.radar,
-             "prf_hz": float(prf), "carrier_hz": float(carrier), "drone_model": "gen_quad",
-             "n_motors": N_MOTORS, "n_blades": N_BLADES, "blade_length_m": BLADE_M,
-             "source": "tests/independent_generator.py"}
-    flight = Flight(attrs=attrs, iq=iq, track_time_s=tt, track_range_m=track_r,
-                    track_radial_velocity_mps=track_v, motors_time_s=tl.astype(np.float64), motors_rpm=rpm,
-                    background_iq=bg)
-    truth = {"effects": {c: {k: v for k, v in p.items() if k not in ("shape", "motors")} for c, p in eff.items()},
-             "oddities": dict(odd),
-             "body_doppler_hz": float(np.median(np.abs(-2 * vr / lam))),
-             "realized_std_db": realized}  # the std of this flight's own gain path
+    attrs = {
+        "schema": "flight-zarr/1",
+        "flight_id": case.flight_id,
+        "target": "drone",
+        "radar_id": case.radar,
+        "prf_hz": float(prf),
+        "carrier_hz": float(carrier),
+        "drone_model": "gen_quad",
+        "n_motors": N_MOTORS,
+        "n_blades": N_BLADES,
+        "blade_length_m": BLADE_M,
+        "source": "tests/independent_generator.py",
+    }
+    flight = Flight(
+        attrs=attrs,
+        iq=iq,
+        track_time_s=tt,
+        track_range_m=track_r,
+        track_radial_velocity_mps=track_v,
+        motors_time_s=tl.astype(np.float64),
+        motors_rpm=rpm,
+        background_iq=bg,
+    )
+    truth = {
+        "effects": {c: {k: v for k, v in p.items() if k not in ("shape", "motors")} for c, p in eff.items()},
+        "oddities": dict(odd),
+        "body_doppler_hz": float(np.median(np.abs(-2 * vr / lam))),
+        "realized_std_db": realized,
+    }  # the std of this flight's own gain path
     return flight, truth

@@ -28,9 +28,19 @@ def cpi_truth(rev_t_s, rev_s, cpi_t_s):
     return np.column_stack([cpi_average(rev_t_s, rev_s[:, m], cpi_t_s, w, PRF) for m in range(rev_s.shape[1])])
 
 
-def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_db=8.0, snr_db=45.0,
-                     radial_velocity_mps=-5.0, alpha_s=0.002, seed=0, blades_until_s=None,
-                     blades_drop=None) -> Flight:
+def synthetic_flight(
+    rev_s,
+    *,
+    n_blades=2,
+    blade_length_m=0.19,
+    first_sideband_db=8.0,
+    snr_db=45.0,
+    radial_velocity_mps=-5.0,
+    alpha_s=0.002,
+    seed=0,
+    blades_until_s=None,
+    blades_drop=None,
+) -> Flight:
     """A drone flight made with the paper's eq. (1)/(2) directly (no emulator): body on
     a constant-velocity track, blades ``first_sideband_db`` below it (before the alpha
     envelope), white noise for a body-line SNR of ``snr_db`` in the 4096-point
@@ -50,17 +60,30 @@ def synthetic_flight(rev_s, *, n_blades=2, blade_length_m=0.19, first_sideband_d
 
     hooked = blades_until_s is not None or blades_drop is not None
     config = synthesis.SynthesisConfig.of(
-        prf_hz=PRF, wavelength_m=LAM, n_blades=n_blades, blade_length_m=blade_length_m,
+        prf_hz=PRF,
+        wavelength_m=LAM,
+        n_blades=n_blades,
+        blade_length_m=blade_length_m,
         scaling=synthesis.Scaling(1.0, 10 ** (-first_sideband_db / 20) / c_b, alpha_s),
-        extensions=synthesis.ModelExtensions(blade_hook=blade_gain if hooked else None))
+        extensions=synthesis.ModelExtensions(blade_hook=blade_gain if hooked else None),
+    )
     iq = synthesis.synthesize(config, track, rev_s, seed=seed)
     w = blackmanharris(N_FFT, sym=False)
-    noise = w.sum() ** 2 / (w ** 2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
+    noise = w.sum() ** 2 / (w**2).sum() / 10 ** (snr_db / 10)  # body peak / noise per bin = snr
     synthesis.add_noise(iq, noise, seed + 1)
     tt = np.linspace(0.0, dur, 40)
-    attrs = dict(schema="flight-zarr/1", flight_id="synthetic", target="drone", radar_id="synthetic",
-                 prf_hz=PRF, carrier_hz=CARRIER, drone_model="test_quad", n_motors=int(rev_s.shape[1]),
-                 n_blades=int(n_blades), blade_length_m=float(blade_length_m))
+    attrs = dict(
+        schema="flight-zarr/1",
+        flight_id="synthetic",
+        target="drone",
+        radar_id="synthetic",
+        prf_hz=PRF,
+        carrier_hz=CARRIER,
+        drone_model="test_quad",
+        n_motors=int(rev_s.shape[1]),
+        n_blades=int(n_blades),
+        blade_length_m=float(blade_length_m),
+    )
     return Flight(attrs, iq, tt, 1500.0 + radial_velocity_mps * tt, np.full(len(tt), radial_velocity_mps))
 
 
@@ -79,8 +102,9 @@ def crowded_rotors(rng, t):
     speeds wobble by 0.5-3 % over 0.5-2 s: [len(t), 4] rev/s."""
     base = rng.uniform(60.0, 95.0)
     off = np.sort(rng.normal(0.0, 0.008, 4))
-    wobble = rng.uniform(0.005, 0.03) * np.sin(2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0)
-                                               + rng.uniform(0, 2 * np.pi, 4))
+    wobble = rng.uniform(0.005, 0.03) * np.sin(
+        2 * np.pi * t[:, None] / rng.uniform(0.5, 2.0) + rng.uniform(0, 2 * np.pi, 4)
+    )
     return base * (1 + off + wobble)
 
 

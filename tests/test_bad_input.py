@@ -32,6 +32,7 @@ def _intact(d: Path):
 
 # ---- data loss -------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("overwrite", [[], ["--overwrite"]])
 @pytest.mark.parametrize("command", ["ingest", "simulate"])
 def test_out_on_a_users_directory_is_refused_and_kept(capsys, user_dir, ulog_path, command, overwrite):
@@ -51,8 +52,12 @@ def test_never_valid_outputs(capsys, tmp_path, monkeypatch, good_store, ulog_pat
     (work / "keep.txt").write_text("x")
     monkeypatch.chdir(work)
     target = {".": ".", "..": "..", "home": str(Path.home()), "repo": str(REPO)}[where]
-    argv = {"ingest": ["ingest", ulog_path], "simulate": ["simulate", *SIM],
-            "emulate": ["emulate", "--profile", "test", "--quiet"], "diagnose": ["diagnose", good_store]}[command]
+    argv = {
+        "ingest": ["ingest", ulog_path],
+        "simulate": ["simulate", *SIM],
+        "emulate": ["emulate", "--profile", "test", "--quiet"],
+        "diagnose": ["diagnose", good_store],
+    }[command]
     rc, err = run_cli(capsys, [*argv, "--out", target, "--overwrite"])
     one_line(rc, err, "--out")
     assert (work / "keep.txt").read_text() == "x"
@@ -103,6 +108,7 @@ def test_ci_script_deletes_only_what_it_created():
 
 # ---- one line, exit 2, nothing written ---------------------------------------------
 
+
 def _bad_yaml(d):
     p = d / "bad.yaml"
     p.write_text("diagnosis: {alpha: [1,\n")
@@ -115,27 +121,42 @@ def _yaml(d, text):
     return p
 
 
-@pytest.mark.parametrize("case, argv, field", [
-    ("ulg is a directory", lambda d, s: ["ingest", d / "dir.ulg"], "is a directory"),
-    ("duration inf", lambda d, s: ["simulate", *SIM, "--duration-s", "inf"], "--duration-s"),
-    ("prf inf", lambda d, s: ["simulate", *SIM, "--prf-hz", "inf"], "--prf-hz"),
-    ("snr -inf", lambda d, s: ["simulate", *SIM, "--snr-db=-inf"], "--snr-db"),
-    ("snr nan", lambda d, s: ["simulate", *SIM, "--snr-db", "nan"], "--snr-db"),
-    ("seed -1", lambda d, s: ["simulate", *SIM, "--seed=-1"], "--seed"),
-    ("carrier inf", lambda d, s: ["simulate", *SIM, "--carrier-hz", "inf"], "--carrier-hz"),
-    ("window 0", lambda d, s: ["simulate", *SIM, "--window-pulses", "0"], "--window-pulses"),
-    ("motor 7000", lambda d, s: ["simulate", "--motor-hz", "7000", "--duration-s", "0.3"], "--motor-hz"),
-    ("typical -5", lambda d, s: ["simulate", "--motor-log", s["ulog"], "--variant", "fixed_speeds",
-                                 "--typical-hz=-5"], "--typical-hz"),
-    ("log shorter than duration", lambda d, s: ["simulate", "--motor-log", s["ulog"], "--duration-s", "60"],
-     "--duration-s"),
-    ("diagnose invalid yaml", lambda d, s: ["diagnose", s["store"], "--config", _bad_yaml(d)], "yaml"),
-    ("diagnose alpha 2", lambda d, s: ["diagnose", s["store"], "--config", _yaml(d, "diagnosis: {alpha: 2}\n")],
-     "diagnosis.alpha"),
-    ("diagnose n_fft big", lambda d, s: ["diagnose", s["store"], "--config", _yaml(d, "n_fft: big\n")],
-     "diagnosis.n_fft"),
-    ("emulate seed -1", lambda d, s: ["emulate", "--profile", "test", "--seed=-1"], "--seed"),
-])
+@pytest.mark.parametrize(
+    "case, argv, field",
+    [
+        ("ulg is a directory", lambda d, s: ["ingest", d / "dir.ulg"], "is a directory"),
+        ("duration inf", lambda d, s: ["simulate", *SIM, "--duration-s", "inf"], "--duration-s"),
+        ("prf inf", lambda d, s: ["simulate", *SIM, "--prf-hz", "inf"], "--prf-hz"),
+        ("snr -inf", lambda d, s: ["simulate", *SIM, "--snr-db=-inf"], "--snr-db"),
+        ("snr nan", lambda d, s: ["simulate", *SIM, "--snr-db", "nan"], "--snr-db"),
+        ("seed -1", lambda d, s: ["simulate", *SIM, "--seed=-1"], "--seed"),
+        ("carrier inf", lambda d, s: ["simulate", *SIM, "--carrier-hz", "inf"], "--carrier-hz"),
+        ("window 0", lambda d, s: ["simulate", *SIM, "--window-pulses", "0"], "--window-pulses"),
+        ("motor 7000", lambda d, s: ["simulate", "--motor-hz", "7000", "--duration-s", "0.3"], "--motor-hz"),
+        (
+            "typical -5",
+            lambda d, s: ["simulate", "--motor-log", s["ulog"], "--variant", "fixed_speeds", "--typical-hz=-5"],
+            "--typical-hz",
+        ),
+        (
+            "log shorter than duration",
+            lambda d, s: ["simulate", "--motor-log", s["ulog"], "--duration-s", "60"],
+            "--duration-s",
+        ),
+        ("diagnose invalid yaml", lambda d, s: ["diagnose", s["store"], "--config", _bad_yaml(d)], "yaml"),
+        (
+            "diagnose alpha 2",
+            lambda d, s: ["diagnose", s["store"], "--config", _yaml(d, "diagnosis: {alpha: 2}\n")],
+            "diagnosis.alpha",
+        ),
+        (
+            "diagnose n_fft big",
+            lambda d, s: ["diagnose", s["store"], "--config", _yaml(d, "n_fft: big\n")],
+            "diagnosis.n_fft",
+        ),
+        ("emulate seed -1", lambda d, s: ["emulate", "--profile", "test", "--seed=-1"], "--seed"),
+    ],
+)
 def test_bad_option_one_line_nothing_written(capsys, tmp_path, ulog_path, good_store, case, argv, field):
     (tmp_path / "dir.ulg").mkdir()
     out = tmp_path / ("report.json" if "diagnose" in case else "out.zarr")
@@ -153,8 +174,12 @@ def test_out_existing_file_or_unwritable(capsys, tmp_path, ulog_path, good_store
     f = tmp_path / "taken.txt"
     f.write_text("mine")
     out = {"existing file": f, "below a file": f / "x.zarr", "unwritable": Path("/proc/self/x.zarr")}[target]
-    argv = {"ingest": ["ingest", ulog_path], "simulate": ["simulate", *SIM],
-            "emulate": ["emulate", "--profile", "test", "--quiet"], "diagnose": ["diagnose", good_store]}[command]
+    argv = {
+        "ingest": ["ingest", ulog_path],
+        "simulate": ["simulate", *SIM],
+        "emulate": ["emulate", "--profile", "test", "--quiet"],
+        "diagnose": ["diagnose", good_store],
+    }[command]
     rc, err = run_cli(capsys, [*argv, "--out", out])
     one_line(rc, err, str(out) if target != "unwritable" else "x.zarr")
     assert f.read_text() == "mine"
@@ -168,16 +193,19 @@ def test_diagnose_out_existing_directory(capsys, tmp_path, good_store, user_dir)
 
 def test_diagnose_accepts_the_pipelines_config(capsys, tmp_path):
     bird = make_flight("b1", with_log=False)
-    bird.attrs = {k: v for k, v in bird.attrs.items()
-                  if k not in ("drone_model", "n_motors", "n_blades", "blade_length_m")} | {"target": "bird"}
+    bird.attrs = {
+        k: v for k, v in bird.attrs.items() if k not in ("drone_model", "n_motors", "n_blades", "blade_length_m")
+    } | {"target": "bird"}
     store = write_flight(tmp_path / "b1.zarr", bird)
-    rc, err = run_cli(capsys, ["diagnose", store, "--config", REPO / "config" / "config.yaml",
-                               "--out", tmp_path / "r.json"])
+    rc, err = run_cli(
+        capsys, ["diagnose", store, "--config", REPO / "config" / "config.yaml", "--out", tmp_path / "r.json"]
+    )
     assert rc == 0, err
     assert (tmp_path / "r.json").exists()
 
 
 # ---- validation that reads the data ------------------------------------------------
+
 
 def _store(tmp_path, name="s", background=True):
     f = make_flight(name, n=8192)
@@ -198,6 +226,7 @@ def _nan(path):
 
         a = zarr.open_array(str(store / path), mode="r+")
         a[3000] = np.nan
+
     return make
 
 
@@ -219,13 +248,16 @@ def _truncated_chunk(store):
     p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
 
 
-@pytest.mark.parametrize("case, damage, field", [
-    ("iq NaN", _nan("iq"), "iq: contains NaN"),
-    ("background NaN", _nan("background/iq"), "background/iq: contains NaN"),
-    ("iq 2-D", _two_d, "iq: has 2 dimensions"),
-    ("missing chunk", _missing_chunk, "chunk files missing"),
-    ("truncated chunk", _truncated_chunk, "cannot be read"),
-])
+@pytest.mark.parametrize(
+    "case, damage, field",
+    [
+        ("iq NaN", _nan("iq"), "iq: contains NaN"),
+        ("background NaN", _nan("background/iq"), "background/iq: contains NaN"),
+        ("iq 2-D", _two_d, "iq: has 2 dimensions"),
+        ("missing chunk", _missing_chunk, "chunk files missing"),
+        ("truncated chunk", _truncated_chunk, "cannot be read"),
+    ],
+)
 def test_validate_reads_the_data(capsys, tmp_path, case, damage, field):
     store = _store(tmp_path)
     assert run_cli(capsys, ["validate", store])[0] == 0
@@ -236,8 +268,9 @@ def test_validate_reads_the_data(capsys, tmp_path, case, damage, field):
         assert run_cli(capsys, ["validate", "--quick", store])[0] == 0
 
 
-@pytest.mark.parametrize("damage, field", [(_missing_chunk, "chunk files missing"),
-                                           (_truncated_chunk, "cannot be read")])
+@pytest.mark.parametrize(
+    "damage, field", [(_missing_chunk, "chunk files missing"), (_truncated_chunk, "cannot be read")]
+)
 def test_diagnose_and_read_refuse_a_damaged_store(capsys, tmp_path, damage, field):
     store = _store(tmp_path)
     damage(store)
@@ -284,6 +317,7 @@ def test_check_output_kinds(tmp_path):
 
 
 # --- unknown configuration keys: rejected everywhere, in one line -------------------
+
 
 def test_an_unknown_config_key_is_named_with_its_section():
     import yaml

@@ -84,10 +84,15 @@ def test_table_v_intervals_widen_with_flight_correlation():
         for t in ("real", "sub_cpi"):
             for s in range(3):
                 ok = rng.random(len(fid)) < np.repeat(p_f, per_flight)
-                out[(t, s)] = pd.DataFrame({"flight_id": fid, "target": target, "drone_model": model,
-                                            "predicted": np.where(ok, target, np.where(target == "bird", "drone",
-                                                                                       "bird")),
-                                            "radar_id": "1"})
+                out[(t, s)] = pd.DataFrame(
+                    {
+                        "flight_id": fid,
+                        "target": target,
+                        "drone_model": model,
+                        "predicted": np.where(ok, target, np.where(target == "bird", "drone", "bird")),
+                        "radar_id": "1",
+                    }
+                )
         return out
 
     widths = []

@@ -25,8 +25,7 @@ FAST = dict(n_alpha=4, max_iter=4)
 @pytest.fixture(scope="module")
 def drone():
     """A 40 s emulated Inspire flight (141 CPIs, 72 in fold A), its log and sub_cpi rates."""
-    fl, _ = emulate_flight(FlightSpec("cal1", "drone", drone_model="inspire2", duration_s=40.0, seed=21,
-                                      snr_db=42.0))
+    fl, _ = emulate_flight(FlightSpec("cal1", "drone", drone_model="inspire2", duration_s=40.0, seed=21, snr_db=42.0))
     log = MotorLog(np.asarray(fl.motors_time_s, float), np.asarray(fl.motors_rpm, np.float32), "test")
     return fl, log, resample("sub_cpi", log, len(fl.iq), fl.prf_hz)
 
@@ -75,7 +74,7 @@ def _garble_fold_b(fl, block: int, seed: int):
     st = calibration.StftColumns(len(fl.iq), fl.prf_hz, SPEC)
     near = np.zeros(len(fl.iq), bool)
     for s in st.frame_start[folds(st.n_timesteps, block) == 0]:
-        near[max(0, s - 4096):s + SPEC.n_fft + 4096] = True
+        near[max(0, s - 4096) : s + SPEC.n_fft + 4096] = True
     far = ~near
     assert far.sum() > 20000
     rng = np.random.default_rng(seed)
@@ -109,8 +108,9 @@ def test_capped_and_segmented_fits_match_the_full_one(drone):
     fl, log, rev = drone
     full_cfg = calibration.CalibrationConfig(max_fit_cpis=0, **FAST)
     # extensions (none in use) force whole-record synthesis
-    _, full = calibration.fit_twin(fl, rev, log, spec_cfg=SPEC, cfg=full_cfg, seed=5,
-                                   extensions=lambda s: ModelExtensions())
+    _, full = calibration.fit_twin(
+        fl, rev, log, spec_cfg=SPEC, cfg=full_cfg, seed=5, extensions=lambda s: ModelExtensions()
+    )
     _, seg = calibration.fit_twin(fl, rev, log, spec_cfg=SPEC, cfg=full_cfg, seed=5)
     assert seg["alpha_s"] == full["alpha_s"]
     assert seg["s_body"] == pytest.approx(full["s_body"], rel=2e-3)

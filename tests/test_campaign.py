@@ -36,11 +36,17 @@ SNAKEMAKE = shutil.which("snakemake") or str(Path(sys.executable).with_name("sna
 def _recording(duration_s: float, prf_hz: float = 2000.0):
     """A flying drone of tests/any_radar.py at ``prf_hz`` (3.3 GHz, 0.15 m blades) and
     its true rotor speeds as a motor log."""
-    case = draw_case(5, duration_s=duration_s, prf_hz=prf_hz, carrier_hz=3.3e9, blade_length_m=0.15,
-                     setup="flying", radial_speed_mps=4.0)
+    case = draw_case(
+        5,
+        duration_s=duration_s,
+        prf_hz=prf_hz,
+        carrier_hz=3.3e9,
+        blade_length_m=0.15,
+        setup="flying",
+        radial_speed_mps=4.0,
+    )
     flight, truth = make_recording(case)
-    log = MotorLog(np.asarray(truth["time_s"], float), (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32),
-                   "truth")
+    log = MotorLog(np.asarray(truth["time_s"], float), (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32), "truth")
     return flight, log
 
 
@@ -61,10 +67,13 @@ def test_twenty_second_flight_at_2khz_is_not_too_short():
     assert exc.value.reason.startswith("flight too short: iq: has 40000 pulses at 2000 Hz = 20 s")
 
 
-@pytest.mark.parametrize("duration_s, min_duration_s, expect", [
-    (4.0, 0.0, "expected >= 5.38 s: 20 CPIs of 0.512 s"),
-    (8.0, 10.0, "expected >= 10 s: 20 CPIs of 0.512 s"),
-])
+@pytest.mark.parametrize(
+    "duration_s, min_duration_s, expect",
+    [
+        (4.0, 0.0, "expected >= 5.38 s: 20 CPIs of 0.512 s"),
+        (8.0, 10.0, "expected >= 10 s: 20 CPIs of 0.512 s"),
+    ],
+)
 def test_too_short_flight_says_the_minimum_in_seconds(duration_s, min_duration_s, expect):
     flight, log = _recording(duration_s)
     with pytest.raises(Undiagnosable) as exc:
@@ -77,6 +86,7 @@ def test_too_short_flight_says_the_minimum_in_seconds(duration_s, min_duration_s
 
 
 # ---------------------------------------------------------------- a campaign without birds
+
 
 def _drone_campaign(folder, n: int = 2):
     """``n`` short drone recordings of tests/any_radar.py as flight-zarr stores."""
@@ -91,7 +101,8 @@ def test_no_bird_flights_note(tmp_path):
     folder = _drone_campaign(tmp_path / "measured")
     assert missing_class_note(folder) == (
         f"classifier left out: the campaign in {folder} has no bird flights (2 drone flights); "
-        "add bird recordings to train a bird/drone classifier")
+        "add bird recordings to train a bird/drone classifier"
+    )
     both = {"a": "drone", "b": "bird", "c": "none", "d": "drone", "e": "bird", "f": "drone", "g": "bird"}
     assert missing_class_note(folder, both) == ""
 
@@ -104,7 +115,8 @@ def test_too_few_flights_for_a_split_note(tmp_path):
     assert missing_class_note(folder, targets) == (
         f"classifier left out: the campaign in {folder} has too few bird flights for a flight-disjoint "
         "train/test/validation split (2 bird flights, 3 drone flights; expected >= 3 of each class, one per set); "
-        "add bird recordings")
+        "add bird recordings"
+    )
     note = missing_class_note(folder, {"a": "drone", "b": "bird"})
     assert "\n" not in note and "too few bird and drone flights" in note
 
@@ -117,13 +129,19 @@ def test_training_on_one_class_is_refused_in_one_line():
     msg = str(exc.value)
     assert "\n" not in msg
     assert msg.startswith(f"training set: train.target: has drone tiles only ({len(drones)} tiles of ")
-    assert msg.endswith("(expected tiles of both classes, bird and drone: add bird recordings to train a bird/drone "
-                        "classifier)")
+    assert msg.endswith(
+        "(expected tiles of both classes, bird and drone: add bird recordings to train a bird/drone classifier)"
+    )
 
 
 def _snakemake_dry(work, *targets):
-    return subprocess.run([SNAKEMAKE, "-n", *targets, "-s", str(REPO / "Snakefile"), "-d", str(work),
-                           "--configfile", "config.yaml"], cwd=work, capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [SNAKEMAKE, "-n", *targets, "-s", str(REPO / "Snakefile"), "-d", str(work), "--configfile", "config.yaml"],
+        cwd=work,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -141,8 +159,10 @@ def test_campaign_without_birds_leaves_the_classifier_out(drone_only_workdir):
     r = _snakemake_dry(drone_only_workdir)
     assert r.returncode == 0, r.stderr[-3000:]
     out = r.stdout + r.stderr
-    note = ("classifier left out: the campaign in measured has no bird flights (2 drone flights); "
-            "add bird recordings to train a bird/drone classifier")
+    note = (
+        "classifier left out: the campaign in measured has no bird flights (2 drone flights); "
+        "add bird recordings to train a bird/drone classifier"
+    )
     assert out.count(note) == 1, out[-3000:]
     for rule in ("train_classifier", "evaluate_classifier", "report_metrics"):
         assert f"rule {rule}:" not in out and f"\n{rule} " not in out
@@ -158,6 +178,7 @@ def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone
 
 # ---------------------------------------------------------------- a fidelity table that cannot be formed
 
+
 def _own_campaign(tmp_path):
     """Three drone flights of tests/any_radar.py (no background recording): c0 of a
     model of one's own with a motor log, c1 of the same model without, c2 a Mini 2
@@ -171,9 +192,12 @@ def _own_campaign(tmp_path):
     for k, (model, with_log) in enumerate([("own_quad", True), ("own_quad", False), ("mini2", True)]):
         flight, truth = make_recording(draw_case(40 + k, duration_s=3.0, prf_hz=4000.0))
         rpm = (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32)
-        flight = replace(flight, attrs={**flight.attrs, "flight_id": f"c{k}", "drone_model": model},
-                         motors_time_s=np.asarray(truth["time_s"], float) if with_log else None,
-                         motors_rpm=rpm if with_log else None)
+        flight = replace(
+            flight,
+            attrs={**flight.attrs, "flight_id": f"c{k}", "drone_model": model},
+            motors_time_s=np.asarray(truth["time_s"], float) if with_log else None,
+            motors_rpm=rpm if with_log else None,
+        )
         write_flight(measured / f"c{k}.zarr", flight)
     logs = tmp_path / "motors" / "logs.zarr"
     ingest_flight_logs(measured, logs, tmp_path / "motors" / "ingest.csv", log=lambda m: None)
@@ -188,8 +212,16 @@ def test_a_drone_model_of_ones_own_gets_twin_speeds(tmp_path):
     from microdoppler.io.inventory import read_ingested_log
 
     measured, logs = _own_campaign(tmp_path)
-    status = build_speeds(measured, logs, tmp_path / "fixed.zarr", variant="fixed_speeds", settings={"spread": 0.1},
-                          n_fft=4096, seed=7, log=lambda m: None)
+    status = build_speeds(
+        measured,
+        logs,
+        tmp_path / "fixed.zarr",
+        variant="fixed_speeds",
+        settings={"spread": 0.1},
+        n_fft=4096,
+        seed=7,
+        log=lambda m: None,
+    )
     assert list(status.flight_id) == ["c0", "c1"]
     assert status.set_index("flight_id").status.to_dict() == {"c0": "ok", "c1": "skipped"}
     root = open_store(tmp_path / "fixed.zarr", "speeds/2")
@@ -215,25 +247,37 @@ def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
             pass
     lines = []
     out = tmp_path / "reports"
-    table = write_fidelity_report(measured, logs, injected, out / "table_vi.csv", out / "fig_fidelity.png",
-                                  out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
-                                                                                                 log=lambda m: None),
-                                  left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
+    table = write_fidelity_report(
+        measured,
+        logs,
+        injected,
+        out / "table_vi.csv",
+        out / "fig_fidelity.png",
+        out / "fidelity_flights.csv",
+        spec_cfg=spectrogram_for_flights(None, measured, log=lambda m: None),
+        left_out_csv=out / "fidelity_left_out.csv",
+        n_boot=50,
+        log=lines.append,
+    )
     assert table.empty and pd.read_csv(out / "table_vi.csv").empty
     left = pd.read_csv(out / "fidelity_left_out.csv").set_index("flight_id")
     assert left.loc["c0", "reason"] == "no background recording (background/iq): no twin can be injected"
     assert left.loc["c1", "reason"] == "no motor log (neither in the store nor in the flights table)"
-    assert left.loc["c2", "reason"].startswith("no twins of drone model 'mini2': twins are made of inspire2, "
-                                               "matrice300 and of drone models")
+    assert left.loc["c2", "reason"].startswith(
+        "no twins of drone model 'mini2': twins are made of inspire2, matrice300 and of drone models"
+    )
     assert (left.variants == "sub_cpi extended").all()
     for fid in ("c0", "c1", "c2"):
         assert f"{fid}: left out of Table VI (sub_cpi extended): {left.loc[fid, 'reason']}" in lines
-    assert lines[-1] == ("Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
-                         "(3 drone flights left out, reasons above)")
+    assert lines[-1] == (
+        "Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
+        "(3 drone flights left out, reasons above)"
+    )
     assert (out / "fig_fidelity.png").stat().st_size > 0
 
 
 # ---------------------------------------------------------------- the SNR of a drone on a stand
+
 
 def _stand_and_flying(folder):
     """Two drone flights of tests/independent_generator.py at its 2.9 GHz / 9 kHz radar:
@@ -276,8 +320,9 @@ def test_snr_of_a_drone_on_a_stand_is_read_on_its_rotor_lines(tmp_path):
     assert split.set_index("flight_id").snr_line.to_dict() == {"flying": "body", "stand": "rotor"}
     assert set(table.snr_line) <= {"body", "rotor", "body+rotor", ""}
     assert table[table["class"] == "all"].snr_line.tolist() == [
-        "+".join(ln for ln in ("body", "rotor") if ln in set(split[split.set == s].snr_line)) for s in
-        ("train", "test", "validation")]
+        "+".join(ln for ln in ("body", "rotor") if ln in set(split[split.set == s].snr_line))
+        for s in ("train", "test", "validation")
+    ]
     assert any(m.startswith("stand: ") and "rotor-line SNR (body in the clutter notch)" in m for m in lines)
     assert any(m.startswith("flying: ") and "body SNR" in m for m in lines)
 
@@ -304,8 +349,9 @@ def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp
     flights = {}
     # the generator's first sideband pair stands first_sideband_db below a 40 dB body
     for fid, below_db, speed_mps in (("lines", 8.0, 8.0), ("dark", 45.0, 8.0), ("stand", 8.0, 0.0)):
-        flight, _ = make_flight(GenCase(fid, seed=71, radar="gen_s", duration_s=8.0, speed_mps=speed_mps,
-                                        first_sideband_db=below_db))
+        flight, _ = make_flight(
+            GenCase(fid, seed=71, radar="gen_s", duration_s=8.0, speed_mps=speed_mps, first_sideband_db=below_db)
+        )
         write_flight(measured / f"{fid}.zarr", flight)
         flights[fid] = flight
     logs = tmp_path / "motors" / "logs.zarr"
@@ -319,10 +365,18 @@ def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp
             put_array(g, "iq", flight.iq)
     lines = []
     out = tmp_path / "reports"
-    table = write_fidelity_report(measured, logs, injected, out / "table_vi.csv", out / "fig_fidelity.png",
-                                  out / "fidelity_flights.csv", spec_cfg=spectrogram_for_flights(None, measured,
-                                                                                                 log=lambda m: None),
-                                  left_out_csv=out / "fidelity_left_out.csv", n_boot=50, log=lines.append)
+    table = write_fidelity_report(
+        measured,
+        logs,
+        injected,
+        out / "table_vi.csv",
+        out / "fig_fidelity.png",
+        out / "fidelity_flights.csv",
+        spec_cfg=spectrogram_for_flights(None, measured, log=lambda m: None),
+        left_out_csv=out / "fidelity_left_out.csv",
+        n_boot=50,
+        log=lines.append,
+    )
     assert list(table.variant) == ["sub_cpi"] and table.n_flights.tolist() == [3]
     left = pd.read_csv(out / "fidelity_left_out.csv")
     assert sorted(left.flight_id) == ["dark", "stand"]
@@ -336,7 +390,9 @@ def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp
     assert np.isfinite(per.loc["lines", ["line_hz", "n_pairs", "first_pair_db"]].astype(float)).all()
     # a stand-mounted drone: its body line is in the clutter notch, its rotor lines are scored
     stand = left.set_index("flight_id").reason["stand"]
-    assert stand == ("body line in the clutter notch (hovering or stand-mounted): its body-line features "
-                     "(first_pair_db, body_std_db) are left out, the rotor lines scored about the track's body Doppler")
+    assert stand == (
+        "body line in the clutter notch (hovering or stand-mounted): its body-line features "
+        "(first_pair_db, body_std_db) are left out, the rotor lines scored about the track's body Doppler"
+    )
     assert per.loc["stand", ["first_pair_db", "body_std_db"]].isna().all()
     assert np.isfinite(per.loc["stand", ["line_hz", "n_pairs", "nonmultiple_db"]].astype(float)).all()

@@ -118,15 +118,23 @@ def toy(tmp_path):
 
 
 def test_registry_lists_the_catalog_in_order():
-    assert causes.names() == ("sideband_asymmetry", "sideband_fading", "body_fluctuation", "motor_log_lag",
-                              "motor_speed_scale", "phase_noise", "blade_imbalance")
+    assert causes.names() == (
+        "sideband_asymmetry",
+        "sideband_fading",
+        "body_fluctuation",
+        "motor_log_lag",
+        "motor_speed_scale",
+        "phase_noise",
+        "blade_imbalance",
+    )
     assert catalog() == ("none", *causes.names(), "unexplained")
     from dataclasses import fields
 
     from microdoppler.causes.measure import Measurements
 
-    shared = {f.name for f in fields(Measurements)} | {n for n in dir(Measurements)
-                                                       if isinstance(getattr(Measurements, n), property)}
+    shared = {f.name for f in fields(Measurements)} | {
+        n for n in dir(Measurements) if isinstance(getattr(Measurements, n), property)
+    }
     for spec in causes.specs():
         assert spec.params and spec.entry.main_param == spec.params[0].name
         assert spec.line in ("body", "rotor", "")
@@ -149,9 +157,19 @@ def test_a_toy_cause_from_one_file_is_tested_named_extended_and_drawn(toy, tmp_p
     assert name in CAUSES and catalog()[-2:] == (name, "unexplained")
     entries = {}
     for fid, effects in (("pulsing", {name: {"pulse_db": 5.0}}), ("clean", {})):
-        spec = FlightSpec(fid, "drone", drone_model="inspire2", radar_id="radar1", duration_s=40.0,
-                          mean_range_m=1500.0, speed_mps=8.0, snr_db=48.0, effects=effects, seed=21)
-        flight, truth = emulate_flight(spec)   # the emulator applies the toy's own effect
+        spec = FlightSpec(
+            fid,
+            "drone",
+            drone_model="inspire2",
+            radar_id="radar1",
+            duration_s=40.0,
+            mean_range_m=1500.0,
+            speed_mps=8.0,
+            snr_db=48.0,
+            effects=effects,
+            seed=21,
+        )
+        flight, truth = emulate_flight(spec)  # the emulator applies the toy's own effect
         assert truth["effects"] == {c: {k: float(v) for k, v in p.items()} for c, p in effects.items()}
         fig = tmp_path / f"{fid}.png" if fid == "pulsing" else None
         entries[fid] = diagnose_flight(flight, config={"figures": fig is not None}, figure_path=fig)
@@ -186,8 +204,7 @@ def test_the_toy_panel_is_drawn_for_its_test(toy, tmp_path):
 
     from microdoppler.causes.heldout import CauseTest
 
-    t = CauseTest(toy.NAME, series={"t_s": np.arange(3.0), "stat": np.zeros(3), "base": np.zeros(3),
-                                    "ext": np.ones(3)})
+    t = CauseTest(toy.NAME, series={"t_s": np.arange(3.0), "stat": np.zeros(3), "base": np.zeros(3), "ext": np.ones(3)})
     fig, ax = plt.subplots()
     causes.get(toy.NAME).draw_panel(ax, t)
     plt.close(fig)
@@ -197,7 +214,7 @@ def test_the_toy_panel_is_drawn_for_its_test(toy, tmp_path):
 #: source files outside ``causes/`` that may name a cause, and why
 ALLOWED = {
     "emulator/profiles.py": "the emulated worlds' profiles: configuration data keyed by cause (ranges, the "
-                            "signed causes' signs, the airframes' imbalance, the systematic asymmetry)",
+    "signed causes' signs, the airframes' imbalance, the systematic asymmetry)",
 }
 
 
@@ -223,9 +240,14 @@ def test_no_source_file_outside_the_causes_names_a_cause():
             continue
         tree = ast.parse(f.read_text())
         docs = _docstrings(tree)
-        hits = [f"{node.lineno}: {node.value}" for node in ast.walk(tree)
-                if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names
-                and id(node) not in docs]
+        hits = [
+            f"{node.lineno}: {node.value}"
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Constant)
+            and isinstance(node.value, str)
+            and node.value in names
+            and id(node) not in docs
+        ]
         if hits:
             found[rel] = hits
     assert not found, f"cause names outside microdoppler/causes: {found}"

@@ -8,10 +8,22 @@ import pytest
 import torch
 
 from microdoppler.classifier import (
-    AlexNet, CompactCNN, Normalisation, TrainConfig, best_epoch, class_metrics, confusion_matrix,
-    load_model, predict, predictions_table, save_model, seed_metrics, stop_epoch, train,
+    AlexNet,
+    CompactCNN,
+    Normalisation,
+    TrainConfig,
+    best_epoch,
+    class_metrics,
+    confusion_matrix,
+    load_model,
+    predict,
+    predictions_table,
+    save_model,
+    seed_metrics,
+    stop_epoch,
+    train,
 )
-from microdoppler.classifier.data import TileSet, load_trainset, read_tiles, toy_tiles, write_tiles
+from microdoppler.classifier.data import load_trainset, read_tiles, toy_tiles, write_tiles
 from microdoppler.classifier.reports import PAPER_FIG6, table_v, write_reports
 from microdoppler.errors import InputError
 
@@ -22,6 +34,7 @@ def rng():
 
 
 # --- metrics on hand-made confusion matrices -----------------------------------------
+
 
 def test_class_metrics_on_paper_fig6():
     m = class_metrics(PAPER_FIG6)  # rows true bird/drone, columns predicted bird/drone
@@ -65,12 +78,14 @@ def test_empty_class_gives_nan():
 
 
 def test_seed_metrics_subgroups():
-    pred = pd.DataFrame({
-        "target": ["drone"] * 6 + ["bird"] * 4,
-        "drone_model": ["inspire2", "matrice300", "inspire2", "mini2", "mini2", "mini2", "", "", "", ""],
-        "radar_id": ["1", "2"] * 5,
-        "predicted": ["drone", "drone", "bird", "drone", "bird", "bird", "bird", "bird", "drone", "bird"],
-    })
+    pred = pd.DataFrame(
+        {
+            "target": ["drone"] * 6 + ["bird"] * 4,
+            "drone_model": ["inspire2", "matrice300", "inspire2", "mini2", "mini2", "mini2", "", "", "", ""],
+            "radar_id": ["1", "2"] * 5,
+            "predicted": ["drone", "drone", "bird", "drone", "bird", "bird", "bird", "bird", "drone", "bird"],
+        }
+    )
     m = seed_metrics(pred)
     assert m["large_drone_accuracy"] == pytest.approx(2 / 3)
     assert m["small_drone_accuracy"] == pytest.approx(1 / 3)
@@ -81,6 +96,7 @@ def test_seed_metrics_subgroups():
 
 
 # --- stopping rule and best-epoch selection -----------------------------------------
+
 
 def test_stop_epoch_counts_exceedances_not_consecutive():
     train_loss = np.full(30, 1.0)
@@ -99,6 +115,7 @@ def test_best_epoch_maximises_sum_of_accuracies():
 
 
 # --- normalisation and models --------------------------------------------------------
+
 
 def test_normalisation_removes_level_and_clips(rng):
     x = rng.normal(-80, 3, (3, 20, 480)).astype(np.float32)
@@ -128,6 +145,7 @@ def test_alexnet_layers_and_pretrained_loading(tmp_path):
     path = tmp_path / "alexnet.pth"
     torch.save(ref.state_dict(), path)  # torchvision's parameter names and shapes
     from microdoppler.classifier.models import build_model
+
     m = build_model("alexnet", alexnet_weights=str(path))
     for a, b in zip(m.features.parameters(), ref.features.parameters()):
         assert torch.equal(a, b) and not a.requires_grad
@@ -217,9 +235,9 @@ def test_evaluation_in_forward_chunks_gives_the_same_loss_and_accuracy():
     loss, correct = 0.0, 0
     with torch.no_grad():
         for i in range(0, len(x), 256):
-            logits = model(x[i:i + 256])
-            loss += F.cross_entropy(logits, y[i:i + 256], reduction="sum").item()
-            correct += (logits.argmax(1) == y[i:i + 256]).sum().item()
+            logits = model(x[i : i + 256])
+            loss += F.cross_entropy(logits, y[i : i + 256], reduction="sum").item()
+            correct += (logits.argmax(1) == y[i : i + 256]).sum().item()
     assert _evaluate(model, x, y, 256) == (loss / len(x), correct / len(x))
     assert np.isnan(_evaluate(model, x[:0], y[:0], 256)[0])
 
@@ -234,6 +252,7 @@ def test_config_validation():
 
 
 # --- tile stores, training-set recipe and reports -----------------------------------
+
 
 def test_trainset_replaces_large_drones(tmp_path):
     real = toy_tiles(60, seed=4, sets=SETS, n_bins=64, flight_tiles=2)
@@ -260,15 +279,17 @@ def _fake_predictions(rng, trainsets, seeds, n=60, per_flight=6):
     images per flight (one class and model per flight)."""
     target = np.repeat(np.array(["bird", "drone"] * (n // (2 * per_flight))), per_flight)
     flight = np.repeat([f"f{i:02d}" for i in range(n // per_flight)], per_flight)
-    model = np.repeat(np.where(np.arange(n // per_flight) % 2, rng.choice(["inspire2", "mini2"], n // per_flight),
-                               ""), per_flight)
+    model = np.repeat(
+        np.where(np.arange(n // per_flight) % 2, rng.choice(["inspire2", "mini2"], n // per_flight), ""), per_flight
+    )
     radar = np.repeat(rng.choice(["1", "2"], n // per_flight), per_flight)
     out = {}
     for t in trainsets:
         for s in seeds:
             pred = np.where(rng.random(n) < 0.85, target, np.where(target == "bird", "drone", "bird"))
-            out[(t, s)] = pd.DataFrame({"flight_id": flight, "target": target, "drone_model": model,
-                                        "predicted": pred, "radar_id": radar})
+            out[(t, s)] = pd.DataFrame(
+                {"flight_id": flight, "target": target, "drone_model": model, "predicted": pred, "radar_id": radar}
+            )
     return out
 
 
@@ -288,8 +309,10 @@ def test_table_v_and_extended_gain(rng, tmp_path):
     assert real["accuracy_std"] == pytest.approx(acc.std(ddof=1))
     assert real["paper_accuracy"] == "89.7 ± 0.5"
     gain = tv.set_index("trainset").loc["extended - sub_cpi"]
-    d = 100 * (metrics[metrics.trainset == "extended"].set_index("seed")["drone_recall"]
-               - metrics[metrics.trainset == "sub_cpi"].set_index("seed")["drone_recall"])
+    d = 100 * (
+        metrics[metrics.trainset == "extended"].set_index("seed")["drone_recall"]
+        - metrics[metrics.trainset == "sub_cpi"].set_index("seed")["drone_recall"]
+    )
     assert gain["drone_recall_mean"] == pytest.approx(d.mean())
     for name in ("fig12", "confusion_real"):
         assert paths[name].exists()
@@ -316,6 +339,7 @@ def test_training_without_validation_tiles(tiny_tiles):
 
 
 # --- augmentation ----------------------------------------------------------------------
+
 
 def _line_tiles(b=3, t=4, d=201, at=150):
     x = torch.zeros(b, t, d)
@@ -383,20 +407,30 @@ def test_augmented_training_is_reproducible_and_differs_from_plain(tiny_tiles):
     assert not np.allclose(a["train_loss"], plain["train_loss"])
     # off (any transform at 0, or probability 0) draws nothing: the plain run, bit for bit
     off = replace(TINY, augment=Augmentation(doppler_blur_bins=3.0, probability=0.0))
-    pd.testing.assert_frame_equal(train(tr, va, off, seed=3, threads=1).history.drop(columns="seconds"),
-                                  plain.drop(columns="seconds"))
+    pd.testing.assert_frame_equal(
+        train(tr, va, off, seed=3, threads=1).history.drop(columns="seconds"), plain.drop(columns="seconds")
+    )
 
 
 def test_augmentation_config_errors_name_the_field():
     from microdoppler.classifier import Augmentation
 
-    for bad in ({"doppler_blur_bins": -1.0}, {"doppler_stretch": 0.5}, {"probability": float("nan")},
-                {"doppler_wander": -0.1}, {"doppler_wander": 0.5}):
+    for bad in (
+        {"doppler_blur_bins": -1.0},
+        {"doppler_stretch": 0.5},
+        {"probability": float("nan")},
+        {"doppler_wander": -0.1},
+        {"doppler_wander": 0.5},
+    ):
         with pytest.raises(InputError, match=next(iter(bad))):
             Augmentation(**bad)
     cfg = TrainConfig.from_config({"augment": {"doppler_blur_bins": 2.0}})
     assert cfg.augment.doppler_blur_bins == 2.0 and cfg.augment.active
-    assert cfg.to_dict()["augment"] == {"doppler_blur_bins": 2.0, "doppler_stretch": 0.0, "doppler_wander": 0.0,
-                                        "probability": 0.5}
+    assert cfg.to_dict()["augment"] == {
+        "doppler_blur_bins": 2.0,
+        "doppler_stretch": 0.0,
+        "doppler_wander": 0.0,
+        "probability": 0.5,
+    }
     assert TrainConfig.from_config({"augment": {"doppler_wander": 0.05}}).augment.active
     assert not TrainConfig().augment.active

@@ -16,27 +16,36 @@ from microdoppler.classifier.data import toy_tiles, write_tiles
 ROOT = Path(__file__).resolve().parents[1]
 SETS = ("train",) * 3 + ("validation", "test")
 
-pytestmark = pytest.mark.skipif(shutil.which("snakemake") is None and not Path(sys.executable).with_name("snakemake").exists(),
-                                reason="snakemake not installed")
+pytestmark = pytest.mark.skipif(
+    shutil.which("snakemake") is None and not Path(sys.executable).with_name("snakemake").exists(),
+    reason="snakemake not installed",
+)
 
 
 @pytest.mark.slow
 def test_classifier_rules_end_to_end(tmp_path):
     cfg = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    cfg["classifier"].update(trainsets=["real", "sub_cpi"], seeds=[1], max_epochs=1,
-                             compact={"channels": [4, 8], "doppler_pool": 8, "dropout": 0.0})
+    cfg["classifier"].update(
+        trainsets=["real", "sub_cpi"],
+        seeds=[1],
+        max_epochs=1,
+        compact={"channels": [4, 8], "doppler_pool": 8, "dropout": 0.0},
+    )
     (tmp_path / "config.yaml").write_text(yaml.safe_dump(cfg))
     (tmp_path / "Snakefile").write_text(
         'configfile: "config.yaml"\n'
         f'include: "{ROOT}/workflow/rules/common.smk"\n'
         f'include: "{ROOT}/workflow/rules/classifier.smk"\n'
         f'report: "{ROOT}/workflow/report/workflow.rst"\n'
-        "rule all:\n    input: classifier_targets()\n    default_target: True\n")
+        "rule all:\n    input: classifier_targets()\n    default_target: True\n"
+    )
     real = toy_tiles(60, seed=2, sets=SETS, n_bins=64, flight_tiles=2)
     twin = toy_tiles(60, seed=8, sets=SETS, n_bins=64, flight_tiles=2)
     write_tiles(tmp_path / "results/tiles/real.zarr", real)
-    write_tiles(tmp_path / "results/tiles/sub_cpi.zarr",
-                twin.subset(twin.labels.drone_model.isin(["inspire2", "matrice300"]).to_numpy()))
+    write_tiles(
+        tmp_path / "results/tiles/sub_cpi.zarr",
+        twin.subset(twin.labels.drone_model.isin(["inspire2", "matrice300"]).to_numpy()),
+    )
     snakemake = str(Path(sys.executable).with_name("snakemake"))
     run = subprocess.run([snakemake, "--cores", "2", "-q"], cwd=tmp_path, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]

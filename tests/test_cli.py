@@ -20,8 +20,20 @@ def _sim(tmp_path, name, *extra):
 
 
 def test_simulate_constant_speeds_writes_valid_store_with_lines(tmp_path):
-    f = _sim(tmp_path, "c", "--motor-hz", "85,90,95,100", "--duration-s", "1.5", "--range-m", "400",
-             "--radial-velocity-mps", "-4", "--seed", "3")
+    f = _sim(
+        tmp_path,
+        "c",
+        "--motor-hz",
+        "85,90,95,100",
+        "--duration-s",
+        "1.5",
+        "--range-m",
+        "400",
+        "--radial-velocity-mps",
+        "-4",
+        "--seed",
+        "3",
+    )
     assert f.attrs["n_motors"] == 4 and f.attrs["target"] == "drone"
     assert len(f.iq) == int(round(1.5 * 7300))
     spec = spectrogram(f.iq, f.prf_hz, SpectrogramConfig(n_bins=0, highpass_hz=0))
@@ -63,12 +75,25 @@ def test_snr_is_body_power_over_noise_power_per_pulse(tmp_path):
 def test_simulate_from_motor_log_and_track(tmp_path, ulog_path):
     track = tmp_path / "track.csv"
     t = np.linspace(0, 6, 13)
-    np.savetxt(track, np.column_stack([t, 900 - 3 * t + 0.2 * t ** 2]), delimiter=",", header="time_s,range_m",
-               comments="")
-    f = _sim(tmp_path, "log", "--motor-log", str(ulog_path), "--track", str(track), "--duration-s", "5",
-             "--variant", "per_cpi", "--alpha", "0.005")
+    np.savetxt(
+        track, np.column_stack([t, 900 - 3 * t + 0.2 * t**2]), delimiter=",", header="time_s,range_m", comments=""
+    )
+    f = _sim(
+        tmp_path,
+        "log",
+        "--motor-log",
+        str(ulog_path),
+        "--track",
+        str(track),
+        "--duration-s",
+        "5",
+        "--variant",
+        "per_cpi",
+        "--alpha",
+        "0.005",
+    )
     assert len(f.iq) == 5 * 7300 and f.motors_rpm.shape == (127, 4)
-    np.testing.assert_allclose(f.track_range_m, 900 - 3 * f.track_time_s + 0.2 * f.track_time_s ** 2, atol=0.05)
+    np.testing.assert_allclose(f.track_range_m, 900 - 3 * f.track_time_s + 0.2 * f.track_time_s**2, atol=0.05)
 
 
 def test_simulate_blade_amplitudes_put_a_line_at_the_rotation_rate(tmp_path):
@@ -92,17 +117,20 @@ def test_simulate_blade_amplitudes_put_a_line_at_the_rotation_rate(tmp_path):
     assert line_db(weak, 90.0) > line_db(equal, 90.0) + 60  # ... and absent for equal blades
 
 
-@pytest.mark.parametrize("args, field", [
-    (["--motor-hz", "85,90", "--blade-amplitudes", "1,0.5,1"], "--blade-amplitudes"),
-    (["--motor-hz", "85,90", "--blade-amplitudes", "1,-0.5"], "--blade-amplitudes"),
-    (["--motor-hz", "85,90,95", "--blade-amplitudes", "1,1;1,0.5"], "--blade-amplitudes"),
-    (["--motor-hz", "85,90", "--blade-amplitudes", "1,x"], "--blade-amplitudes"),
-    (["--motor-hz", "85,x"], "--motor-hz"),
-    (["--motor-hz", "85", "--alpha", "-1"], "--alpha"),
-    (["--motor-hz", "85", "--range-m", "10", "--radial-velocity-mps", "-20", "--duration-s", "1"], "--range-m"),
-    (["--motor-hz", "85", "--snr-db", "10", "--s-body", "0"], "--s-body"),
-    (["--motor-log", "nonexistent.csv"], "file"),
-])
+@pytest.mark.parametrize(
+    "args, field",
+    [
+        (["--motor-hz", "85,90", "--blade-amplitudes", "1,0.5,1"], "--blade-amplitudes"),
+        (["--motor-hz", "85,90", "--blade-amplitudes", "1,-0.5"], "--blade-amplitudes"),
+        (["--motor-hz", "85,90,95", "--blade-amplitudes", "1,1;1,0.5"], "--blade-amplitudes"),
+        (["--motor-hz", "85,90", "--blade-amplitudes", "1,x"], "--blade-amplitudes"),
+        (["--motor-hz", "85,x"], "--motor-hz"),
+        (["--motor-hz", "85", "--alpha", "-1"], "--alpha"),
+        (["--motor-hz", "85", "--range-m", "10", "--radial-velocity-mps", "-20", "--duration-s", "1"], "--range-m"),
+        (["--motor-hz", "85", "--snr-db", "10", "--s-body", "0"], "--s-body"),
+        (["--motor-log", "nonexistent.csv"], "file"),
+    ],
+)
 def test_simulate_bad_input_one_line_nothing_written(tmp_path, capsys, args, field):
     out = tmp_path / "bad.zarr"
     rc = main(["simulate", "--out", str(out), "--quiet", *args])

@@ -14,7 +14,6 @@ The dry-run probe after a complete run is in ``test_workflow_runs.py`` (slow).
 
 from __future__ import annotations
 
-import ast
 import json
 import re
 import subprocess
@@ -38,7 +37,7 @@ def rule_blocks():
         starts = [m for m in re.finditer(r"(?m)^\s*rule (\w+):", text)]
         for i, m in enumerate(starts):
             end = starts[i + 1].start() if i + 1 < len(starts) else len(text)
-            yield m.group(1), text[m.start():end]
+            yield m.group(1), text[m.start() : end]
 
 
 def test_every_rule_with_a_script_hashes_that_scripts_import_closure():
@@ -50,7 +49,8 @@ def test_every_rule_with_a_script_hashes_that_scripts_import_closure():
         seen.add(script.group(1))
         code = re.findall(r"(?m)^\s*code=(.*),\s*$", block)
         assert code == [f'script_code("{script.group(1)}")'], (
-            f"rule {name}: expected params code=script_code(\"{script.group(1)}\"), got {code}")
+            f'rule {name}: expected params code=script_code("{script.group(1)}"), got {code}'
+        )
     assert seen == {p.name for p in SCRIPTS.glob("*.py")}, "a workflow script no rule runs, or the reverse"
 
 
@@ -73,9 +73,13 @@ print(json.dumps(out))
 def loaded_modules():
     """script name -> the package's files that running its top-level imports loads."""
     scripts = sorted(SCRIPTS.glob("*.py"))
-    out = subprocess.run([sys.executable, "-c", LOADER, *map(str, scripts)], capture_output=True,
-                         text=True, check=True,
-                         env={"PYTHONPATH": str(PACKAGE_DIR.parent), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"})
+    out = subprocess.run(
+        [sys.executable, "-c", LOADER, *map(str, scripts)],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={"PYTHONPATH": str(PACKAGE_DIR.parent), "MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"},
+    )
     return {Path(k).name: {Path(f).resolve() for f in v} for k, v in json.loads(out.stdout).items()}
 
 
@@ -109,18 +113,19 @@ def toy(tmp_path):
         (pkg / rel).parent.mkdir(parents=True, exist_ok=True)
         (pkg / rel).write_text(text)
     script = tmp_path / "script.py"
-    script.write_text(textwrap.dedent("""\
+    script.write_text(
+        textwrap.dedent("""\
         import os
         from microdoppler.a import f
-        """))
+        """)
+    )
     return pkg, script
 
 
 def test_closure_follows_deferred_relative_and_package_imports(toy):
     pkg, script = toy
     rel = {p.relative_to(pkg).as_posix() for p in import_closure(script, package_dir=pkg)}
-    assert rel == {"__init__.py", "a/__init__.py", "a/b.py", "c/__init__.py", "c/deep.py",
-                   "d/__init__.py", "d/e.py"}
+    assert rel == {"__init__.py", "a/__init__.py", "a/b.py", "c/__init__.py", "c/deep.py", "d/__init__.py", "d/e.py"}
     # a module's own package (its __init__) is part of its closure, and `from . import x`
     rel = {p.relative_to(pkg).as_posix() for p in import_closure(pkg / "g" / "h.py", package_dir=pkg)}
     assert {"g/__init__.py", "g/i.py", "a/b.py", "d/e.py"} <= rel
@@ -140,6 +145,12 @@ def test_hash_changes_with_a_module_of_the_closure_only(toy):
 def test_the_modules_that_once_reran_nothing_are_hashed():
     """Modules an edit of which once reran no rule: each is in some rule's closure."""
     hashed = set().union(*(import_closure(p) for p in SCRIPTS.glob("*.py")))
-    for rel in ("synthesis/radar.py", "synthesis/processes.py", "spectra/floor.py", "io/flightzarr.py",
-                "rotors/order.py", "rotors/fit.py"):
+    for rel in (
+        "synthesis/radar.py",
+        "synthesis/processes.py",
+        "spectra/floor.py",
+        "io/flightzarr.py",
+        "rotors/order.py",
+        "rotors/fit.py",
+    ):
         assert PACKAGE_DIR / rel in hashed, rel

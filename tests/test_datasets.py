@@ -43,22 +43,62 @@ def built(tmp_path_factory):
     split, t3 = split_and_table_iii(measured, spec_cfg=SPEC, seed=3, log=lambda m: None)
     write_csv(split[["flight_id", "set", "target", "drone_model", "radar_id"]], root / "flights.csv")
     messages = []
-    status = speeds.build_speeds(measured, logs, root / "speeds.zarr", variant=VARIANT, settings=SETTINGS,
-                                 n_fft=4096, seed=7, log=messages.append)
-    t4 = calibration.build_twins(measured, root / "speeds.zarr", logs, root / "twins.zarr", root / "table_iv.csv",
-                                 variant=VARIANT, spec_cfg=SPEC, cfg=calibration.CalibrationConfig(), seed=7,
-                                 log=messages.append)
+    status = speeds.build_speeds(
+        measured,
+        logs,
+        root / "speeds.zarr",
+        variant=VARIANT,
+        settings=SETTINGS,
+        n_fft=4096,
+        seed=7,
+        log=messages.append,
+    )
+    t4 = calibration.build_twins(
+        measured,
+        root / "speeds.zarr",
+        logs,
+        root / "twins.zarr",
+        root / "table_iv.csv",
+        variant=VARIANT,
+        spec_cfg=SPEC,
+        cfg=calibration.CalibrationConfig(),
+        seed=7,
+        log=messages.append,
+    )
     injection.build_injected(measured, root / "twins.zarr", root / "injected.zarr", log=lambda m: None)
     (root / "tiles").mkdir()
-    real = tiles.build_tiles(tiles.measured_records(measured, split), split, root / "tiles" / "real.zarr",
-                             dataset="real", spec_cfg=SPEC, log=lambda m: None)
-    twin = tiles.build_tiles(tiles.twin_records(measured, root / "injected.zarr", split), split,
-                             root / "tiles" / f"{VARIANT}.zarr", dataset=VARIANT, spec_cfg=SPEC, log=lambda m: None)
-    return dict(root=root, measured=measured, logs=logs, split=split, table_iii=t3, speeds_status=status,
-                table_iv=t4, messages=messages, real=real, twin=twin)
+    real = tiles.build_tiles(
+        tiles.measured_records(measured, split),
+        split,
+        root / "tiles" / "real.zarr",
+        dataset="real",
+        spec_cfg=SPEC,
+        log=lambda m: None,
+    )
+    twin = tiles.build_tiles(
+        tiles.twin_records(measured, root / "injected.zarr", split),
+        split,
+        root / "tiles" / f"{VARIANT}.zarr",
+        dataset=VARIANT,
+        spec_cfg=SPEC,
+        log=lambda m: None,
+    )
+    return dict(
+        root=root,
+        measured=measured,
+        logs=logs,
+        split=split,
+        table_iii=t3,
+        speeds_status=status,
+        table_iv=t4,
+        messages=messages,
+        real=real,
+        twin=twin,
+    )
 
 
 # --- split -----------------------------------------------------------------------
+
 
 def paper_like_flights(rng):
     """Table III flight counts (train+test+validation) with random image counts."""
@@ -66,9 +106,15 @@ def paper_like_flights(rng):
     rows = []
     for cls, n in counts.items():
         for i in range(n):
-            rows.append(dict(flight_id=f"{cls}{i:03d}", target="bird" if cls == "bird" else "drone",
-                             drone_model="" if cls == "bird" else cls, radar_id=f"r{rng.integers(1, 3)}",
-                             images=int(rng.integers(1, 60))))
+            rows.append(
+                dict(
+                    flight_id=f"{cls}{i:03d}",
+                    target="bird" if cls == "bird" else "drone",
+                    drone_model="" if cls == "bird" else cls,
+                    radar_id=f"r{rng.integers(1, 3)}",
+                    images=int(rng.integers(1, 60)),
+                )
+            )
     return pd.DataFrame(rows)
 
 
@@ -112,6 +158,7 @@ def test_split_of_measured_world(built):
 
 # --- SNR measure -----------------------------------------------------------------
 
+
 def test_sideband_lines_found_where_the_log_puts_them(built):
     """The first sideband pair of a measured large drone is far above the noise and
     windows midway between harmonics 1 and 2 hold nothing comparable."""
@@ -127,6 +174,7 @@ def test_sideband_lines_found_where_the_log_puts_them(built):
 
 
 # --- twins -----------------------------------------------------------------------
+
 
 def test_flight_without_motor_log_is_reported_and_skipped(built):
     assert "ins3" not in flight_ids(speeds.open_speeds(built["root"] / "speeds.zarr"))
@@ -177,8 +225,9 @@ def test_calibration_is_a_real_fit(built):
     the fitted S_body/S_blade are doing the work."""
     fl = read_flight(built["measured"] / "mat1.zarr")
     rev = speeds.read_rev_s(speeds.open_speeds(built["root"] / "speeds.zarr")["mat1"])
-    config = SynthesisConfig.of(prf_hz=fl.prf_hz, wavelength_m=fl.wavelength_m, n_blades=2, blade_length_m=0.22,
-                                scaling=Scaling(1.0, 1.0, 0.0))
+    config = SynthesisConfig.of(
+        prf_hz=fl.prf_hz, wavelength_m=fl.wavelength_m, n_blades=2, blade_length_m=0.22, scaling=Scaling(1.0, 1.0, 0.0)
+    )
     raw = synthesize(config, Track(fl.track_time_s, fl.track_range_m), rev, seed=1)
     b_meas = np.mean(flight_body_snr_db(fl, spec_cfg=SPEC))
     b_raw = np.mean(flight_body_snr_db(fl, injection.inject(raw, fl.background_iq), spec_cfg=SPEC))
@@ -202,8 +251,12 @@ def test_fit_status_tells_the_truth(built):
 def test_twins_are_deterministic(built):
     fl = read_flight(built["measured"] / "ins1.zarr")
     log = read_ingested_log(built["logs"], "ins1")
-    a, _ = speeds.resample_flight(VARIANT, log, len(fl.iq), fl.prf_hz, "inspire2", settings=SETTINGS, n_fft=4096, seed=9)
-    b, attrs = speeds.resample_flight(VARIANT, log, len(fl.iq), fl.prf_hz, "inspire2", settings=SETTINGS, n_fft=4096, seed=9)
+    a, _ = speeds.resample_flight(
+        VARIANT, log, len(fl.iq), fl.prf_hz, "inspire2", settings=SETTINGS, n_fft=4096, seed=9
+    )
+    b, attrs = speeds.resample_flight(
+        VARIANT, log, len(fl.iq), fl.prf_hz, "inspire2", settings=SETTINGS, n_fft=4096, seed=9
+    )
     assert np.array_equal(a, b)
     assert 1500 <= attrs["window_pulses"] <= 3000
 
@@ -220,6 +273,7 @@ def test_injection_adds_the_background_exactly(built, rng):
 
 
 # --- tiles and training sets -------------------------------------------------------
+
 
 def test_tiles_shapes_and_labels(built):
     for name, labels in (("real", built["real"]), (VARIANT, built["twin"])):
@@ -285,12 +339,30 @@ class StubExtensions:
 def test_extended_variant_uses_the_extensions(built):
     ext = StubExtensions()
     root = built["root"]
-    speeds.build_speeds(built["measured"], built["logs"], root / "speeds_ext.zarr", variant="extended",
-                        settings=SETTINGS, n_fft=4096, seed=7, extensions=ext, log=lambda m: None)
-    t4 = calibration.build_twins(built["measured"], root / "speeds_ext.zarr", built["logs"], root / "twins_ext.zarr",
-                                 root / "table_iv_ext.csv", variant="extended", spec_cfg=SPEC,
-                                 cfg=calibration.CalibrationConfig(n_alpha=4), seed=7, extensions=ext,
-                                 log=lambda m: None)
+    speeds.build_speeds(
+        built["measured"],
+        built["logs"],
+        root / "speeds_ext.zarr",
+        variant="extended",
+        settings=SETTINGS,
+        n_fft=4096,
+        seed=7,
+        extensions=ext,
+        log=lambda m: None,
+    )
+    t4 = calibration.build_twins(
+        built["measured"],
+        root / "speeds_ext.zarr",
+        built["logs"],
+        root / "twins_ext.zarr",
+        root / "table_iv_ext.csv",
+        variant="extended",
+        spec_cfg=SPEC,
+        cfg=calibration.CalibrationConfig(n_alpha=4),
+        seed=7,
+        extensions=ext,
+        log=lambda m: None,
+    )
     assert all(v > 0 for v in ext.calls.values())
     fitted = t4[t4.status.isin(["ok", "missed"])]
     assert len(fitted) == 4 and (fitted.status == "ok").all()

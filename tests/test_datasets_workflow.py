@@ -20,15 +20,33 @@ REPO = Path(__file__).resolve().parents[1]
 #: two Snakemake runs of the dataset rules (one flight batch, two): the whole suite only
 pytestmark = pytest.mark.slow
 #: the dataset stages of the real workflow (top-level Snakefile, common.smk, rules)
-TARGETS = ["results/splits/flights.csv", "results/reports/table_iii.csv", "results/reports/table_iv.csv",
-           "results/tiles/real.zarr", "results/tiles/sub_cpi.zarr", "results/tiles/fixed_speeds.zarr",
-           "results/figures/twins_inspire2.png", "results/figures/twins_matrice300.png"]
+TARGETS = [
+    "results/splits/flights.csv",
+    "results/reports/table_iii.csv",
+    "results/reports/table_iv.csv",
+    "results/tiles/real.zarr",
+    "results/tiles/sub_cpi.zarr",
+    "results/tiles/fixed_speeds.zarr",
+    "results/figures/twins_inspire2.png",
+    "results/figures/twins_matrice300.png",
+]
 
 
 def snakemake(cwd, *args):
     exe = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
-    cmd = [exe, *TARGETS, "--cores", "2", "-s", str(REPO / "Snakefile"), "-d", str(cwd),
-           "--configfile", "config.yaml", *args]
+    cmd = [
+        exe,
+        *TARGETS,
+        "--cores",
+        "2",
+        "-s",
+        str(REPO / "Snakefile"),
+        "-d",
+        str(cwd),
+        "--configfile",
+        "config.yaml",
+        *args,
+    ]
     return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=600)
 
 
@@ -36,8 +54,12 @@ def snakemake(cwd, *args):
 def workdir(tmp_path_factory):
     wd = tmp_path_factory.mktemp("wf")
     make_world(wd / "results" / "measured", duration_s=7.0)
-    ingest_flight_logs(wd / "results" / "measured", wd / "results/motors/logs.zarr", wd / "results/motors/ingest.csv",
-                       log=lambda m: None)
+    ingest_flight_logs(
+        wd / "results" / "measured",
+        wd / "results/motors/logs.zarr",
+        wd / "results/motors/ingest.csv",
+        log=lambda m: None,
+    )
     cfg = yaml.safe_load((REPO / "config/config.yaml").read_text())
     cfg["sampling"]["variants"] = ["sub_cpi", "fixed_speeds"]
     cfg["measurements"].update(source="directory", directory="results/measured")
@@ -51,8 +73,13 @@ def test_dataset_rules_produce_the_contract_files(workdir):
     res = workdir / "results"
     split = pd.read_csv(res / "splits/flights.csv")
     assert list(split.columns) == ["flight_id", "set", "target", "drone_model", "radar_id"]
-    for f in ["reports/table_iii.csv", "reports/table_iv.csv", "reports/table_iv_sub_cpi.csv",
-              "figures/twins_inspire2.png", "figures/twins_matrice300.png"]:
+    for f in [
+        "reports/table_iii.csv",
+        "reports/table_iv.csv",
+        "reports/table_iv_sub_cpi.csv",
+        "figures/twins_inspire2.png",
+        "figures/twins_matrice300.png",
+    ]:
         assert (res / f).stat().st_size > 0, f
     for d in ["real", "sub_cpi", "fixed_speeds"]:
         assert (res / "tiles" / f"{d}.zarr" / "labels.csv").exists()
@@ -88,6 +115,7 @@ BATCH_VARIANTS = ["sub_cpi", "fixed_speeds"]
 def _groups(path) -> dict:
     """{flight id: (attrs without the fit's run time, iq bytes)} of a twin store."""
     import zarr
+
     root = zarr.open_group(str(path), mode="r")
     out = {}
     for fid, g in root.groups():
@@ -109,9 +137,26 @@ def batched(workdir, tmp_path_factory):
     exe = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
     targets = [f"results/{kind}/{v}.zarr" for kind in ("tiles", "injected") for v in BATCH_VARIANTS]
     targets += [f"results/reports/table_iv_{v}.csv" for v in BATCH_VARIANTS]
-    r = subprocess.run([exe, *targets, "--cores", "2", "-s", str(REPO / "Snakefile"), "-d", str(wd),
-                        "--configfile", "config.yaml", "-q", "progress"],
-                       cwd=wd, capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [
+            exe,
+            *targets,
+            "--cores",
+            "2",
+            "-s",
+            str(REPO / "Snakefile"),
+            "-d",
+            str(wd),
+            "--configfile",
+            "config.yaml",
+            "-q",
+            "progress",
+        ],
+        cwd=wd,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     return wd
 
@@ -119,6 +164,7 @@ def batched(workdir, tmp_path_factory):
 @pytest.mark.parametrize("variant", BATCH_VARIANTS)
 def test_two_flight_batches_give_the_same_twins_and_tiles(workdir, batched, variant):
     from microdoppler.datasets.batches import flight_batch
+
     one, two = workdir / "results", batched / "results"
     twins = _groups(one / f"synthetic/{variant}.zarr")
     parts = [_groups(two / f"synthetic/{variant}/batch{b}.zarr") for b in range(2)]
@@ -132,6 +178,7 @@ def test_two_flight_batches_give_the_same_twins_and_tiles(workdir, batched, vari
     # the merged injected store and the tiles equal those of one job per variant
     assert _groups(two / f"injected/{variant}.zarr") == _groups(one / f"injected/{variant}.zarr")
     import zarr
+
     a = zarr.open_group(str(one / f"tiles/{variant}.zarr"), mode="r")
     b = zarr.open_group(str(two / f"tiles/{variant}.zarr"), mode="r")
     assert a["images"].shape[0] > 0 and a["images"][...].tobytes() == b["images"][...].tobytes()

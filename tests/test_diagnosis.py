@@ -19,8 +19,7 @@ import pytest
 
 from conftest import fast_loop
 from microdoppler.causes.catalog import CATALOG, CAUSES
-from microdoppler.diagnosis import (DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, measure,
-                                   run_tests)
+from microdoppler.diagnosis import DiagnosisConfig, aggregate, decide, diagnose, diagnose_flight, measure, run_tests
 from microdoppler.diagnosis import hypotheses as C
 from microdoppler.diagnosis.measure import usable_pairs
 from microdoppler.diagnosis.pipeline import REPORT_SCHEMA, split_settings
@@ -29,8 +28,8 @@ from microdoppler.errors import ConfigError, InputError
 from microdoppler.io.flightzarr import Flight, write_flight
 
 REPO = Path(__file__).resolve().parents[1]
-MIN_SNR_DB = 36.0      # the issue's condition on the hidden-effect flights
-MIN_PN_RISE_DB = 6.0   # the catalog's detectable phase noise: floor near clutter raised >= 6 dB
+MIN_SNR_DB = 36.0  # the issue's condition on the hidden-effect flights
+MIN_PN_RISE_DB = 6.0  # the catalog's detectable phase noise: floor near clutter raised >= 6 dB
 #: sideband_fading's timescale_s within this factor of the truth (see _check_param)
 TIMESCALE_FACTOR = 3.0
 
@@ -39,7 +38,7 @@ TIMESCALE_FACTOR = 3.0
 class Case:
     cause: str
     radar_id: str
-    sign: int    # +1 / -1 for the signed causes (asymmetry_db, lag_s, scale - 1), 0 otherwise
+    sign: int  # +1 / -1 for the signed causes (asymmetry_db, lag_s, scale - 1), 0 otherwise
     seed: int
 
 
@@ -126,11 +125,19 @@ def emulate(case: Case):
     effects = {case.cause: params} if params else {}
     snr_db, snrs = 42.0, []
     for _ in range(6):
-        spec = FlightSpec("hidden", "drone",
-                          drone_model=str(rng.choice(["inspire2", "matrice300"])), radar_id=case.radar_id,
-                          duration_s=40.0, mean_range_m=float(rng.uniform(1000, 2500)),
-                          speed_mps=float(rng.uniform(3, 12)), direction=int(rng.choice([1, -1])), snr_db=snr_db,
-                          effects=effects, seed=int(rng.integers(2 ** 31)))
+        spec = FlightSpec(
+            "hidden",
+            "drone",
+            drone_model=str(rng.choice(["inspire2", "matrice300"])),
+            radar_id=case.radar_id,
+            duration_s=40.0,
+            mean_range_m=float(rng.uniform(1000, 2500)),
+            speed_mps=float(rng.uniform(3, 12)),
+            direction=int(rng.choice([1, -1])),
+            snr_db=snr_db,
+            effects=effects,
+            seed=int(rng.integers(2**31)),
+        )
         flight, _ = emulate_flight(spec)
         snrs.append(measured_snr_db(flight)[0])
         if snrs[-1] >= MIN_SNR_DB:
@@ -178,16 +185,26 @@ def _case_id(c: Case) -> str:
     return f"{c.cause}-{c.radar_id}-{'+-0'[[1, -1, 0].index(c.sign)]}-{c.seed}"
 
 
-@pytest.mark.parametrize("case", [*fast_loop(CASES, lambda c: c.seed in FAST_SEEDS), *(pytest.param(c, marks=pytest.mark.xfail(
-    strict=True, reason="see KNOWN_MISSES")) for c in KNOWN_MISSES)], ids=_case_id)
+@pytest.mark.parametrize(
+    "case",
+    [
+        *fast_loop(CASES, lambda c: c.seed in FAST_SEEDS),
+        *(pytest.param(c, marks=pytest.mark.xfail(strict=True, reason="see KNOWN_MISSES")) for c in KNOWN_MISSES),
+    ],
+    ids=_case_id,
+)
 def test_hidden_effect_is_named_with_its_parameter(case):
     flight, params, spec = emulate(case)
     entry = diagnose_flight(flight, config={"figures": False})  # sees the flight only
     fit = entry["causes"][0]["extension"]["params"] if entry["causes"] else {}
-    print(f"{case.cause} {case.radar_id} sign={case.sign:+d} seed={case.seed} {spec.drone_model}: "
-          f"truth {params} fit {fit} named {entry['cause']}")
-    detail = f"hidden {case.cause} {params} ({spec.radar_id}, {spec.drone_model}), named {entry['cause']}: " \
-             f"{json.dumps(entry['evidence']['tests'])[:1500]}"
+    print(
+        f"{case.cause} {case.radar_id} sign={case.sign:+d} seed={case.seed} {spec.drone_model}: "
+        f"truth {params} fit {fit} named {entry['cause']}"
+    )
+    detail = (
+        f"hidden {case.cause} {params} ({spec.radar_id}, {spec.drone_model}), named {entry['cause']}: "
+        f"{json.dumps(entry['evidence']['tests'])[:1500]}"
+    )
     assert entry["cause"] == case.cause, detail
     if case.cause == "none":
         assert entry["causes"] == []
@@ -209,16 +226,27 @@ EMULATED_IMBALANCES_DB = [float(x) for x in _IMB_DRAW.uniform(3.0, 10.0, 2)]
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model, imb, seed", [("matrice300", EMULATED_IMBALANCES_DB[0], 321),
-                                              ("inspire2", EMULATED_IMBALANCES_DB[1], 322)])
+@pytest.mark.parametrize(
+    "model, imb, seed", [("matrice300", EMULATED_IMBALANCES_DB[0], 321), ("inspire2", EMULATED_IMBALANCES_DB[1], 322)]
+)
 def test_emulated_weak_blade_is_named(model, imb, seed):
     """The emulator's weak blade (a population effect of the worlds' airframes): the
     rotation-rate lines sit between the target's own lines, whose skirts lift their local
     floor 5-30 dB, and the blade-imbalance test used to read none of them (0 of 102
     CPIs, issue 34). Named, with imbalance_db within the issue's 1.5 dB."""
-    spec = FlightSpec("weak", "drone", drone_model=model, radar_id="radar2", duration_s=30.0, snr_db=54.0,
-                      speed_mps=8.0, path="straight", effects={"blade_imbalance": {"imbalance_db": imb}},
-                      seed=seed, airframe=f"{model}-weak")
+    spec = FlightSpec(
+        "weak",
+        "drone",
+        drone_model=model,
+        radar_id="radar2",
+        duration_s=30.0,
+        snr_db=54.0,
+        speed_mps=8.0,
+        path="straight",
+        effects={"blade_imbalance": {"imbalance_db": imb}},
+        seed=seed,
+        airframe=f"{model}-weak",
+    )
     flight, _ = emulate_flight(spec)
     assert measured_snr_db(flight)[0] >= MIN_SNR_DB
     entry = diagnose_flight(flight, config={"figures": False})
@@ -244,10 +272,21 @@ def test_weak_blade_in_few_clear_cpis_is_named():
     ~26 dB on the rotation-rate lines. One block with both folds is enough (no
     spurious imbalance on 402 balanced flights of the two plans): named, within 1.5 dB,
     nothing else."""
-    spec = FlightSpec("weak", "drone", drone_model="matrice300", radar_id="radar2", duration_s=30.0,
-                      mean_range_m=1973.5, height_m=100.0, speed_mps=8.48, direction=1, snr_db=52.9,
-                      effects={"blade_imbalance": {"imbalance_db": WEAK_FEW_CPIS_DB}}, seed=1735387784,
-                      airframe="matrice300-weak")
+    spec = FlightSpec(
+        "weak",
+        "drone",
+        drone_model="matrice300",
+        radar_id="radar2",
+        duration_s=30.0,
+        mean_range_m=1973.5,
+        height_m=100.0,
+        speed_mps=8.48,
+        direction=1,
+        snr_db=52.9,
+        effects={"blade_imbalance": {"imbalance_db": WEAK_FEW_CPIS_DB}},
+        seed=1735387784,
+        airframe="matrice300-weak",
+    )
     flight, _ = emulate_flight(spec)
     entry = diagnose_flight(flight, config={"figures": False})
     assert [c["cause"] for c in entry["causes"]] == ["blade_imbalance"], (entry["causes"], entry["not_testable"])
@@ -257,13 +296,25 @@ def test_weak_blade_in_few_clear_cpis_is_named():
 
 #: a strong blade fading, drawn from a seed the diagnosis never sees
 _FADE_DRAW = np.random.default_rng(34_2031)
-STRONG_FADING = {"fading_std_db": float(_FADE_DRAW.uniform(5.0, 6.5)),
-                 "timescale_s": float(_FADE_DRAW.uniform(1.2, 2.0))}
+STRONG_FADING = {
+    "fading_std_db": float(_FADE_DRAW.uniform(5.0, 6.5)),
+    "timescale_s": float(_FADE_DRAW.uniform(1.2, 2.0)),
+}
 
 
 def _strong_fading_entry(seed: int) -> dict:
-    spec = FlightSpec("fade", "drone", drone_model="inspire2", radar_id="radar1", duration_s=30.0, snr_db=54.0,
-                      speed_mps=8.0, path="straight", effects={"sideband_fading": STRONG_FADING}, seed=seed)
+    spec = FlightSpec(
+        "fade",
+        "drone",
+        drone_model="inspire2",
+        radar_id="radar1",
+        duration_s=30.0,
+        snr_db=54.0,
+        speed_mps=8.0,
+        path="straight",
+        effects={"sideband_fading": STRONG_FADING},
+        seed=seed,
+    )
     flight, _ = emulate_flight(spec)
     entry = diagnose_flight(flight, config={"figures": False})
     assert [c["cause"] for c in entry["causes"]] == ["sideband_fading"], (entry["causes"], STRONG_FADING)
@@ -298,7 +349,10 @@ def test_named_fading_does_not_spread_the_blades_mean_return():
 
 #: a weak blade with a sideband asymmetry, drawn from a seed the diagnosis never sees
 _IMB_ASY_DRAW = np.random.default_rng(34_2027)
-IMB_ASY = (float(_IMB_ASY_DRAW.uniform(3.0, 10.0)), float(_IMB_ASY_DRAW.choice([-1, 1]) * _IMB_ASY_DRAW.uniform(3.0, 6.0)))
+IMB_ASY = (
+    float(_IMB_ASY_DRAW.uniform(3.0, 10.0)),
+    float(_IMB_ASY_DRAW.choice([-1, 1]) * _IMB_ASY_DRAW.uniform(3.0, 6.0)),
+)
 
 
 @pytest.mark.slow
@@ -311,9 +365,19 @@ def test_weak_blade_with_asymmetry_both_named(model, radar, seed):
     model (:func:`.measure.given_imbalance`) both causes are named, each parameter
     recovered, and the model with both extensions fits."""
     imb, asy = IMB_ASY
-    spec = FlightSpec("weak", "drone", drone_model=model, radar_id=radar, duration_s=30.0, snr_db=54.0,
-                      speed_mps=8.0, path="straight", seed=seed, airframe=f"{model}-weak",
-                      effects={"blade_imbalance": {"imbalance_db": imb}, "sideband_asymmetry": {"asymmetry_db": asy}})
+    spec = FlightSpec(
+        "weak",
+        "drone",
+        drone_model=model,
+        radar_id=radar,
+        duration_s=30.0,
+        snr_db=54.0,
+        speed_mps=8.0,
+        path="straight",
+        seed=seed,
+        airframe=f"{model}-weak",
+        effects={"blade_imbalance": {"imbalance_db": imb}, "sideband_asymmetry": {"asymmetry_db": asy}},
+    )
     flight, _ = emulate_flight(spec)
     assert measured_snr_db(flight)[0] >= MIN_SNR_DB
     entry = diagnose_flight(flight, config={"figures": False})
@@ -326,15 +390,28 @@ def test_weak_blade_with_asymmetry_both_named(model, radar, seed):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("effects, seed", [
-    ({"sideband_asymmetry": {"asymmetry_db": -4.5}, "motor_log_lag": {"lag_s": 0.6}}, 301),
-    ({"body_fluctuation": {"body_std_db": 4.0, "timescale_s": 0.8}, "motor_speed_scale": {"scale": 1.08}}, 302),
-])
+@pytest.mark.parametrize(
+    "effects, seed",
+    [
+        ({"sideband_asymmetry": {"asymmetry_db": -4.5}, "motor_log_lag": {"lag_s": 0.6}}, 301),
+        ({"body_fluctuation": {"body_std_db": 4.0, "timescale_s": 0.8}, "motor_speed_scale": {"scale": 1.08}}, 302),
+    ],
+)
 def test_two_emulated_causes_are_both_named(effects, seed):
     """Two causes at once: both named, nothing else, each parameter recovered, each
     gain held out with the other cause's extension in both models."""
-    spec = FlightSpec("two", "drone", drone_model="inspire2", radar_id="radar1", duration_s=40.0, snr_db=44.0,
-                      speed_mps=9.0, path="straight", effects=effects, seed=seed)
+    spec = FlightSpec(
+        "two",
+        "drone",
+        drone_model="inspire2",
+        radar_id="radar1",
+        duration_s=40.0,
+        snr_db=44.0,
+        speed_mps=9.0,
+        path="straight",
+        effects=effects,
+        seed=seed,
+    )
     flight, truth = emulate_flight(spec)
     assert measured_snr_db(flight)[0] >= MIN_SNR_DB
     entry = diagnose_flight(flight, config={"figures": False})
@@ -362,8 +439,18 @@ def test_body_size_and_timescale_away_from_the_default(timescale_s, seed, durati
     20 %, time within a factor 2. (A 1.2 s process's own std over 40 s scatters by
     ~17 % around its nominal value: that flight is 120 s long.)"""
     effects = {"body_fluctuation": {"body_std_db": 4.5, "timescale_s": timescale_s}}
-    spec = FlightSpec("bt", "drone", drone_model="inspire2", radar_id="radar1", duration_s=duration_s, snr_db=44.0,
-                      speed_mps=9.0, path="straight", effects=effects, seed=seed)
+    spec = FlightSpec(
+        "bt",
+        "drone",
+        drone_model="inspire2",
+        radar_id="radar1",
+        duration_s=duration_s,
+        snr_db=44.0,
+        speed_mps=9.0,
+        path="straight",
+        effects=effects,
+        seed=seed,
+    )
     flight, _ = emulate_flight(spec)
     assert measured_snr_db(flight)[0] >= MIN_SNR_DB
     entry = diagnose_flight(flight, config={"figures": False})
@@ -373,8 +460,10 @@ def test_body_size_and_timescale_away_from_the_default(timescale_s, seed, durati
     assert 0.5 <= p["timescale_s"] / timescale_s <= 2.0, p
 
 
-@pytest.mark.parametrize("radar_id, drone_model, seed", fast_loop([("radar1", "matrice300", 4711), ("radar2", "inspire2", 4712)],
-                                                          lambda v: v[0] == "radar1"))
+@pytest.mark.parametrize(
+    "radar_id, drone_model, seed",
+    fast_loop([("radar1", "matrice300", 4711), ("radar2", "inspire2", 4712)], lambda v: v[0] == "radar1"),
+)
 def test_steep_sideband_falloff_clean_flight_names_no_cause(radar_id, drone_model, seed):
     """World v2: a large drone whose sidebands fall off by 14 dB per harmonic (one or
     two pairs visible) and that has no effect gets no cause. Before the fading
@@ -384,8 +473,18 @@ def test_steep_sideband_falloff_clean_flight_names_no_cause(radar_id, drone_mode
     reached the 2 dB margin, a spurious sideband_fading of 2.0-2.7 dB."""
     snr_db, snrs = 44.0, []
     for _ in range(4):
-        spec = FlightSpec("steep", "drone", drone_model=drone_model, radar_id=radar_id, duration_s=40.0,
-                          mean_range_m=1800.0, speed_mps=8.0, snr_db=snr_db, harmonic_falloff_db=14.0, seed=seed)
+        spec = FlightSpec(
+            "steep",
+            "drone",
+            drone_model=drone_model,
+            radar_id=radar_id,
+            duration_s=40.0,
+            mean_range_m=1800.0,
+            speed_mps=8.0,
+            snr_db=snr_db,
+            harmonic_falloff_db=14.0,
+            seed=seed,
+        )
         flight, truth = emulate_flight(spec)
         snrs.append(measured_snr_db(flight)[0])
         if snrs[-1] >= MIN_SNR_DB:
@@ -395,7 +494,7 @@ def test_steep_sideband_falloff_clean_flight_names_no_cause(radar_id, drone_mode
     assert truth["harmonic_falloff_db"] == 14.0
     entry = diagnose_flight(flight, config={"figures": False})
     tests = entry["evidence"]["tests"]
-    assert tests["sideband_fading"]["testable"], tests["sideband_fading"]   # the fading test did run
+    assert tests["sideband_fading"]["testable"], tests["sideband_fading"]  # the fading test did run
     assert entry["cause"] == "none" and entry["causes"] == [], json.dumps(entry["evidence"]["steps"])[:1500]
     assert tests["sideband_fading"]["log_evalue"] < entry["evidence"]["log_evalue_threshold"]
 
@@ -416,8 +515,8 @@ def test_gain_is_scored_on_held_out_folds():
     nb = ne = 0.0
     for k in (0, 1):
         tr, te = d[fold == k], d[fold != k]
-        mu, vb, ve = tr.mean(), np.mean(tr ** 2) + 1e-6, tr.var() + 1e-6
-        nb += np.sum(0.5 * (np.log(2 * np.pi * vb) + te ** 2 / vb))
+        mu, vb, ve = tr.mean(), np.mean(tr**2) + 1e-6, tr.var() + 1e-6
+        nb += np.sum(0.5 * (np.log(2 * np.pi * vb) + te**2 / vb))
         ne += np.sum(0.5 * (np.log(2 * np.pi * ve) + (te - mu) ** 2 / ve))
     assert c["gain"]["baseline"] == pytest.approx(nb / len(d), abs=1e-3)
     assert c["gain"]["extended"] == pytest.approx(ne / len(d), abs=1e-3)
@@ -438,10 +537,20 @@ def _skirt_ordinates(level_per_hz, contaminated, seed):
     mean = 1.0 + A[:, 0] * level_per_hz
     line = rng.uniform(size=n) < contaminated
     P = rng.exponential(mean) + np.where(line, 100.0 * rng.exponential(1.0, n), 0.0)
-    return {"P": P, "S": np.ones(n), "A": A, "jc": jc, "jb": np.full(n, nb), "cpi": np.arange(n) % 40,
-            "pos": np.arange(n) % 2 == 0, "f_rel_body_hz": np.full(n, 500.0),
-            "edges": 35.0 * np.sqrt(2) ** np.arange(nb + 1), "nb": nb, "counts": np.bincount(jc, minlength=nb),
-            "fitted": np.ones(nb, bool)}
+    return {
+        "P": P,
+        "S": np.ones(n),
+        "A": A,
+        "jc": jc,
+        "jb": np.full(n, nb),
+        "cpi": np.arange(n) % 40,
+        "pos": np.arange(n) % 2 == 0,
+        "f_rel_body_hz": np.full(n, 500.0),
+        "edges": 35.0 * np.sqrt(2) ** np.arange(nb + 1),
+        "nb": nb,
+        "counts": np.bincount(jc, minlength=nb),
+        "fitted": np.ones(nb, bool),
+    }
 
 
 def test_skirt_levels_by_medians_are_robust_to_the_targets_lines():
@@ -455,14 +564,14 @@ def test_skirt_levels_by_medians_are_robust_to_the_targets_lines():
     from microdoppler.diagnosis.measure import robust_skirt_levels
 
     fold = (np.arange(40) // 4) % 2
-    d = _skirt_ordinates(1e-8, 0.2, 1)            # skirt 10 x the floor
+    d = _skirt_ordinates(1e-8, 0.2, 1)  # skirt 10 x the floor
     lev = robust_skirt_levels(d)
     assert np.all(np.abs(10 * np.log10(lev * 1e9 / 10.0)) < 2.0), lev
     assert profile_skirt_test(d, fold)["rise_db"] > 9.0
-    d0 = _skirt_ordinates(0.0, 0.2, 2)            # no skirt, the same lines
+    d0 = _skirt_ordinates(0.0, 0.2, 2)  # no skirt, the same lines
     assert 10 * np.log10(np.mean(d0["P"])) > 12.0  # what a mean would see
     lev0 = robust_skirt_levels(d0)
-    assert np.all(lev0 * 1e9 < 0.5), lev0        # theory 0.42 of the floor
+    assert np.all(lev0 * 1e9 < 0.5), lev0  # theory 0.42 of the floor
     assert profile_skirt_test(d0, fold)["rise_db"] < 3.0
 
 
@@ -500,12 +609,24 @@ def test_fading_fit_borrowing_outside_its_fold_is_not_held_out():
         up = 100 * 10 ** (rng.normal(0, 0.3, (n, 3)) / 10)
         lo = 100 * 10 ** (rng.normal(0, 0.3, (n, 3)) / 10)
         sd = np.ones((n, 3))
-        return SimpleNamespace(up=up, lo=lo, up_sd=sd, lo_sd=sd, pair_ok=ok,
-                               usable_pair_sums=usable_pairs(up, lo, sd, sd, ok, summed=True),
-                               valid=np.ones(n, bool), t_s=0.28 * np.arange(n), range_m=np.full(n, 1500.0),
-                               harm=np.arange(1, 4), f_log_hz=np.full(n, 80.0), model_h=np.ones((n, 3)),
-                               dil=np.ones(n), dil_ok=np.ones(n, bool),
-                               stft=SimpleNamespace(window=np.hanning(4096)), info={"prf_hz": 7300.0, "n_blades": 2})
+        return SimpleNamespace(
+            up=up,
+            lo=lo,
+            up_sd=sd,
+            lo_sd=sd,
+            pair_ok=ok,
+            usable_pair_sums=usable_pairs(up, lo, sd, sd, ok, summed=True),
+            valid=np.ones(n, bool),
+            t_s=0.28 * np.arange(n),
+            range_m=np.full(n, 1500.0),
+            harm=np.arange(1, 4),
+            f_log_hz=np.full(n, 80.0),
+            model_h=np.ones((n, 3)),
+            dil=np.ones(n),
+            dil_ok=np.ones(n, bool),
+            stft=SimpleNamespace(window=np.hanning(4096)),
+            info={"prf_hz": 7300.0, "n_blades": 2},
+        )
 
     everywhere = np.ones((n, 3), bool)
     one_fold = everywhere.copy()
@@ -561,8 +682,14 @@ def test_fading_estimate_takes_out_the_rotor_speed_tilt():
     assert abs(harmonic_speed_slope(x + 2.0 * u[:, None], ok, harm, u) / beta - 1) < 0.1
 
     def meas(f_log):
-        return SimpleNamespace(t_s=t, range_m=np.full(len(t), 1500.0), harm=harm, f_log_hz=f_log,
-                               stft=SimpleNamespace(window=win), info={"prf_hz": prf})
+        return SimpleNamespace(
+            t_s=t,
+            range_m=np.full(len(t), 1500.0),
+            harm=harm,
+            f_log_hz=f_log,
+            stft=SimpleNamespace(window=win),
+            info={"prf_hz": prf},
+        )
 
     seen = 10 * np.log10(cpi_average(tt, 10 ** (fad / 10), t, win, prf))
     ref = C.fit_gain_process(seen - seen.mean(), m, np.zeros(len(t)), t[1] - t[0], win, prf, drift=False)
@@ -577,15 +704,23 @@ def test_fading_estimate_takes_out_the_rotor_speed_tilt():
 
 # ---------------------------------------------------------------- skipped flights
 
+
 @pytest.fixture(scope="module")
 def odd_flights():
     """Flights that cannot be diagnosed: (flight, field that names why, reason words)."""
     drone, _ = emulate_flight(FlightSpec("d_ok", "drone", drone_model="inspire2", duration_s=6.0, seed=2))
     bird, _ = emulate_flight(FlightSpec("bird1", "bird", bird_kind="single", duration_s=4.0, seed=1))
-    empty = Flight(attrs={**{k: v for k, v in bird.attrs.items() if k not in ("flight_id", "target")},
-                          "flight_id": "empty1", "target": "none"},
-                   iq=bird.background_iq, track_time_s=bird.track_time_s, track_range_m=bird.track_range_m,
-                   track_radial_velocity_mps=bird.track_radial_velocity_mps)
+    empty = Flight(
+        attrs={
+            **{k: v for k, v in bird.attrs.items() if k not in ("flight_id", "target")},
+            "flight_id": "empty1",
+            "target": "none",
+        },
+        iq=bird.background_iq,
+        track_time_s=bird.track_time_s,
+        track_range_m=bird.track_range_m,
+        track_radial_velocity_mps=bird.track_radial_velocity_mps,
+    )
     mini, _ = emulate_flight(FlightSpec("mini1", "drone", drone_model="mini2", duration_s=4.0, seed=3))
 
     def variant(fid, **kw):
@@ -596,14 +731,26 @@ def odd_flights():
         "target-free": (empty, "attrs.target", "no rotors"),
         "mini": (mini, "attrs.blade_length_m", "rotor lines invisible"),
         "no log": (variant("nolog", motors_time_s=None, motors_rpm=None), "motors", "no motor log"),
-        "all-zero log": (variant("zerolog", motors_rpm=np.zeros_like(drone.motors_rpm)), "motors/rpm",
-                         "zero everywhere"),
-        "rev/s as rpm": (variant("revs", motors_rpm=(drone.motors_rpm / 60).astype(np.float32)), "motors/rpm",
-                         "implausible"),
-        "log after the flight": (variant("late", motors_time_s=drone.motors_time_s + 100.0), "motors/time_s",
-                                 "outside the flight"),
-        "too few pulses": (variant("short", iq=drone.iq[:30000], background_iq=drone.background_iq[:30000]), "iq",
-                           "too short"),
+        "all-zero log": (
+            variant("zerolog", motors_rpm=np.zeros_like(drone.motors_rpm)),
+            "motors/rpm",
+            "zero everywhere",
+        ),
+        "rev/s as rpm": (
+            variant("revs", motors_rpm=(drone.motors_rpm / 60).astype(np.float32)),
+            "motors/rpm",
+            "implausible",
+        ),
+        "log after the flight": (
+            variant("late", motors_time_s=drone.motors_time_s + 100.0),
+            "motors/time_s",
+            "outside the flight",
+        ),
+        "too few pulses": (
+            variant("short", iq=drone.iq[:30000], background_iq=drone.background_iq[:30000]),
+            "iq",
+            "too short",
+        ),
     }
 
 
@@ -621,8 +768,10 @@ def test_diagnose_lists_every_flight_skipped_with_a_reason(tmp_path, odd_flights
             assert field in e["reason"], (name, e["reason"])
 
 
-@pytest.mark.parametrize("name", ["bird", "target-free", "mini", "no log", "all-zero log", "rev/s as rpm",
-                                  "log after the flight", "too few pulses"])
+@pytest.mark.parametrize(
+    "name",
+    ["bird", "target-free", "mini", "no log", "all-zero log", "rev/s as rpm", "log after the flight", "too few pulses"],
+)
 def test_diagnose_flight_raises_naming_the_field(odd_flights, name):
     flight, field, _ = odd_flights[name]
     with pytest.raises(InputError) as exc:
@@ -632,8 +781,11 @@ def test_diagnose_flight_raises_naming_the_field(odd_flights, name):
 
 def test_no_visible_rotor_lines_is_skipped():
     """Blades below the noise (decided from the data, with a log): skipped, not 'none'."""
-    faint, _ = emulate_flight(FlightSpec("faint", "drone", drone_model="inspire2", duration_s=12.0, snr_db=42.0,
-                                         first_sideband_db=60.0, seed=7))
+    faint, _ = emulate_flight(
+        FlightSpec(
+            "faint", "drone", drone_model="inspire2", duration_s=12.0, snr_db=42.0, first_sideband_db=60.0, seed=7
+        )
+    )
     with pytest.raises(InputError, match="no rotor lines") as exc:
         diagnose_flight(faint, config={"figures": False})
     assert exc.value.reason.startswith("no visible rotor sidebands")
@@ -644,9 +796,18 @@ def test_weak_blades_make_sideband_causes_untestable_with_a_reason():
     rotor lines are seen) but not the sideband causes; the report says why instead of
     naming them or calling the flight clean of them."""
     for first_db in (28.0, 31.0):
-        faint, _ = emulate_flight(FlightSpec("weak", "drone", drone_model="inspire2", duration_s=24.0, snr_db=42.0,
-                                             first_sideband_db=first_db, seed=11,
-                                             effects={"sideband_asymmetry": {"asymmetry_db": 5.0}}))
+        faint, _ = emulate_flight(
+            FlightSpec(
+                "weak",
+                "drone",
+                drone_model="inspire2",
+                duration_s=24.0,
+                snr_db=42.0,
+                first_sideband_db=first_db,
+                seed=11,
+                effects={"sideband_asymmetry": {"asymmetry_db": 5.0}},
+            )
+        )
         try:
             entry = diagnose_flight(faint, config={"figures": False})
         except InputError as exc:  # too faint even to see the rotor lines: skipped
@@ -662,9 +823,17 @@ def test_weak_blades_make_sideband_causes_untestable_with_a_reason():
 
 # ---------------------------------------------------------------- the report file
 
+
 def test_report_file_follows_the_format_and_figure(tmp_path):
-    spec = FlightSpec("fmt01", "drone", drone_model="inspire2", duration_s=12.0, snr_db=40.0,
-                      effects={"sideband_asymmetry": {"asymmetry_db": 5.0}}, seed=20261121)
+    spec = FlightSpec(
+        "fmt01",
+        "drone",
+        drone_model="inspire2",
+        duration_s=12.0,
+        snr_db=40.0,
+        effects={"sideband_asymmetry": {"asymmetry_db": 5.0}},
+        seed=20261121,
+    )
     flight, _ = emulate_flight(spec)
     store = write_flight(tmp_path / "fmt01.zarr", flight)
     bird, _ = emulate_flight(FlightSpec("b1", "bird", bird_kind="single", duration_s=4.0, seed=1))
@@ -694,24 +863,28 @@ def test_report_file_follows_the_format_and_figure(tmp_path):
 
 # ---------------------------------------------------------------- config
 
-@pytest.mark.parametrize("d, field, words", [
-    ({"n_fft": "big"}, "diagnosis.n_fft", "an integer >= 64"),
-    ({"n_fft": 32}, "diagnosis.n_fft", ">= 64"),
-    ({"alpha": 2}, "diagnosis.alpha", "in (0, 1)"),
-    ({"alpha": float("nan")}, "diagnosis.alpha", "finite"),
-    ({"alpha": "0.01"}, "diagnosis.alpha", "a number"),
-    ({"block_cpis": 0}, "diagnosis.block_cpis", ">= 1"),
-    ({"block_cpis": 2.5}, "diagnosis.block_cpis", "an integer"),
-    ({"figures": "yes"}, "diagnosis.figures", "true or false"),
-    ({"seed": True}, "diagnosis.seed", "an integer"),
-    ({"max_lag_s": 0.001}, "diagnosis.max_lag_s", ">= 0.01"),
-    ({"margin_std_db": -1}, "diagnosis.margin_std_db", ">= 0"),
-    ({"min_log_coverage": 0}, "diagnosis.min_log_coverage", "in (0, 1]"),
-    ({"nfft": 4096}, "diagnosis.nfft", "unknown key"),
-    # fields fixed since issue 35 are unknown keys that name what replaced them
-    ({"lag_step_s": 0.02}, "diagnosis.lag_step_s", "microdoppler.diagnosis.config.LAG_STEP_S"),
-    ({"margin_body_std_db": 2.0}, "diagnosis.margin_body_std_db", "the field margin_std_db"),
-])
+
+@pytest.mark.parametrize(
+    "d, field, words",
+    [
+        ({"n_fft": "big"}, "diagnosis.n_fft", "an integer >= 64"),
+        ({"n_fft": 32}, "diagnosis.n_fft", ">= 64"),
+        ({"alpha": 2}, "diagnosis.alpha", "in (0, 1)"),
+        ({"alpha": float("nan")}, "diagnosis.alpha", "finite"),
+        ({"alpha": "0.01"}, "diagnosis.alpha", "a number"),
+        ({"block_cpis": 0}, "diagnosis.block_cpis", ">= 1"),
+        ({"block_cpis": 2.5}, "diagnosis.block_cpis", "an integer"),
+        ({"figures": "yes"}, "diagnosis.figures", "true or false"),
+        ({"seed": True}, "diagnosis.seed", "an integer"),
+        ({"max_lag_s": 0.001}, "diagnosis.max_lag_s", ">= 0.01"),
+        ({"margin_std_db": -1}, "diagnosis.margin_std_db", ">= 0"),
+        ({"min_log_coverage": 0}, "diagnosis.min_log_coverage", "in (0, 1]"),
+        ({"nfft": 4096}, "diagnosis.nfft", "unknown key"),
+        # fields fixed since issue 35 are unknown keys that name what replaced them
+        ({"lag_step_s": 0.02}, "diagnosis.lag_step_s", "microdoppler.diagnosis.config.LAG_STEP_S"),
+        ({"margin_body_std_db": 2.0}, "diagnosis.margin_body_std_db", "the field margin_std_db"),
+    ],
+)
 def test_config_rejects_bad_values_naming_the_field(d, field, words):
     with pytest.raises(ConfigError) as exc:
         DiagnosisConfig.from_dict(d, source="my.yaml")
@@ -730,17 +903,26 @@ def test_config_direct_construction_and_split_settings():
 
     section = yaml.safe_load((REPO / "config" / "config.yaml").read_text())["diagnosis"]
     pipe, cfg = split_settings(section, source="config/config.yaml")
-    assert pipe == {"sets": section["sets"], "population_sets": section["population_sets"],
-                    "min_fraction": section["min_fraction"]}
+    assert pipe == {
+        "sets": section["sets"],
+        "population_sets": section["population_sets"],
+        "min_fraction": section["min_fraction"],
+    }
     assert cfg.alpha == section["alpha"] and cfg.block_cpis == section["block_cpis"]
-    assert split_settings(None) == ({"sets": ["train", "validation", "test"], "population_sets": ["train"],
-                                     "min_fraction": 0.25}, DiagnosisConfig())
-    for bad, field in [({"sets": "train"}, "diagnosis.sets"), ({"sets": ["training"]}, "diagnosis.sets[0]"),
-                       ({"sets": ["test"]}, "diagnosis.population_sets[0]"),
-                       ({"population_sets": ["val"]}, "diagnosis.population_sets[0]"),
-                       ({"min_fraction": 2}, "diagnosis.min_fraction"), ({"alpha": 0}, "diagnosis.alpha"),
-                       ({"min_frac": 0.1}, "diagnosis.min_frac"),
-                       ({"body_smooth_cpis": 9}, "diagnosis.body_smooth_cpis")]:
+    assert split_settings(None) == (
+        {"sets": ["train", "validation", "test"], "population_sets": ["train"], "min_fraction": 0.25},
+        DiagnosisConfig(),
+    )
+    for bad, field in [
+        ({"sets": "train"}, "diagnosis.sets"),
+        ({"sets": ["training"]}, "diagnosis.sets[0]"),
+        ({"sets": ["test"]}, "diagnosis.population_sets[0]"),
+        ({"population_sets": ["val"]}, "diagnosis.population_sets[0]"),
+        ({"min_fraction": 2}, "diagnosis.min_fraction"),
+        ({"alpha": 0}, "diagnosis.alpha"),
+        ({"min_frac": 0.1}, "diagnosis.min_frac"),
+        ({"body_smooth_cpis": 9}, "diagnosis.body_smooth_cpis"),
+    ]:
         with pytest.raises(ConfigError) as exc:
             split_settings(bad, source="c.yaml")
         assert str(exc.value).startswith(f"c.yaml: {field}: "), str(exc.value)
@@ -748,16 +930,25 @@ def test_config_direct_construction_and_split_settings():
 
 # ---------------------------------------------------------------- aggregate
 
+
 def _entry2(fid, cause, params):
-    return {"flight_id": fid, "cause": cause,
-            "causes": [{"cause": cause, "extension": {"name": cause, "params": params},
-                        "gain": {"metric": "m", "baseline": 1.0, "extended": 0.5, "held_out": True}, "evidence": {}}]}
+    return {
+        "flight_id": fid,
+        "cause": cause,
+        "causes": [
+            {
+                "cause": cause,
+                "extension": {"name": cause, "params": params},
+                "gain": {"metric": "m", "baseline": 1.0, "extended": 0.5, "held_out": True},
+                "evidence": {},
+            }
+        ],
+    }
 
 
 def test_aggregate_keeps_frequent_causes_with_median_params():
     fl = [_entry2(f"f{i}", "sideband_asymmetry", {"asymmetry_db": a}) for i, a in enumerate([3.0, 5.0, 4.0])]
-    fl += [_entry2("f9", "motor_log_lag", {"lag_s": 0.5}),
-           {"flight_id": "f8", "cause": "none", "causes": []}]
+    fl += [_entry2("f9", "motor_log_lag", {"lag_s": 0.5}), {"flight_id": "f8", "cause": "none", "causes": []}]
     fl += [{"flight_id": f"s{i}", "cause": "skipped", "causes": [], "reason": "no motor log"} for i in range(6)]
     rep = {"schema": REPORT_SCHEMA, "catalog": list(CATALOG), "flights": fl}
     ext = aggregate(rep, min_fraction=0.3)  # skipped flights are not in the denominator: 3/5 and 1/5
@@ -768,9 +959,14 @@ def test_aggregate_keeps_frequent_causes_with_median_params():
 
 
 def test_aggregate_reads_report_1():
-    fl = [{"flight_id": f"f{i}", "cause": "sideband_asymmetry",
-           "extension": {"name": "sideband_asymmetry", "params": {"asymmetry_db": a}}}
-          for i, a in enumerate([3.0, 5.0, 4.0])]
+    fl = [
+        {
+            "flight_id": f"f{i}",
+            "cause": "sideband_asymmetry",
+            "extension": {"name": "sideband_asymmetry", "params": {"asymmetry_db": a}},
+        }
+        for i, a in enumerate([3.0, 5.0, 4.0])
+    ]
     fl += [{"flight_id": "f8", "cause": "none", "extension": None}]
     ext = aggregate({"catalog": list(CATALOG), "flights": fl}, min_fraction=0.5)
     assert ext.effects == {"sideband_asymmetry": {"asymmetry_db": 4.0}}
@@ -803,8 +999,9 @@ def test_a_wrong_prf_reads_unexplained_with_the_fields_to_check():
     out = {}
     for factor in (1.0, 10.0):
         f = dataclasses.replace(flight, attrs={**flight.attrs, "prf_hz": flight.prf_hz * factor})
-        log = MotorLog(np.asarray(truth["time_s"], float) / factor,
-                       (np.asarray(truth["rev_s"]) * 60).astype(np.float32), "truth")
+        log = MotorLog(
+            np.asarray(truth["time_s"], float) / factor, (np.asarray(truth["rev_s"]) * 60).astype(np.float32), "truth"
+        )
         out[factor] = diagnose_flight(f, motor_log=log, config=cfg)
     right, wrong = out[1.0], out[10.0]
     assert "unexplained" not in [c["cause"] for c in right["causes"]], right["causes"]

@@ -23,8 +23,9 @@ IMBALANCES_DB = [float(x) for x in _DRAW.uniform(3.0, 10.0, 2)]
 
 
 def _diagnose(name, seed, radar, effects=None, oddities=None, **kw):
-    flight, truth = make_flight(GenCase(name, seed, radar, effects or {}, duration_s=20.0, oddities=oddities or {},
-                                        **kw))
+    flight, truth = make_flight(
+        GenCase(name, seed, radar, effects or {}, duration_s=20.0, oddities=oddities or {}, **kw)
+    )
     return diagnose_flight(flight, config={"figures": False}), truth
 
 
@@ -69,15 +70,18 @@ def test_imbalance_named_and_measured(radar, seed, imb):
 @pytest.mark.slow
 def test_imbalance_not_fooled_by_sideband_causes():
     """An asymmetric or fading sideband set is not an imbalance."""
-    for seed, eff in ((403, {"sideband_asymmetry": {"asymmetry_db": 4.5}}),
-                      (404, {"sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.5}})):
+    for seed, eff in (
+        (403, {"sideband_asymmetry": {"asymmetry_db": 4.5}}),
+        (404, {"sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.5}}),
+    ):
         entry, _ = _diagnose("bal", seed, "gen_s", eff)
         assert "blade_imbalance" not in _named(entry), entry["causes"]
         assert entry["evidence"]["tests"]["blade_imbalance"]["params"]["imbalance_db"] < 1.5
 
 
-@pytest.mark.parametrize("oddity", [{"second_scatterer": {"offset_hz": 41.0, "level_db": -12.0, "wander_hz": 2.0}},
-                                    {"true_n_blades": 3}])
+@pytest.mark.parametrize(
+    "oddity", [{"second_scatterer": {"offset_hz": 41.0, "level_db": -12.0, "wander_hz": 2.0}}, {"true_n_blades": 3}]
+)
 def test_out_of_catalog_is_unexplained_never_none(oddity):
     entry, _ = _diagnose("odd", 405, "gen_l", oddities=oddity)
     assert entry["cause"] != "none"
@@ -117,8 +121,9 @@ def test_shallow_range_straddle_is_unexplained():
     """A slow gain on the whole target (body and blades together) is no catalog cause:
     ``unexplained`` from a 1 dB std (``margin_common_gain_db``); with the fading's 2 dB
     margin this one came out ``none`` (checked by setting it back)."""
-    flight, _ = make_flight(GenCase("straddle", 407, "gen_l", {}, duration_s=30.0,
-                                    oddities={"range_straddle": STRADDLE}))
+    flight, _ = make_flight(
+        GenCase("straddle", 407, "gen_l", {}, duration_s=30.0, oddities={"range_straddle": STRADDLE})
+    )
     entry = diagnose_flight(flight, config={"figures": False})
     assert _named(entry) == ["unexplained"], (entry["causes"], STRADDLE)
     un = entry["causes"][-1]
@@ -147,4 +152,5 @@ def test_imbalance_interval_is_one_sided_where_one_blade_dominates():
     assert none["bound"] == "upper" and none["low"] == 0.0, none
     # the same seed gives the same interval
     assert imbalance_interval(r * np.ones(idx.size), idx, 2, 8, seed=1) == imbalance_interval(
-        r * np.ones(idx.size), idx, 2, 8, seed=1)
+        r * np.ones(idx.size), idx, 2, 8, seed=1
+    )

@@ -71,10 +71,20 @@ ONE = [
 TWO = [
     GenCase("as_fd", 221, "gen_l", {AS: {"asymmetry_db": 4.0}, FD: {"fading_std_db": 4.0, "timescale_s": 2.0}}),
     GenCase("lag_sc", 222, "gen_s", {LG: {"lag_s": -0.4}, SC: {"scale": 1.07}}),
-    GenCase("bf_pn", 223, "gen_l", {BF: {"body_std_db": 4.0, "timescale_s": 0.2},
-                                    PN: {"skirt_dbc_hz": -72.0, "shape": "gauss"}}, snr_db=46.0, speed_mps=20.0),
-    GenCase("fd_bf", 224, "gen_s", {FD: {"fading_std_db": 4.0, "timescale_s": 2.0},
-                                    BF: {"body_std_db": 3.5, "timescale_s": 0.1}}),
+    GenCase(
+        "bf_pn",
+        223,
+        "gen_l",
+        {BF: {"body_std_db": 4.0, "timescale_s": 0.2}, PN: {"skirt_dbc_hz": -72.0, "shape": "gauss"}},
+        snr_db=46.0,
+        speed_mps=20.0,
+    ),
+    GenCase(
+        "fd_bf",
+        224,
+        "gen_s",
+        {FD: {"fading_std_db": 4.0, "timescale_s": 2.0}, BF: {"body_std_db": 3.5, "timescale_s": 0.1}},
+    ),
     GenCase("as_lag", 225, "gen_l", {AS: {"asymmetry_db": -4.0}, LG: {"lag_s": 0.6}}),
     GenCase("sc_bf", 226, "gen_s", {SC: {"scale": 0.94}, BF: {"body_std_db": 4.5, "timescale_s": 0.5}}),
 ]
@@ -84,9 +94,16 @@ TWO = [
 #: is not testable; with the named skirt in the floor's model it is judged on the pairs
 #: the skirt leaves (``hypotheses.tests_given_skirt``). Before that, such flights were
 #: reported as phase noise alone.
-SKIRT = [GenCase("pn_fd_skirt", 242, "gen_s", {FD: {"fading_std_db": 4.0, "timescale_s": 1.5},
-                                              PN: {"skirt_dbc_hz": -64.0, "shape": "flicker"}},
-                 snr_db=52.0, speed_mps=16.0)]
+SKIRT = [
+    GenCase(
+        "pn_fd_skirt",
+        242,
+        "gen_s",
+        {FD: {"fading_std_db": 4.0, "timescale_s": 1.5}, PN: {"skirt_dbc_hz": -64.0, "shape": "flicker"}},
+        snr_db=52.0,
+        speed_mps=16.0,
+    )
+]
 CLEAN = [GenCase("clean_l", 231, "gen_l"), GenCase("clean_s", 232, "gen_s"), GenCase("clean_l2", 233, "gen_l")]
 #: Known limit, kept as a strict xfail. pn_slow: at gen_l a body at ~80 Hz and its
 #: first sidebands cover the whole 35-95 Hz band on both sides of the clutter line:
@@ -125,9 +142,11 @@ def check_params(cause: str, truth: dict, fit: dict) -> None:
     if cause == AS:
         assert abs(fit["asymmetry_db"] - truth["asymmetry_db"]) <= 1.0, (truth, fit)
     elif cause == FD:
-        rel("fading_std_db"); timescale()
+        rel("fading_std_db")
+        timescale()
     elif cause == BF:
-        rel("body_std_db"); timescale()
+        rel("body_std_db")
+        timescale()
     elif cause == LG:
         assert abs(fit["lag_s"] - truth["lag_s"]) <= 0.1, (truth, fit)
     elif cause == SC:
@@ -144,8 +163,9 @@ def _check_case(case: GenCase):
     named = [c["cause"] for c in entry["causes"]]
     fits = {c["cause"]: (c.get("extension") or c)["params"] for c in entry["causes"]}
     print(f"{case.flight_id}: truth {effects} named {named} fit {fits}")
-    detail = json.dumps({c: {k: t.get(k) for k in ("log_evalue", "relevant", "params")}
-                         for c, t in entry["evidence"]["tests"].items()})
+    detail = json.dumps(
+        {c: {k: t.get(k) for k in ("log_evalue", "relevant", "params")} for c, t in entry["evidence"]["tests"].items()}
+    )
     assert set(named) == set(effects), f"{case.flight_id}: truth {sorted(effects)}, named {named}: {detail}"
     assert entry["cause"] == (named[0] if named else "none")
     for c in entry["causes"]:
@@ -196,8 +216,9 @@ def _flicker_case() -> tuple[GenCase, float]:
     """A 1/f-like skirt (the generator's, to 400 Hz) whose level is drawn from a seed
     the diagnosis never sees: U(-66, -60) dBc/Hz at 50 Hz."""
     level = float(np.random.default_rng(34_2029).uniform(-66.0, -60.0))
-    return GenCase("pn_flicker_shape", 215, "gen_l", {PN: {"skirt_dbc_hz": level, "shape": "flicker"}},
-                   snr_db=54.0, speed_mps=16.0), level
+    return GenCase(
+        "pn_flicker_shape", 215, "gen_l", {PN: {"skirt_dbc_hz": level, "shape": "flicker"}}, snr_db=54.0, speed_mps=16.0
+    ), level
 
 
 def test_phase_noise_skirt_shape_is_measured_and_fits():
@@ -228,9 +249,15 @@ def test_phase_noise_skirt_shape_is_measured_and_fits():
 
 #: f0138 of the evaluation plan (``benchmarks/eval_diagnosis.py --seed 20261126``): a
 #: Gaussian skirt, the body 52 Hz from the clutter line
-PN_BY_CLUTTER = GenCase("pn_body_by_clutter", 1188059199, "gen_l",
-                        {PN: {"skirt_dbc_hz": -64.46, "shape": "gauss"}}, duration_s=30.0, snr_db=50.9,
-                        speed_mps=6.26)
+PN_BY_CLUTTER = GenCase(
+    "pn_body_by_clutter",
+    1188059199,
+    "gen_l",
+    {PN: {"skirt_dbc_hz": -64.46, "shape": "gauss"}},
+    duration_s=30.0,
+    snr_db=50.9,
+    speed_mps=6.26,
+)
 
 
 def test_phase_noise_is_named_with_the_body_next_to_the_clutter_line():
@@ -257,8 +284,14 @@ def test_clean_flight_names_nothing(case):
     assert entry["cause"] == "none" and entry["causes"] == []
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=[pytest.mark.slow, pytest.mark.xfail(strict=True, reason="see KNOWN_MISSES")])
-                                  for c in KNOWN_MISSES], ids=lambda c: c.flight_id)
+@pytest.mark.parametrize(
+    "case",
+    [
+        pytest.param(c, marks=[pytest.mark.slow, pytest.mark.xfail(strict=True, reason="see KNOWN_MISSES")])
+        for c in KNOWN_MISSES
+    ],
+    ids=lambda c: c.flight_id,
+)
 def test_known_misses(case):
     _check_case(case)
 
@@ -271,8 +304,12 @@ def test_cases_cover_the_catalog_both_radars_and_signs():
     assert causes == set(CATALOG) - {"none", "unexplained", "blade_imbalance"}
     for cause in causes:
         assert {case.radar for case in ONE if cause in case.effects} == {"gen_l", "gen_s"}, cause
-    signs = {(c, np.sign(p.get("asymmetry_db", p.get("lag_s", p.get("scale", 1) - 1))))
-             for case in ONE + TWO for c, p in case.effects.items() if c in (AS, LG, SC)}
+    signs = {
+        (c, np.sign(p.get("asymmetry_db", p.get("lag_s", p.get("scale", 1) - 1))))
+        for case in ONE + TWO
+        for c, p in case.effects.items()
+        if c in (AS, LG, SC)
+    }
     assert {s for c, s in signs if c == AS} == {1.0, -1.0}
     assert {s for c, s in signs if c == LG} == {1.0, -1.0}
     assert {s for c, s in signs if c == SC} == {1.0, -1.0}
@@ -324,7 +361,7 @@ def test_timescale_estimator_on_windowed_processes(shape, timescale_s):
     g = 10 ** (np.interp(t, dt * np.arange(m), x) / 10)
     win = blackmanharris(nw, sym=False)
     starts = np.arange(0, len(t) - nw, nw // 2)
-    p = np.array([np.dot(g[i:i + nw], win ** 2) for i in starts]) / np.sum(win ** 2)
+    p = np.array([np.dot(g[i : i + nw], win**2) for i in starts]) / np.sum(win**2)
     y = 10 * np.log10(p) + rng.normal(0, 0.2, len(p))
     r = fit_gain_process(y, np.ones(len(y), bool), np.full(len(y), 0.04), nw / 2 / prf, win, prf, drift=False)
     assert abs(r["sigma_db"] - x.std()) <= 0.15 * x.std(), (r["sigma_db"], x.std())

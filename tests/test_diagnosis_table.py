@@ -18,12 +18,22 @@ from microdoppler.io.flightzarr import write_flight
 @pytest.fixture(scope="module")
 def stores(tmp_path_factory):
     d = tmp_path_factory.mktemp("diag_table")
-    spec = FlightSpec("tab01", "drone", drone_model="inspire2", duration_s=12.0, snr_db=40.0,
-                      effects={"sideband_asymmetry": {"asymmetry_db": 5.0}}, seed=20261121)
+    spec = FlightSpec(
+        "tab01",
+        "drone",
+        drone_model="inspire2",
+        duration_s=12.0,
+        snr_db=40.0,
+        effects={"sideband_asymmetry": {"asymmetry_db": 5.0}},
+        seed=20261121,
+    )
     flight, _ = emulate_flight(spec)
-    nolog = replace(flight, attrs={**flight.attrs, "flight_id": "nolog1",
-                                   "plausibility_warnings": ["prf_hz: a stored warning"]},
-                    motors_time_s=None, motors_rpm=None)
+    nolog = replace(
+        flight,
+        attrs={**flight.attrs, "flight_id": "nolog1", "plausibility_warnings": ["prf_hz: a stored warning"]},
+        motors_time_s=None,
+        motors_rpm=None,
+    )
     return [write_flight(d / f"{f.flight_id}.zarr", f) for f in (flight, nolog)]
 
 
@@ -55,8 +65,10 @@ def test_diagnose_writes_a_table_whose_rows_are_the_reports_flights(tmp_path, st
     assert s["params"] == s["goodness_of_fit"] == ""
     assert s["plausibility_warnings"] == "prf_hz: a stored warning"
     # the terminal: the hint with the skip, the stored warning repeated
-    assert "nolog1: skipped: no motor log (hint: import the recording with `microdoppler import --estimate-motors`" \
+    assert (
+        "nolog1: skipped: no motor log (hint: import the recording with `microdoppler import --estimate-motors`"
         in cap.err
+    )
     assert "nolog1: warning: imported despite an implausible set-up: prf_hz: a stored warning" in cap.err
 
     # a second run replaces the tool's own table only with --overwrite

@@ -24,8 +24,10 @@ def test_benchmark_page_shows_the_records_numbers():
     page = _docs_module("generate_benchmarks").render(RECORDS)
     pooled = json.loads((RECORDS / "pooled_any_radar_holdouts.json").read_text())
     m = pooled["within 2 % (visible)"]
-    row = (f"| within 2 % (visible) | {m['n']} | {m['count']} | {100 * m['share']:.1f} "
-           f"[{100 * m['ci95'][0]:.1f}, {100 * m['ci95'][1]:.1f}] |")
+    row = (
+        f"| within 2 % (visible) | {m['n']} | {m['count']} | {100 * m['share']:.1f} "
+        f"[{100 * m['ci95'][0]:.1f}, {100 * m['ci95'][1]:.1f}] |"
+    )
     assert row in page
     diag = json.loads((RECORDS / "eval_diagnosis_seed20261126.json").read_text())
     recall, lo, hi, n = diag["summary"]["overall"]["≥36 all"]["recall"]

@@ -26,9 +26,20 @@ def rng():
 
 
 def _drone(rng, model="inspire2", **kw):
-    base = dict(flight_id="x", target="drone", drone_model=model, radar_id="radar1", duration_s=12.0,
-                mean_range_m=1200.0, height_m=80.0, speed_mps=6.0, seed=int(rng.integers(2 ** 31)),
-                snr_db=45.0, wind_mps=2.0, with_background=False)
+    base = dict(
+        flight_id="x",
+        target="drone",
+        drone_model=model,
+        radar_id="radar1",
+        duration_s=12.0,
+        mean_range_m=1200.0,
+        height_m=80.0,
+        speed_mps=6.0,
+        seed=int(rng.integers(2**31)),
+        snr_db=45.0,
+        wind_mps=2.0,
+        with_background=False,
+    )
     base.update(kw)
     return FlightSpec(**base)
 
@@ -117,7 +128,7 @@ def test_weak_blades_sink_the_sidebands(rng):
     WEAK_BLADE_SHARE of their large drones, never a Mini or a bird."""
     from microdoppler.emulator.world import WEAK_BLADE_DB, WEAK_BLADE_SHARE
 
-    seed = int(rng.integers(2 ** 31))
+    seed = int(rng.integers(2**31))
     below = {}
     for weak in (False, True):
         spec = _drone(rng, "inspire2", seed=seed, snr_db=50.0, harmonic_falloff_db=5.0, weak_blades=weak)
@@ -161,11 +172,28 @@ def test_birds_manoeuvre_and_mini_wander_are_drawn():
     assert np.median(manoeuvring) > 1.5 * np.median(calm), (calm, manoeuvring)
 
     def wander(w):
-        p = loop_path(60.0, mean_range_m=1500.0, height_m=80.0, speed_mps=6.0, direction=1, hand_flown=True,
-                      rng=np.random.default_rng(3), wander_m=w)
+        p = loop_path(
+            60.0,
+            mean_range_m=1500.0,
+            height_m=80.0,
+            speed_mps=6.0,
+            direction=1,
+            hand_flown=True,
+            rng=np.random.default_rng(3),
+            wander_m=w,
+        )
         return p.pos_m
-    base = loop_path(60.0, mean_range_m=1500.0, height_m=80.0, speed_mps=6.0, direction=1, hand_flown=True,
-                     rng=np.random.default_rng(3), wander_m=0.0).pos_m
+
+    base = loop_path(
+        60.0,
+        mean_range_m=1500.0,
+        height_m=80.0,
+        speed_mps=6.0,
+        direction=1,
+        hand_flown=True,
+        rng=np.random.default_rng(3),
+        wander_m=0.0,
+    ).pos_m
     d1 = np.std(wander(1.5)[:, :2] - base[:, :2])
     d5 = np.std(wander(5.0)[:, :2] - base[:, :2])
     assert d5 == pytest.approx(d1 * 5.0 / 1.5, rel=1e-6), (d1, d5)
@@ -219,8 +247,17 @@ def _bird_lines(flight):
 
 
 def test_flock_shows_several_body_lines(rng):
-    spec = FlightSpec("fl", "bird", bird_kind="large_flock", duration_s=10.0, mean_range_m=900.0,
-                      speed_mps=12.0, seed=int(rng.integers(2 ** 31)), snr_db=40.0, with_background=False)
+    spec = FlightSpec(
+        "fl",
+        "bird",
+        bird_kind="large_flock",
+        duration_s=10.0,
+        mean_range_m=900.0,
+        speed_mps=12.0,
+        seed=int(rng.integers(2**31)),
+        snr_db=40.0,
+        with_background=False,
+    )
     f, tr = emulate_flight(spec)
     assert tr["n_birds"] >= 12
     _, margins, counts, _ = _bird_lines(f)
@@ -235,8 +272,17 @@ def test_single_bird_has_one_dominant_line(rng):
     DOMINANT_MARGIN_DB above any other line more than 14 Hz away (median over timesteps),
     where a flock (test above) does not."""
     for _ in range(4):
-        spec = FlightSpec("one", "bird", bird_kind="single", duration_s=10.0, mean_range_m=900.0,
-                          speed_mps=12.0, seed=int(rng.integers(2 ** 31)), snr_db=40.0, with_background=False)
+        spec = FlightSpec(
+            "one",
+            "bird",
+            bird_kind="single",
+            duration_s=10.0,
+            mean_range_m=900.0,
+            speed_mps=12.0,
+            seed=int(rng.integers(2**31)),
+            snr_db=40.0,
+            with_background=False,
+        )
         f, tr = emulate_flight(spec)
         assert tr["n_birds"] == 1
         offsets, margins, _, bin_hz = _bird_lines(f)
@@ -246,7 +292,7 @@ def test_single_bird_has_one_dominant_line(rng):
 
 def test_radar2_floor_near_clutter_is_raised(rng):
     """Same cells, same clutter: radar 2's phase noise raises the floor near zero Doppler."""
-    seed = int(rng.integers(2 ** 31))
+    seed = int(rng.integers(2**31))
     lv = {}
     for rid in ("radar1", "radar2"):
         spec = _drone(rng, "mini2", radar_id=rid, seed=seed, snr_db=20.0, clutter_scale_db=5.0, with_background=True)
@@ -259,8 +305,13 @@ def test_radar2_floor_near_clutter_is_raised(rng):
 
 
 def test_same_seed_identical_arrays(rng):
-    spec = _drone(rng, "inspire2", duration_s=6.0, with_background=True,
-                  effects={"sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.0}})
+    spec = _drone(
+        rng,
+        "inspire2",
+        duration_s=6.0,
+        with_background=True,
+        effects={"sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.0}},
+    )
     a, ta = emulate_flight(spec)
     b, tb = emulate_flight(spec)
     for k, v in a.arrays().items():
@@ -297,8 +348,9 @@ def test_motor_log_lag_and_scale(rng):
     spec = _drone(rng, "inspire2", duration_s=20.0, speed_mps=10.0, wind_mps=6.0)
     f0, _ = emulate_flight(spec)
     lag, scale = 0.5, 1.1
-    f1, _ = emulate_flight(replace(spec, effects={"motor_log_lag": {"lag_s": lag},
-                                                  "motor_speed_scale": {"scale": scale}}))
+    f1, _ = emulate_flight(
+        replace(spec, effects={"motor_log_lag": {"lag_s": lag}, "motor_speed_scale": {"scale": scale}})
+    )
     assert np.allclose(f0.iq, f1.iq)  # the radar data are unchanged
     m0 = f0.motors_rpm.mean(1)
     m1 = np.interp(f0.motors_time_s + lag, f1.motors_time_s, f1.motors_rpm.mean(1)) * scale
@@ -329,11 +381,14 @@ def _skirt_bands(iq, prf_hz):
     sp = spectrogram(iq, prf_hz, SpectrogramConfig(n_bins=0, highpass_hz=0.0))
     P = np.mean(10 ** (sp.power_db.astype(np.float64) / 10), axis=0)
     f = sp.doppler_hz
-    return {"line": P[np.abs(f) <= 8 * sp.bin_hz].sum(),
-            "upper": P[(f >= 35) & (f <= 95)].sum(), "lower": P[(f <= -35) & (f >= -95)].sum(),
-            "beyond": P[(np.abs(f) >= 110) & (np.abs(f) <= 300)].sum(),
-            # the bins summed as "upper" span this many Hz (34 bins x 1.78 Hz = 60.6 Hz)
-            "width_hz": np.count_nonzero((f >= 35) & (f <= 95)) * sp.bin_hz}
+    return {
+        "line": P[np.abs(f) <= 8 * sp.bin_hz].sum(),
+        "upper": P[(f >= 35) & (f <= 95)].sum(),
+        "lower": P[(f <= -35) & (f >= -95)].sum(),
+        "beyond": P[(np.abs(f) >= 110) & (np.abs(f) <= 300)].sum(),
+        # the bins summed as "upper" span this many Hz (34 bins x 1.78 Hz = 60.6 Hz)
+        "width_hz": np.count_nonzero((f >= 35) & (f <= 95)) * sp.bin_hz,
+    }
 
 
 def test_phase_noise_knob_skirt_matches_small_angle_theory():
@@ -360,18 +415,27 @@ def test_phase_noise_knob_skirt_matches_small_angle_theory():
     cells = np.zeros((len(t_track), 2), np.int64)  # one cell: stationary clutter at 0 Hz
     bands = {}
     for knob in (0.0, rms):
-        iq, _ = bg.record(None, n, t_track_s=t_track, cells=cells, site=site, site_seed=1, wind_mps=2.0,
-                          rng=np.random.default_rng(11), knob_phase_rms_rad=knob)
+        iq, _ = bg.record(
+            None,
+            n,
+            t_track_s=t_track,
+            cells=cells,
+            site=site,
+            site_seed=1,
+            wind_mps=2.0,
+            rng=np.random.default_rng(11),
+            knob_phase_rms_rad=knob,
+        )
         bands[knob] = _skirt_bands(iq, prf)
     on, off = bands[rms], bands[0.0]
-    expected = rms ** 2 * on["width_hz"] / 200.0
+    expected = rms**2 * on["width_hz"] / 200.0
     for side in ("upper", "lower"):
         added = (on[side] - off[side]) / on["line"]
         assert abs(10 * np.log10(added / expected)) < 0.4, (side, added, expected)
         assert off[side] < 0.05 * on[side], (side, off[side], on[side])  # the knob dominates the skirt
     # beyond the knob's 100 Hz band only second-order terms (s^4 / 2 x 0.2025 of the line)
     added_beyond = (on["beyond"] - off["beyond"]) / on["line"]
-    assert abs(added_beyond) < 3 * rms ** 4 / 2 * 0.2025 + 1e-3 * expected, added_beyond
+    assert abs(added_beyond) < 3 * rms**4 / 2 * 0.2025 + 1e-3 * expected, added_beyond
 
 
 def test_record_parts_are_the_same_realisation_and_sum_to_the_recording():
@@ -389,8 +453,17 @@ def test_record_parts_are_the_same_realisation_and_sum_to_the_recording():
     target = (3.0 * np.exp(2j * np.pi * 0.01 * np.arange(n))).astype(np.complex64)
 
     def rec(parts=bg.PARTS):
-        return bg.record(target, n, t_track_s=t_track, cells=cells, site=site, site_seed=4, wind_mps=8.0,
-                         rng=np.random.default_rng(5), parts=parts)[0]
+        return bg.record(
+            target,
+            n,
+            t_track_s=t_track,
+            cells=cells,
+            site=site,
+            site_seed=4,
+            wind_mps=8.0,
+            rng=np.random.default_rng(5),
+            parts=parts,
+        )[0]
 
     full = rec()
     assert np.array_equal(rec(bg.PARTS), full)
@@ -412,8 +485,16 @@ def test_world_test_profile(tmp_path):
     key = tmp_path / "key.json"
     rows = emulate_world("test", 3, out, key_path=key, progress=False, workers=1)
     man = pd.read_csv(out / "flights.csv")
-    assert list(man.columns) == ["flight_id", "target", "drone_model", "bird_kind", "radar_id", "duration_s",
-                                 "mean_range_m", "mean_snr_db"]
+    assert list(man.columns) == [
+        "flight_id",
+        "target",
+        "drone_model",
+        "bird_kind",
+        "radar_id",
+        "duration_s",
+        "mean_range_m",
+        "mean_snr_db",
+    ]
     assert len(man) == len(rows) == len(plan_world("test", 3))
     for fid in man.flight_id:
         fl = validate_store(out / f"{fid}.zarr")
@@ -439,14 +520,16 @@ def test_plans_are_deterministic_and_sized():
     assert counts == {"bird": 491, "inspire2": 69, "matrice300": 52, "mini2": 62}
     cfg = SpectrogramConfig()
     for cls, n_img in {"bird": 5814, "inspire2": 2183}.items():
-        tiles = sum((1 + (int(round(s.duration_s * 7300)) - 4096) // 2048) // cfg.tile_timesteps
-                    for s in p if s.cls == cls)
+        tiles = sum(
+            (1 + (int(round(s.duration_s * 7300)) - 4096) // 2048) // cfg.tile_timesteps for s in p if s.cls == cls
+        )
         assert abs(tiles - n_img) <= 0.02 * n_img
 
 
 def _effects_by_model(plan, airframes=True):
     """Per drone model, its flights' effects (without the airframes' ``blade_imbalance``
     unless ``airframes``)."""
+
     def eff(s):
         return dict(s.effects) if airframes else {c: p for c, p in dict(s.effects).items() if c != "blade_imbalance"}
 
@@ -510,8 +593,9 @@ def test_world_key_records_effects_and_population(tmp_path):
     from microdoppler.emulator.profiles import world_airframes
 
     plan = plan_world("default", 11)
-    two = [s for s in plan if s.drone_model == "inspire2" and len(s.effects) == 2
-           and "blade_imbalance" not in s.effects][:1]
+    two = [
+        s for s in plan if s.drone_model == "inspire2" and len(s.effects) == 2 and "blade_imbalance" not in s.effects
+    ][:1]
     two += [s for s in plan if s.drone_model == "matrice300" and not s.effects][:1]
     two += [s for s in plan if "blade_imbalance" in s.effects][:1]  # an imbalanced airframe's flight
     assert len(two) == 3
@@ -544,8 +628,13 @@ def test_world_airframes(profile):
     about as many flights; of each large model's airframes about a third (at least one)
     carry one unequal blade, 3-10 dB, on every flight they fly and on no other; Minis
     never. The airframes leave the other effects and every other draw as they were."""
-    from microdoppler.emulator.profiles import (AIRFRAMES_PER_MODEL, EFFECT_MODELS, IMBALANCE_DB, plan_effects,
-                                                world_airframes)
+    from microdoppler.emulator.profiles import (
+        AIRFRAMES_PER_MODEL,
+        EFFECT_MODELS,
+        IMBALANCE_DB,
+        plan_effects,
+        world_airframes,
+    )
 
     for seed in (11, 20261121, 5):
         plan = plan_world(profile, seed)
@@ -583,8 +672,10 @@ def _taper_line_power(blade_length_m, wavelength_m, k_max):
     from microdoppler.synthesis.model import BladeModel
 
     n = 1 << 14
-    g = sum(BladeModel(1, blade_length_m * fr, wavelength_m, table_size=n).table().astype(np.complex128)
-            for fr in BLADE_TAPER)
+    g = sum(
+        BladeModel(1, blade_length_m * fr, wavelength_m, table_size=n).table().astype(np.complex128)
+        for fr in BLADE_TAPER
+    )
     return np.abs(np.fft.fft(g) / n)[: k_max + 1] ** 2
 
 
@@ -600,12 +691,28 @@ def _nonmultiple_db(flight, line_power=None):
     cfg, sc = FidelityConfig(nonmultiple_min_cpis=4), SpectrogramConfig()  # a 16 s flight: ~56 CPIs in all
     sp = spectrogram(flight.iq, flight.prf_hz, sc)
     body = _body_doppler(flight, sp)
-    rev = np.column_stack([np.interp(sp.time_s, flight.motors_time_s, flight.motors_rpm[:, m])
-                           for m in range(flight.motors_rpm.shape[1])]) / 60.0
+    rev = (
+        np.column_stack(
+            [
+                np.interp(sp.time_s, flight.motors_time_s, flight.motors_rpm[:, m])
+                for m in range(flight.motors_rpm.shape[1])
+            ]
+        )
+        / 60.0
+    )
     L, lam = float(flight.attrs["blade_length_m"]), flight.wavelength_m
     lp = line_power(L, lam, cfg.rotation_orders) if line_power else thin_wire_line_power(L, lam, cfg.rotation_orders)
-    f = cpi_features(sp, body, rev.mean(1), n_blades=int(flight.attrs["n_blades"]), highpass_hz=sc.highpass_hz,
-                     cfg=cfg, motor_rev_s=rev, line_power=lp, window=blackmanharris(sc.n_fft, sym=False))
+    f = cpi_features(
+        sp,
+        body,
+        rev.mean(1),
+        n_blades=int(flight.attrs["n_blades"]),
+        highpass_hz=sc.highpass_hz,
+        cfg=cfg,
+        motor_rev_s=rev,
+        line_power=lp,
+        window=blackmanharris(sc.n_fft, sym=False),
+    )
     return nonmultiple_db(f, np.ones(len(sp.time_s), bool), cfg)
 
 
@@ -620,8 +727,16 @@ def test_imbalanced_airframes_make_odd_rotation_lines(rng):
     frames = world_airframes(20261121)
     for model in ("inspire2", "matrice300"):
         x = [e["blade_imbalance"]["imbalance_db"] for e in frames[model].values() if e][0]
-        spec = _drone(rng, model, duration_s=16.0, snr_db=50.0, path="straight", first_sideband_db=8.0,
-                      harmonic_falloff_db=5.0, effects={"blade_imbalance": {"imbalance_db": x}})
+        spec = _drone(
+            rng,
+            model,
+            duration_s=16.0,
+            snr_db=50.0,
+            path="straight",
+            first_sideband_db=8.0,
+            harmonic_falloff_db=5.0,
+            effects={"blade_imbalance": {"imbalance_db": x}},
+        )
         f, tr = emulate_flight(spec)
         a = 10 ** (-x / 20)
         want = 20 * np.log10((1 - a) / (1 + a))
@@ -713,9 +828,20 @@ def test_radar2_has_occasional_artifacts(rng):
 
 def test_straight_path_keeps_body_out_of_the_notch(rng):
     """A diagnosis-style flight: 40 s Inspire, straight leg, one effect, body SNR >= 36 dB."""
-    spec = FlightSpec("s", "drone", drone_model="inspire2", duration_s=40.0, mean_range_m=1500.0, speed_mps=8.0,
-                      seed=int(rng.integers(2 ** 31)), snr_db=44.0, path="straight", direction=-1,
-                      effects={"motor_log_lag": {"lag_s": 0.4}}, with_background=False)
+    spec = FlightSpec(
+        "s",
+        "drone",
+        drone_model="inspire2",
+        duration_s=40.0,
+        mean_range_m=1500.0,
+        speed_mps=8.0,
+        seed=int(rng.integers(2**31)),
+        snr_db=44.0,
+        path="straight",
+        direction=-1,
+        effects={"motor_log_lag": {"lag_s": 0.4}},
+        with_background=False,
+    )
     f, tr = emulate_flight(spec)
     sp = spectrogram(f.iq, f.prf_hz)
     fb = _body_doppler(f, sp)
@@ -734,8 +860,15 @@ def test_gliding_birds_show_a_bare_body_line():
 
     shares, drawn = [], []
     for k in range(40):
-        g = plan_group("single", 600.0, mean_range_m=1000.0, height_m=60.0, speed_mps=12.0,
-                       rng=np.random.default_rng([k, 1]), manoeuvre_rng=np.random.default_rng([k, 8]))
+        g = plan_group(
+            "single",
+            600.0,
+            mean_range_m=1000.0,
+            height_m=60.0,
+            speed_mps=12.0,
+            rng=np.random.default_rng([k, 1]),
+            manoeuvre_rng=np.random.default_rng([k, 8]),
+        )
         if not SPECIES[g.species].glides:
             assert g.glide_share == 0.0 and np.all(g.flapping == 1.0)
             continue
@@ -748,8 +881,7 @@ def test_gliding_birds_show_a_bare_body_line():
     assert np.median(err) < 0.1 and np.corrcoef(shares, drawn)[0, 1] > 0.6, (shares, drawn)
 
     prf, lam = 2000.0, 0.23
-    g = plan_group("single", 10.0, mean_range_m=1000.0, height_m=60.0, speed_mps=12.0,
-                   rng=np.random.default_rng(7))
+    g = plan_group("single", 10.0, mean_range_m=1000.0, height_m=60.0, speed_mps=12.0, rng=np.random.default_rng(7))
     g = replace(g, wing_rel=np.array([10 ** (-8 / 20)]))  # loud wings: the test's contrast
 
     def off_body_share(flap_level):

@@ -15,8 +15,13 @@ import pytest
 import yaml
 
 from microdoppler.datasets import calibration, speeds
-from microdoppler.datasets.extended import (SCHEMA, TwinExtensions, load_twin_extensions, save_twin_extensions,
-                                            twin_extensions)
+from microdoppler.datasets.extended import (
+    SCHEMA,
+    TwinExtensions,
+    load_twin_extensions,
+    save_twin_extensions,
+    twin_extensions,
+)
 from microdoppler.datasets.injection import SYNTHETIC_SCHEMA
 from microdoppler.datasets.stores import open_store
 from microdoppler.diagnosis.aggregate import aggregate_twins
@@ -30,41 +35,63 @@ from test_datasets_world import make_world
 
 
 def _cause(name, **params):
-    return {"cause": name, "extension": {"name": name, "params": params},
-            "gain": {"metric": "m", "baseline": 1.0, "extended": 0.5, "held_out": True}}
+    return {
+        "cause": name,
+        "extension": {"name": name, "params": params},
+        "gain": {"metric": "m", "baseline": 1.0, "extended": 0.5, "held_out": True},
+    }
 
 
 def _report():
     """Inspire flights: asymmetry +4 dB (3 of 4), fading on one; Matrice: asymmetry
     -5 dB on both, a lag on one; one skipped, one with no cause."""
     fl = [
-        {"flight_id": "i1", "cause": "sideband_asymmetry",
-         "causes": [_cause("sideband_asymmetry", asymmetry_db=4.0),
-                    _cause("sideband_fading", fading_std_db=4.0, timescale_s=1.2)]},
+        {
+            "flight_id": "i1",
+            "cause": "sideband_asymmetry",
+            "causes": [
+                _cause("sideband_asymmetry", asymmetry_db=4.0),
+                _cause("sideband_fading", fading_std_db=4.0, timescale_s=1.2),
+            ],
+        },
         {"flight_id": "i2", "cause": "sideband_asymmetry", "causes": [_cause("sideband_asymmetry", asymmetry_db=4.4)]},
         {"flight_id": "i3", "cause": "sideband_asymmetry", "causes": [_cause("sideband_asymmetry", asymmetry_db=3.6)]},
         {"flight_id": "i4", "cause": "none", "causes": []},
-        {"flight_id": "m1", "cause": "sideband_asymmetry",
-         "causes": [_cause("sideband_asymmetry", asymmetry_db=-5.0), _cause("motor_log_lag", lag_s=0.5)]},
+        {
+            "flight_id": "m1",
+            "cause": "sideband_asymmetry",
+            "causes": [_cause("sideband_asymmetry", asymmetry_db=-5.0), _cause("motor_log_lag", lag_s=0.5)],
+        },
         {"flight_id": "m2", "cause": "sideband_asymmetry", "causes": [_cause("sideband_asymmetry", asymmetry_db=-5.4)]},
         {"flight_id": "m3", "cause": "skipped", "causes": [], "reason": "no usable motor log"},
     ]
     return {"schema": "diagnosis-report/2", "catalog": [], "flights": fl}
 
 
-MODELS = {"i1": "inspire2", "i2": "inspire2", "i3": "inspire2", "i4": "inspire2",
-          "m1": "matrice300", "m2": "matrice300", "m3": "matrice300"}
+MODELS = {
+    "i1": "inspire2",
+    "i2": "inspire2",
+    "i3": "inspire2",
+    "i4": "inspire2",
+    "m1": "matrice300",
+    "m2": "matrice300",
+    "m3": "matrice300",
+}
 
 
 def test_per_flight_mapping():
     ext = aggregate_twins(_report(), MODELS)
     assert ext.mode == "per_flight"
     e = ext.for_flight("i1", "inspire2", seed=7)
-    assert e.effects == {"sideband_asymmetry": {"asymmetry_db": 4.0},
-                         "sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.2}}
+    assert e.effects == {
+        "sideband_asymmetry": {"asymmetry_db": 4.0},
+        "sideband_fading": {"fading_std_db": 4.0, "timescale_s": 1.2},
+    }
     assert e.meta["source"] == "own"
-    assert ext.for_flight("m1", "matrice300", seed=7).effects == {"sideband_asymmetry": {"asymmetry_db": -5.0},
-                                                                  "motor_log_lag": {"lag_s": 0.5}}
+    assert ext.for_flight("m1", "matrice300", seed=7).effects == {
+        "sideband_asymmetry": {"asymmetry_db": -5.0},
+        "motor_log_lag": {"lag_s": 0.5},
+    }
     none = ext.for_flight("i4", "inspire2", seed=7)
     assert none.effects == {} and none.meta["source"] == "own"
     skipped = ext.for_flight("m3", "matrice300", seed=7)
@@ -130,11 +157,14 @@ def test_write_twin_extensions_from_report_and_split(tmp_path):
     report = tmp_path / "report.json"
     report.write_text(json.dumps(_report()))
     split = tmp_path / "flights.csv"
-    rows = [dict(flight_id=f, set="train" if f != "i3" else "test", target="drone", drone_model=m, radar_id="r1")
-            for f, m in MODELS.items()]
+    rows = [
+        dict(flight_id=f, set="train" if f != "i3" else "test", target="drone", drone_model=m, radar_id="r1")
+        for f, m in MODELS.items()
+    ]
     pd.DataFrame(rows).to_csv(split, index=False)
-    ext = write_twin_extensions(report, split, tmp_path / "extended.yaml", settings={"sets": ["train"]},
-                                mode="per_flight")
+    ext = write_twin_extensions(
+        report, split, tmp_path / "extended.yaml", settings={"sets": ["train"]}, mode="per_flight"
+    )
     assert "i3" not in ext.flights and ext.flights["m1"]["drone_model"] == "matrice300"
     back = load_twin_extensions(tmp_path / "extended.yaml")
     assert back.mode == "per_flight" and back.flights == ext.flights
@@ -148,19 +178,28 @@ def test_write_twin_extensions_from_report_and_split(tmp_path):
     assert everything.population != ext.population  # i3 would have changed it
 
 
-@pytest.mark.parametrize("mutate, field", [
-    (lambda d: d.update(mode="median"), "mode"),
-    (lambda d: d["flights"]["i1"].update(status="maybe"), "flights.i1.status"),
-    (lambda d: d["flights"]["i1"]["extensions"].update(wobble={"x": 1}), "flights.i1.extensions.wobble"),
-    (lambda d: d["flights"]["i1"]["extensions"]["sideband_asymmetry"].update(asymmetry_db="big"),
-     "flights.i1.extensions.sideband_asymmetry.asymmetry_db"),
-    (lambda d: d["population"]["inspire2"]["causes"]["sideband_asymmetry"].update(incidence=1.5),
-     "population.inspire2.causes.sideband_asymmetry.incidence"),
-    (lambda d: d["population"]["inspire2"]["causes"]["sideband_asymmetry"].update(samples=[]),
-     "population.inspire2.causes.sideband_asymmetry.samples"),
-    (lambda d: d.update(flights=[1, 2]), "flights"),
-    (lambda d: d.update(schema="extensions/9"), "schema"),
-])
+@pytest.mark.parametrize(
+    "mutate, field",
+    [
+        (lambda d: d.update(mode="median"), "mode"),
+        (lambda d: d["flights"]["i1"].update(status="maybe"), "flights.i1.status"),
+        (lambda d: d["flights"]["i1"]["extensions"].update(wobble={"x": 1}), "flights.i1.extensions.wobble"),
+        (
+            lambda d: d["flights"]["i1"]["extensions"]["sideband_asymmetry"].update(asymmetry_db="big"),
+            "flights.i1.extensions.sideband_asymmetry.asymmetry_db",
+        ),
+        (
+            lambda d: d["population"]["inspire2"]["causes"]["sideband_asymmetry"].update(incidence=1.5),
+            "population.inspire2.causes.sideband_asymmetry.incidence",
+        ),
+        (
+            lambda d: d["population"]["inspire2"]["causes"]["sideband_asymmetry"].update(samples=[]),
+            "population.inspire2.causes.sideband_asymmetry.samples",
+        ),
+        (lambda d: d.update(flights=[1, 2]), "flights"),
+        (lambda d: d.update(schema="extensions/9"), "schema"),
+    ],
+)
 def test_bad_yaml_is_one_line_input_error(tmp_path, mutate, field):
     d = aggregate_twins(_report(), MODELS).to_dict()
     mutate(d)
@@ -196,18 +235,44 @@ def test_twin_without_cause_equals_sub_cpi_twin(tmp_path):
     measured = make_world(tmp_path / "measured", duration_s=8.0)
     logs = tmp_path / "logs.zarr"
     ingest_flight_logs(measured, logs, tmp_path / "ingest.csv", log=lambda m: None)
-    ext = TwinExtensions({"ins1": {"drone_model": "inspire2", "status": "diagnosed", "extensions": {}},
-                          "mat1": {"drone_model": "matrice300", "status": "diagnosed",
-                                   "extensions": {"sideband_asymmetry": {"asymmetry_db": -6.0}}},
-                          "mat2": {"drone_model": "matrice300", "status": "skipped", "extensions": {}}})
+    ext = TwinExtensions(
+        {
+            "ins1": {"drone_model": "inspire2", "status": "diagnosed", "extensions": {}},
+            "mat1": {
+                "drone_model": "matrice300",
+                "status": "diagnosed",
+                "extensions": {"sideband_asymmetry": {"asymmetry_db": -6.0}},
+            },
+            "mat2": {"drone_model": "matrice300", "status": "skipped", "extensions": {}},
+        }
+    )
     cfg = calibration.CalibrationConfig(n_alpha=3, max_iter=3)
     iq = {}
     for variant, e in (("sub_cpi", None), ("extended", ext)):
-        speeds.build_speeds(measured, logs, tmp_path / f"speeds_{variant}.zarr", variant=variant, settings=SETTINGS,
-                            n_fft=4096, seed=7, extensions=e, log=lambda m: None)
-        calibration.build_twins(measured, tmp_path / f"speeds_{variant}.zarr", logs, tmp_path / f"{variant}.zarr",
-                                tmp_path / f"t4_{variant}.csv", variant=variant, spec_cfg=SpectrogramConfig(), cfg=cfg,
-                                seed=7, extensions=e, log=lambda m: None)
+        speeds.build_speeds(
+            measured,
+            logs,
+            tmp_path / f"speeds_{variant}.zarr",
+            variant=variant,
+            settings=SETTINGS,
+            n_fft=4096,
+            seed=7,
+            extensions=e,
+            log=lambda m: None,
+        )
+        calibration.build_twins(
+            measured,
+            tmp_path / f"speeds_{variant}.zarr",
+            logs,
+            tmp_path / f"{variant}.zarr",
+            tmp_path / f"t4_{variant}.csv",
+            variant=variant,
+            spec_cfg=SpectrogramConfig(),
+            cfg=cfg,
+            seed=7,
+            extensions=e,
+            log=lambda m: None,
+        )
         root = open_store(tmp_path / f"{variant}.zarr", SYNTHETIC_SCHEMA)
         iq[variant] = {fid: (np.asarray(root[fid]["iq"][...]), dict(root[fid].attrs)) for fid in root.group_keys()}
     assert {"ins1", "mat1", "mat2"} <= set(iq["sub_cpi"]) and set(iq["sub_cpi"]) == set(iq["extended"])
@@ -216,8 +281,10 @@ def test_twin_without_cause_equals_sub_cpi_twin(tmp_path):
     assert iq["extended"]["ins1"][1]["extensions"] == {"effects": {}, "source": "own"}
     assert iq["extended"]["mat2"][1]["extensions"]["source"] == "skipped"
     assert iq["extended"]["mat1"][0].tobytes() != iq["sub_cpi"]["mat1"][0].tobytes()
-    assert iq["extended"]["mat1"][1]["extensions"] == {"effects": {"sideband_asymmetry": {"asymmetry_db": -6.0}},
-                                                       "source": "own"}
+    assert iq["extended"]["mat1"][1]["extensions"] == {
+        "effects": {"sideband_asymmetry": {"asymmetry_db": -6.0}},
+        "source": "own",
+    }
     # ins2 is not in the map: a population draw (the population is empty here: no extension)
     assert iq["extended"]["ins2"][1]["extensions"]["source"] == "population"
 
@@ -236,16 +303,37 @@ def test_extended_twin_carries_the_flights_blade_imbalance(tmp_path):
     from microdoppler.io.inventory import read_ingested_log
 
     x = 7.0
-    spec = FlightSpec(flight_id="imb_inspire2", target="drone", drone_model="inspire2", radar_id="radar1",
-                      duration_s=24.0, mean_range_m=1200.0, height_m=80.0, speed_mps=6.0, seed=3, snr_db=50.0,
-                      wind_mps=2.0, path="straight", first_sideband_db=8.0, harmonic_falloff_db=5.0,
-                      effects={"blade_imbalance": {"imbalance_db": x}}, airframe="inspire2-A")
+    spec = FlightSpec(
+        flight_id="imb_inspire2",
+        target="drone",
+        drone_model="inspire2",
+        radar_id="radar1",
+        duration_s=24.0,
+        mean_range_m=1200.0,
+        height_m=80.0,
+        speed_mps=6.0,
+        seed=3,
+        snr_db=50.0,
+        wind_mps=2.0,
+        path="straight",
+        first_sideband_db=8.0,
+        harmonic_falloff_db=5.0,
+        effects={"blade_imbalance": {"imbalance_db": x}},
+        airframe="inspire2-A",
+    )
     measured = tmp_path / "measured"
     emulate_world("default", 1, measured, progress=False, workers=1, specs=[replace(spec)])
     logs = tmp_path / "logs.zarr"
     ingest_flight_logs(measured, logs, tmp_path / "ingest.csv", log=lambda m: None)
-    ext = TwinExtensions({spec.flight_id: {"drone_model": "inspire2", "status": "diagnosed",
-                                           "extensions": {"blade_imbalance": {"imbalance_db": x}}}})
+    ext = TwinExtensions(
+        {
+            spec.flight_id: {
+                "drone_model": "inspire2",
+                "status": "diagnosed",
+                "extensions": {"blade_imbalance": {"imbalance_db": x}},
+            }
+        }
+    )
     cfg = calibration.CalibrationConfig(n_alpha=3, max_iter=3)
     flight = read_flight(measured / f"{spec.flight_id}.zarr")
     ml = read_ingested_log(logs, spec.flight_id)
@@ -253,14 +341,34 @@ def test_extended_twin_carries_the_flights_blade_imbalance(tmp_path):
     meas = fidelity.flight_features(flight, flight.iq, ml, spec_cfg=spec_cfg)
     got = {}
     for variant, e in (("sub_cpi", None), ("extended", ext)):
-        speeds.build_speeds(measured, logs, tmp_path / f"speeds_{variant}.zarr", variant=variant, settings=SETTINGS,
-                            n_fft=4096, seed=7, extensions=e, log=lambda m: None)
-        calibration.build_twins(measured, tmp_path / f"speeds_{variant}.zarr", logs, tmp_path / f"{variant}.zarr",
-                                tmp_path / f"t4_{variant}.csv", variant=variant, spec_cfg=spec_cfg, cfg=cfg,
-                                seed=7, extensions=e, log=lambda m: None)
+        speeds.build_speeds(
+            measured,
+            logs,
+            tmp_path / f"speeds_{variant}.zarr",
+            variant=variant,
+            settings=SETTINGS,
+            n_fft=4096,
+            seed=7,
+            extensions=e,
+            log=lambda m: None,
+        )
+        calibration.build_twins(
+            measured,
+            tmp_path / f"speeds_{variant}.zarr",
+            logs,
+            tmp_path / f"{variant}.zarr",
+            tmp_path / f"t4_{variant}.csv",
+            variant=variant,
+            spec_cfg=spec_cfg,
+            cfg=cfg,
+            seed=7,
+            extensions=e,
+            log=lambda m: None,
+        )
         g = open_store(tmp_path / f"{variant}.zarr", SYNTHETIC_SCHEMA)[spec.flight_id]
-        twin = fidelity.flight_features(flight, inject(np.asarray(g["iq"][...]), flight.background_iq), ml,
-                                        spec_cfg=spec_cfg)
+        twin = fidelity.flight_features(
+            flight, inject(np.asarray(g["iq"][...]), flight.background_iq), ml, spec_cfg=spec_cfg
+        )
         mask, held_out = fidelity.scoring_mask(dict(g.attrs["calibration"]), len(twin.time_s))
         assert held_out
         got[variant] = (fidelity.nonmultiple_db(meas, mask), fidelity.nonmultiple_db(twin, mask), dict(g.attrs))
@@ -282,10 +390,13 @@ def test_unexplained_and_imbalance_in_the_report():
     rep = _report()
     rep["flights"][1]["causes"] = rep["flights"][1]["causes"] + [
         _cause("blade_imbalance", imbalance_db=6.5),
-        {"cause": "unexplained", "params": {"excess_db": 4.0, "band_hz": [100.0, 200.0]}}]
+        {"cause": "unexplained", "params": {"excess_db": 4.0, "band_hz": [100.0, 200.0]}},
+    ]
     ext = aggregate_twins(rep, MODELS)
-    assert ext.flights["i2"]["extensions"] == {"sideband_asymmetry": {"asymmetry_db": 4.4},
-                                               "blade_imbalance": {"imbalance_db": 6.5}}
+    assert ext.flights["i2"]["extensions"] == {
+        "sideband_asymmetry": {"asymmetry_db": 4.4},
+        "blade_imbalance": {"imbalance_db": 6.5},
+    }
     assert ext.population["inspire2"]["causes"]["blade_imbalance"]["samples"] == [{"imbalance_db": 6.5}]
     one = ext.for_flight("i2", "inspire2", seed=0)
     amps = one.blade_amplitudes(2)

@@ -25,8 +25,14 @@ def _blade_iq(ext, n=1 << 16, seed=3, rate=80.0):
     if ext_in.envelope_gain is None:
         ext_in = replace(ext_in, envelope_gain=_unit)  # same (FFT) envelope filter for both models
     track = Track.constant_velocity(1500.0, -5.0, n / PRF)
-    config = SynthesisConfig.of(prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19,
-                                scaling=Scaling(0.0, 1.0, 0.003), extensions=ext_in)
+    config = SynthesisConfig.of(
+        prf_hz=PRF,
+        wavelength_m=LAM,
+        n_blades=2,
+        blade_length_m=0.19,
+        scaling=Scaling(0.0, 1.0, 0.003),
+        extensions=ext_in,
+    )
     return synthesize(config, track, rev, seed=seed)
 
 
@@ -63,8 +69,10 @@ def test_transform_log_lag_and_scale(rng):
     np.testing.assert_array_equal(same.rpm, rpm)
 
 
-@pytest.mark.parametrize("cause,param,hook", [("sideband_fading", "fading_std_db", "blade_hook"),
-                                              ("body_fluctuation", "body_std_db", "body_hook")])
+@pytest.mark.parametrize(
+    "cause,param,hook",
+    [("sideband_fading", "fading_std_db", "blade_hook"), ("body_fluctuation", "body_std_db", "body_hook")],
+)
 def test_gain_hooks_have_the_catalog_std(cause, param, hook):
     n = int(PRF * 400)
     p = {param: 4.0} if cause == "body_fluctuation" else {param: 4.0, "timescale_s": 1.0}
@@ -85,11 +93,14 @@ def _skirt_around(iq, f0_hz):
     sp = spectrogram(iq, PRF, SpectrogramConfig(n_bins=0, highpass_hz=0.0))
     P = np.mean(10 ** (sp.power_db.astype(np.float64) / 10), axis=0)
     f = sp.doppler_hz - f0_hz
-    return {"line": P[np.abs(f) <= 8 * sp.bin_hz].sum(),
-            "upper": P[(f >= 35) & (f <= 95)].sum(), "lower": P[(f <= -35) & (f >= -95)].sum(),
-            "beyond": P[(np.abs(f) >= 110) & (np.abs(f) <= 300)].sum(),
-            # the bins summed as "upper" span this many Hz (34 bins x 1.78 Hz = 60.6 Hz)
-            "width_hz": np.count_nonzero((f >= 35) & (f <= 95)) * sp.bin_hz}
+    return {
+        "line": P[np.abs(f) <= 8 * sp.bin_hz].sum(),
+        "upper": P[(f >= 35) & (f <= 95)].sum(),
+        "lower": P[(f <= -35) & (f >= -95)].sum(),
+        "beyond": P[(np.abs(f) >= 110) & (np.abs(f) <= 300)].sum(),
+        # the bins summed as "upper" span this many Hz (34 bins x 1.78 Hz = 60.6 Hz)
+        "width_hz": np.count_nonzero((f >= 35) & (f <= 95)) * sp.bin_hz,
+    }
 
 
 @pytest.mark.parametrize("rms", [0.05, 0.1])
@@ -114,11 +125,11 @@ def test_phase_noise_skirt_matches_small_angle_theory(rms):
     clean = _skirt_around(tone, f0)
     assert max(clean["upper"], clean["lower"], clean["beyond"]) < 1e-9 * clean["line"], clean
     noisy = _skirt_around(ExtensionSet({"phase_noise": {"rms_rad": rms}}).post(tone, prf_hz=PRF, seed=9), f0)
-    expected = rms ** 2 * noisy["width_hz"] / 200.0 + rms ** 4 / 2 * 0.2025
+    expected = rms**2 * noisy["width_hz"] / 200.0 + rms**4 / 2 * 0.2025
     for side in ("upper", "lower"):
         got = noisy[side] / noisy["line"]
         assert abs(10 * np.log10(got / expected)) < 0.4, (side, got, expected)
-    second = rms ** 4 / 2 * 0.2025
+    second = rms**4 / 2 * 0.2025
     assert noisy["beyond"] / noisy["line"] == pytest.approx(second, rel=0.3), (noisy["beyond"] / noisy["line"], second)
 
 
@@ -136,8 +147,7 @@ def test_measured_skirt_profile_is_reproduced():
     n = 1 << 18
     f0 = 168 * PRF / 4096
     tone = (10 * np.exp(2j * np.pi * f0 * np.arange(n) / PRF)).astype(np.complex64)
-    e = ExtensionSet({"phase_noise": {"skirt_dbc_hz": -62.0, "skirt_profile": {"band_edges_hz": edges,
-                                                                               "dbc_hz": dbc}}})
+    e = ExtensionSet({"phase_noise": {"skirt_dbc_hz": -62.0, "skirt_profile": {"band_edges_hz": edges, "dbc_hz": dbc}}})
     sp = spectrogram(e.post(tone, prf_hz=PRF, seed=9), PRF, SpectrogramConfig(n_bins=0, highpass_hz=0.0))
     P = np.mean(10 ** (sp.power_db.astype(np.float64) / 10), axis=0)
     f = np.abs(sp.doppler_hz - f0)
@@ -153,18 +163,25 @@ def test_measured_skirt_profile_is_reproduced():
 
 
 def test_bad_skirt_profile_is_refused():
-    for bad in ({"band_edges_hz": [35, 70], "dbc_hz": [-60, -70]},      # one edge too few
-                {"band_edges_hz": [70, 35, 140], "dbc_hz": [-60, -70]},  # not increasing
-                {"band_edges_hz": [35, 70, 140], "dbc_hz": [-60, 3.0]},  # above the carrier
-                {"band_edges_hz": [35, 70, 140], "dbc_hz": [-60, "x"]},
-                [35, 70]):
+    for bad in (
+        {"band_edges_hz": [35, 70], "dbc_hz": [-60, -70]},  # one edge too few
+        {"band_edges_hz": [70, 35, 140], "dbc_hz": [-60, -70]},  # not increasing
+        {"band_edges_hz": [35, 70, 140], "dbc_hz": [-60, 3.0]},  # above the carrier
+        {"band_edges_hz": [35, 70, 140], "dbc_hz": [-60, "x"]},
+        [35, 70],
+    ):
         with pytest.raises(InputError, match="extensions.phase_noise.skirt_profile"):
             ExtensionSet({"phase_noise": {"rms_rad": 0.01, "skirt_profile": bad}})
 
 
 def test_same_seed_same_result_and_seed_matters():
-    e = ExtensionSet({"sideband_fading": {"fading_std_db": 3.0, "timescale_s": 1.5},
-                      "body_fluctuation": {"body_std_db": 3.0}, "phase_noise": {"rms_rad": 0.01}})
+    e = ExtensionSet(
+        {
+            "sideband_fading": {"fading_std_db": 3.0, "timescale_s": 1.5},
+            "body_fluctuation": {"body_std_db": 3.0},
+            "phase_noise": {"rms_rad": 0.01},
+        }
+    )
     a = e.post(_blade_iq(e, seed=1), prf_hz=PRF, seed=1)
     b = e.post(_blade_iq(e, seed=1), prf_hz=PRF, seed=1)
     c = e.post(_blade_iq(e, seed=2), prf_hz=PRF, seed=2)
@@ -173,8 +190,10 @@ def test_same_seed_same_result_and_seed_matters():
 
 
 def test_save_load_roundtrip_and_bad_input(tmp_path):
-    e = ExtensionSet({"sideband_asymmetry": {"asymmetry_db": 4.0}, "sideband_fading": {"fading_std_db": 3.5}},
-                     {"base_variant": "sub_cpi"})
+    e = ExtensionSet(
+        {"sideband_asymmetry": {"asymmetry_db": 4.0}, "sideband_fading": {"fading_std_db": 3.5}},
+        {"base_variant": "sub_cpi"},
+    )
     p = save_extensions(e, tmp_path / "ext.yaml")
     back = load_extensions(p)
     assert back.effects == e.effects
@@ -190,17 +209,20 @@ def test_save_load_roundtrip_and_bad_input(tmp_path):
 
 # ---------------------------------------------------------------- canonical parameters (issue 12)
 
+
 def test_old_yaml_without_the_new_parameters_is_read(tmp_path):
     """A file written before body timescale_s and skirt_dbc_hz existed: the body's
     timescale defaults to 0.3 s and the skirt follows from rms_rad (flat process)."""
     from microdoppler.causes.catalog import flat_skirt_dbc_hz
 
-    (tmp_path / "old.yaml").write_text("schema: extensions/1\nextensions:\n  body_fluctuation: {body_std_db: 3.0}\n"
-                                       "  phase_noise: {rms_rad: 0.01}\nmeta: {}\n")
+    (tmp_path / "old.yaml").write_text(
+        "schema: extensions/1\nextensions:\n  body_fluctuation: {body_std_db: 3.0}\n"
+        "  phase_noise: {rms_rad: 0.01}\nmeta: {}\n"
+    )
     e = load_extensions(tmp_path / "old.yaml")
     assert e.effects["body_fluctuation"] == {"body_std_db": 3.0, "timescale_s": 0.3}
     assert e.effects["phase_noise"]["skirt_dbc_hz"] == pytest.approx(flat_skirt_dbc_hz(0.01))
-    assert e.effects["phase_noise"]["skirt_dbc_hz"] == pytest.approx(10 * np.log10(0.01 ** 2 / 200), abs=0.01)
+    assert e.effects["phase_noise"]["skirt_dbc_hz"] == pytest.approx(10 * np.log10(0.01**2 / 200), abs=0.01)
 
 
 def test_body_timescale_is_used_and_skirt_defines_rms(tmp_path):
@@ -220,7 +242,7 @@ def test_body_timescale_is_used_and_skirt_defines_rms(tmp_path):
     ys, yf = gain_db(slow), gain_db(fast)
     assert lag_corr(ys, 50) > 0.6 and abs(lag_corr(yf, 50)) < 0.2  # 0.5 s apart
     pn = ExtensionSet({"phase_noise": {"skirt_dbc_hz": -60.0}}).effects["phase_noise"]
-    assert pn["rms_rad"] == pytest.approx(np.sqrt(2 * 100 * 10 ** -6.0), rel=1e-3)
+    assert pn["rms_rad"] == pytest.approx(np.sqrt(2 * 100 * 10**-6.0), rel=1e-3)
     back = load_extensions(save_extensions(ExtensionSet({"phase_noise": {"skirt_dbc_hz": -60.0}}), tmp_path / "p.yaml"))
     assert back.effects["phase_noise"] == pytest.approx(pn)
     with pytest.raises(InputError, match="timescale_s"):
@@ -247,7 +269,7 @@ def test_flat_skirt_matches_the_emulated_phase_noise_spectrum():
     th = band_limited_phase(n * segs, PRF, rms, rng)
     x = np.exp(1j * th).reshape(segs, n)
     w = np.hanning(n)
-    p = (np.abs(np.fft.fft(x * w, axis=1)) ** 2).mean(0) / (w ** 2).sum() / PRF  # [1/Hz], carrier power ~1
+    p = (np.abs(np.fft.fft(x * w, axis=1)) ** 2).mean(0) / (w**2).sum() / PRF  # [1/Hz], carrier power ~1
     f = np.fft.fftfreq(n, 1 / PRF)
     band = (np.abs(f) > 40) & (np.abs(f) < 60)
     carrier = np.abs(x.mean()) ** 2
@@ -269,14 +291,15 @@ def test_injection_gives_the_background_the_twins_phase_noise():
     tone = (10 * np.exp(2j * np.pi * f0 * np.arange(n) / PRF)).astype(np.complex64)
     target = np.zeros(n, np.complex64)
     assert np.array_equal(inject(target, tone), tone)
-    assert np.array_equal(inject(target, tone, effects={"sideband_asymmetry": {"asymmetry_db": 3.0}},
-                                 prf_hz=PRF, seed=4), tone)
+    assert np.array_equal(
+        inject(target, tone, effects={"sideband_asymmetry": {"asymmetry_db": 3.0}}, prf_hz=PRF, seed=4), tone
+    )
     effects = {"phase_noise": {"rms_rad": rms}}
     a = inject(target, tone, effects=effects, prf_hz=PRF, seed=4)
     assert np.array_equal(a, inject(target, tone, effects=effects, prf_hz=PRF, seed=4))
     assert not np.array_equal(a, inject(target, tone, effects=effects, prf_hz=PRF, seed=5))
     sk = _skirt_around(a, f0)
-    expected = rms ** 2 * sk["width_hz"] / 200.0 + rms ** 4 / 2 * 0.2025
+    expected = rms**2 * sk["width_hz"] / 200.0 + rms**4 / 2 * 0.2025
     for side in ("upper", "lower"):
         assert abs(10 * np.log10(sk[side] / sk["line"] / expected)) < 0.4, (side, sk)
     with pytest.raises(ValueError, match="prf_hz"):

@@ -72,8 +72,9 @@ def _estimate(iq):
     return C.fading_estimate_fine(M, ok, m, 0.0, np.zeros(n_t)), F
 
 
-@pytest.mark.parametrize("kind,seed", fast_loop([("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)],
-                                                lambda v: v == ("ou", 1)))
+@pytest.mark.parametrize(
+    "kind,seed", fast_loop([("ou", 1), ("ou", 2), ("telegraph", 3), ("telegraph", 4)], lambda v: v == ("ou", 1))
+)
 def test_fine_sideband_fading_timescale(kind, seed):
     est, F = _estimate(_flight(seed, kind))
     assert est is not None

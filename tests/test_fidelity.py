@@ -46,8 +46,11 @@ def tones(duration_s, rng, *, asym_db=6.0, fade_db=None, n_noise=0.2):
     n = int(duration_s * PRF_HZ)
     t = np.arange(n) / PRF_HZ
     body = np.exp(2j * np.pi * BODY_HZ * t)
-    side = (np.exp(2j * np.pi * (BODY_HZ + 100) * t) + 10 ** (-asym_db / 20) * np.exp(2j * np.pi * (BODY_HZ - 100) * t)
-            + 0.5 * np.exp(2j * np.pi * (BODY_HZ - 200) * t))
+    side = (
+        np.exp(2j * np.pi * (BODY_HZ + 100) * t)
+        + 10 ** (-asym_db / 20) * np.exp(2j * np.pi * (BODY_HZ - 100) * t)
+        + 0.5 * np.exp(2j * np.pi * (BODY_HZ - 200) * t)
+    )
     if fade_db is not None:
         side = side * 10 ** (fade_db / 20)
     noise = n_noise * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)
@@ -59,10 +62,17 @@ def features(iq, cfg=fidelity.FidelityConfig(), spec_cfg=SPEC, log_rev_s=REV_S, 
     line powers (every rotation harmonic of one blade equally strong)."""
     spec = spectrogram(iq, PRF_HZ, spec_cfg)
     n_t = len(spec.time_s)
-    return fidelity.cpi_features(spec, np.full(n_t, body_hz), np.full(n_t, log_rev_s), n_blades=N_BLADES,
-                                 highpass_hz=spec_cfg.highpass_hz, cfg=cfg, motor_rev_s=np.full((n_t, 4), log_rev_s),
-                                 line_power=np.ones(cfg.rotation_orders + 1),
-                                 window=blackmanharris(spec_cfg.n_fft, sym=False))
+    return fidelity.cpi_features(
+        spec,
+        np.full(n_t, body_hz),
+        np.full(n_t, log_rev_s),
+        n_blades=N_BLADES,
+        highpass_hz=spec_cfg.highpass_hz,
+        cfg=cfg,
+        motor_rev_s=np.full((n_t, 4), log_rev_s),
+        line_power=np.ones(cfg.rotation_orders + 1),
+        window=blackmanharris(spec_cfg.n_fft, sym=False),
+    )
 
 
 def test_features_of_known_lines(rng):
@@ -146,13 +156,23 @@ def test_nonmultiple_lines_of_a_body_in_the_clutter_notch(rng, odd_rel):
     # the flying path on the same spectrogram measures nothing
     spec = spectrogram(iq, PRF_HZ, full)
     n_t = len(spec.time_s)
-    st = fidelity.Stft(10.0 ** (spec.power_db.astype(np.float64) / 10), spec.time_s, spec.doppler_hz,
-                       blackmanharris(full.n_fft, sym=False))
+    st = fidelity.Stft(
+        10.0 ** (spec.power_db.astype(np.float64) / 10),
+        spec.time_s,
+        spec.doppler_hz,
+        blackmanharris(full.n_fft, sym=False),
+    )
     f_peak = fidelity.refine_peak(st, np.zeros(n_t), cfg.search_hz)
     assert fidelity.body_in_notch(f_peak, highpass_hz=full.highpass_hz, search_hz=cfg.search_hz)
-    pw, ref, _ = fidelity.rotation_line_sums(st, f_peak, np.full((n_t, 4), REV_S), n_blades=N_BLADES,
-                                             line_power=np.ones(cfg.rotation_orders + 1),
-                                             highpass_hz=full.highpass_hz, cfg=cfg)
+    pw, ref, _ = fidelity.rotation_line_sums(
+        st,
+        f_peak,
+        np.full((n_t, 4), REV_S),
+        n_blades=N_BLADES,
+        line_power=np.ones(cfg.rotation_orders + 1),
+        highpass_hz=full.highpass_hz,
+        cfg=cfg,
+    )
     assert not ref.any() and not pw.any()
     # a flying body (60 Hz) is not in the notch: the features keep its line's peak
     assert not fidelity.body_in_notch(np.full(n_t, BODY_HZ), highpass_hz=full.highpass_hz, search_hz=cfg.search_hz)
@@ -197,9 +217,17 @@ def test_clutter_floor_sees_a_raised_skirt(rng):
     """Noise added only 20-40 Hz from zero Doppler raises the floor next to the clutter line."""
     iq = tones(6.0, rng)
     n = len(iq)
-    skirt = np.fft.ifft(np.where((np.abs(np.fft.fftfreq(n, 1 / PRF_HZ)) > 20)
-                                 & (np.abs(np.fft.fftfreq(n, 1 / PRF_HZ)) < 40),
-                                 rng.standard_normal(n) + 1j * rng.standard_normal(n), 0)) * np.sqrt(n) * 3
+    skirt = (
+        np.fft.ifft(
+            np.where(
+                (np.abs(np.fft.fftfreq(n, 1 / PRF_HZ)) > 20) & (np.abs(np.fft.fftfreq(n, 1 / PRF_HZ)) < 40),
+                rng.standard_normal(n) + 1j * rng.standard_normal(n),
+                0,
+            )
+        )
+        * np.sqrt(n)
+        * 3
+    )
     base, raised = features(iq), features((iq + skirt).astype(np.complex64))
     lift = np.nanmean(raised.floor_db) - np.nanmean(base.floor_db)
     assert np.nanmean(np.abs(base.floor_db)) < 1.5  # white noise: the floor is the median floor
@@ -237,14 +265,18 @@ def test_table_columns_intervals_and_paired_rows(rng):
         for c in ("mean", "ci95_low", "ci95_high", "resolved"):
             assert f"{m}_{c}" in t.columns
         main = t.iloc[:3]
-        assert (main[f"{m}_ci95_low"] <= main[f"{m}_mean"]).all() and (main[f"{m}_mean"] <= main[f"{m}_ci95_high"]).all()
+        assert (main[f"{m}_ci95_low"] <= main[f"{m}_mean"]).all() and (
+            main[f"{m}_mean"] <= main[f"{m}_ci95_high"]
+        ).all()
     assert t.loc[1, "n_flights"] == 12 and t.loc[0, "n_flights"] == 12
     # sub_cpi and per_cpi differ by noise only: the paired interval is narrow and holds 0
     d = t.iloc[3]
     assert d["blade_std_db_ci95_high"] - d["blade_std_db_ci95_low"] < 0.05
     assert not d["blade_std_db_resolved"]
-    assert fidelity.pairs(["fixed_speeds", "extended", "sub_cpi"]) == [("sub_cpi", "fixed_speeds"),
-                                                                       ("extended", "sub_cpi")]
+    assert fidelity.pairs(["fixed_speeds", "extended", "sub_cpi"]) == [
+        ("sub_cpi", "fixed_speeds"),
+        ("extended", "sub_cpi"),
+    ]
 
 
 def test_table_resolves_a_real_difference(rng):
@@ -264,11 +296,16 @@ def test_extended_rows_per_extension_source(rng):
         own = i % 2 == 0
         for v, shift, src in (("sub_cpi", 0.0, ""), ("extended", -1.0 if own else 0.3, "own" if own else "population")):
             d = base + shift + 0.05 * rng.standard_normal(len(base))
-            rows.append({"flight_id": f"f{i}", "variant": v, "extension_source": src,
-                         **dict(zip(fidelity.DISTANCES, d))})
+            rows.append(
+                {"flight_id": f"f{i}", "variant": v, "extension_source": src, **dict(zip(fidelity.DISTANCES, d))}
+            )
     t = fidelity.fidelity_table(pd.DataFrame(rows), n_boot=400, seed=1).set_index("variant")
     assert list(t.index[-2:]) == ["extended [own] - sub_cpi", "extended [population] - sub_cpi"]
-    own, pop, mixed = t.loc["extended [own] - sub_cpi"], t.loc["extended [population] - sub_cpi"], t.loc["extended - sub_cpi"]
+    own, pop, mixed = (
+        t.loc["extended [own] - sub_cpi"],
+        t.loc["extended [population] - sub_cpi"],
+        t.loc["extended - sub_cpi"],
+    )
     assert own["n_flights"] == 12 and pop["n_flights"] == 12 and mixed["n_flights"] == 24
     assert own["asymmetry_db_resolved"] and own["asymmetry_db_ci95_high"] < -0.9
     assert pop["asymmetry_db_resolved"] and pop["asymmetry_db_ci95_low"] > 0.2
@@ -342,10 +379,21 @@ def test_rule_wires_every_variant(tmp_path):
     repo = Path(__file__).resolve().parents[1]
     work = new_workdir(tmp_path)
     exe = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
-    r = subprocess.run([exe, "-n", "-s", str(repo / "Snakefile"), "-d", str(work), "--configfile",
-                        "config/test.yaml"], cwd=work, capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [exe, "-n", "-s", str(repo / "Snakefile"), "-d", str(work), "--configfile", "config/test.yaml"],
+        cwd=work,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
-    job = r.stdout[r.stdout.index("rule report_fidelity:"):].split("\n\n")[0]
-    for path in ("results/injected/sub_cpi.zarr", "results/injected/fixed_speeds.zarr", "results/measured",
-                 "results/motors/logs.zarr", "results/reports/table_vi.csv", "results/reports/fig_fidelity.png"):
+    job = r.stdout[r.stdout.index("rule report_fidelity:") :].split("\n\n")[0]
+    for path in (
+        "results/injected/sub_cpi.zarr",
+        "results/injected/fixed_speeds.zarr",
+        "results/measured",
+        "results/motors/logs.zarr",
+        "results/reports/table_vi.csv",
+        "results/reports/fig_fidelity.png",
+    ):
         assert path in job, (path, job)

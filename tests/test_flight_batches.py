@@ -31,9 +31,18 @@ def test_flight_batch_is_stable_and_balanced():
     got = [flight_batch(f, 4) for f in ids]
     # CRC32 of the id: the same in every process (no PYTHONHASHSEED dependence)
     assert got[:6] == [flight_batch(f, 4) for f in ids[:6]]
-    out = subprocess.run([sys.executable, "-c", "from microdoppler.datasets.batches import flight_batch;"
-                          "print([flight_batch(f'flight_{i:04d}', 4) for i in range(600)])"],
-                         capture_output=True, text=True, env={"PYTHONHASHSEED": "123", "PATH": ""}, check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "from microdoppler.datasets.batches import flight_batch;"
+            "print([flight_batch(f'flight_{i:04d}', 4) for i in range(600)])",
+        ],
+        capture_output=True,
+        text=True,
+        env={"PYTHONHASHSEED": "123", "PATH": ""},
+        check=True,
+    )
     assert out.stdout.strip() == str(got)
     counts = Counter(got)
     assert set(counts) == {0, 1, 2, 3}
@@ -58,8 +67,9 @@ def test_merge_stores_is_the_union_and_refuses_duplicates(tmp_path):
     _store(tmp_path / "all.zarr", ["a", "b", "c"])
     _store(tmp_path / "b0.zarr", ["b"])
     _store(tmp_path / "b1.zarr", ["a", "c"])
-    got = merge_stores([tmp_path / "b0.zarr", tmp_path / "b1.zarr"], tmp_path / "m.zarr", INJECTED_SCHEMA,
-                       log=lambda m: None)
+    got = merge_stores(
+        [tmp_path / "b0.zarr", tmp_path / "b1.zarr"], tmp_path / "m.zarr", INJECTED_SCHEMA, log=lambda m: None
+    )
     assert got == ["a", "b", "c"]
     a, m = (zarr.open_group(str(tmp_path / n), mode="r") for n in ("all.zarr", "m.zarr"))
     assert dict(a.attrs) == dict(m.attrs)
@@ -67,8 +77,12 @@ def test_merge_stores_is_the_union_and_refuses_duplicates(tmp_path):
         assert dict(m[fid].attrs) == dict(a[fid].attrs)
         assert m[fid]["iq"][...].tobytes() == a[fid]["iq"][...].tobytes()
     _store(tmp_path / "empty.zarr", [])
-    merge_stores([tmp_path / "b0.zarr", tmp_path / "empty.zarr", tmp_path / "b1.zarr"], tmp_path / "m1.zarr",
-                 INJECTED_SCHEMA, log=lambda m: None)
+    merge_stores(
+        [tmp_path / "b0.zarr", tmp_path / "empty.zarr", tmp_path / "b1.zarr"],
+        tmp_path / "m1.zarr",
+        INJECTED_SCHEMA,
+        log=lambda m: None,
+    )
     assert sorted(n for n, _ in zarr.open_group(str(tmp_path / "m1.zarr"), mode="r").groups()) == got
     _store(tmp_path / "dup.zarr", ["c"])
     with pytest.raises(InputError, match="also in"):
@@ -84,17 +98,24 @@ def test_merge_tables_restores_the_one_job_order(tmp_path):
         for fid in ["a", "b", "c"]:
             root.require_group(fid)
     pd.DataFrame({"flight_id": ["c", "a"], "status": ["ok", "ok"], "n": [3, 1]}).to_csv(
-        tmp_path / "t0.csv", index=False)
+        tmp_path / "t0.csv", index=False
+    )
     pd.DataFrame({"flight_id": ["z", "b"], "status": ["skipped: no motor log", "ok"], "n": [np.nan, 2]}).to_csv(
-        tmp_path / "t1.csv", index=False)
-    df = merge_tables([tmp_path / "t0.csv", tmp_path / "t1.csv"], tmp_path / "speeds.zarr", tmp_path / "t.csv",
-                      log=lambda m: None)
+        tmp_path / "t1.csv", index=False
+    )
+    df = merge_tables(
+        [tmp_path / "t0.csv", tmp_path / "t1.csv"], tmp_path / "speeds.zarr", tmp_path / "t.csv", log=lambda m: None
+    )
     assert list(df.flight_id) == ["z", "a", "b", "c"]
     assert list(pd.read_csv(tmp_path / "t.csv").flight_id) == ["z", "a", "b", "c"]
     # an empty batch (more batches than flights) changes neither rows nor number formats
     pd.DataFrame(columns=["flight_id", "status", "n"]).to_csv(tmp_path / "t2.csv", index=False)
-    merge_tables([tmp_path / "t2.csv", tmp_path / "t0.csv", tmp_path / "t1.csv"], tmp_path / "speeds.zarr",
-                 tmp_path / "t3.csv", log=lambda m: None)
+    merge_tables(
+        [tmp_path / "t2.csv", tmp_path / "t0.csv", tmp_path / "t1.csv"],
+        tmp_path / "speeds.zarr",
+        tmp_path / "t3.csv",
+        log=lambda m: None,
+    )
     assert (tmp_path / "t3.csv").read_bytes() == (tmp_path / "t.csv").read_bytes()
     assert "3.0" in (tmp_path / "t.csv").read_text()  # n has a NaN row: floats, as one job writes it
     with pytest.raises(InputError, match="misses"):
@@ -105,11 +126,30 @@ def _dry_run(tmp_path, n_batches):
     (tmp_path / "batches.yaml").write_text(f"datasets:\n  flight_batches: {n_batches}\n")
     exe = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
     # the dataset products (the whole default target also needs ../shared, relative to the repository)
-    targets = ["results/reports/table_iv.csv", "results/tiles/sub_cpi.zarr", "results/tiles/fixed_speeds.zarr",
-               "results/figures/twins_inspire2.png"]
-    r = subprocess.run([exe, *targets, "-n", "-s", str(REPO / "Snakefile"), "-d", str(tmp_path), "--configfile",
-                        str(REPO / "config/test.yaml"), str(tmp_path / "batches.yaml")],
-                       cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    targets = [
+        "results/reports/table_iv.csv",
+        "results/tiles/sub_cpi.zarr",
+        "results/tiles/fixed_speeds.zarr",
+        "results/figures/twins_inspire2.png",
+    ]
+    r = subprocess.run(
+        [
+            exe,
+            *targets,
+            "-n",
+            "-s",
+            str(REPO / "Snakefile"),
+            "-d",
+            str(tmp_path),
+            "--configfile",
+            str(REPO / "config/test.yaml"),
+            str(tmp_path / "batches.yaml"),
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     out = r.stdout + r.stderr
     jobs = re.findall(r"^(?:local)?rule (\w+):\n(?:    .*\n)*?    wildcards: ([^\n]*)", out, flags=re.M)

@@ -26,16 +26,30 @@ from microdoppler.io.recordings import iq_sanity, read_recording
 
 GEOMETRY = ("drone_model", "n_motors", "n_blades", "blade_length_m")
 REQUIRED_ATTRS = ("schema", "flight_id", "target", "radar_id", "prf_hz", "carrier_hz", *GEOMETRY)
-DRONE_OPTS = ["--target", "drone", "--drone-model", "inspire2", "--n-motors", "4", "--n-blades", "2",
-              "--blade-length-m", "0.19", "--radar-id", "radar1"]
+DRONE_OPTS = [
+    "--target",
+    "drone",
+    "--drone-model",
+    "inspire2",
+    "--n-motors",
+    "4",
+    "--n-blades",
+    "2",
+    "--blade-length-m",
+    "0.19",
+    "--radar-id",
+    "radar1",
+]
 
 
 # ---- fixtures: an emulated flight and its recordings --------------------------------
 
+
 @pytest.fixture(scope="module")
 def flight():
-    f, _ = emulate_flight(FlightSpec("rec1", "drone", drone_model="inspire2", duration_s=6.0, seed=3,
-                                     with_background=False))
+    f, _ = emulate_flight(
+        FlightSpec("rec1", "drone", drone_model="inspire2", duration_s=6.0, seed=3, with_background=False)
+    )
     return f
 
 
@@ -53,8 +67,19 @@ def ci16_scale(iq):
     return 32000.0 / float(max(np.abs(iq.real).max(), np.abs(iq.imag).max()))
 
 
-def write_sigmf(d, name, iq, *, datatype="cf32_le", sample_rate=7300.0, carrier_hz=1.35e9, label="drone",
-                extra=None, annotate=True, checksum=True):
+def write_sigmf(
+    d,
+    name,
+    iq,
+    *,
+    datatype="cf32_le",
+    sample_rate=7300.0,
+    carrier_hz=1.35e9,
+    label="drone",
+    extra=None,
+    annotate=True,
+    checksum=True,
+):
     """A SigMF pair written through the ``sigmf`` package."""
     data = Path(d) / f"{name}.sigmf-data"
     if datatype == "cf32_le":
@@ -102,8 +127,12 @@ def write_mat73(path, variables):
             a = np.atleast_2d(np.asarray(v))
             if a.ndim == 2 and a.shape[0] == 1 and np.ndim(v) == 1:
                 a = a.T  # a MATLAB column vector n x 1
-            cls = {np.dtype(np.float64): "double", np.dtype(np.float32): "single",
-                   np.dtype(np.complex128): "double", np.dtype(np.complex64): "single"}[a.dtype]
+            cls = {
+                np.dtype(np.float64): "double",
+                np.dtype(np.float32): "single",
+                np.dtype(np.complex128): "double",
+                np.dtype(np.complex64): "single",
+            }[a.dtype]
             if np.iscomplexobj(a):
                 part = np.float64 if a.dtype == np.complex128 else np.float32
                 c = np.empty(a.shape, np.dtype([("real", part), ("imag", part)]))
@@ -119,11 +148,20 @@ def write_mat73(path, variables):
 
 def mat_variables(f):
     a = f.attrs
-    return {"iq": f.iq, "prf_hz": a["prf_hz"], "carrier_hz": a["carrier_hz"], "radar_id": a["radar_id"],
-            "target": a["target"], "drone_model": a["drone_model"], "n_motors": float(a["n_motors"]),
-            "n_blades": float(a["n_blades"]), "blade_length_m": a["blade_length_m"],
-            "track_time_s": f.track_time_s, "track_range_m": f.track_range_m,
-            "track_radial_velocity_mps": f.track_radial_velocity_mps}
+    return {
+        "iq": f.iq,
+        "prf_hz": a["prf_hz"],
+        "carrier_hz": a["carrier_hz"],
+        "radar_id": a["radar_id"],
+        "target": a["target"],
+        "drone_model": a["drone_model"],
+        "n_motors": float(a["n_motors"]),
+        "n_blades": float(a["n_blades"]),
+        "blade_length_m": a["blade_length_m"],
+        "track_time_s": f.track_time_s,
+        "track_range_m": f.track_range_m,
+        "track_radial_velocity_mps": f.track_radial_velocity_mps,
+    }
 
 
 def assert_round_trip(out, f, *, iq_atol=0.0, flight_id="rec1"):
@@ -144,6 +182,7 @@ def assert_round_trip(out, f, *, iq_atol=0.0, flight_id="rec1"):
 
 # ---- round trips -------------------------------------------------------------------
 
+
 def test_sigmf_cf32_round_trip(capsys, tmp_path, flight):
     """Everything but the track in the SigMF metadata (core: and microdoppler: keys)."""
     a = flight.attrs
@@ -160,8 +199,10 @@ def test_sigmf_cf32_round_trip(capsys, tmp_path, flight):
     assert imp["image_rejection_db"] > 25 and imp["doppler_sign_db"] > 0
     assert imp["parameter_sources"]["prf_hz"] == "file global.core:sample_rate"
     assert imp["parameter_sources"]["carrier_hz"] == "file captures[0].core:frequency"
-    assert imp["parameter_sources"]["target"] == "file global.microdoppler:target" \
+    assert (
+        imp["parameter_sources"]["target"] == "file global.microdoppler:target"
         or imp["parameter_sources"]["target"] == "file annotations.core:label"
+    )
     assert imp["datetime"] == "2026-01-02T03:04:05Z" and imp["description"] == "test recording"
     assert g.attrs["written_by"] == "microdoppler"
     assert run_cli(capsys, ["validate", out])[0] == 0
@@ -173,17 +214,31 @@ def test_sigmf_ci16_round_trip_with_sidecar(capsys, tmp_path, flight):
     meta = write_sigmf(tmp_path, "rec1", flight.iq, datatype="ci16_le")
     # named by the .sigmf-data file this time
     sidecar = tmp_path / "rec1.yaml"
-    sidecar.write_text(yaml.safe_dump({"radar_id": "radar1", "drone_model": "inspire2", "n_motors": 4,
-                                       "n_blades": 2, "blade_length_m": 0.19, "track": "track.csv"}))
+    sidecar.write_text(
+        yaml.safe_dump(
+            {
+                "radar_id": "radar1",
+                "drone_model": "inspire2",
+                "n_motors": 4,
+                "n_blades": 2,
+                "blade_length_m": 0.19,
+                "track": "track.csv",
+            }
+        )
+    )
     write_track(tmp_path / "track.csv", flight)
     out = tmp_path / "rec1.zarr"
     rc, err = run_cli(capsys, ["import", meta.with_suffix(".sigmf-data"), "--sidecar", sidecar, "--out", out])
     assert rc == 0, err
     s = ci16_scale(flight.iq)
     g = read_flight(out)
-    scaled = type(flight)(attrs=flight.attrs, iq=(flight.iq * s).astype(np.complex64),
-                          track_time_s=flight.track_time_s, track_range_m=flight.track_range_m,
-                          track_radial_velocity_mps=flight.track_radial_velocity_mps)
+    scaled = type(flight)(
+        attrs=flight.attrs,
+        iq=(flight.iq * s).astype(np.complex64),
+        track_time_s=flight.track_time_s,
+        track_range_m=flight.track_range_m,
+        track_radial_velocity_mps=flight.track_radial_velocity_mps,
+    )
     assert_round_trip(out, scaled, iq_atol=0.5 + 1e-3 * 32000)  # rounding + float32 of the scaled original
     assert np.all(np.abs(g.iq.real) <= 32767) and np.array_equal(g.iq.real, np.round(g.iq.real))
     imp = g.attrs["import"]
@@ -221,8 +276,7 @@ def test_npz_iq_columns_round_trip(capsys, tmp_path, flight):
     np.savez(path, I=flight.iq.real, Q=flight.iq.imag, prf_hz=7300.0, carrier_hz=1.35e9)
     out = tmp_path / "rec1.zarr"
     track = write_track(tmp_path / "t.csv", flight)
-    rc, err = run_cli(capsys, ["import", path, *DRONE_OPTS, "--track", track, "--layout", "iq-columns",
-                               "--out", out])
+    rc, err = run_cli(capsys, ["import", path, *DRONE_OPTS, "--track", track, "--layout", "iq-columns", "--out", out])
     assert rc == 0, err
     g = assert_round_trip(out, flight)
     assert g.attrs["import"]["layout"] == "iq-columns" and g.attrs["import"]["variable"] == "I,Q"
@@ -233,8 +287,24 @@ def test_npy_two_columns_and_gradient_velocity(capsys, tmp_path, flight):
     np.save(path, np.stack([flight.iq.real, flight.iq.imag], axis=1))
     track = write_track(tmp_path / "t.csv", flight, velocity=False)
     out = tmp_path / "x.zarr"
-    rc, err = run_cli(capsys, ["import", path, *DRONE_OPTS, "--prf-hz", "7300", "--carrier-hz", "1.35e9",
-                               "--track", track, "--flight-id", "rec1", "--out", out])
+    rc, err = run_cli(
+        capsys,
+        [
+            "import",
+            path,
+            *DRONE_OPTS,
+            "--prf-hz",
+            "7300",
+            "--carrier-hz",
+            "1.35e9",
+            "--track",
+            track,
+            "--flight-id",
+            "rec1",
+            "--out",
+            out,
+        ],
+    )
     assert rc == 0, err
     g = read_flight(out)
     np.testing.assert_array_equal(g.iq, flight.iq)
@@ -248,8 +318,25 @@ def test_constant_range_staring_recording(capsys, tmp_path, flight):
     path = tmp_path / "stare.npy"
     np.save(path, flight.iq[:20000])
     out = tmp_path / "stare.zarr"
-    rc, err = run_cli(capsys, ["import", path, "--prf-hz", "7300", "--carrier-hz", "1.35e9", "--radar-id", "r9",
-                               "--target", "bird", "--range-m", "850", "--out", out])
+    rc, err = run_cli(
+        capsys,
+        [
+            "import",
+            path,
+            "--prf-hz",
+            "7300",
+            "--carrier-hz",
+            "1.35e9",
+            "--radar-id",
+            "r9",
+            "--target",
+            "bird",
+            "--range-m",
+            "850",
+            "--out",
+            out,
+        ],
+    )
     assert rc == 0, err
     g = read_flight(out)
     assert g.attrs["flight_id"] == "stare" and g.attrs["target"] == "bird" and "n_motors" not in g.attrs
@@ -261,14 +348,31 @@ def test_constant_range_staring_recording(capsys, tmp_path, flight):
 
 # ---- precedence ------------------------------------------------------------------
 
+
 def test_option_beats_sidecar_beats_file_and_contradictions_warn(capsys, tmp_path, flight):
     meta = write_sigmf(tmp_path, "r", flight.iq[:30000], extra={"radar_id": "file-radar", "n_blades": 2})
     sidecar = tmp_path / "s.yaml"
-    sidecar.write_text("radar_id: side-radar\ndrone_model: side-model\nn_motors: 4\nblade_length_m: 0.19\n"
-                       "n_blades: 3\nrange_m: 700\n")
+    sidecar.write_text(
+        "radar_id: side-radar\ndrone_model: side-model\nn_motors: 4\nblade_length_m: 0.19\nn_blades: 3\nrange_m: 700\n"
+    )
     out = tmp_path / "r.zarr"
-    rc, err = run_cli(capsys, ["import", meta, "--sidecar", sidecar, "--radar-id", "opt-radar",
-                               "--prf-hz", "7000", "--drone-model", "opt-model", "--out", out])
+    rc, err = run_cli(
+        capsys,
+        [
+            "import",
+            meta,
+            "--sidecar",
+            sidecar,
+            "--radar-id",
+            "opt-radar",
+            "--prf-hz",
+            "7000",
+            "--drone-model",
+            "opt-model",
+            "--out",
+            out,
+        ],
+    )
     assert rc == 0, err
     a = read_flight(out).attrs
     assert (a["radar_id"], a["drone_model"], a["n_blades"], a["n_motors"]) == ("opt-radar", "opt-model", 3, 4)
@@ -287,6 +391,7 @@ def test_option_beats_sidecar_beats_file_and_contradictions_warn(capsys, tmp_pat
 
 # ---- I/Q sanity -------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("case", ["Q = 0", "I = Q"])
 def test_real_valued_signal_warns_with_image_rejection(capsys, tmp_path, flight, case):
     x = flight.iq.real.astype(np.float64)
@@ -294,8 +399,10 @@ def test_real_valued_signal_warns_with_image_rejection(capsys, tmp_path, flight,
     path = tmp_path / "real.npy"
     np.save(path, iq.astype(np.complex64))
     out = tmp_path / "real.zarr"
-    rc, err = run_cli(capsys, ["import", path, *DRONE_OPTS, "--prf-hz", "7300", "--carrier-hz", "1.35e9",
-                               "--range-m", "900", "--out", out])
+    rc, err = run_cli(
+        capsys,
+        ["import", path, *DRONE_OPTS, "--prf-hz", "7300", "--carrier-hz", "1.35e9", "--range-m", "900", "--out", out],
+    )
     assert rc == 0, err
     warns = [ln for ln in err.splitlines() if ln.startswith("warning:")]
     assert len(warns) == 1 and "image rejection is 0.0 dB" in warns[0] and "real-valued" in warns[0], err
@@ -308,8 +415,10 @@ def test_swapped_i_and_q_warn_against_the_track(capsys, tmp_path, flight):
     np.savez(path, I=flight.iq.imag, Q=flight.iq.real)
     out = tmp_path / "swapped.zarr"
     track = write_track(tmp_path / "t.csv", flight)
-    rc, err = run_cli(capsys, ["import", path, *DRONE_OPTS, "--prf-hz", "7300", "--carrier-hz", "1.35e9",
-                               "--track", track, "--out", out])
+    rc, err = run_cli(
+        capsys,
+        ["import", path, *DRONE_OPTS, "--prf-hz", "7300", "--carrier-hz", "1.35e9", "--track", track, "--out", out],
+    )
     assert rc == 0, err
     assert "I and Q look swapped" in err and "image rejection is" not in err, err
     imp = read_flight(out).attrs["import"]
@@ -336,6 +445,7 @@ def test_image_rejection_measures_a_known_imbalance():
 
 # ---- batch ----------------------------------------------------------------------------
 
+
 def test_batch_converts_a_campaign_for_the_pipeline(capsys, tmp_path, flight):
     rec = tmp_path / "recordings"
     rec.mkdir()
@@ -344,9 +454,11 @@ def test_batch_converts_a_campaign_for_the_pipeline(capsys, tmp_path, flight):
     write_track(rec / "f001.csv", flight)
     np.savez(rec / "b.npz", iq=flight.iq[:20000], prf_hz=7300.0, carrier_hz=1.35e9)
     table = tmp_path / "campaign.csv"
-    table.write_text("file,radar_id,track,flight_id,target,range_m\n"
-                     "recordings/f001.sigmf-meta,radar1,recordings/f001.csv,,,\n"
-                     "recordings/b.npz,radar2,,bird007,bird,1200\n")
+    table.write_text(
+        "file,radar_id,track,flight_id,target,range_m\n"
+        "recordings/f001.sigmf-meta,radar1,recordings/f001.csv,,,\n"
+        "recordings/b.npz,radar2,,bird007,bird,1200\n"
+    )
     out = tmp_path / "measured"
     rc, err = run_cli(capsys, ["import", "--batch", table, "--out", out])
     assert rc == 0, err
@@ -363,6 +475,7 @@ def test_batch_converts_a_campaign_for_the_pipeline(capsys, tmp_path, flight):
 
 
 # ---- bad input: one line, exit 2, nothing written ----------------------------------
+
 
 def _iq(n=4096):
     rng = np.random.default_rng(1)
@@ -421,8 +534,9 @@ def case_sigmf_unknown_datatype(d):
 
 
 def case_sigmf_real_datatype(d):
-    m = edit_meta(write_sigmf(d, "r", _iq(), checksum=False),
-                  lambda x: x["global"].update({"core:datatype": "rf32_le"}))
+    m = edit_meta(
+        write_sigmf(d, "r", _iq(), checksum=False), lambda x: x["global"].update({"core:datatype": "rf32_le"})
+    )
     return [m, *OK], ("core:datatype", "real")
 
 
@@ -506,8 +620,19 @@ def case_missing_radar_id(d):
 
 
 def case_missing_drone_geometry(d):
-    return [write_sigmf(d, "r", _iq()), "--radar-id", "r1", "--range-m", "500", "--drone-model", "x",
-            "--n-motors", "4", "--blade-length-m", "0.2"], ("n_blades", "--n-blades")
+    return [
+        write_sigmf(d, "r", _iq()),
+        "--radar-id",
+        "r1",
+        "--range-m",
+        "500",
+        "--drone-model",
+        "x",
+        "--n-motors",
+        "4",
+        "--blade-length-m",
+        "0.2",
+    ], ("n_blades", "--n-blades")
 
 
 def case_missing_track(d):
@@ -516,8 +641,10 @@ def case_missing_track(d):
 
 def case_bad_track_csv(d):
     (d / "t.csv").write_text("time_s,range_m\n0,100\n0,101\n")
-    return [write_sigmf(d, "r", _iq()), "--radar-id", "r1", "--target", "bird", "--track", d / "t.csv"], \
-        ("t.csv", "time_s")
+    return [write_sigmf(d, "r", _iq()), "--radar-id", "r1", "--target", "bird", "--track", d / "t.csv"], (
+        "t.csv",
+        "time_s",
+    )
 
 
 def case_bad_sidecar_key(d):
@@ -532,8 +659,12 @@ def case_bad_sidecar_value(d):
 
 def case_bad_target_in_file(d):
     np.savez(d / "r.npz", iq=_iq(), target="plane")
-    return [d / "r.npz", "--prf-hz", "7300", "--carrier-hz", "1e9", "--radar-id", "x", "--range-m", "5"], \
-        ("r.npz", "target", "plane", "drone or bird or none")
+    return [d / "r.npz", "--prf-hz", "7300", "--carrier-hz", "1e9", "--radar-id", "x", "--range-m", "5"], (
+        "r.npz",
+        "target",
+        "plane",
+        "drone or bird or none",
+    )
 
 
 def case_unknown_suffix(d):
@@ -616,6 +747,7 @@ def test_library_reader_returns_complex64_and_metadata(tmp_path, flight):
 
 # ---- round trip to a diagnosis ------------------------------------------------------
 
+
 def _strip_timing(obj):
     if isinstance(obj, dict):
         return {k: _strip_timing(v) for k, v in obj.items() if k != "seconds"}
@@ -630,9 +762,18 @@ def test_round_trip_import_validate_diagnose_gives_the_original_report(tmp_path,
     from microdoppler.diagnosis import diagnose
     from microdoppler.io.flightzarr import write_flight
 
-    f, _ = emulate_flight(FlightSpec("rt1", "drone", drone_model="inspire2", duration_s=24.0, snr_db=42.0,
-                                     mean_range_m=1200.0, seed=17,
-                                     effects={"sideband_asymmetry": {"asymmetry_db": 4.5}}))
+    f, _ = emulate_flight(
+        FlightSpec(
+            "rt1",
+            "drone",
+            drone_model="inspire2",
+            duration_s=24.0,
+            snr_db=42.0,
+            mean_range_m=1200.0,
+            seed=17,
+            effects={"sideband_asymmetry": {"asymmetry_db": 4.5}},
+        )
+    )
     original = write_flight(tmp_path / "orig" / "rt1.zarr", f)
     rec = tmp_path / "rec"
     rec.mkdir()
@@ -641,14 +782,32 @@ def test_round_trip_import_validate_diagnose_gives_the_original_report(tmp_path,
     track = write_track(rec / "track.csv", f)
     import pandas as pd
 
-    log = pd.DataFrame({"time_s": f.motors_time_s,
-                        **{f"m{k + 1}": f.motors_rpm[:, k] for k in range(f.motors_rpm.shape[1])}})
+    log = pd.DataFrame(
+        {"time_s": f.motors_time_s, **{f"m{k + 1}": f.motors_rpm[:, k] for k in range(f.motors_rpm.shape[1])}}
+    )
     log.to_csv(rec / "log.csv", index=False, float_format="%.17g")
     out = tmp_path / "imp" / "rt1.zarr"
-    rc, err = run_cli(capsys, ["import", rec / "rt1.sigmf-meta", *DRONE_OPTS, "--radar-id", f.attrs["radar_id"],
-                               "--track", track, "--motor-log", rec / "log.csv", "--flight-id", "rt1",
-                               "--background", rec / "rt1_bg.sigmf-meta",
-                               "--out", out, "--quiet"])
+    rc, err = run_cli(
+        capsys,
+        [
+            "import",
+            rec / "rt1.sigmf-meta",
+            *DRONE_OPTS,
+            "--radar-id",
+            f.attrs["radar_id"],
+            "--track",
+            track,
+            "--motor-log",
+            rec / "log.csv",
+            "--flight-id",
+            "rt1",
+            "--background",
+            rec / "rt1_bg.sigmf-meta",
+            "--out",
+            out,
+            "--quiet",
+        ],
+    )
     assert rc == 0, err
     assert run_cli(capsys, ["validate", out])[0] == 0
     imported = read_flight(out)
@@ -661,9 +820,10 @@ def test_round_trip_import_validate_diagnose_gives_the_original_report(tmp_path,
     assert a["flights"][0]["cause"] not in ("skipped",)
 
 
-@pytest.mark.parametrize("case, field", [("log with 3 motors", "motor columns"),
-                                         ("short background", "samples"),
-                                         ("log in rev/s declared rpm", "rpm")])
+@pytest.mark.parametrize(
+    "case, field",
+    [("log with 3 motors", "motor columns"), ("short background", "samples"), ("log in rev/s declared rpm", "rpm")],
+)
 def test_motor_log_and_background_bad_input(tmp_path, capsys, flight, case, field):
     rec = write_sigmf(tmp_path, "r", flight.iq, sample_rate=flight.prf_hz, carrier_hz=flight.carrier_hz)
     t = np.arange(0, 6, 1 / 30)
@@ -672,11 +832,16 @@ def test_motor_log_and_background_bad_input(tmp_path, capsys, flight, case, fiel
     import pandas as pd
 
     pd.DataFrame({"time_s": t, **{f"m{k}": np.full(len(t), 5000.0 * scale) for k in range(rpm)}}).to_csv(
-        tmp_path / "log.csv", index=False)
+        tmp_path / "log.csv", index=False
+    )
     extra = ["--motor-log", tmp_path / "log.csv"]
     if case == "short background":
-        extra = ["--background", write_sigmf(tmp_path, "bg", flight.iq[:-10], sample_rate=flight.prf_hz,
-                                             carrier_hz=flight.carrier_hz, label="none")]
+        extra = [
+            "--background",
+            write_sigmf(
+                tmp_path, "bg", flight.iq[:-10], sample_rate=flight.prf_hz, carrier_hz=flight.carrier_hz, label="none"
+            ),
+        ]
     out = tmp_path / "o.zarr"
     rc, err = run_cli(capsys, ["import", rec, *DRONE_OPTS, "--range-m", "900", *extra, "--out", out])
     one_line(rc, err, field)
@@ -699,11 +864,29 @@ def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path,
     repo = Path(__file__).resolve().parents[1]
     rec = tmp_path / "recordings"
     rec.mkdir()
-    specs = [FlightSpec("c1", "drone", drone_model="inspire2", duration_s=8.0, snr_db=44.0, mean_range_m=1000.0,
-                        seed=21, radar_id="radar1"),
-             FlightSpec("c2", "drone", drone_model="inspire2", duration_s=8.0, snr_db=44.0, mean_range_m=1300.0,
-                        seed=22, radar_id="radar2"),
-             FlightSpec("c3", "bird", bird_kind="single", duration_s=8.0, seed=23, radar_id="radar1")]
+    specs = [
+        FlightSpec(
+            "c1",
+            "drone",
+            drone_model="inspire2",
+            duration_s=8.0,
+            snr_db=44.0,
+            mean_range_m=1000.0,
+            seed=21,
+            radar_id="radar1",
+        ),
+        FlightSpec(
+            "c2",
+            "drone",
+            drone_model="inspire2",
+            duration_s=8.0,
+            snr_db=44.0,
+            mean_range_m=1300.0,
+            seed=22,
+            radar_id="radar2",
+        ),
+        FlightSpec("c3", "bird", bird_kind="single", duration_s=8.0, seed=23, radar_id="radar1"),
+    ]
     rows = []
     for spec in specs:
         f, _ = emulate_flight(spec)
@@ -711,15 +894,21 @@ def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path,
         write_sigmf(rec, fid, f.iq, sample_rate=f.prf_hz, carrier_hz=f.carrier_hz, label=spec.target)
         write_sigmf(rec, f"{fid}_bg", f.background_iq, sample_rate=f.prf_hz, carrier_hz=f.carrier_hz, label="none")
         write_track(rec / f"{fid}.csv", f)
-        row = {"file": f"recordings/{fid}.sigmf-meta", "background": f"recordings/{fid}_bg.sigmf-meta",
-               "track": f"recordings/{fid}.csv", "flight_id": fid, "target": spec.target,
-               "radar_id": spec.radar_id, "motor_log": ""}
+        row = {
+            "file": f"recordings/{fid}.sigmf-meta",
+            "background": f"recordings/{fid}_bg.sigmf-meta",
+            "track": f"recordings/{fid}.csv",
+            "flight_id": fid,
+            "target": spec.target,
+            "radar_id": spec.radar_id,
+            "motor_log": "",
+        }
         if spec.target == "drone":
             row.update({k: f.attrs[k] for k in GEOMETRY})
         if fid == "c1":
-            pd.DataFrame({"time_s": f.motors_time_s, **{f"m{k + 1}": f.motors_rpm[:, k]
-                                                         for k in range(f.motors_rpm.shape[1])}}
-                         ).to_csv(rec / "c1_log.csv", index=False, float_format="%.17g")
+            pd.DataFrame(
+                {"time_s": f.motors_time_s, **{f"m{k + 1}": f.motors_rpm[:, k] for k in range(f.motors_rpm.shape[1])}}
+            ).to_csv(rec / "c1_log.csv", index=False, float_format="%.17g")
             row["motor_log"] = "recordings/c1_log.csv"
         rows.append(row)
     table = tmp_path / "campaign.csv"
@@ -733,9 +922,26 @@ def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path,
     cfg["measurements"].update(source="directory", directory="results/measured", estimate_missing_motor_logs=True)
     (wd / "config.yaml").write_text(yaml.safe_dump(cfg))
     exe = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
-    r = subprocess.run([exe, "results/reports/table_iv_sub_cpi.csv", "--cores", "2", "-s", str(repo / "Snakefile"),
-                        "-d", str(wd), "--configfile", "config.yaml", "-q", "progress"],
-                       cwd=wd, capture_output=True, text=True, timeout=900)
+    r = subprocess.run(
+        [
+            exe,
+            "results/reports/table_iv_sub_cpi.csv",
+            "--cores",
+            "2",
+            "-s",
+            str(repo / "Snakefile"),
+            "-d",
+            str(wd),
+            "--configfile",
+            "config.yaml",
+            "-q",
+            "progress",
+        ],
+        cwd=wd,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     ingest = pd.read_csv(wd / "results/motors/ingest.csv").set_index("flight_id")
     assert ingest.loc["c1", "status"] == "ingested" and ingest.loc["c2", "status"] == "estimated"
@@ -748,18 +954,28 @@ def test_imported_campaign_gives_calibrated_twins_through_the_pipeline(tmp_path,
     assert t4.loc["c2", "n_pairs_twin"] == pytest.approx(t4.loc["c2", "n_pairs_measured"], abs=1)
 
 
-@pytest.mark.parametrize("cell, extra, expect", [
-    ({"motor_log_unit": "rps"}, [], ("row 2", "motor_log_unit", "'rps'", "rev/s")),
-    ({"motor_log": "nolog.csv"}, [], ("nolog.csv", "does not exist")),
-    ({"background": "short.npy"}, [], ("short.npy", "samples", "4096")),
-    ({}, ["--background", "x.npy"], ("--background", "given with --batch", "background column")),
-    ({}, ["--motor-log", "x.csv"], ("--motor-log", "given with --batch", "motor_log column")),
-])
+@pytest.mark.parametrize(
+    "cell, extra, expect",
+    [
+        ({"motor_log_unit": "rps"}, [], ("row 2", "motor_log_unit", "'rps'", "rev/s")),
+        ({"motor_log": "nolog.csv"}, [], ("nolog.csv", "does not exist")),
+        ({"background": "short.npy"}, [], ("short.npy", "samples", "4096")),
+        ({}, ["--background", "x.npy"], ("--background", "given with --batch", "background column")),
+        ({}, ["--motor-log", "x.csv"], ("--motor-log", "given with --batch", "motor_log column")),
+    ],
+)
 def test_batch_background_and_motor_log_columns_bad_input(capsys, tmp_path, cell, extra, expect):
     np.save(tmp_path / "r.npy", _iq())
     np.save(tmp_path / "short.npy", _iq(100))
-    row = {"file": "r.npy", "prf_hz": 7300, "carrier_hz": 1.35e9, "radar_id": "r1", "target": "bird",
-           "range_m": 500, **cell}
+    row = {
+        "file": "r.npy",
+        "prf_hz": 7300,
+        "carrier_hz": 1.35e9,
+        "radar_id": "r1",
+        "target": "bird",
+        "range_m": 500,
+        **cell,
+    }
     import pandas as pd
 
     pd.DataFrame([row]).to_csv(tmp_path / "t.csv", index=False)

@@ -23,20 +23,35 @@ from fmcw_generator import FmcwScene, generate
 from microdoppler.io.fmcw import FmcwParameters, process_fmcw
 from microdoppler.io.flightzarr import read_flight
 
-DRONE = {"target": "drone", "drone_model": "gen_quad", "n_motors": 4, "n_blades": 2, "blade_length_m": 0.12,
-         "radar_id": "fmcw_gen"}
+DRONE = {
+    "target": "drone",
+    "drone_model": "gen_quad",
+    "n_motors": 4,
+    "n_blades": 2,
+    "blade_length_m": 0.12,
+    "radar_id": "fmcw_gen",
+}
 #: Doppler window of the checks [chirps] (8000 chirps/s: 7.8 Hz bins) and the clutter notch [Hz]
 WIN, NOTCH_HZ = 1024, 20.0
 
 
 def chirp_keys(sc: FmcwScene) -> dict:
-    return {"chirp_rate_hz": sc.chirp_rate_hz, "bandwidth_hz": sc.bandwidth_hz, "sample_rate_hz": sc.sample_rate_hz,
-            "carrier_hz": sc.carrier_hz}
+    return {
+        "chirp_rate_hz": sc.chirp_rate_hz,
+        "bandwidth_hz": sc.bandwidth_hz,
+        "sample_rate_hz": sc.sample_rate_hz,
+        "carrier_hz": sc.carrier_hz,
+    }
 
 
 def params_of(sc: FmcwScene) -> FmcwParameters:
-    return FmcwParameters(chirp_rate_hz=sc.chirp_rate_hz, bandwidth_hz=sc.bandwidth_hz,
-                          sample_rate_hz=sc.sample_rate_hz, carrier_hz=sc.carrier_hz, n_samples=sc.n_samples)
+    return FmcwParameters(
+        chirp_rate_hz=sc.chirp_rate_hz,
+        bandwidth_hz=sc.bandwidth_hz,
+        sample_rate_hz=sc.sample_rate_hz,
+        carrier_hz=sc.carrier_hz,
+        n_samples=sc.n_samples,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +64,17 @@ def approaching():
 @pytest.fixture(scope="module")
 def receding():
     """Real beat, three channels, receding at 3 m/s from 11.3 m, weaker body, more noise."""
-    sc = FmcwScene(seed=12, real=True, n_channels=3, range0_m=11.3, radial_speed_mps=3.0, body_amp=0.6,
-                   noise_std=0.15, rotor_rev_s=(66.0, 79.0, 92.0, 104.0), angle_deg=-35.0)
+    sc = FmcwScene(
+        seed=12,
+        real=True,
+        n_channels=3,
+        range0_m=11.3,
+        radial_speed_mps=3.0,
+        body_amp=0.6,
+        noise_std=0.15,
+        rotor_rev_s=(66.0, 79.0, 92.0, 104.0),
+        angle_deg=-35.0,
+    )
     return sc, *generate(sc)
 
 
@@ -61,7 +85,7 @@ def body_doppler_errors(iq, truth, prf):
     f = np.fft.fftfreq(WIN, 1 / prf)
     out = []
     for s in range(0, len(iq) - WIN + 1, WIN):
-        x = iq[s:s + WIN].astype(np.complex128)
+        x = iq[s : s + WIN].astype(np.complex128)
         p = np.abs(np.fft.fft((x - x.mean()) * np.hanning(WIN))) ** 2
         p[np.abs(f) < NOTCH_HZ] = 0
         out.append((f[np.argmax(p)] - truth["body_doppler_hz"][s + WIN // 2]) / df)
@@ -150,9 +174,25 @@ def test_fixed_range_bin_from_a_mat_file_and_options(capsys, tmp_path, approachi
     path = tmp_path / "fmcw3.mat"
     scipy.io.savemat(path, {"beat": cube[:4096]})
     out = tmp_path / "fmcw3.zarr"
-    argv = ["import", path, "--chirp-rate-hz", sc.chirp_rate_hz, "--bandwidth-hz", sc.bandwidth_hz,
-            "--sample-rate-hz", sc.sample_rate_hz, "--carrier-hz", sc.carrier_hz, "--range-bin", "14",
-            "--cpi-chirps", "512", *_drone_opts(), "--out", out]
+    argv = [
+        "import",
+        path,
+        "--chirp-rate-hz",
+        sc.chirp_rate_hz,
+        "--bandwidth-hz",
+        sc.bandwidth_hz,
+        "--sample-rate-hz",
+        sc.sample_rate_hz,
+        "--carrier-hz",
+        sc.carrier_hz,
+        "--range-bin",
+        "14",
+        "--cpi-chirps",
+        "512",
+        *_drone_opts(),
+        "--out",
+        out,
+    ]
     rc, err = run_cli(capsys, argv)
     assert rc == 0, err
     g = read_flight(out)
@@ -184,8 +224,7 @@ def test_hovering_target_and_background_cube(capsys, tmp_path):
     """A drone hovering at 16.6 m: its body sits in the static part, so the bin is found
     from the blades' moving power; radial velocity ~0; a target-free cube of the same
     cells becomes ``background/iq`` and the I/Q balance is measured on it."""
-    sc = FmcwScene(seed=13, real=True, n_channels=2, range0_m=16.6, radial_speed_mps=0.0, duration_s=2.0,
-                   blade_amp=0.1)
+    sc = FmcwScene(seed=13, real=True, n_channels=2, range0_m=16.6, radial_speed_mps=0.0, duration_s=2.0, blade_amp=0.1)
     cube, truth = generate(sc)
     bg_sc = FmcwScene(seed=14, real=True, n_channels=2, duration_s=2.0, body_amp=0.0, rotor_rev_s=())
     bg, _ = generate(bg_sc)
@@ -193,8 +232,19 @@ def test_hovering_target_and_background_cube(capsys, tmp_path):
     np.save(tmp_path / "hover_bg.npy", bg)
     (tmp_path / "s.yaml").write_text(yaml.safe_dump({**chirp_keys(sc), **DRONE}))
     out = tmp_path / "hover.zarr"
-    rc, err = run_cli(capsys, ["import", tmp_path / "hover.npy", "--sidecar", tmp_path / "s.yaml",
-                               "--background", tmp_path / "hover_bg.npy", "--out", out])
+    rc, err = run_cli(
+        capsys,
+        [
+            "import",
+            tmp_path / "hover.npy",
+            "--sidecar",
+            tmp_path / "s.yaml",
+            "--background",
+            tmp_path / "hover_bg.npy",
+            "--out",
+            out,
+        ],
+    )
     assert rc == 0 and "warning" not in err, err
     g = read_flight(out)
     assert np.all(np.abs(g.track_range_m - 16.6) <= sc.range_bin_m), g.track_range_m
@@ -216,8 +266,10 @@ def test_batch_table_mixes_fmcw_and_slow_time_rows(capsys, tmp_path, approaching
     np.save(tmp_path / "f.npy", cube[:4096])
     rng = np.random.default_rng(3)
     np.save(tmp_path / "s.npy", (rng.standard_normal(8192) + 1j * rng.standard_normal(8192)).astype(np.complex64))
-    rows = [{"file": "f.npy", "flight_id": "fm", **chirp_keys(sc), "cpi_chirps": 128, "range_m": "", "prf_hz": ""},
-            {"file": "s.npy", "flight_id": "st", "prf_hz": 7300, "carrier_hz": 1.35e9, "range_m": 900}]
+    rows = [
+        {"file": "f.npy", "flight_id": "fm", **chirp_keys(sc), "cpi_chirps": 128, "range_m": "", "prf_hz": ""},
+        {"file": "s.npy", "flight_id": "st", "prf_hz": 7300, "carrier_hz": 1.35e9, "range_m": 900},
+    ]
     pd.DataFrame([{**DRONE, **r} for r in rows]).to_csv(tmp_path / "t.csv", index=False)
     rc, err = run_cli(capsys, ["import", "--batch", tmp_path / "t.csv", "--out", tmp_path / "out"])
     assert rc == 0, err
@@ -261,8 +313,16 @@ def bad_missing_bandwidth(d):
 
 def bad_missing_sample_rate_in_options(d):
     np.save(d / "r.npy", _cube())
-    return [d / "r.npy", "--chirp-rate-hz", "8000", "--bandwidth-hz", "1.5e8", "--carrier-hz", "5.8e9",
-            *_drone_opts()], ("r.npy", "sample_rate_hz", "--sample-rate-hz")
+    return [
+        d / "r.npy",
+        "--chirp-rate-hz",
+        "8000",
+        "--bandwidth-hz",
+        "1.5e8",
+        "--carrier-hz",
+        "5.8e9",
+        *_drone_opts(),
+    ], ("r.npy", "sample_rate_hz", "--sample-rate-hz")
 
 
 def bad_range_bin(d):
@@ -314,8 +374,12 @@ def bad_layout_on_cube(d):
 
 def bad_cube_without_chirp_parameters(d):
     np.save(d / "r.npy", _cube())
-    return [d / "r.npy", "--prf-hz", "8000", "--carrier-hz", "5.8e9", "--range-m", "10", *_drone_opts()], \
-        ("r.npy", "(600, 16)", "--chirp-rate-hz", "--bandwidth-hz")
+    return [d / "r.npy", "--prf-hz", "8000", "--carrier-hz", "5.8e9", "--range-m", "10", *_drone_opts()], (
+        "r.npy",
+        "(600, 16)",
+        "--chirp-rate-hz",
+        "--bandwidth-hz",
+    )
 
 
 def _side(d, **extra):

@@ -12,11 +12,16 @@ from microdoppler.io.inventory import ingest_flight_logs, list_flights, read_ing
 def _flight(fid, target="drone", with_log=True, rng=None):
     rng = rng or np.random.default_rng(0)
     n = 4096
-    attrs = dict(schema="flight-zarr/1", flight_id=fid, target=target, radar_id="radar1", prf_hz=7300.0,
-                 carrier_hz=1.35e9)
-    f = Flight(attrs=attrs, iq=(rng.standard_normal(n) + 0j).astype(np.complex64),
-               track_time_s=np.array([0.0, 1.0]), track_range_m=np.array([1000.0, 1005.0]),
-               track_radial_velocity_mps=np.array([5.0, 5.0]))
+    attrs = dict(
+        schema="flight-zarr/1", flight_id=fid, target=target, radar_id="radar1", prf_hz=7300.0, carrier_hz=1.35e9
+    )
+    f = Flight(
+        attrs=attrs,
+        iq=(rng.standard_normal(n) + 0j).astype(np.complex64),
+        track_time_s=np.array([0.0, 1.0]),
+        track_range_m=np.array([1000.0, 1005.0]),
+        track_radial_velocity_mps=np.array([5.0, 5.0]),
+    )
     if target == "drone":
         attrs.update(drone_model="inspire2", n_motors=4, n_blades=2, blade_length_m=0.19)
         if with_log:
@@ -32,15 +37,19 @@ def test_ingest_uses_store_then_table_and_skips_flights_without_log(tmp_path):
     write_flight(d / "c.zarr", _flight("c", with_log=False))
     write_flight(d / "bird1.zarr", _flight("bird1", target="bird"))
     csv = tmp_path / "c_log.csv"
-    pd.DataFrame({"time_s": np.arange(10) / 20, **{f"m{i}": np.full(10, 60.0) for i in range(4)}}).to_csv(csv, index=False)
+    pd.DataFrame({"time_s": np.arange(10) / 20, **{f"m{i}": np.full(10, 60.0) for i in range(4)}}).to_csv(
+        csv, index=False
+    )
     table = tmp_path / "logs.tsv"
-    pd.DataFrame([{"flight_id": "c", "motor_log": "c_log.csv", "format": "csv", "unit": "rev/s",
-                   "time_offset_s": 0.5}]).to_csv(table, sep="\t", index=False)
+    pd.DataFrame(
+        [{"flight_id": "c", "motor_log": "c_log.csv", "format": "csv", "unit": "rev/s", "time_offset_s": 0.5}]
+    ).to_csv(table, sep="\t", index=False)
 
     flights = list_flights(d)
     assert set(flights.flight_id) == {"a", "b", "c", "bird1"}
-    status = ingest_flight_logs(d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", table_path=table,
-                                log=lambda *_: None)
+    status = ingest_flight_logs(
+        d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", table_path=table, log=lambda *_: None
+    )
     st = status.set_index("flight_id").status.to_dict()
     assert st == {"a": "ingested", "b": "skipped", "c": "ingested"}
     c = read_ingested_log(tmp_path / "logs.zarr", "c")
@@ -76,15 +85,17 @@ def test_ingest_estimates_missing_logs_from_the_radar(tmp_path):
     from microdoppler.rotors.speed import estimate_rotor_speeds
 
     d = tmp_path / "measured"
-    drone, _ = emulate_flight(FlightSpec("d1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0,
-                                         mean_range_m=1000.0, seed=101))
+    drone, _ = emulate_flight(
+        FlightSpec("d1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0, mean_range_m=1000.0, seed=101)
+    )
     true_rpm = float(np.median(drone.motors_rpm))
     drone.motors_time_s = drone.motors_rpm = None
     mini, _ = emulate_flight(FlightSpec("m1", "drone", drone_model="mini2", duration_s=8.0, seed=5))
     write_flight(d / "d1.zarr", drone)
     write_flight(d / "m1.zarr", mini)
-    status = ingest_flight_logs(d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", estimator=estimate_rotor_speeds,
-                                log=lambda *_: None).set_index("flight_id")
+    status = ingest_flight_logs(
+        d, tmp_path / "logs.zarr", tmp_path / "ingest.csv", estimator=estimate_rotor_speeds, log=lambda *_: None
+    ).set_index("flight_id")
     assert status.loc["d1", "status"] == "estimated" and status.loc["d1", "source"] == "radar"
     assert status.loc["m1", "status"] == "skipped" and "no estimate from the radar" in status.loc["m1", "reason"]
     log = read_ingested_log(tmp_path / "logs.zarr", "d1")

@@ -27,8 +27,24 @@ from microdoppler.io.iqbalance import IMAGE_REJECTION_WARN_DB, mirror_balance
 
 C_MPS = 299792458.0
 PRF_HZ, CARRIER_HZ, DURATION_S = 5000.0, 3.3e9, 8.0
-OPTS = ["--prf-hz", str(PRF_HZ), "--carrier-hz", str(CARRIER_HZ), "--radar-id", "s_band", "--target", "drone",
-        "--drone-model", "quad", "--n-motors", "4", "--n-blades", "2", "--blade-length-m", "0.1"]
+OPTS = [
+    "--prf-hz",
+    str(PRF_HZ),
+    "--carrier-hz",
+    str(CARRIER_HZ),
+    "--radar-id",
+    "s_band",
+    "--target",
+    "drone",
+    "--drone-model",
+    "quad",
+    "--n-motors",
+    "4",
+    "--n-blades",
+    "2",
+    "--blade-length-m",
+    "0.1",
+]
 
 
 def signature(seed: int, *, speed_mps: float = 0.0, target_from_s: float = 0.0):
@@ -51,8 +67,9 @@ def signature(seed: int, *, speed_mps: float = 0.0, target_from_s: float = 0.0):
     z = np.where(t >= target_from_s, z, 0)
 
     def clutter_and_noise():
-        return (30 * np.exp(1j * rng.uniform(0, 2 * np.pi))
-                + 0.02 * (rng.standard_normal(len(t)) + 1j * rng.standard_normal(len(t))))
+        return 30 * np.exp(1j * rng.uniform(0, 2 * np.pi)) + 0.02 * (
+            rng.standard_normal(len(t)) + 1j * rng.standard_normal(len(t))
+        )
 
     return z + clutter_and_noise(), clutter_and_noise(), t
 
@@ -107,8 +124,9 @@ def test_hovering_balanced_without_background_is_not_measurable(capsys, tmp_path
 @pytest.mark.parametrize("gain_db, phase_deg", [(0, 0), (1, 0), (0, 5)])
 def test_hovering_with_background_measures_the_receiver(capsys, tmp_path, hovering, gain_db, phase_deg):
     z, bg, _ = hovering
-    imp, warns, err = run_import(capsys, tmp_path, receiver(z, gain_db, phase_deg), "--range-m", "60",
-                                 bg=receiver(bg, gain_db, phase_deg))
+    imp, warns, err = run_import(
+        capsys, tmp_path, receiver(z, gain_db, phase_deg), "--range-m", "60", bg=receiver(bg, gain_db, phase_deg)
+    )
     assert imp["image_rejection_from"] == "background", imp
     if gain_db == phase_deg == 0:
         assert not warns and imp["image_rejection_db"] > IMAGE_REJECTION_WARN_DB, (imp, err)
@@ -122,8 +140,7 @@ def test_hovering_with_imbalance_and_a_target_free_stretch(capsys, tmp_path):
     """No background, but the recording's first 3 s hold no target (it is switched on
     later): ``--noise-segment-s 0:3`` measures the receiver there."""
     z, _, _ = signature(2, target_from_s=3.0)
-    imp, warns, err = run_import(capsys, tmp_path, receiver(z, 1.0, 5.0), "--range-m", "60",
-                                 "--noise-segment-s", "0:3")
+    imp, warns, err = run_import(capsys, tmp_path, receiver(z, 1.0, 5.0), "--range-m", "60", "--noise-segment-s", "0:3")
     assert imp["image_rejection_from"] == "noise segment" and imp["noise_segment_s"] == [0.0, 3.0], imp
     assert len(warns) == 1 and "measured on the noise segment" in warns[0], err
     assert abs(imp["image_rejection_db"] - irr_db(1.0, 5.0)) < 1.5, imp
@@ -160,9 +177,23 @@ def test_flying_target_without_a_track_finds_its_body_line(capsys, tmp_path):
 def test_bad_noise_segment(capsys, tmp_path, hovering):
     z, _, _ = hovering
     np.save(tmp_path / "r.npy", receiver(z))
-    for seg, must in (("3:1", ("--noise-segment-s", "3:1", "START < END")),
-                      ("0:20", ("r.npy", "noise_segment_s", "beyond the recording's 8.000 s"))):
-        rc, err = run_cli(capsys, ["import", tmp_path / "r.npy", *OPTS, "--range-m", "60", "--noise-segment-s", seg,
-                                   "--out", tmp_path / "o.zarr"])
+    for seg, must in (
+        ("3:1", ("--noise-segment-s", "3:1", "START < END")),
+        ("0:20", ("r.npy", "noise_segment_s", "beyond the recording's 8.000 s")),
+    ):
+        rc, err = run_cli(
+            capsys,
+            [
+                "import",
+                tmp_path / "r.npy",
+                *OPTS,
+                "--range-m",
+                "60",
+                "--noise-segment-s",
+                seg,
+                "--out",
+                tmp_path / "o.zarr",
+            ],
+        )
         one_line(rc, err, *must)
         assert not (tmp_path / "o.zarr").exists()

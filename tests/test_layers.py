@@ -13,14 +13,31 @@ from microdoppler.codeversion import PACKAGE_DIR, _module_name, imported_modules
 
 #: subpackages (and top-level modules) from the bottom up: each may import from itself
 #: and from those before it only
-LAYERS = ("errors", "codeversion", "io", "examples", "spectra", "stats", "rotors", "synthesis", "causes", "emulator",
-          "figures", "views", "diagnosis", "datasets", "classifier", "commands", "cli")
+LAYERS = (
+    "errors",
+    "codeversion",
+    "io",
+    "examples",
+    "spectra",
+    "stats",
+    "rotors",
+    "synthesis",
+    "causes",
+    "emulator",
+    "figures",
+    "views",
+    "diagnosis",
+    "datasets",
+    "classifier",
+    "commands",
+    "cli",
+)
 
 #: (importer, imported) pairs that still point up, each with the reason it is left
 KNOWN_UPWARD = {
     ("io", "spectra"): "the import's plausibility check (io.plausibility) needs the pipeline's CPI "
-                       "(spectra.SpectrogramSettings); importing, with its checks and the FMCW processing, "
-                       "belongs above the readers",
+    "(spectra.SpectrogramSettings); importing, with its checks and the FMCW processing, "
+    "belongs above the readers",
 }
 
 

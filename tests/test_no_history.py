@@ -30,8 +30,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the files scanned, as globs relative to the repository root
-GLOBS = ("src/microdoppler/**/*.py", "workflow/**/*.py", "workflow/**/*.smk", "workflow/**/Snakefile",
-         "workflow/schemas/*.yaml", "Snakefile")
+GLOBS = (
+    "src/microdoppler/**/*.py",
+    "workflow/**/*.py",
+    "workflow/**/*.smk",
+    "workflow/**/Snakefile",
+    "workflow/schemas/*.yaml",
+    "Snakefile",
+)
 
 HEX_HASH = re.compile(r"\b(?=[0-9a-f]*[0-9])(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b", re.IGNORECASE)
 ISSUE_REF = re.compile(r"\bissues?\s+#?\d+|(?<![\w&#])#\d+\b", re.IGNORECASE)
@@ -41,12 +47,19 @@ RESULTS_POINTER = re.compile(r"benchmarks/README\b")
 
 #: (relative path, exact token) -> why the token is not history
 ALLOWED = {
-    ("workflow/schemas/config.schema.yaml", "7be5be79"):
-        "part of torchvision's published file name of the AlexNet weights (alexnet-owt-7be5be79.pth)",
+    (
+        "workflow/schemas/config.schema.yaml",
+        "7be5be79",
+    ): "part of torchvision's published file name of the AlexNet weights (alexnet-owt-7be5be79.pth)",
 }
 
-KINDS = (("commit hash", HEX_HASH), ("issue reference", ISSUE_REF), ("flight id", FLIGHT_ID),
-         ("benchmark run", RUN_ID), ("results pointer", RESULTS_POINTER))
+KINDS = (
+    ("commit hash", HEX_HASH),
+    ("issue reference", ISSUE_REF),
+    ("flight id", FLIGHT_ID),
+    ("benchmark run", RUN_ID),
+    ("results pointer", RESULTS_POINTER),
+)
 
 
 def scanned_files(root: Path = ROOT) -> list[Path]:
@@ -66,15 +79,24 @@ def history_tokens(text: str, rel: str) -> list[tuple[int, str, str]]:
 
 
 def test_patterns_find_what_they_are_for():
-    text = ("set in 356bdf1 (issue 34); see #12. any7059 and f0127 and p0012_drone, toy0003\n"
-            "on seed 20261126 and plans 777-780 (benchmarks/README.md, 'The I/Q fit')\n"
-            "nfft 4096, seed: int = 20261121, seeds 1-3, 1.5e-4, deadbeef, CAFE, f2 and 0x7f, &#123;\n")
+    text = (
+        "set in 356bdf1 (issue 34); see #12. any7059 and f0127 and p0012_drone, toy0003\n"
+        "on seed 20261126 and plans 777-780 (benchmarks/README.md, 'The I/Q fit')\n"
+        "nfft 4096, seed: int = 20261121, seeds 1-3, 1.5e-4, deadbeef, CAFE, f2 and 0x7f, &#123;\n"
+    )
     found = [(n, kind, tok) for n, kind, tok in history_tokens(text, "x.py")]
-    assert found == [(1, "commit hash", "356bdf1"), (1, "issue reference", "issue 34"),
-                     (1, "issue reference", "#12"), (1, "flight id", "any7059"), (1, "flight id", "f0127"),
-                     (1, "flight id", "p0012_drone"), (1, "flight id", "toy0003"),
-                     (2, "benchmark run", "seed 20261126"), (2, "benchmark run", "plans 777"),
-                     (2, "results pointer", "benchmarks/README")]
+    assert found == [
+        (1, "commit hash", "356bdf1"),
+        (1, "issue reference", "issue 34"),
+        (1, "issue reference", "#12"),
+        (1, "flight id", "any7059"),
+        (1, "flight id", "f0127"),
+        (1, "flight id", "p0012_drone"),
+        (1, "flight id", "toy0003"),
+        (2, "benchmark run", "seed 20261126"),
+        (2, "benchmark run", "plans 777"),
+        (2, "results pointer", "benchmarks/README"),
+    ]
 
 
 def test_the_scan_covers_the_package_and_the_workflow():
@@ -95,5 +117,4 @@ def test_every_allowed_token_is_still_there():
 def test_no_history_in_source(path):
     rel = path.relative_to(ROOT).as_posix()
     hits = history_tokens(path.read_text(encoding="utf-8"), rel)
-    assert not hits, "\n".join(f"{rel}:{n}: {kind} {tok!r} (move it to docs/experiments.md)"
-                               for n, kind, tok in hits)
+    assert not hits, "\n".join(f"{rel}:{n}: {kind} {tok!r} (move it to docs/experiments.md)" for n, kind, tok in hits)

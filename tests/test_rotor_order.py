@@ -38,8 +38,9 @@ def assert_honest(est, truth, flight):
     amb = est.info["order"]["ambiguous"]
     if abs(err) > 0.02:
         assert amb, f"{flight.flight_id}: {100 * err:+.1f} % off and not marked ambiguous"
-        assert any(abs(s / true_mean - 1) <= 0.03 for s in named), \
+        assert any(abs(s / true_mean - 1) <= 0.03 for s in named), (
             f"{flight.flight_id}: ambiguous, but the truth {true_mean:.1f} rev/s is not among {named}"
+        )
     return err, amb
 
 
@@ -74,13 +75,24 @@ def test_generator_lines_follow_the_blades():
     """The generator's physics: equal blades put lines at multiples of B f only, one
     weak blade adds lines at the other multiples of f, and the blade energy ends at the
     tips' Doppler 2 (2 pi f L) / lambda times cos(elevation)."""
-    base = dict(carrier_hz=1.3e9, prf_hz=6000.0, n_rotors=4, n_blades=2, blade_length_m=0.2,
-                tip_speed_mps=90.0, setup="hover", elevation_deg=0.0, body_snr_db=40.0, blade_to_body_db=0.0)
+    base = dict(
+        carrier_hz=1.3e9,
+        prf_hz=6000.0,
+        n_rotors=4,
+        n_blades=2,
+        blade_length_m=0.2,
+        tip_speed_mps=90.0,
+        setup="hover",
+        elevation_deg=0.0,
+        body_snr_db=40.0,
+        blade_to_body_db=0.0,
+    )
     for weak in (0.0, 6.0):
         case = draw_case(3, duration_s=2.0, weak_blade_db=weak, **base)
         _, truth = make_recording(case, with_parts=True)
-        spacing, extent = rotor_line_spacing_hz(truth["blades"], case.prf_hz, float(truth["rev_s"].mean()),
-                                                floor_db=20.0)
+        spacing, extent = rotor_line_spacing_hz(
+            truth["blades"], case.prf_hz, float(truth["rev_s"].mean()), floor_db=20.0
+        )
         f = float(truth["rev_s"].mean())
         assert np.isclose(spacing, (1 if weak else 2) * f, rtol=0.03)
         assert np.isclose(extent, 2 * case.tip_speed_mps / case.wavelength_m, rtol=0.12)
@@ -93,7 +105,7 @@ def _whole_signal_pair_db(blades, case, rev_s):
 
     w = blackmanharris(4096, sym=False)
     starts = np.arange(0, len(blades) - 4096 + 1, 2048)[:8]
-    p = np.mean([np.abs(np.fft.fft(blades[s:s + 4096] * w)) ** 2 for s in starts], axis=0) / (w ** 2).sum()
+    p = np.mean([np.abs(np.fft.fft(blades[s : s + 4096] * w)) ** 2 for s in starts], axis=0) / (w**2).sum()
     f = np.fft.fftfreq(4096, 1 / case.prf_hz)
     fb = case.n_blades * rev_s
     return min(10 * np.log10(p[np.abs(f - sgn * fb) <= 0.03 * fb + 2 * case.prf_hz / 4096].max()) for sgn in (1, -1))
@@ -124,9 +136,21 @@ def test_unequal_blades_give_the_rotation_rate(seed, weak_db, n_blades):
     """A rotor with one weak blade returns lines at every multiple of its rotation rate;
     the lines alone read them as a blade-passing comb at 1/B of it (the issue's 0.5x on
     every recording); with the order check the speed is right."""
-    case = draw_case(seed, duration_s=4.0, carrier_hz=1.3e9, prf_hz=5000.0, n_rotors=4, n_blades=n_blades,
-                     blade_length_m=0.2, tip_speed_mps=88.0, setup="hover", weak_blade_db=weak_db,
-                     blade_to_body_db=0.0, body_snr_db=40.0, elevation_deg=5.0)
+    case = draw_case(
+        seed,
+        duration_s=4.0,
+        carrier_hz=1.3e9,
+        prf_hz=5000.0,
+        n_rotors=4,
+        n_blades=n_blades,
+        blade_length_m=0.2,
+        tip_speed_mps=88.0,
+        setup="hover",
+        weak_blade_db=weak_db,
+        blade_to_body_db=0.0,
+        body_snr_db=40.0,
+        elevation_deg=5.0,
+    )
     flight, truth = make_recording(case)
     raw = estimate_rotor_speeds(flight, order=False)
     tm = true_cpi_means(truth, raw.time_s, raw.n_fft, flight.prf_hz).mean(axis=1)
@@ -137,13 +161,41 @@ def test_unequal_blades_give_the_rotation_rate(seed, weak_db, n_blades):
     assert est.info["order"]["ratio_to_lines"] == pytest.approx(n_blades, rel=1e-3)
 
 
-@pytest.mark.parametrize("geometry", [
-    dict(carrier_hz=5.8e9, prf_hz=13802.07, n_rotors=4, n_blades=2, blade_length_m=0.21825, tip_speed_mps=60.215,
-         setup="flying", weak_blade_db=0.0, body_snr_db=41.77, blade_to_body_db=4.94, elevation_deg=19.09,
-         radial_speed_mps=-11.10, clutter_db=51.58),
-    dict(carrier_hz=3.3e9, prf_hz=19359.23, n_rotors=6, n_blades=3, blade_length_m=0.24303, tip_speed_mps=63.09,
-         setup="flying", weak_blade_db=6.48, body_snr_db=41.05, blade_to_body_db=-3.13, elevation_deg=20.34,
-         radial_speed_mps=-2.34, clutter_db=42.73)])
+@pytest.mark.parametrize(
+    "geometry",
+    [
+        dict(
+            carrier_hz=5.8e9,
+            prf_hz=13802.07,
+            n_rotors=4,
+            n_blades=2,
+            blade_length_m=0.21825,
+            tip_speed_mps=60.215,
+            setup="flying",
+            weak_blade_db=0.0,
+            body_snr_db=41.77,
+            blade_to_body_db=4.94,
+            elevation_deg=19.09,
+            radial_speed_mps=-11.10,
+            clutter_db=51.58,
+        ),
+        dict(
+            carrier_hz=3.3e9,
+            prf_hz=19359.23,
+            n_rotors=6,
+            n_blades=3,
+            blade_length_m=0.24303,
+            tip_speed_mps=63.09,
+            setup="flying",
+            weak_blade_db=6.48,
+            body_snr_db=41.05,
+            blade_to_body_db=-3.13,
+            elevation_deg=20.34,
+            radial_speed_mps=-2.34,
+            clutter_db=42.73,
+        ),
+    ],
+)
 def test_default_cpi_is_the_papers_in_time_at_a_high_prf(geometry):
     """At 14-19 kHz a CPI of the paper's 4096 pulses lasts 0.2-0.3 s: a bin is 4 % of
     the first blade-passing line of slow (44 rev/s) rotors, and the mean was 2.3-2.8 %
@@ -168,9 +220,21 @@ def test_default_cpi_falls_back_to_4096_pulses_where_the_lines_smear():
     prominent peak and no CPI shows a pair (the benchmark's any1025 geometry; rotor
     speeds, blades and phases from seed 62). The paper's 4096 pulses show them: the
     estimate is made there and says so."""
-    geometry = dict(carrier_hz=1.3e9, prf_hz=19062.67, n_rotors=4, n_blades=3, blade_length_m=0.14579,
-                    tip_speed_mps=93.49, setup="flying", weak_blade_db=4.60, body_snr_db=42.03,
-                    blade_to_body_db=1.40, elevation_deg=16.24, radial_speed_mps=-10.18, clutter_db=35.20)
+    geometry = dict(
+        carrier_hz=1.3e9,
+        prf_hz=19062.67,
+        n_rotors=4,
+        n_blades=3,
+        blade_length_m=0.14579,
+        tip_speed_mps=93.49,
+        setup="flying",
+        weak_blade_db=4.60,
+        body_snr_db=42.03,
+        blade_to_body_db=1.40,
+        elevation_deg=16.24,
+        radial_speed_mps=-10.18,
+        clutter_db=35.20,
+    )
     flight, truth = make_recording(draw_case(62, duration_s=6.0, **geometry))
     assert not estimate_rotor_speeds(flight, n_fft=8192).ok
     est = estimate_rotor_speeds(flight)
@@ -184,21 +248,44 @@ def test_default_cpi_lasts_the_papers_cpi_and_at_least_4096_pulses():
     (shorter CPIs at low PRF read an unequal blade's comb 12.6 % off)."""
     from microdoppler.io.flightzarr import Flight
 
-    for prf, n in ((2000.0, 4096), (7300.0, 4096), (10000.0, 4096), (11000.0, 8192), (19000.0, 8192),
-                   (25000.0, 16384)):
-        fl = Flight(attrs={"schema": "flight-zarr/1", "flight_id": "noise", "target": "drone", "radar_id": "r",
-                           "prf_hz": prf, "carrier_hz": 3e9, "n_motors": 4, "n_blades": 2},
-                    iq=np.zeros(100, np.complex64), track_time_s=np.array([0.0, 1.0]),
-                    track_range_m=np.array([100.0, 100.0]), track_radial_velocity_mps=np.zeros(2))
+    for prf, n in ((2000.0, 4096), (7300.0, 4096), (10000.0, 4096), (11000.0, 8192), (19000.0, 8192), (25000.0, 16384)):
+        fl = Flight(
+            attrs={
+                "schema": "flight-zarr/1",
+                "flight_id": "noise",
+                "target": "drone",
+                "radar_id": "r",
+                "prf_hz": prf,
+                "carrier_hz": 3e9,
+                "n_motors": 4,
+                "n_blades": 2,
+            },
+            iq=np.zeros(100, np.complex64),
+            track_time_s=np.array([0.0, 1.0]),
+            track_range_m=np.array([100.0, 100.0]),
+            track_radial_velocity_mps=np.zeros(2),
+        )
         assert estimate_rotor_speeds(fl).n_fft == n
 
 
 def test_equal_blades_on_a_stand():
     """The issue's stand: 3.3 GHz CW sampled at 5 kHz, four equal two-blade rotors near
     160 rev/s on a stand (body at 0 Hz), the signature reaching +-1.7 kHz."""
-    case = draw_case(12, duration_s=4.0, carrier_hz=3.3e9, prf_hz=5000.0, n_rotors=4, n_blades=2,
-                     blade_length_m=0.08, tip_speed_mps=80.0, setup="hover", weak_blade_db=0.0,
-                     blade_to_body_db=0.0, body_snr_db=40.0, elevation_deg=5.0)
+    case = draw_case(
+        12,
+        duration_s=4.0,
+        carrier_hz=3.3e9,
+        prf_hz=5000.0,
+        n_rotors=4,
+        n_blades=2,
+        blade_length_m=0.08,
+        tip_speed_mps=80.0,
+        setup="hover",
+        weak_blade_db=0.0,
+        blade_to_body_db=0.0,
+        body_snr_db=40.0,
+        elevation_deg=5.0,
+    )
     flight, truth = make_recording(case)
     assert 150 <= truth["rev_s"].mean() <= 171
     assert_honest(estimate_rotor_speeds(flight), truth, flight)
@@ -214,8 +301,19 @@ def test_lone_pair_is_the_comb_where_the_blades_allow_no_other():
     estimate (clutter or birds)."""
     from dataclasses import replace
 
-    case = draw_case(41, duration_s=4.0, carrier_hz=1.3e9, prf_hz=6000.0, n_rotors=4, n_blades=3,
-                     blade_length_m=0.06, tip_speed_mps=60.0, setup="hover", weak_blade_db=0.0, body_snr_db=40.0)
+    case = draw_case(
+        41,
+        duration_s=4.0,
+        carrier_hz=1.3e9,
+        prf_hz=6000.0,
+        n_rotors=4,
+        n_blades=3,
+        blade_length_m=0.06,
+        tip_speed_mps=60.0,
+        setup="hover",
+        weak_blade_db=0.0,
+        body_snr_db=40.0,
+    )
     flight, truth = make_recording(case)
     est = estimate_rotor_speeds(flight)
     assert est.info["n_cpi_comb"] == 0 and "lone_pair" in est.info, est.info
@@ -234,8 +332,18 @@ def test_a_lone_pair_must_persist():
     down for the rest: no estimate; the drone for 80 % of it: the speed within 2 %."""
     from dataclasses import replace
 
-    base = dict(duration_s=10.0, carrier_hz=1.3e9, prf_hz=6000.0, n_rotors=4, n_blades=3, blade_length_m=0.06,
-                tip_speed_mps=60.0, setup="hover", weak_blade_db=0.0, body_snr_db=40.0)
+    base = dict(
+        duration_s=10.0,
+        carrier_hz=1.3e9,
+        prf_hz=6000.0,
+        n_rotors=4,
+        n_blades=3,
+        blade_length_m=0.06,
+        tip_speed_mps=60.0,
+        setup="hover",
+        weak_blade_db=0.0,
+        body_snr_db=40.0,
+    )
     flight, truth = make_recording(draw_case(41, **base))
     quiet, _ = make_recording(draw_case(41, **base, blade_to_body_db=-60.0))
     for share, ok in ((0.4, False), (0.8, True)):
@@ -264,8 +372,13 @@ def test_thin_wire_harmonics_are_a_simulated_blades():
     for B in (2, 3):
         rel = []
         for x in (3.0, 6.0, 12.0):
-            sig = sum(np.exp(1j * x * r[None, :] * np.sin(theta[:, None] + 2 * np.pi * b / B)).mean(axis=1)
-                      for b in range(B)) / B
+            sig = (
+                sum(
+                    np.exp(1j * x * r[None, :] * np.sin(theta[:, None] + 2 * np.pi * b / B)).mean(axis=1)
+                    for b in range(B)
+                )
+                / B
+            )
             c = np.abs(np.fft.fft(sig) / n_t)
             for k in (B, 2 * B):
                 model = abs(float(thin_wire_harmonic(k, x)[0]))
@@ -315,8 +428,12 @@ def test_second_order_absence_is_the_lines_chance_over_the_extent():
 
     rng = np.random.default_rng(5)
     lam = 0.0909  # 3.3 GHz
-    for L, B, first_db, n_seen, n in ((0.04, 2, 16.0, 0, 7), (0.05, 3, 20.0, 1, 10), (0.03, 2, 26.0, 0, 5),
-                                     (0.06, 3, 14.0, 0, 6)):
+    for L, B, first_db, n_seen, n in (
+        (0.04, 2, 16.0, 0, 7),
+        (0.05, 3, 20.0, 1, 10),
+        (0.03, 2, 26.0, 0, 5),
+        (0.06, 3, 14.0, 0, 6),
+    ):
         fl = SimpleNamespace(attrs={"blade_length_m": L}, wavelength_m=lam)
         p = second_order_absence_p(fl, B, first_db, n_seen, n, 10.0)
         lo, hi = OrderConfig().extent_range
@@ -329,10 +446,14 @@ def test_second_order_absence_is_the_lines_chance_over_the_extent():
     fl = SimpleNamespace(attrs={"blade_length_m": 0.05}, wavelength_m=lam)
     ps = [second_order_absence_p(fl, 2, db, 0, 8, 10.0) for db in (12.0, 18.0, 24.0, 30.0)]
     assert all(a > b for a, b in zip(ps, ps[1:])), ps
-    assert second_order_absence_p(SimpleNamespace(attrs={"blade_length_m": 0.25}, wavelength_m=lam),
-                                  2, 25.0, 0, 8, 10.0) < 1e-3
-    assert second_order_absence_p(SimpleNamespace(attrs={"blade_length_m": 0.01}, wavelength_m=lam),
-                                  2, 25.0, 0, 8, 10.0) > 0.999
+    assert (
+        second_order_absence_p(SimpleNamespace(attrs={"blade_length_m": 0.25}, wavelength_m=lam), 2, 25.0, 0, 8, 10.0)
+        < 1e-3
+    )
+    assert (
+        second_order_absence_p(SimpleNamespace(attrs={"blade_length_m": 0.01}, wavelength_m=lam), 2, 25.0, 0, 8, 10.0)
+        > 0.999
+    )
     assert second_order_absence_p(SimpleNamespace(attrs={}, wavelength_m=lam), 2, 25.0, 0, 8, 10.0) is None
 
 
@@ -373,9 +494,22 @@ def test_lone_pair_is_the_comb_where_the_second_order_folds(seed):
     pair is now read as the comb, ``info["lone_pair"]`` says it folds, and the order
     check (whose line model folds) weighs the alternatives: within 2 %, or ambiguous
     with the truth listed (tests/any_radar.py's own echo; draws from the seed)."""
-    case = draw_case(seed, duration_s=4.0, carrier_hz=5.8e9, prf_hz=2950.0, n_rotors=6, n_blades=3,
-                     blade_length_m=0.051, tip_speed_mps=72.0, setup="flying", radial_speed_mps=-11.4,
-                     weak_blade_db=0.0, body_snr_db=36.0, blade_to_body_db=4.0, elevation_deg=12.0)
+    case = draw_case(
+        seed,
+        duration_s=4.0,
+        carrier_hz=5.8e9,
+        prf_hz=2950.0,
+        n_rotors=6,
+        n_blades=3,
+        blade_length_m=0.051,
+        tip_speed_mps=72.0,
+        setup="flying",
+        radial_speed_mps=-11.4,
+        weak_blade_db=0.0,
+        body_snr_db=36.0,
+        blade_to_body_db=4.0,
+        elevation_deg=12.0,
+    )
     flight, truth = make_recording(case)
     est = estimate_rotor_speeds(flight)
     assert est.ok, est.reason
@@ -393,10 +527,23 @@ def test_scaled_lines_put_no_rotor_on_another_orders_line():
     ``rotor_spread_max`` of each other: such a rotor goes to the median rotor and the
     change enters sigma (geometry of the benchmark's any5015; the rotors' speeds,
     blades and phases drawn from seed 61)."""
-    case = draw_case(61, duration_s=6.0, carrier_hz=5.8e9, prf_hz=10793.67, n_rotors=6, n_blades=3,
-                     blade_length_m=0.18397, tip_speed_mps=90.744, setup="hover", weak_blade_db=0.0,
-                     body_snr_db=43.15, blade_to_body_db=-5.88, elevation_deg=7.9, radial_speed_mps=0.0,
-                     clutter_db=45.63)
+    case = draw_case(
+        61,
+        duration_s=6.0,
+        carrier_hz=5.8e9,
+        prf_hz=10793.67,
+        n_rotors=6,
+        n_blades=3,
+        blade_length_m=0.18397,
+        tip_speed_mps=90.744,
+        setup="hover",
+        weak_blade_db=0.0,
+        body_snr_db=43.15,
+        blade_to_body_db=-5.88,
+        elevation_deg=7.9,
+        radial_speed_mps=0.0,
+        clutter_db=45.63,
+    )
     flight, truth = make_recording(case)
     est = estimate_rotor_speeds(flight)
     assert est.info["order"]["remeasured"].startswith("the lines' estimate scaled")
@@ -514,8 +661,16 @@ def test_tip_prior_is_a_log_normal_about_the_typical_tip_speed():
     L = 0.1
     f0 = cfg.tip_speed_mps / (2 * np.pi * L)
     lp = tip_log_prior(np.array([f0, 2 * f0, f0 / 2, f0 * np.exp(cfg.tip_speed_log_sd)]), L, cfg)
-    np.testing.assert_allclose(lp, [0.0, -np.log(2) ** 2 / (2 * cfg.tip_speed_log_sd ** 2),
-                                    -np.log(2) ** 2 / (2 * cfg.tip_speed_log_sd ** 2), -0.5], atol=1e-12)
+    np.testing.assert_allclose(
+        lp,
+        [
+            0.0,
+            -(np.log(2) ** 2) / (2 * cfg.tip_speed_log_sd**2),
+            -(np.log(2) ** 2) / (2 * cfg.tip_speed_log_sd**2),
+            -0.5,
+        ],
+        atol=1e-12,
+    )
     assert not tip_log_prior(np.array([f0, 3 * f0]), None, cfg).any()
     assert not tip_log_prior(np.array([f0, 3 * f0]), L, OrderConfig(tip_speed_log_sd=0.0)).any()
     with pytest.raises(ValueError, match="tip_speed_mps"):
@@ -671,9 +826,17 @@ def test_ambiguity_reaches_the_store_and_the_line():
     likelihood is comparable)."""
     from types import SimpleNamespace
 
-    order = {"method": "order/1", "chosen_rev_s": 80.8, "lines_rev_s": 80.8, "ratio_to_lines": 1.0,
-             "ambiguous": True, "remeasured": "kept", "order_rel_std": 0.7, "alternatives_rev_s": [161.6],
-             "relative_likelihood": [0.77]}
+    order = {
+        "method": "order/1",
+        "chosen_rev_s": 80.8,
+        "lines_rev_s": 80.8,
+        "ratio_to_lines": 1.0,
+        "ambiguous": True,
+        "remeasured": "kept",
+        "order_rel_std": 0.7,
+        "alternatives_rev_s": [161.6],
+        "relative_likelihood": [0.77],
+    }
     est = SimpleNamespace(flight_id="stand01", info={"order": order})
     line = ambiguity_line(est)
     assert line is not None and "80.8 or 161.6 rev/s" in line and "likelihood ratio 1.3" in line
@@ -682,8 +845,11 @@ def test_ambiguity_reaches_the_store_and_the_line():
     assert attrs["rotor_order_relative_likelihood"] == [0.77]
     assert ambiguity_line(SimpleNamespace(flight_id="x", info={"order": {**order, "ambiguous": False}})) is None
     # an alternative plausible once weighed with the tip speed's prior: both ratios named
-    line = ambiguity_line(SimpleNamespace(flight_id="x", info={"order": {
-        **order, "relative_likelihood": [0.025], "posterior_odds": [0.2]}}))
+    line = ambiguity_line(
+        SimpleNamespace(
+            flight_id="x", info={"order": {**order, "relative_likelihood": [0.025], "posterior_odds": [0.2]}}
+        )
+    )
     assert "likelihood ratio 40; with the tip speed's prior 5;" in line
 
 
@@ -718,9 +884,24 @@ def test_benchmark_join_puts_halves_in_seed_order_and_refuses_a_seed_twice(tmp_p
     import eval_any_radar
 
     def row(seed, error, visible=True, ambiguous=False):
-        return {"name": f"any{seed}", "seed": seed, "carrier_ghz": 3.3, "setup": "hover", "balance": "equal",
-                "visible": visible, "ok": True, "error": error, "ambiguous": ambiguous, "truth_listed": True,
-                "n_cpi": 10, "n_2sigma": 9, "seconds": 6.0, "duration_s": 6.0, "n_rotors": 4, "prf_hz": 5000.0}
+        return {
+            "name": f"any{seed}",
+            "seed": seed,
+            "carrier_ghz": 3.3,
+            "setup": "hover",
+            "balance": "equal",
+            "visible": visible,
+            "ok": True,
+            "error": error,
+            "ambiguous": ambiguous,
+            "truth_listed": True,
+            "n_cpi": 10,
+            "n_2sigma": 9,
+            "seconds": 6.0,
+            "duration_s": 6.0,
+            "n_rotors": 4,
+            "prf_hz": 5000.0,
+        }
 
     a, b = tmp_path / "a.json", tmp_path / "b.json"
     a.write_text(json.dumps({"rows": [row(3, 0.001), row(1, 0.5)], "wall_s": 10.0, "timing": None}))
@@ -730,7 +911,9 @@ def test_benchmark_join_puts_halves_in_seed_order_and_refuses_a_seed_twice(tmp_p
     joined = json.loads(out.read_text())
     assert [r["seed"] for r in joined["rows"]] == [1, 2, 3]
     assert joined["summary_lines"][0].startswith("visible recordings within 2 %: 1 of 3")
-    assert joined["summary_lines"][1].startswith("off by > 10 % and not marked ambiguous: 1 of 3 with an estimate; any1 +50.0 %")
+    assert joined["summary_lines"][1].startswith(
+        "off by > 10 % and not marked ambiguous: 1 of 3 with an estimate; any1 +50.0 %"
+    )
     assert joined["table"][0]["recordings"] == 3 and joined["wall_s"] == 12.0
     b.write_text(json.dumps({"rows": [row(3, 0.0)], "wall_s": 1.0, "timing": None}))
     with pytest.raises(SystemExit, match="a seed appears twice"):
@@ -751,9 +934,19 @@ def test_benchmark_compare_pairs_runs_by_recording(tmp_path):
     import compare_any_radar_runs
 
     def row(seed, error, ambiguous=False, n_2sigma=9):
-        return {"name": f"any{seed}", "seed": seed, "carrier_ghz": 3.3, "n_blades": 2, "visible": True, "ok": True,
-                "error": error, "ambiguous": ambiguous, "n_cpi": 10, "n_2sigma": n_2sigma,
-                "alternatives_rev_s": []}
+        return {
+            "name": f"any{seed}",
+            "seed": seed,
+            "carrier_ghz": 3.3,
+            "n_blades": 2,
+            "visible": True,
+            "ok": True,
+            "error": error,
+            "ambiguous": ambiguous,
+            "n_cpi": 10,
+            "n_2sigma": n_2sigma,
+            "alternatives_rev_s": [],
+        }
 
     before = [row(1, 0.001), row(2, -0.5), row(3, 0.01, n_2sigma=5)]
     after = [row(1, 0.001 + 1e-6), row(2, -0.5, ambiguous=True), row(3, 0.01, n_2sigma=10)]
@@ -774,16 +967,22 @@ def test_benchmark_compare_pairs_runs_by_recording(tmp_path):
     assert [c["name"] for c in p["changed"]] == ["any2", "any3"]
     # a run of the reachable recordings only: the rest count as unchanged
     b.write_text(json.dumps({"rows": after[1:2]}))
-    assert compare_any_radar_runs.main(["--before", str(a), "--after", str(b), "--json", str(out),
-                                        "--rest-unchanged"]) == 0
+    assert (
+        compare_any_radar_runs.main(["--before", str(a), "--after", str(b), "--json", str(out), "--rest-unchanged"])
+        == 0
+    )
     p = json.loads(out.read_text())
     assert p["n_recordings"] == 3 and p["rest_unchanged"] and [c["name"] for c in p["changed"]] == ["any2"]
     assert p["off > 10 % unmarked (estimate in both)"]["after"] == 0
     # a later run of some --before recordings replaces their rows before the comparison
     u = tmp_path / "u.json"
     u.write_text(json.dumps({"rows": [row(2, -0.5, ambiguous=True)]}))
-    assert compare_any_radar_runs.main(["--before", str(a), "--before-update", str(u), "--after", str(b),
-                                        "--json", str(out), "--rest-unchanged"]) == 0
+    assert (
+        compare_any_radar_runs.main(
+            ["--before", str(a), "--before-update", str(u), "--after", str(b), "--json", str(out), "--rest-unchanged"]
+        )
+        == 0
+    )
     p = json.loads(out.read_text())
     assert p["changed"] == [] and p["off > 10 % unmarked (estimate in both)"]["before"] == 0
     b.write_text(json.dumps({"rows": [row(4, 0.0)]}))
@@ -809,9 +1008,17 @@ def test_benchmark_pool_joins_runs_with_later_rows_in_place(tmp_path):
     import pool_any_radar_runs
 
     def row(seed, error, ambiguous=False, visible=True, listed=False):
-        return {"name": f"any{seed}", "seed": seed, "visible": visible, "ok": error is not None, "error": error,
-                "ambiguous": ambiguous, "truth_listed": listed, "n_cpi": 10 if error is not None else 0,
-                "n_2sigma": 9 if error is not None else 0}
+        return {
+            "name": f"any{seed}",
+            "seed": seed,
+            "visible": visible,
+            "ok": error is not None,
+            "error": error,
+            "ambiguous": ambiguous,
+            "truth_listed": listed,
+            "n_cpi": 10 if error is not None else 0,
+            "n_2sigma": 9 if error is not None else 0,
+        }
 
     a, b, u, out = (tmp_path / n for n in ("a.json", "b.json", "u.json", "p.json"))
     a.write_text(json.dumps({"rows": [row(1, 0.001), row(2, -0.5, ambiguous=True, listed=True)]}))
@@ -826,8 +1033,10 @@ def test_benchmark_pool_joins_runs_with_later_rows_in_place(tmp_path):
     assert (off["count"], off["n"]) == (1, 4)
     m = p["visible misses"]
     assert m["ambiguous, truth listed"] == ["any2"] and m["no estimate"] == ["any8"] and m["unmarked"] == ["any7"]
-    assert pool_any_radar_runs.main(["--runs", str(a), str(b), "--update", str(u), "--min-seed", "5",
-                                     "--json", str(out)]) == 0
+    assert (
+        pool_any_radar_runs.main(["--runs", str(a), str(b), "--update", str(u), "--min-seed", "5", "--json", str(out)])
+        == 0
+    )
     p = json.loads(out.read_text())
     assert p["n_recordings"] == 3 and p["within 2 % (visible)"]["count"] == 1
     assert p["off > 10 % unmarked (with estimate)"]["count"] == 0 and p["rows_from"] == {str(b): 2, str(u): 1}

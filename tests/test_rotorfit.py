@@ -60,8 +60,12 @@ def test_a_rotor_on_lines_of_its_own_is_never_taken_for_a_spare():
         gap = rng.uniform(0.05, 0.3)
         far = rng.uniform(6, 15)
         offs = np.array([0.0, gap, gap + rng.choice([-1, 1]) * rng.uniform(1.5, 4), rng.choice([-1, 1]) * far]) * b
-        fl = synthetic_flight(np.tile(base + offs, (len(t), 1)), seed=int(rng.integers(1000)),
-                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
+        fl = synthetic_flight(
+            np.tile(base + offs, (len(t), 1)),
+            seed=int(rng.integers(1000)),
+            snr_db=float(rng.uniform(38, 50)),
+            first_sideband_db=float(rng.uniform(4, 10)),
+        )
         est = estimate_rotor_speeds(fl)
         assert est.ok, est.reason
         sel = est.valid & (est.n_pairs >= 2)
@@ -91,12 +95,25 @@ def test_a_rotor_the_lines_missed_is_found_by_the_fit():
         base = rng.uniform(60, 90)
         far = rng.choice([-1, 1]) * rng.uniform(0.07, 0.14) * base
         true = base + np.array([0.0, rng.uniform(1.5, 3.0) * b, -rng.uniform(1.5, 3.0) * b, far])
-        fl = synthetic_flight(np.tile(true, (len(t), 1)), seed=int(rng.integers(1000)),
-                              snr_db=float(rng.uniform(38, 50)), first_sideband_db=float(rng.uniform(4, 10)))
+        fl = synthetic_flight(
+            np.tile(true, (len(t), 1)),
+            seed=int(rng.integers(1000)),
+            snr_db=float(rng.uniform(38, 50)),
+            first_sideband_db=float(rng.uniform(4, 10)),
+        )
         split = rng.uniform(0.3, 0.6) * b
         lines = [true[0], true[1] - split, true[1] + split, true[2]]
-        fit = refine_cpi(np.asarray(fl.iq[i0:i0 + N_FFT]), PRF, 2, 4, body_hz=-2 * fl.track_radial_velocity_mps[0] / LAM,
-                         body_rate_hz_s=0.0, lines_rev_s=lines, rate_rev_s2=0.0, n_pairs=3)
+        fit = refine_cpi(
+            np.asarray(fl.iq[i0 : i0 + N_FFT]),
+            PRF,
+            2,
+            4,
+            body_hz=-2 * fl.track_radial_velocity_mps[0] / LAM,
+            body_rate_hz_s=0.0,
+            lines_rev_s=lines,
+            rate_rev_s2=0.0,
+            n_pairs=3,
+        )
         assert fit is not None
         assert abs(fit.speeds_rev_s.mean() / true.mean() - 1) <= 0.01, (far / b, fit.start)
         assert np.min(np.abs(fit.speeds_rev_s - true[3])) < 0.5 * b, (far / b, fit.start)
@@ -116,16 +133,37 @@ def test_a_comb_on_lines_the_model_does_not_hold_is_not_a_missed_rotor():
     off, errs = 0, []
     for seed in (61, 62, 63, 64):
         weak = float(np.random.default_rng([seed, 3303]).uniform(4.0, 9.0))
-        case = draw_case(seed, duration_s=4.0, carrier_hz=3.3e9, prf_hz=3540.0, n_rotors=4, n_blades=3,
-                         blade_length_m=0.079, tip_speed_mps=100.0, setup="flying", radial_speed_mps=-10.3,
-                         weak_blade_db=weak, body_snr_db=35.0, blade_to_body_db=2.0, elevation_deg=25.0,
-                         clutter_db=58.0)
+        case = draw_case(
+            seed,
+            duration_s=4.0,
+            carrier_hz=3.3e9,
+            prf_hz=3540.0,
+            n_rotors=4,
+            n_blades=3,
+            blade_length_m=0.079,
+            tip_speed_mps=100.0,
+            setup="flying",
+            radial_speed_mps=-10.3,
+            weak_blade_db=weak,
+            body_snr_db=35.0,
+            blade_to_body_db=2.0,
+            elevation_deg=25.0,
+            clutter_db=58.0,
+        )
         flight, truth = make_recording(case)
         starts = np.arange(0, len(flight.iq) - N_FFT + 1, N_FFT // 2)
         tm = true_cpi_means(truth, (starts + N_FFT / 2) / flight.prf_hz, N_FFT, flight.prf_hz)
         for i, s0 in enumerate(starts):
-            fit = refine_cpi(np.asarray(flight.iq[s0:s0 + N_FFT]), flight.prf_hz, 3, 4, body_hz=truth["body_hz"],
-                             body_rate_hz_s=0.0, lines_rev_s=np.sort(tm[i]), rate_rev_s2=0.0)
+            fit = refine_cpi(
+                np.asarray(flight.iq[s0 : s0 + N_FFT]),
+                flight.prf_hz,
+                3,
+                4,
+                body_hz=truth["body_hz"],
+                body_rate_hz_s=0.0,
+                lines_rev_s=np.sort(tm[i]),
+                rate_rev_s2=0.0,
+            )
             assert fit is not None
             e = fit.speeds_rev_s.mean() / tm[i].mean() - 1
             errs.append(e)
@@ -137,9 +175,20 @@ def test_a_comb_on_lines_the_model_does_not_hold_is_not_a_missed_rotor():
 
 def _timing_like_recording(seconds: float):
     """4 two-blade rotors at 10 kHz, 3.3 GHz, flying (the cost target's recording)."""
-    case = draw_case(7, duration_s=seconds, carrier_hz=3.3e9, prf_hz=10000.0, n_rotors=4, n_blades=2,
-                     blade_length_m=0.12, tip_speed_mps=85.0, setup="flying", radial_speed_mps=6.0,
-                     weak_blade_db=0.0, blade_to_body_db=0.0)
+    case = draw_case(
+        7,
+        duration_s=seconds,
+        carrier_hz=3.3e9,
+        prf_hz=10000.0,
+        n_rotors=4,
+        n_blades=2,
+        blade_length_m=0.12,
+        tip_speed_mps=85.0,
+        setup="flying",
+        radial_speed_mps=6.0,
+        weak_blade_db=0.0,
+        blade_to_body_db=0.0,
+    )
     return make_recording(case)
 
 
@@ -170,8 +219,9 @@ def test_the_fit_on_the_models_band_has_the_full_rate_cost_and_information():
         assert c_band == pytest.approx(c_full, rel=1e-6)
         assert band.out_power > 0.01 * c_full  # the blade flash's orders beyond N lie outside
         np.testing.assert_allclose(band.power, full.power, rtol=1e-5)
-        np.testing.assert_allclose(band.information(p), full.information(p), rtol=1e-4,
-                                   atol=1e-6 * np.abs(full.information(p)).max())
+        np.testing.assert_allclose(
+            band.information(p), full.information(p), rtol=1e-4, atol=1e-6 * np.abs(full.information(p)).max()
+        )
 
 
 @pytest.mark.slow

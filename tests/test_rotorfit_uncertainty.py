@@ -24,8 +24,11 @@ def test_the_iq_fit_uncertainty_covers_its_errors_where_rotors_crowd():
     balanced and the mean's sigma stays at its floor (under 0.1 %). The draws come from
     this test's own seed; the ambiguity's constants were calibrated on emulated flights."""
     z_mean, z_rotor, shares = crowded_z_scores(
-        20261125, 3, lambda rng: {"snr_db": float(rng.uniform(38, 50)), "first_sideband_db": float(rng.uniform(4, 10))},
-        lambda est: est.valid & (est.n_pairs >= 2))
+        20261125,
+        3,
+        lambda rng: {"snr_db": float(rng.uniform(38, 50)), "first_sideband_db": float(rng.uniform(4, 10))},
+        lambda est: est.valid & (est.n_pairs >= 2),
+    )
     assert min(shares) > 0.8
     assert np.mean(np.array(z_mean) <= 2) >= 0.9
     assert np.mean(np.array(z_rotor) <= 2) >= 0.9
@@ -46,10 +49,16 @@ def test_one_visible_pair_reports_the_uncertainty_of_its_errors():
     reported sigma cover them: without it 87 % of the means and of the ranked rotors lay
     within 2 sigma (this test's draws), with it all; the test asks >= 90 %."""
     z_mean, z_rotor, _ = crowded_z_scores(
-        20261126, 4, lambda rng: {"snr_db": float(rng.uniform(34, 42)), "first_sideband_db": float(rng.uniform(4, 10)),
-                                  "alpha_s": float(rng.uniform(0.004, 0.008)),
-                                  "blades_drop": (3.0, float(rng.uniform(8, 16)))},
-        lambda est: est.valid & (est.n_pairs == 1))
+        20261126,
+        4,
+        lambda rng: {
+            "snr_db": float(rng.uniform(34, 42)),
+            "first_sideband_db": float(rng.uniform(4, 10)),
+            "alpha_s": float(rng.uniform(0.004, 0.008)),
+            "blades_drop": (3.0, float(rng.uniform(8, 16))),
+        },
+        lambda est: est.valid & (est.n_pairs == 1),
+    )
     assert len(z_mean) >= 20
     assert np.mean(np.array(z_mean) <= 2) >= 0.9
     assert np.mean(np.array(z_rotor) <= 2) >= 0.9

@@ -15,8 +15,14 @@ from microdoppler.emulator import FlightSpec, emulate_flight
 from microdoppler.io.flightzarr import Flight, read_flight, write_flight
 from microdoppler.io.motorlog import read_motor_store
 from microdoppler.rotors.fit import FitConfig
-from microdoppler.rotors.speed import (RotorEstimate, RotorSpeedConfig, cpi_means_of_spline, departure_sigma,
-                                     estimate_rotor_speeds, instants_from_cpi_means)
+from microdoppler.rotors.speed import (
+    RotorEstimate,
+    RotorSpeedConfig,
+    cpi_means_of_spline,
+    departure_sigma,
+    estimate_rotor_speeds,
+    instants_from_cpi_means,
+)
 from rotor_flights import CARRIER, LAM, N_FFT, PRF, cpi_truth, rel_errors, synthetic_flight
 
 
@@ -127,8 +133,8 @@ def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
     est = estimate_rotor_speeds(fl)
     assert est.ok, est.reason
     half = N_FFT / 2 / PRF
-    before = est.time_s + half < 3.0   # CPI wholly before the blades fall silent
-    after = est.time_s - half >= 3.0   # wholly after
+    before = est.time_s + half < 3.0  # CPI wholly before the blades fall silent
+    after = est.time_s - half >= 3.0  # wholly after
     assert before.sum() >= 5 and after.sum() >= 5
     assert est.valid[before].all() and not est.valid[after].any()
     assert (est.n_pairs[after] == 0).all() and np.isnan(est.speeds_rev_s[after]).all()
@@ -151,8 +157,17 @@ def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
     the ranked rotors ~0.4 %."""
     # the paper text's short-range sidebands (3-8 dB per harmonic; the world's own draw
     # since world v2 spans 4-16 dB, and its steep flights show fewer pairs)
-    spec = FlightSpec(f"t_{model}", "drone", drone_model=model, radar_id="radar1", duration_s=15.0,
-                      mean_range_m=1200.0, snr_db=50.0, seed=seed, harmonic_falloff_db=5.5)
+    spec = FlightSpec(
+        f"t_{model}",
+        "drone",
+        drone_model=model,
+        radar_id="radar1",
+        duration_s=15.0,
+        mean_range_m=1200.0,
+        snr_db=50.0,
+        seed=seed,
+        harmonic_falloff_db=5.5,
+    )
     fl, _ = emulate_flight(spec)
     est = estimate_rotor_speeds(fl)
     assert est.ok, est.reason
@@ -174,8 +189,11 @@ def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
 
 def test_mini_gives_no_estimate_with_a_reason():
     """The Mini's 0.06 m blades show no sideband pair at L-band: no estimate, never a guess."""
-    fl, _ = emulate_flight(FlightSpec("t_mini", "drone", drone_model="mini2", radar_id="radar1", duration_s=12.0,
-                                      mean_range_m=600.0, seed=303))
+    fl, _ = emulate_flight(
+        FlightSpec(
+            "t_mini", "drone", drone_model="mini2", radar_id="radar1", duration_s=12.0, mean_range_m=600.0, seed=303
+        )
+    )
     est = estimate_rotor_speeds(fl)
     assert not est.ok
     assert "sideband pair" in est.reason and f"of {len(est.time_s)} CPIs" in est.reason
@@ -190,14 +208,27 @@ def test_noise_and_birds_give_no_estimate(rng):
     iq = ((rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)).astype(np.complex64)
     iq += np.exp(2j * np.pi * 60.0 * np.arange(n) / PRF).astype(np.complex64) * 30  # a bare body line
     tt = np.linspace(0, n / PRF, 20)
-    attrs = dict(schema="flight-zarr/1", flight_id="noise", target="drone", radar_id="r", prf_hz=PRF,
-                 carrier_hz=CARRIER, drone_model="x", n_motors=4, n_blades=2, blade_length_m=0.19)
+    attrs = dict(
+        schema="flight-zarr/1",
+        flight_id="noise",
+        target="drone",
+        radar_id="r",
+        prf_hz=PRF,
+        carrier_hz=CARRIER,
+        drone_model="x",
+        n_motors=4,
+        n_blades=2,
+        blade_length_m=0.19,
+    )
     v = -60.0 * LAM / 2
     est = estimate_rotor_speeds(Flight(attrs, iq, tt, 1000 + v * tt, np.full(20, v)))
     assert not est.ok and est.reason.startswith("no sideband pair above the noise: 0 of")
     # a flock of birds, labelled as a drone: wing beats are no HERM comb
-    fl, _ = emulate_flight(FlightSpec("t_birds", "bird", bird_kind="small_flock", radar_id="radar1",
-                                      duration_s=12.0, mean_range_m=800.0, seed=404))
+    fl, _ = emulate_flight(
+        FlightSpec(
+            "t_birds", "bird", bird_kind="small_flock", radar_id="radar1", duration_s=12.0, mean_range_m=800.0, seed=404
+        )
+    )
     assert estimate_rotor_speeds(fl).reason == "target is 'bird': no rotors"
     fl.attrs.update(target="drone", drone_model="x", n_motors=4, n_blades=2, blade_length_m=0.19)
     est = estimate_rotor_speeds(fl)
@@ -228,8 +259,9 @@ def test_motor_log_and_flight_store_round_trip(tmp_path):
     np.testing.assert_array_equal(log.time_s, est.time_s[v])
     assert log.rpm.shape == (int(v.sum()), 4) and log.rpm.dtype == np.float32
     # the rows are instants whose spline has the estimates as its CPI means
-    np.testing.assert_allclose(cpi_means_of_spline(log.time_s, log.rev_s.astype(float), log.time_s, N_FFT, PRF),
-                               est.speeds_rev_s[v], rtol=1e-5)
+    np.testing.assert_allclose(
+        cpi_means_of_spline(log.time_s, log.rev_s.astype(float), log.time_s, N_FFT, PRF), est.speeds_rev_s[v], rtol=1e-5
+    )
     np.testing.assert_allclose(est.to_motor_log(cpi_means=True).rev_s, est.speeds_rev_s[v], rtol=1e-6)
     common = est.to_motor_log(per_motor=False, cpi_means=True)
     np.testing.assert_allclose(common.rev_s, np.repeat(est.common_rev_s[v, None], 4, 1), rtol=1e-6)
@@ -259,7 +291,7 @@ def test_motor_log_rows_are_instants_whose_cpi_means_are_the_estimates():
     v = 80.0 + 3.2 * np.sin(2 * np.pi * 1.0 * t_f + 0.4) + 0.5 * t_f
     t = (np.arange(1 + (len(t_f) - n_fft) // hop) * hop + n_fft / 2) / prf
     w = blackmanharris(n_fft, sym=False) ** 2
-    means = np.array([np.sum(w * v[i * hop:i * hop + n_fft]) / w.sum() for i in range(len(t))])[:, None]
+    means = np.array([np.sum(w * v[i * hop : i * hop + n_fft]) / w.sum() for i in range(len(t))])[:, None]
     x = instants_from_cpi_means(t, means, n_fft, prf)
     true_at = np.interp(t, t_f, v)[:, None]
     inner = slice(2, -2)  # the ends hold the curve flat, as the sampling does
@@ -283,18 +315,46 @@ def test_import_estimate_motors_then_diagnose_reports_lag_and_scale_untestable(t
 
     # 12 s: 41 CPIs, enough for the diagnosis's two held-out folds (>= 20 CPIs); the
     # median speed 0.1 % from the truth (9 s: 1.5 %, too near the 2 % asked)
-    f, _ = emulate_flight(FlightSpec("est1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0,
-                                     mean_range_m=1000.0, seed=101))
+    f, _ = emulate_flight(
+        FlightSpec("est1", "drone", drone_model="inspire2", duration_s=12.0, snr_db=44.0, mean_range_m=1000.0, seed=101)
+    )
     np.save(tmp_path / "est1.npy", f.iq)
     np.save(tmp_path / "est1_bg.npy", f.background_iq)
-    pd.DataFrame({"time_s": f.track_time_s, "range_m": f.track_range_m,
-                  "radial_velocity_mps": f.track_radial_velocity_mps}).to_csv(tmp_path / "t.csv", index=False)
+    pd.DataFrame(
+        {"time_s": f.track_time_s, "range_m": f.track_range_m, "radial_velocity_mps": f.track_radial_velocity_mps}
+    ).to_csv(tmp_path / "t.csv", index=False)
     out = tmp_path / "est1.zarr"
-    rc, err = run_cli(capsys, ["import", tmp_path / "est1.npy", "--prf-hz", f.prf_hz, "--carrier-hz", f.carrier_hz,
-                               "--radar-id", "radar1", "--target", "drone", "--drone-model", "inspire2",
-                               "--n-motors", "4", "--n-blades", "2", "--blade-length-m", "0.19",
-                               "--track", tmp_path / "t.csv", "--background", tmp_path / "est1_bg.npy",
-                               "--estimate-motors", "--out", out, "--quiet"])
+    rc, err = run_cli(
+        capsys,
+        [
+            "import",
+            tmp_path / "est1.npy",
+            "--prf-hz",
+            f.prf_hz,
+            "--carrier-hz",
+            f.carrier_hz,
+            "--radar-id",
+            "radar1",
+            "--target",
+            "drone",
+            "--drone-model",
+            "inspire2",
+            "--n-motors",
+            "4",
+            "--n-blades",
+            "2",
+            "--blade-length-m",
+            "0.19",
+            "--track",
+            tmp_path / "t.csv",
+            "--background",
+            tmp_path / "est1_bg.npy",
+            "--estimate-motors",
+            "--out",
+            out,
+            "--quiet",
+        ],
+    )
     assert rc == 0, err
     assert "rotor speeds from the radar" in err
     g = read_flight(out)
@@ -326,8 +386,22 @@ def test_a_cpi_that_departs_from_both_neighbours_carries_the_departure_in_its_si
     common[9] = np.nan  # a CPI without an estimate
     sd = 0.004 * common
     speeds = np.repeat(common[:, None], M, axis=1)
-    est = RotorEstimate("f", t, speeds.copy(), np.repeat(sd[:, None], M, axis=1), common.copy(), sd.copy(),
-                        np.full(n, 3), np.full(n, M), np.zeros(n), M, 2, 4096, None, {})
+    est = RotorEstimate(
+        "f",
+        t,
+        speeds.copy(),
+        np.repeat(sd[:, None], M, axis=1),
+        common.copy(),
+        sd.copy(),
+        np.full(n, 3),
+        np.full(n, M),
+        np.zeros(n),
+        M,
+        2,
+        4096,
+        None,
+        {},
+    )
     assert departure_sigma(est, cfg.smear_rel) == 1
     assert est.info["n_cpi_departing"] == 1
     assert "1 CPIs depart from both neighbours by over 12 %" in est.summary()

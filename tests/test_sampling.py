@@ -22,7 +22,7 @@ def boundary_steps(rev_s, n_fft):
     """(max |step| across CPI boundaries, max |step| elsewhere) [rev/s per pulse]."""
     d = np.abs(np.diff(rev_s.astype(np.float64), axis=0)).max(axis=1)
     at = np.zeros(len(d), bool)
-    at[n_fft - 1::n_fft] = True  # step from pulse k*n_fft - 1 to k*n_fft
+    at[n_fft - 1 :: n_fft] = True  # step from pulse k*n_fft - 1 to k*n_fft
     return d[at].max(), d[~at].max()
 
 

@@ -21,13 +21,37 @@ def _estimate(flight_id="est1", n_cpi=6, n_motors=4, seed=3):
     speeds = np.sort(80.0 + 3.0 * np.arange(n_motors) + rng.normal(0, 0.3, (n_cpi, n_motors)), axis=1)
     std = 0.2 + 0.1 * rng.random((n_cpi, n_motors))
     common = speeds.mean(axis=1)
-    info = {"prf_hz": 7300.0, "method": "herm-pairs+iq-fit/2",
-            "order": {"method": "order/7", "chosen_rev_s": round(float(common.mean()), 3), "lines_rev_s": 40.0,
-                      "ratio_to_lines": 2.0, "remeasured": "no", "ambiguous": True,
-                      "alternatives_rev_s": [round(float(common.mean()) / 2, 2)], "relative_likelihood": [0.8],
-                      "order_rel_std": 0.01}}
-    return RotorEstimate(flight_id, t, speeds, std, common, std.mean(axis=1), np.full(n_cpi, 3),
-                         np.full(n_cpi, n_motors), np.zeros(n_cpi), n_motors, 2, 4096, None, info)
+    info = {
+        "prf_hz": 7300.0,
+        "method": "herm-pairs+iq-fit/2",
+        "order": {
+            "method": "order/7",
+            "chosen_rev_s": round(float(common.mean()), 3),
+            "lines_rev_s": 40.0,
+            "ratio_to_lines": 2.0,
+            "remeasured": "no",
+            "ambiguous": True,
+            "alternatives_rev_s": [round(float(common.mean()) / 2, 2)],
+            "relative_likelihood": [0.8],
+            "order_rel_std": 0.01,
+        },
+    }
+    return RotorEstimate(
+        flight_id,
+        t,
+        speeds,
+        std,
+        common,
+        std.mean(axis=1),
+        np.full(n_cpi, 3),
+        np.full(n_cpi, n_motors),
+        np.zeros(n_cpi),
+        n_motors,
+        2,
+        4096,
+        None,
+        info,
+    )
 
 
 @pytest.fixture
@@ -39,8 +63,10 @@ def stores(tmp_path):
     logged = make_flight("log1", n=4096 * 2)
     logged.motors_rpm = (logged.motors_rpm * np.linspace(0.9, 1.1, 4)[None, :]).astype(np.float32)
     bare = make_flight("bare1", n=4096 * 2, with_log=False)
-    return {name: write_flight(tmp_path / f"{name}.zarr", f) for name, f in
-            (("est1", radar), ("log1", logged), ("bare1", bare))}
+    return {
+        name: write_flight(tmp_path / f"{name}.zarr", f)
+        for name, f in (("est1", radar), ("log1", logged), ("bare1", bare))
+    }
 
 
 def _read_table(path):

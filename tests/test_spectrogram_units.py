@@ -18,8 +18,13 @@ from microdoppler.datasets.tiles import tile_record
 from microdoppler.emulator.radars import RADARS
 from microdoppler.errors import ConfigError, InputError
 from microdoppler.io.flightzarr import write_flight
-from microdoppler.spectra.spectrogram import (C_MPS, SpectrogramConfig, SpectrogramSettings, blade_tip_doppler_hz,
-                                              spectrogram)
+from microdoppler.spectra.spectrogram import (
+    C_MPS,
+    SpectrogramConfig,
+    SpectrogramSettings,
+    blade_tip_doppler_hz,
+    spectrogram,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 SCHEMA = REPO / "workflow" / "schemas" / "config.schema.yaml"
@@ -93,17 +98,21 @@ def _tip_echo(prf, carrier, rev_s, blade_length_m, body_mps, n):
     return np.exp(-4j * np.pi * r / lam).astype(np.complex64)
 
 
-@pytest.mark.parametrize("prf, carrier, rev_s, L, body_mps", [
-    (20000.0, 1.3e9, 100.0, 0.1, 0.0),
-    (20000.0, 1.3e9, 100.0, 0.1, -8.0),
-    (7300.0, 1.35e9, 90.0, 0.19, 0.0),  # the paper's radar and drones
-    (20000.0, 9.4e9, 20.0, 0.25, 3.0),
-])
+@pytest.mark.parametrize(
+    "prf, carrier, rev_s, L, body_mps",
+    [
+        (20000.0, 1.3e9, 100.0, 0.1, 0.0),
+        (20000.0, 1.3e9, 100.0, 0.1, -8.0),
+        (7300.0, 1.35e9, 90.0, 0.19, 0.0),  # the paper's radar and drones
+        (20000.0, 9.4e9, 20.0, 0.25, 3.0),
+    ],
+)
 def test_blade_tips_span_covers_the_tip_echo(prf, carrier, rev_s, L, body_mps):
     """Physics: the image holds the tip echo's power (Carson's rule: ~98 %); an image
     of half that reach loses most of it."""
-    cfg = SpectrogramSettings(blade_tip_rev_s=rev_s, highpass_hz=0.0).resolve(prf, carrier, blade_length_m=L,
-                                                                              body_mps=body_mps)
+    cfg = SpectrogramSettings(blade_tip_rev_s=rev_s, highpass_hz=0.0).resolve(
+        prf, carrier, blade_length_m=L, body_mps=body_mps
+    )
     reach = 4 * math.pi * rev_s * L * carrier / C_MPS + rev_s + 2 * abs(body_mps) * carrier / C_MPS
     assert reach < prf / 2
     iq = _tip_echo(prf, carrier, rev_s, L, body_mps, 4 * cfg.n_fft)
@@ -123,12 +132,16 @@ def test_physical_config_reproduces_bin_config_tiles_bit_for_bit(tmp_path, rng):
     n = SpectrogramConfig().n_fft + 41 * SpectrogramConfig().hop
     fl = make_flight("f1", n=n, rng=rng)
     t = np.arange(n) / fl.prf_hz
-    fl.iq = (fl.iq + 30 * np.exp(2j * np.pi * (-2 * 5.0 / fl.wavelength_m) * t)
-             + 10 * np.exp(4j * np.pi * 0.19 / fl.wavelength_m * np.cos(2 * np.pi * 80 * t))).astype(np.complex64)
+    fl.iq = (
+        fl.iq
+        + 30 * np.exp(2j * np.pi * (-2 * 5.0 / fl.wavelength_m) * t)
+        + 10 * np.exp(4j * np.pi * 0.19 / fl.wavelength_m * np.cos(2 * np.pi * 80 * t))
+    ).astype(np.complex64)
     write_flight(tmp_path / "f1.zarr", fl)
     bins = SpectrogramSettings.from_config({"n_fft": 4096, "n_bins": 480}).resolve(fl.prf_hz, fl.carrier_hz)
-    phys = spectrogram_for_flights({"window_s": 0.56, "doppler_span_mps": 95.0, "n_fft": None, "n_bins": None},
-                                   tmp_path, log=lambda m: None)
+    phys = spectrogram_for_flights(
+        {"window_s": 0.56, "doppler_span_mps": 95.0, "n_fft": None, "n_bins": None}, tmp_path, log=lambda m: None
+    )
     a, snr_a, _ = tile_record(fl, fl.iq, bins)
     b, snr_b, _ = tile_record(fl, fl.iq, phys)
     assert a.shape == (2, 20, 480)
@@ -158,28 +171,31 @@ def test_blade_tips_from_the_drone_flights(tmp_path, rng):
         resolve_for_flights({"blade_tip_rev_s": 100.0}, birds, log=lambda m: None)
 
 
-@pytest.mark.parametrize("settings, radar, key", [
-    ({"window_s": -0.1}, (7300.0, 1.35e9), "window_s"),
-    ({"window_s": 0.0}, (7300.0, 1.35e9), "window_s"),
-    ({"window_s": 0.001}, (7300.0, 1.35e9), "window_s"),  # 7 pulses
-    ({"window_s": "long"}, (7300.0, 1.35e9), "window_s"),
-    ({"doppler_span_hz": 6000.0}, (5000.0, 3.3e9), "doppler_span_hz"),
-    ({"doppler_span_hz": -10.0}, (5000.0, 3.3e9), "doppler_span_hz"),
-    ({"doppler_span_hz": 0.5}, (5000.0, 3.3e9), "doppler_span_hz"),  # under two bins
-    ({"doppler_span_mps": 300.0}, (5000.0, 3.3e9), "doppler_span_mps"),  # 6.6 kHz
-    ({"doppler_span_mps": 95.0}, (2000.0, 24e9), "doppler_span_mps"),
-    ({"blade_tip_rev_s": 0.0}, (5000.0, 3.3e9), "blade_tip_rev_s"),
-    ({"blade_tip_rev_s": 160.0}, (5000.0, 3.3e9), "blade_tip_rev_s"),  # no blade length
-    ({"n_bins": 5000}, (7300.0, 1.35e9), "n_bins"),
-    ({"n_bins": -1}, (7300.0, 1.35e9), "n_bins"),
-    ({"n_fft": 8}, (7300.0, 1.35e9), "n_fft"),
-    ({"n_fft": 4096.5}, (7300.0, 1.35e9), "n_fft"),
-    ({"window_s": 0.5, "n_fft": 4096}, (7300.0, 1.35e9), "window_s"),
-    ({"doppler_span_hz": 800.0, "doppler_span_mps": 90.0}, (7300.0, 1.35e9), "doppler_span_mps"),
-    ({"n_bins": 480, "doppler_span_hz": 800.0}, (7300.0, 1.35e9), "n_bins"),
-    ({"overlap": 1.0}, (7300.0, 1.35e9), "overlap"),
-    ({"bins": 480}, (7300.0, 1.35e9), "bins"),
-])
+@pytest.mark.parametrize(
+    "settings, radar, key",
+    [
+        ({"window_s": -0.1}, (7300.0, 1.35e9), "window_s"),
+        ({"window_s": 0.0}, (7300.0, 1.35e9), "window_s"),
+        ({"window_s": 0.001}, (7300.0, 1.35e9), "window_s"),  # 7 pulses
+        ({"window_s": "long"}, (7300.0, 1.35e9), "window_s"),
+        ({"doppler_span_hz": 6000.0}, (5000.0, 3.3e9), "doppler_span_hz"),
+        ({"doppler_span_hz": -10.0}, (5000.0, 3.3e9), "doppler_span_hz"),
+        ({"doppler_span_hz": 0.5}, (5000.0, 3.3e9), "doppler_span_hz"),  # under two bins
+        ({"doppler_span_mps": 300.0}, (5000.0, 3.3e9), "doppler_span_mps"),  # 6.6 kHz
+        ({"doppler_span_mps": 95.0}, (2000.0, 24e9), "doppler_span_mps"),
+        ({"blade_tip_rev_s": 0.0}, (5000.0, 3.3e9), "blade_tip_rev_s"),
+        ({"blade_tip_rev_s": 160.0}, (5000.0, 3.3e9), "blade_tip_rev_s"),  # no blade length
+        ({"n_bins": 5000}, (7300.0, 1.35e9), "n_bins"),
+        ({"n_bins": -1}, (7300.0, 1.35e9), "n_bins"),
+        ({"n_fft": 8}, (7300.0, 1.35e9), "n_fft"),
+        ({"n_fft": 4096.5}, (7300.0, 1.35e9), "n_fft"),
+        ({"window_s": 0.5, "n_fft": 4096}, (7300.0, 1.35e9), "window_s"),
+        ({"doppler_span_hz": 800.0, "doppler_span_mps": 90.0}, (7300.0, 1.35e9), "doppler_span_mps"),
+        ({"n_bins": 480, "doppler_span_hz": 800.0}, (7300.0, 1.35e9), "n_bins"),
+        ({"overlap": 1.0}, (7300.0, 1.35e9), "overlap"),
+        ({"bins": 480}, (7300.0, 1.35e9), "bins"),
+    ],
+)
 def test_bad_settings_name_the_key(settings, radar, key):
     with pytest.raises(ConfigError, match=rf"config: spectrogram\.{key}:"):
         SpectrogramSettings.from_config(settings).resolve(*radar)

@@ -35,6 +35,7 @@ IQ_TOL_DB = -60.0
 
 # --- frozen speeds/1 per-pulse reference (microdoppler.rotors.sampling before speeds/2) ----
 
+
 def _spline_at(log, m, t):
     spl = CubicSpline(log.time_s, log.rev_s[:, m], bc_type="natural", extrapolate=False)
     return spl(np.clip(t, log.time_s[0], log.time_s[-1]))
@@ -44,9 +45,10 @@ def _moving_average(x, w):
     if w <= 1:
         return x
     h = w // 2
-    c = np.concatenate([[0.0], np.cumsum(np.concatenate([np.full(h, x[0]), x, np.full(w - h, x[-1])]),
-                                         dtype=np.float64)])
-    return (c[w:w + len(x)] - c[:len(x)]) / w
+    c = np.concatenate(
+        [[0.0], np.cumsum(np.concatenate([np.full(h, x[0]), x, np.full(w - h, x[-1])]), dtype=np.float64)]
+    )
+    return (c[w : w + len(x)] - c[: len(x)]) / w
 
 
 def speeds1_reference(base, log, n_pulses, window_pulses=None, fixed_rev_s=None, motors=None):
@@ -65,12 +67,13 @@ def speeds1_reference(base, log, n_pulses, window_pulses=None, fixed_rev_s=None,
         up, pad, over = N_FFT // SETTINGS["per_cpi"], 16, 8
         n_dec = -(-n_pulses // up) + 2 * pad
         fine = _spline_at(log, m, (np.arange(n_dec * over) - pad * over) / (PRF_HZ / up * over))
-        x = resample_poly(decimate(fine, over, ftype="fir", zero_phase=True), up, 1)[pad * up: pad * up + n_pulses]
+        x = resample_poly(decimate(fine, over, ftype="fir", zero_phase=True), up, 1)[pad * up : pad * up + n_pulses]
         out[:, j] = _moving_average(x, window_pulses)
     return out
 
 
 # --- fixtures ----------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def flight200():
@@ -78,16 +81,16 @@ def flight200():
     jitter and drops, 1 rpm rounding) and its range track."""
     rng = np.random.default_rng(20261123)
     dyn = DYNAMICS["inspire2"]
-    path = loop_path(200.0, mean_range_m=300.0, height_m=50.0, speed_mps=8.0, direction=1, hand_flown=False,
-                     rng=rng)
+    path = loop_path(200.0, mean_range_m=300.0, height_m=50.0, speed_mps=8.0, direction=1, hand_flown=False, rng=rng)
     t, rpm = write_log(motor_speeds(path, dyn, wind_mps=5.0, rng=rng), 200.0, dyn.log_rate_hz, rng)
     return MotorLog(t, rpm, "emulator inspire2 200 s"), Track(path.t_s, path.range_m)
 
 
 def roundtrip(tmp_path, variant, log, n_pulses, seed=5):
     """Write one flight's compact speeds to a speeds/2 store and read them back."""
-    sp, attrs = speeds.resample_flight_compact(variant, log, n_pulses, PRF_HZ, "inspire2", settings=SETTINGS,
-                                               n_fft=N_FFT, seed=seed)
+    sp, attrs = speeds.resample_flight_compact(
+        variant, log, n_pulses, PRF_HZ, "inspire2", settings=SETTINGS, n_fft=N_FFT, seed=seed
+    )
     store = tmp_path / f"{variant}.zarr"
     with writing_store(store, {"schema": speeds.SPEEDS_SCHEMA, "variant": variant}) as root:
         speeds.write_flight_speeds(root, "f1", sp, attrs)
@@ -96,9 +99,14 @@ def roundtrip(tmp_path, variant, log, n_pulses, seed=5):
 
 def reference_of(variant, log, n_pulses, attrs):
     base = speeds.BASE_SAMPLING[variant]
-    return speeds1_reference("sub_cpi" if base == "single_motor" else base, log, n_pulses,
-                             attrs.get("window_pulses"), attrs.get("fixed_rev_s"),
-                             motors=[0] if base == "single_motor" else None)
+    return speeds1_reference(
+        "sub_cpi" if base == "single_motor" else base,
+        log,
+        n_pulses,
+        attrs.get("window_pulses"),
+        attrs.get("fixed_rev_s"),
+        motors=[0] if base == "single_motor" else None,
+    )
 
 
 def store_bytes(path):
@@ -106,6 +114,7 @@ def store_bytes(path):
 
 
 # --- tests -------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("variant", list(speeds.BASE_SAMPLING))
 def test_stored_speeds_give_the_speeds1_phase_over_200_s(tmp_path, flight200, variant):
@@ -167,8 +176,9 @@ def test_speeds1_store_is_refused(tmp_path):
 
 def test_inconsistent_knots_are_refused(tmp_path, flight200):
     log, _ = flight200
-    sp, attrs = speeds.resample_flight_compact("sub_cpi", log, 50_000, PRF_HZ, "inspire2", settings=SETTINGS,
-                                               n_fft=N_FFT, seed=1)
+    sp, attrs = speeds.resample_flight_compact(
+        "sub_cpi", log, 50_000, PRF_HZ, "inspire2", settings=SETTINGS, n_fft=N_FFT, seed=1
+    )
     bad = speeds.CompactSpeeds(sp.form, sp.knots_rev_s[:-1], sp.n_pulses, sp.params)
     store = tmp_path / "bad.zarr"
     with writing_store(store, {"schema": speeds.SPEEDS_SCHEMA}) as root:

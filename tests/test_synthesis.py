@@ -25,8 +25,17 @@ import pytest
 
 from microdoppler.synthesis.radar import Radar
 from microdoppler.spectra.spectrogram import SpectrogramConfig, spectrogram
-from microdoppler.synthesis.model import (BladeModel, Envelope, ModelExtensions, Scaling, SynthesisConfig, Track,
-                                          add_noise, reference_synthesize, synthesize)
+from microdoppler.synthesis.model import (
+    BladeModel,
+    Envelope,
+    ModelExtensions,
+    Scaling,
+    SynthesisConfig,
+    Track,
+    add_noise,
+    reference_synthesize,
+    synthesize,
+)
 
 RADAR = Radar(prf_hz=7300.0, carrier_hz=1.35e9)
 PRF = RADAR.prf_hz
@@ -44,12 +53,14 @@ def _const(speeds_hz, n):
 
 def _config(*, prf_hz=PRF, wavelength_m=LAM, n_blades=2, blade_length_m=0.19, **kw):
     """The common scene's SynthesisConfig; ``kw``: further :meth:`SynthesisConfig.of` parameters."""
-    return SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
-                              blade_length_m=blade_length_m, **kw)
+    return SynthesisConfig.of(
+        prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades, blade_length_m=blade_length_m, **kw
+    )
 
 
-def _sim(speeds_hz, *, n=3 * 4096, blade_length_m=0.19, alpha_s=0.0, s_blade=1.0, s_body=1.0, v=V_APPROACH, seed=1,
-         **kw):
+def _sim(
+    speeds_hz, *, n=3 * 4096, blade_length_m=0.19, alpha_s=0.0, s_blade=1.0, s_body=1.0, v=V_APPROACH, seed=1, **kw
+):
     track = Track.constant_velocity(500.0, v, n / PRF)
     config = _config(blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), **kw)
     return synthesize(config, track, _const(speeds_hz, n), seed=seed)
@@ -150,7 +161,7 @@ def test_rotor_harmonics_are_the_bessel_integrals_of_eq1():
 
     for L, lam in ((0.06, LAM), (0.19, LAM), (0.19, 0.03), (0.12, 0.5)):
         k = 4 * np.pi / lam
-        c = np.fft.fft(BladeModel(2, L, lam).table().astype(np.complex128)) / 2 ** 16
+        c = np.fft.fft(BladeModel(2, L, lam).table().astype(np.complex128)) / 2**16
         for n in (2, 4, 6):
             expected = 2 * (-1j) ** n * quad(lambda s: jv(n, k * s), 0, L, limit=200)[0]
             # complex: magnitude and the phase (-j)^n; c_{-n} = c_n (J_{-n} = (-1)^n J_n)
@@ -220,7 +231,7 @@ def _rayleigh_gans_harmonic(n, L, lam):
 
     def density(s):
         area = (L / RG_REF_LENGTH_M) ** 2  # A(s) / A_ref, uniform along the blade
-        return k ** 2 * area / k_ref ** 2
+        return k**2 * area / k_ref**2
 
     return _harmonic_quad(n, L, lam, density)
 
@@ -342,8 +353,8 @@ def test_synthesized_blade_signal_matches_quadrature_of_eq1(n_blades, L, lam):
     f32 = float(np.float32(fm))
     ref = _eq1_quadrature(2 * np.pi * (c0 + i * f32 / PRF), L, lam, n_blades)
     k = 4 * np.pi / lam
-    d_angle = np.pi / 2 ** 16 + 2 * np.pi * n * (2.0 ** -24 * f32 / PRF + 2.0 ** -32)
-    bound = (n_blades * k * L ** 2 / 2 * d_angle + n_blades * L * np.pi / 2 ** 16) / np.max(np.abs(ref))
+    d_angle = np.pi / 2**16 + 2 * np.pi * n * (2.0**-24 * f32 / PRF + 2.0**-32)
+    bound = (n_blades * k * L**2 / 2 * d_angle + n_blades * L * np.pi / 2**16) / np.max(np.abs(ref))
     err = np.max(np.abs(x[i] - ref)) / np.max(np.abs(ref))
     assert err < bound, (err, bound)
     assert bound < 5e-3  # the budget itself is tight: a wrong blade model would be O(1) off
@@ -354,9 +365,11 @@ def test_chunk_size_independence(rng, alpha):
     n = 20000
     rev = (90 + np.cumsum(rng.normal(0, 0.05, (n, 4)), axis=0)).astype(np.float32)
     track = Track(np.array([0.0, 1.0, 3.0]), np.array([800.0, 795.0, 790.0]))
+
     def run(chunk, method="auto"):
-        config = _config(scaling=Scaling(1.0, 1.0, alpha), envelope=Envelope(method, margin_pulses=4096),
-                         chunk_pulses=chunk)
+        config = _config(
+            scaling=Scaling(1.0, 1.0, alpha), envelope=Envelope(method, margin_pulses=4096), chunk_pulses=chunk
+        )
         return synthesize(config, track, rev, seed=3)
 
     base = run(n)
@@ -379,7 +392,7 @@ def _harmonic_vs_fft(rev, alpha, n, n_blades=2, blade_amplitudes=None):
     f = synthesize(_config(envelope=Envelope("fft", margin_pulses=16384), chunk_pulses=n, **kw), track, rev, seed=3)
     s = slice(8192, n - 8192)  # away from the FFT filter's zero-padded record edges
     d, ref = np.abs(h - f)[s], np.abs(f[s])
-    return np.max(d) / np.max(ref), np.sqrt(np.mean(d ** 2) / np.mean(ref ** 2))
+    return np.max(d) / np.max(ref), np.sqrt(np.mean(d**2) / np.mean(ref**2))
 
 
 @pytest.mark.parametrize("alpha, n_blades", [(5.5e-3, 2), (0.02, 2), (5.5e-3, 3)])
@@ -476,8 +489,7 @@ def test_equal_blades_have_no_odd_lines_and_unit_amplitudes_are_eq1_bit_for_bit(
     for alpha in (0.0, 5.5e-3):
         base = _sim(speeds, n=2 * 4096, alpha_s=alpha)
         np.testing.assert_array_equal(_sim(speeds, n=2 * 4096, alpha_s=alpha, blade_amplitudes=[1.0, 1.0]), base)
-        np.testing.assert_array_equal(_sim(speeds, n=2 * 4096, alpha_s=alpha, blade_amplitudes=[[1.0, 1.0]] * 4),
-                                      base)
+        np.testing.assert_array_equal(_sim(speeds, n=2 * 4096, alpha_s=alpha, blade_amplitudes=[[1.0, 1.0]] * 4), base)
 
 
 def test_a_weak_blade_under_the_harmonic_envelope():
@@ -492,7 +504,9 @@ def test_a_weak_blade_under_the_harmonic_envelope():
         assert np.isclose(ratio, np.exp(-alpha * abs(h) * fm), rtol=5e-3), (h, ratio)
     n = 4 * 8192
     rev = _const([71.0, 83.5, 96.0, 104.2], n)
-    err_max, err_rms = _harmonic_vs_fft(rev, alpha, n, blade_amplitudes=[[1.0, 0.5], [1.0, 1.0], [0.3, 1.0], [1.0, 1.0]])
+    err_max, err_rms = _harmonic_vs_fft(
+        rev, alpha, n, blade_amplitudes=[[1.0, 0.5], [1.0, 1.0], [0.3, 1.0], [1.0, 1.0]]
+    )
     assert err_rms < 1e-3 and err_max < 2e-3, (err_max, err_rms)
 
 
@@ -502,8 +516,9 @@ def test_per_motor_blade_amplitudes_agree_with_reference(rng):
     n = 2000
     rev = (rng.uniform(60, 110, (1, 3)) + np.cumsum(rng.normal(0, 0.05, (n, 3)), axis=0)).astype(np.float32)
     track = Track(np.array([0.0, 0.2, 0.4]), np.array([500.0, 499.0, 497.6]))
-    config = _config(n_blades=3, scaling=Scaling(1.0, 0.7, 0.0),
-                     blade_amplitudes=[[1.0, 1.0, 1.0], [1.0, 0.6, 0.9], [1.0, 0.0, 1.0]])
+    config = _config(
+        n_blades=3, scaling=Scaling(1.0, 0.7, 0.0), blade_amplitudes=[[1.0, 1.0, 1.0], [1.0, 0.6, 0.9], [1.0, 0.0, 1.0]]
+    )
     start = rng.uniform(0, 1, 3)
     ref = reference_synthesize(config, track, rev, initial_cycles=start)
     fast = synthesize(config, track, rev, initial_cycles=start)
@@ -515,8 +530,11 @@ def test_configuration_is_validated_on_construction():
     with pytest.raises(ValueError, match="method=.fir."):
         Envelope(method="fir")
     with pytest.raises(ValueError, match="harmonic"):
-        _config(scaling=Scaling(0.0, 1.0, 1e-3), envelope=Envelope("harmonic"),
-                extensions=ModelExtensions(envelope_gain=lambda f: np.ones_like(f)))
+        _config(
+            scaling=Scaling(0.0, 1.0, 1e-3),
+            envelope=Envelope("harmonic"),
+            extensions=ModelExtensions(envelope_gain=lambda f: np.ones_like(f)),
+        )
     with pytest.raises(ValueError, match="prf_hz=0"):
         _config(prf_hz=0.0)
     with pytest.raises(ValueError, match="chunk_pulses"):
@@ -602,9 +620,13 @@ def test_envelope_callable_and_hooks():
         seen.append((i0, i1))
         assert len(t) == i1 - i0 == len(x) and np.isclose(t[0], i0 / PRF)
 
-    iq = _sim(speeds, n=3 * 4096, extensions=ModelExtensions(envelope_gain=lambda f: (f >= 0).astype(np.float64),
-                                                             body_hook=body_hook),
-              chunk_pulses=5000, envelope=Envelope(margin_pulses=2048))
+    iq = _sim(
+        speeds,
+        n=3 * 4096,
+        extensions=ModelExtensions(envelope_gain=lambda f: (f >= 0).astype(np.float64), body_hook=body_hook),
+        chunk_pulses=5000,
+        envelope=Envelope(margin_pulses=2048),
+    )
     assert seen == [(0, 5000), (5000, 10000), (10000, 12288)]
     f, p = _mean_spectrum(iq)
     up, _ = _peak(f, p, F_BODY + 2 * 90.0)
@@ -633,9 +655,9 @@ def test_track_from_a_noisy_tracker_keeps_the_body_doppler():
     fused = Track.from_tracker(t, r_meas, v_meas)
     v_at = np.interp(tt, t, v_true)
     rms = lambda tr: float(np.sqrt(np.mean((tr.radial_velocity_at(tt) - v_at) ** 2)))  # noqa: E731
-    assert rms(naive) > 5.0                       # measured 16 m/s
-    assert rms(fused) < 0.06                      # measured 0.037 m/s (the tracker's own 0.05 m/s, smoothed)
-    assert np.max(np.abs(fused.radial_velocity_at(tt) - v_at)) < 0.25   # measured 0.13 m/s
+    assert rms(naive) > 5.0  # measured 16 m/s
+    assert rms(fused) < 0.06  # measured 0.037 m/s (the tracker's own 0.05 m/s, smoothed)
+    assert np.max(np.abs(fused.radial_velocity_at(tt) - v_at)) < 0.25  # measured 0.13 m/s
     assert np.max(np.abs(fused.range_m - r_true)[inner]) < 0.5
     consistent = Track.from_tracker(t, r_true, v_true)
     assert np.max(np.abs(consistent.range_m - r_true)) < 1e-3

@@ -74,8 +74,9 @@ def new_workdir(root: Path) -> Path:
 
 def run(work, *args, log: Path):
     with open(log, "w") as fh:
-        return subprocess.run(command(work, *args), cwd=work, env=ENV, stdout=fh, stderr=subprocess.STDOUT,
-                              timeout=900).returncode
+        return subprocess.run(
+            command(work, *args), cwd=work, env=ENV, stdout=fh, stderr=subprocess.STDOUT, timeout=900
+        ).returncode
 
 
 def run_and_kill(work, log: Path, started: str, outputs) -> int:
@@ -86,8 +87,9 @@ def run_and_kill(work, log: Path, started: str, outputs) -> int:
     complete-looking outputs are still marked incomplete, while other jobs are cut off
     part-way. Returns the run's return code."""
     with open(log, "w") as fh:
-        proc = subprocess.Popen(command(work, *RUN), cwd=work, env=ENV, stdout=fh, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+        proc = subprocess.Popen(
+            command(work, *RUN), cwd=work, env=ENV, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True
+        )
         try:
             deadline = time.monotonic() + 900
             while not (hit := sorted(work.glob(started))):
@@ -159,22 +161,36 @@ def reference(tmp_path_factory):
     its log's text); moved aside to root/cluster."""
     ulog = yaml.safe_load((REPO / "config/config.yaml").read_text())["figures"]["ulog"]
     if not (REPO / ulog).is_file():  # an input of the run: a failure, not a skip (as in conftest)
-        pytest.fail(f"the PX4 log for Fig. 2c (figures.ulog: {ulog}) is not there: expected "
-                    f"{(REPO / ulog).resolve()}", pytrace=False)
+        pytest.fail(
+            f"the PX4 log for Fig. 2c (figures.ulog: {ulog}) is not there: expected {(REPO / ulog).resolve()}",
+            pytrace=False,
+        )
     root = tmp_path_factory.mktemp("workflow")
     work = new_workdir(root)
     log = root / "cluster.log"
     # the profile as a user runs it; status checks every second instead of the default
     # 10 s (how soon Snakemake notices a finished job: nothing in the results depends on it)
-    rc = run(work, "--profile", str(REPO / "profiles" / "local-cluster"), *CONFIG,
-             "--seconds-between-status-checks", "1", log=log)
+    rc = run(
+        work,
+        "--profile",
+        str(REPO / "profiles" / "local-cluster"),
+        *CONFIG,
+        "--seconds-between-status-checks",
+        "1",
+        log=log,
+    )
     text = log.read_text()
     if rc != 0:
         pytest.fail(f"the cluster-generic run failed (rc {rc}):\n{text[-3000:]}", pytrace=False)
     ref = results(work)
     work.rename(root / "cluster")
-    for f in ("results/reports/metrics.csv", "results/reports/table_v.csv", "results/splits/flights.csv",
-              "results/diagnosis/report.json", "results/models/sub_cpi/seed1.pt"):
+    for f in (
+        "results/reports/metrics.csv",
+        "results/reports/table_v.csv",
+        "results/splits/flights.csv",
+        "results/diagnosis/report.json",
+        "results/models/sub_cpi/seed1.pt",
+    ):
         assert f in ref, f
     return root, ref, text
 
@@ -182,7 +198,8 @@ def reference(tmp_path_factory):
 def assert_same_results(got: dict, reference: dict) -> None:
     assert sorted(got) == sorted(reference), (
         f"only in this run: {sorted(set(got) - set(reference))}; "
-        f"only in the reference: {sorted(set(reference) - set(got))}")
+        f"only in the reference: {sorted(set(reference) - set(got))}"
+    )
     differ = [f for f in reference if got[f] != reference[f]]
     assert not differ, f"differ from the uninterrupted cluster run: {differ}"
 
@@ -228,16 +245,27 @@ def test_cluster_generic_run_submits_every_job(reference):
 
 
 #: modules an edit of which once reran no rule (the rerun probe edits each in a copy)
-PROBED = ("synthesis/radar.py", "synthesis/processes.py", "spectra/floor.py", "io/flightzarr.py",
-          "rotors/order.py", "rotors/fit.py")
+PROBED = (
+    "synthesis/radar.py",
+    "synthesis/processes.py",
+    "spectra/floor.py",
+    "io/flightzarr.py",
+    "rotors/order.py",
+    "rotors/fit.py",
+)
 
 
 def dry_run_rules(snakefile: Path, work: Path, log: Path) -> set[str]:
     """The rules a dry-run of ``snakefile`` in ``work`` would run for changed params."""
     with open(log, "w") as fh:
-        rc = subprocess.run([SNAKEMAKE, "-s", str(snakefile), "-d", str(work), *RUN, "-n",
-                             "--rerun-triggers", "params"], cwd=work, env=ENV, stdout=fh,
-                            stderr=subprocess.STDOUT, timeout=600).returncode
+        rc = subprocess.run(
+            [SNAKEMAKE, "-s", str(snakefile), "-d", str(work), *RUN, "-n", "--rerun-triggers", "params"],
+            cwd=work,
+            env=ENV,
+            stdout=fh,
+            stderr=subprocess.STDOUT,
+            timeout=600,
+        ).returncode
     text = log.read_text()
     assert rc == 0, text[-3000:]
     return set(re.findall(r"(?m)^rule (\w+):", text)) - {"default", "all"}
@@ -263,8 +291,11 @@ def test_an_edit_of_any_imported_module_reruns_the_rules_that_import_it(referenc
     pkg = copy / "src" / "microdoppler"
     for rel in PROBED:
         module = pkg / rel
-        direct = {name for name, script in rule_scripts().items()
-                  if name in ran and module in import_closure(copy / "workflow" / "scripts" / script, package_dir=pkg)}
+        direct = {
+            name
+            for name, script in rule_scripts().items()
+            if name in ran and module in import_closure(copy / "workflow" / "scripts" / script, package_dir=pkg)
+        }
         assert direct, f"no rule imports {rel}"
         original = module.read_bytes()
         module.write_bytes(original + b"\n# an edit\n")

@@ -30,8 +30,10 @@ entry = diagnose_flight(flight, config={"figures": False})
 for cause in entry["causes"]:
     ev = cause["evidence"]
     params = {k: round(v, 1) for k, v in cause["extension"]["params"].items()}
-    print(f"{cause['cause']}: {params}, log e-value {ev['log_evalue']:.0f} "
-          f"(threshold {ev['log_evalue_threshold']:.1f}, {ev['n_heldout_obs']} held-out observations)")
+    print(
+        f"{cause['cause']}: {params}, log e-value {ev['log_evalue']:.0f} "
+        f"(threshold {ev['log_evalue_threshold']:.1f}, {ev['n_heldout_obs']} held-out observations)"
+    )
 
 # %%
 # Why: unequal blades return a line at every multiple of the rotation rate, not only
@@ -43,7 +45,11 @@ mean_db = sg.power_db.mean(axis=0)
 ax.plot(sg.doppler_hz, mean_db, lw=0.7)
 for k in range(-7, 8):
     ax.axvline(k * np.nanmean(est.common_rev_s), color="C1", lw=0.5, ls=":")
-ax.set(xlim=(-1200, 1200), ylim=(np.percentile(mean_db, 2) - 5, mean_db.max() + 5), xlabel="Doppler [Hz]",
-       ylabel="mean power [dB]",
-       title="dotted: multiples of the estimated rotation rate")
+ax.set(
+    xlim=(-1200, 1200),
+    ylim=(np.percentile(mean_db, 2) - 5, mean_db.max() + 5),
+    xlabel="Doppler [Hz]",
+    ylabel="mean power [dB]",
+    title="dotted: multiples of the estimated rotation rate",
+)
 plt.show()

@@ -18,15 +18,25 @@ from microdoppler.io import read_flight, write_flight
 from microdoppler.spectra import spectrogram
 
 folder = Path(tempfile.mkdtemp())
-spec = FlightSpec("inspire_demo", "drone", drone_model="inspire2", duration_s=6.0, mean_range_m=600.0,
-                  path="straight", snr_db=40.0, seed=1)
+spec = FlightSpec(
+    "inspire_demo",
+    "drone",
+    drone_model="inspire2",
+    duration_s=6.0,
+    mean_range_m=600.0,
+    path="straight",
+    snr_db=40.0,
+    seed=1,
+)
 path = write_flight(folder / "inspire_demo.zarr", emulate_flight(spec)[0])
 
 # %%
 # Read the store back: the I/Q samples, the radar's parameters and the motor log.
 flight = read_flight(path)
-print(f"{flight.attrs['flight_id']}: {flight.iq.size} pulses at {flight.prf_hz:g} Hz, "
-      f"carrier {flight.carrier_hz / 1e9:.2f} GHz, motor log: {flight.has_motor_log}")
+print(
+    f"{flight.attrs['flight_id']}: {flight.iq.size} pulses at {flight.prf_hz:g} Hz, "
+    f"carrier {flight.carrier_hz / 1e9:.2f} GHz, motor log: {flight.has_motor_log}"
+)
 
 # %%
 # The paper's spectrogram (:func:`~microdoppler.spectra.spectrogram`): a 15 Hz

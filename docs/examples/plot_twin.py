@@ -16,15 +16,25 @@ from microdoppler.io import MotorLog
 from microdoppler.rotors import resample
 from microdoppler.spectra import SpectrogramConfig, spectrogram
 
-spec = FlightSpec("inspire_demo", "drone", drone_model="inspire2", duration_s=6.0, mean_range_m=600.0,
-                  path="straight", snr_db=40.0, seed=1)
+spec = FlightSpec(
+    "inspire_demo",
+    "drone",
+    drone_model="inspire2",
+    duration_s=6.0,
+    mean_range_m=600.0,
+    path="straight",
+    snr_db=40.0,
+    seed=1,
+)
 flight = emulate_flight(spec)[0]
 log = MotorLog(flight.motors_time_s, flight.motors_rpm)
 twin_rev_s = resample("sub_cpi", log, len(flight.iq), flight.prf_hz)
 twin_iq, fit = fit_twin(flight, twin_rev_s, log, spec_cfg=SpectrogramConfig(), seed=0)
 twin = inject(twin_iq, flight.background_iq)
-print(f"fit {fit['status']}: alpha {fit['alpha_s'] * 1e3:.2f} ms, S_body {fit['s_body']:.3g}, "
-      f"S_blade {fit['s_blade']:.3g}")
+print(
+    f"fit {fit['status']}: alpha {fit['alpha_s'] * 1e3:.2f} ms, S_body {fit['s_body']:.3g}, "
+    f"S_blade {fit['s_blade']:.3g}"
+)
 
 # %%
 # The measured flight and its twin, side by side on the same colour scale.

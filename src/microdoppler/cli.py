@@ -33,8 +33,9 @@ def build_parser() -> argparse.ArgumentParser:
         mod = importlib.import_module(f"microdoppler.commands.{name}")
         mod.register(sub)
     for sp in sub.choices.values():  # also accepted after the subcommand
-        sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                        help="show the traceback of an error")
+        sp.add_argument(
+            "--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error"
+        )
     return p
 
 
@@ -54,8 +55,9 @@ def main(argv=None) -> int:
         if args.debug:
             raise
         where = exc.filename or "file"
-        print(f"error: {where}: {exc.strerror or exc} (expected a readable input and a writable output)",
-              file=sys.stderr)
+        print(
+            f"error: {where}: {exc.strerror or exc} (expected a readable input and a writable output)", file=sys.stderr
+        )
         return 2
     except KeyboardInterrupt:
         print("error: interrupted (nothing was written under the output's name)", file=sys.stderr)
@@ -63,8 +65,11 @@ def main(argv=None) -> int:
     except Exception as exc:  # a bug of the tool: still one line, the traceback on request
         if args.debug:
             raise
-        print(f"error: microdoppler {args.command}: internal error {type(exc).__name__}: {exc} "
-              f"(rerun with --debug for the traceback and report it)", file=sys.stderr)
+        print(
+            f"error: microdoppler {args.command}: internal error {type(exc).__name__}: {exc} "
+            f"(rerun with --debug for the traceback and report it)",
+            file=sys.stderr,
+        )
         return 1
     return int(rc or 0)
 

@@ -111,8 +111,7 @@ def import_closure(script: str | Path, *, package_dir: str | Path = PACKAGE_DIR)
         path = todo.pop()
         inside = package_dir in path.parents
         module = _module_name(path, package_dir) if inside else None
-        for name in imported_modules(path.read_text(), module=module,
-                                     is_package=path.name == "__init__.py"):
+        for name in imported_modules(path.read_text(), module=module, is_package=path.name == "__init__.py"):
             parts = name.split(".")
             for k in range(1, len(parts) + 1):  # the packages on the way run too
                 f = _module_file(".".join(parts[:k]), package_dir)
@@ -131,8 +130,7 @@ def import_closure(script: str | Path, *, package_dir: str | Path = PACKAGE_DIR)
     return sorted(seen)
 
 
-def code_version(script: str | Path, *, package_dir: str | Path = PACKAGE_DIR,
-                 version: str = "") -> str:
+def code_version(script: str | Path, *, package_dir: str | Path = PACKAGE_DIR, version: str = "") -> str:
     """A 16-hex-digit hash of the files in ``script``'s import closure.
 
     Parameters

@@ -69,13 +69,13 @@ class Case:
     n_blades: int
     blade_length_m: float
     tip_speed_mps: float
-    setup: str                 # "hover" (body at ~0 Hz) or "flying"
-    weak_blade_db: float       # 0: equal blades
+    setup: str  # "hover" (body at ~0 Hz) or "flying"
+    weak_blade_db: float  # 0: equal blades
     body_snr_db: float
     blade_to_body_db: float
     elevation_deg: float
-    radial_speed_mps: float    # signed, positive receding; 0 when hovering
-    clutter_db: float          # clutter line over the noise per bin (4096-pulse periodogram)
+    radial_speed_mps: float  # signed, positive receding; 0 when hovering
+    clutter_db: float  # clutter line over the noise per bin (4096-pulse periodogram)
     duration_s: float
 
     @property
@@ -116,11 +116,24 @@ def draw_case(seed: int, *, duration_s: float = 5.0, **fixed) -> Case:
     else:
         v = 0.0
         elev = float(rng.uniform(0.0, 20.0))
-    case = Case(name=f"any{seed:04d}", seed=int(seed), carrier_hz=carrier, prf_hz=prf, n_rotors=n_rotors,
-                n_blades=n_blades, blade_length_m=length, tip_speed_mps=tip, setup=setup, weak_blade_db=weak,
-                body_snr_db=float(rng.uniform(30.0, 45.0)), blade_to_body_db=float(rng.uniform(-6.0, 6.0)),
-                elevation_deg=elev, radial_speed_mps=v, clutter_db=float(rng.uniform(30.0, 60.0)),
-                duration_s=float(duration_s))
+    case = Case(
+        name=f"any{seed:04d}",
+        seed=int(seed),
+        carrier_hz=carrier,
+        prf_hz=prf,
+        n_rotors=n_rotors,
+        n_blades=n_blades,
+        blade_length_m=length,
+        tip_speed_mps=tip,
+        setup=setup,
+        weak_blade_db=weak,
+        body_snr_db=float(rng.uniform(30.0, 45.0)),
+        blade_to_body_db=float(rng.uniform(-6.0, 6.0)),
+        elevation_deg=elev,
+        radial_speed_mps=v,
+        clutter_db=float(rng.uniform(30.0, 60.0)),
+        duration_s=float(duration_s),
+    )
     return replace(case, **fixed) if fixed else case
 
 
@@ -131,8 +144,12 @@ def _rotor_speeds(case: Case, rng, tc: np.ndarray) -> np.ndarray:
     spread, common_amp, wob_amp = (0.015, 0.01, 0.004) if hover else (0.04, 0.04, 0.01)
     offs = 1 + rng.normal(0.0, spread, case.n_rotors)
     common = 1 + common_amp * np.sin(2 * np.pi * tc / rng.uniform(3.0, 8.0) + rng.uniform(0, 2 * np.pi))
-    wob = np.array([wob_amp * np.sin(2 * np.pi * tc / rng.uniform(1.0, 3.0) + rng.uniform(0, 2 * np.pi))
-                    for _ in range(case.n_rotors)])
+    wob = np.array(
+        [
+            wob_amp * np.sin(2 * np.pi * tc / rng.uniform(1.0, 3.0) + rng.uniform(0, 2 * np.pi))
+            for _ in range(case.n_rotors)
+        ]
+    )
     rev = case.rev_s * common[None, :] * (offs[:, None] + wob)
     return np.clip(rev, 20.0, 400.0)
 
@@ -188,7 +205,7 @@ def make_recording(case: Case, *, with_parts: bool = False):
     blades -= blades.mean()
     # levels
     w = blackmanharris(N_FFT, sym=False)
-    a_body = np.sqrt(10 ** (case.body_snr_db / 10) * (w ** 2).sum() / w.sum() ** 2)
+    a_body = np.sqrt(10 ** (case.body_snr_db / 10) * (w**2).sum() / w.sum() ** 2)
     scale = a_body * 10 ** (case.blade_to_body_db / 20) / np.sqrt(np.mean(np.abs(blades) ** 2))
     blades *= scale
     first *= scale
@@ -205,30 +222,53 @@ def make_recording(case: Case, *, with_parts: bool = False):
     carrier_ph = np.exp(-1j * 4 * np.pi * r / lam)
     echo = (a_body + blades) * carrier_ph
     # clutter at 0 Hz with a Gaussian wind spread (0.3-2 Hz rms), then noise
-    a_cl = np.sqrt(10 ** (case.clutter_db / 10) * (w ** 2).sum() / w.sum() ** 2)
+    a_cl = np.sqrt(10 ** (case.clutter_db / 10) * (w**2).sum() / w.sum() ** 2)
     f = np.fft.fftfreq(n, 1 / prf)
     sd = rng.uniform(0.3, 2.0)
-    wind = np.fft.ifft((rng.standard_normal(n) + 1j * rng.standard_normal(n)) * np.exp(-f ** 2 / (4 * sd ** 2)))
+    wind = np.fft.ifft((rng.standard_normal(n) + 1j * rng.standard_normal(n)) * np.exp(-(f**2) / (4 * sd**2)))
     wind *= 0.3 * a_cl / max(np.sqrt(np.mean(np.abs(wind) ** 2)), 1e-30)
     clutter = a_cl * np.exp(1j * rng.uniform(0, 2 * np.pi)) + wind
     noise = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)
     iq = (echo + clutter + noise).astype(np.complex64)
     # track at 20 Hz
     tt = np.arange(0.0, case.duration_s, 0.05)
-    attrs = {"schema": "flight-zarr/1", "flight_id": case.name, "target": "drone", "radar_id": "any_radar",
-             "prf_hz": float(prf), "carrier_hz": float(case.carrier_hz), "drone_model": "any_drone",
-             "n_motors": int(case.n_rotors), "n_blades": int(case.n_blades),
-             "blade_length_m": float(case.blade_length_m), "source": "microdoppler.examples"}
-    flight = Flight(attrs=attrs, iq=iq, track_time_s=tt, track_range_m=np.interp(tt, t, r),
-                    track_radial_velocity_mps=np.interp(tt, t, vr))
+    attrs = {
+        "schema": "flight-zarr/1",
+        "flight_id": case.name,
+        "target": "drone",
+        "radar_id": "any_radar",
+        "prf_hz": float(prf),
+        "carrier_hz": float(case.carrier_hz),
+        "drone_model": "any_drone",
+        "n_motors": int(case.n_rotors),
+        "n_blades": int(case.n_blades),
+        "blade_length_m": float(case.blade_length_m),
+        "source": "microdoppler.examples",
+    }
+    flight = Flight(
+        attrs=attrs,
+        iq=iq,
+        track_time_s=tt,
+        track_range_m=np.interp(tt, t, r),
+        track_radial_velocity_mps=np.interp(tt, t, vr),
+    )
     body_hz = -2 * case.radial_speed_mps / lam
     first_db = _first_pair_db(first, case, rev.mean(), body_hz)
     fb = case.n_blades * rev.mean()
-    visible = bool(abs(body_hz) + fb * 1.05 < 0.5 * prf and min(abs(body_hz + fb), abs(body_hz - fb)) > 20.0
-                   and first_db >= VISIBLE_DB)
+    visible = bool(
+        abs(body_hz) + fb * 1.05 < 0.5 * prf
+        and min(abs(body_hz + fb), abs(body_hz - fb)) > 20.0
+        and first_db >= VISIBLE_DB
+    )
     keep = slice(None, None, max(1, int(prf // 400)))  # speeds at ~400 Hz suffice for CPI means
-    truth = {"time_s": t[keep], "rev_s": rev[:, keep].T, "body_hz": float(body_hz), "visible": visible,
-             "first_pair_db": float(first_db), "case": asdict(case)}
+    truth = {
+        "time_s": t[keep],
+        "rev_s": rev[:, keep].T,
+        "body_hz": float(body_hz),
+        "visible": visible,
+        "first_pair_db": float(first_db),
+        "case": asdict(case),
+    }
     if with_parts:
         truth["blades"] = blades
     return flight, truth
@@ -242,7 +282,7 @@ def _first_pair_db(blades: np.ndarray, case: Case, mean_rev: float, body_hz: flo
         return -np.inf
     w = blackmanharris(N_FFT, sym=False)
     starts = np.arange(0, n - N_FFT + 1, N_FFT // 2)[:8]
-    p = np.mean([np.abs(np.fft.fft(blades[s:s + N_FFT] * w)) ** 2 for s in starts], axis=0) / (w ** 2).sum()
+    p = np.mean([np.abs(np.fft.fft(blades[s : s + N_FFT] * w)) ** 2 for s in starts], axis=0) / (w**2).sum()
     f = np.fft.fftfreq(N_FFT, 1 / case.prf_hz)
     fb = case.n_blades * mean_rev
     side = []
@@ -272,7 +312,7 @@ def rotor_line_spacing_hz(blades: np.ndarray, prf_hz: float, rev_s: float, *, fl
     unequal ones), the extent the farthest such line from 0 Hz (no folding assumed)."""
     w = blackmanharris(N_FFT, sym=False)
     starts = np.arange(0, len(blades) - N_FFT + 1, N_FFT // 2)
-    p = np.mean([np.abs(np.fft.fft(blades[s:s + N_FFT] * w)) ** 2 for s in starts], axis=0)
+    p = np.mean([np.abs(np.fft.fft(blades[s : s + N_FFT] * w)) ** 2 for s in starts], axis=0)
     f = np.fft.fftfreq(N_FFT, 1 / prf_hz)
     db = 10 * np.log10(p + 1e-30)
     peak = (db >= np.roll(db, 1)) & (db >= np.roll(db, -1))
@@ -315,10 +355,30 @@ def stand_recording(*, seed: int = 7, duration_s: float = 12.0):
     >>> flight.prf_hz, flight.iq.shape, truth["rev_s"].shape[1]
     (5000.0, (5000,), 4)
     """
-    case = draw_case(seed, duration_s=duration_s, carrier_hz=3.3e9, prf_hz=5000.0, n_rotors=4, n_blades=2,
-                     blade_length_m=0.12, tip_speed_mps=2 * np.pi * 0.12 * 160.0, setup="hover",
-                     weak_blade_db=6.0, body_snr_db=42.0, radial_speed_mps=0.0)
+    case = draw_case(
+        seed,
+        duration_s=duration_s,
+        carrier_hz=3.3e9,
+        prf_hz=5000.0,
+        n_rotors=4,
+        n_blades=2,
+        blade_length_m=0.12,
+        tip_speed_mps=2 * np.pi * 0.12 * 160.0,
+        setup="hover",
+        weak_blade_db=6.0,
+        body_snr_db=42.0,
+        radial_speed_mps=0.0,
+    )
     flight, truth = make_recording(case)
-    sidecar = {"prf_hz": 5000.0, "carrier_hz": 3.3e9, "target": "drone", "radar_id": "cw_s_band",
-               "drone_model": "quad_stand", "n_motors": 4, "n_blades": 2, "blade_length_m": 0.12, "range_m": 25.0}
+    sidecar = {
+        "prf_hz": 5000.0,
+        "carrier_hz": 3.3e9,
+        "target": "drone",
+        "radar_id": "cw_s_band",
+        "drone_model": "quad_stand",
+        "n_motors": 4,
+        "n_blades": 2,
+        "blade_length_m": 0.12,
+        "range_m": 25.0,
+    }
     return flight, truth, sidecar

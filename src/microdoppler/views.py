@@ -25,27 +25,38 @@ from .io.flightzarr import Flight
 from .spectra.spectrogram import C_MPS, Spectrogram, SpectrogramSettings, blade_tip_doppler_hz, spectrogram
 
 #: columns of the rotor-speed table (:func:`rotor_table`, ``rotor_speeds.csv``)
-TABLE_COLUMNS = ("flight_id", "rotor", "source", "method", "n_rows", "mean_rev_s", "sigma_rev_s", "scatter_rev_s",
-                 "ambiguous", "alternatives_rev_s", "alternatives_likelihood")
+TABLE_COLUMNS = (
+    "flight_id",
+    "rotor",
+    "source",
+    "method",
+    "n_rows",
+    "mean_rev_s",
+    "sigma_rev_s",
+    "scatter_rev_s",
+    "ambiguous",
+    "alternatives_rev_s",
+    "alternatives_likelihood",
+)
 #: what each column holds (printed in the docs and the command's help)
 COLUMN_DOC = {
     "flight_id": "the store's flight",
     "rotor": "1-based column of motors/rpm: a rotor rank in ascending speed for speeds from the radar "
-             "(motors_source radar), a physical motor for a log",
+    "(motors_source radar), a physical motor for a log",
     "source": "motors_source: radar (estimated from the HERM lines) or log",
     "method": "motors_radar.method for speeds from the radar, 'motor log' otherwise",
     "n_rows": "rows of motors/rpm",
     "mean_rev_s": "mean of the column over its rows [rev/s] (motors/rpm / 60)",
     "sigma_rev_s": "root mean square of the column's motors_radar.rpm_std / 60 over its rows [rev/s]: the one-sigma "
-                   "uncertainty the store gives a row (empty for a log)",
+    "uncertainty the store gives a row (empty for a log)",
     "scatter_rev_s": "standard deviation of the column's rows [rev/s] (the speed's change over the flight and "
-                     "the row-to-row noise)",
+    "the row-to-row noise)",
     "ambiguous": "motors_radar.rotor_order.ambiguous: another order of the HERM comb explains the lines alike "
-                 "(empty for a log)",
+    "(empty for a log)",
     "alternatives_rev_s": "the alternative orders' speeds for this rotor [rev/s]: mean_rev_s x "
-                          "rotor_order_alternatives_rev_s / rotor_order.chosen_rev_s, separated by ';'",
+    "rotor_order_alternatives_rev_s / rotor_order.chosen_rev_s, separated by ';'",
     "alternatives_likelihood": "each alternative's likelihood relative to the chosen order "
-                               "(motors_radar.rotor_order_relative_likelihood), separated by ';'",
+    "(motors_radar.rotor_order_relative_likelihood), separated by ';'",
 }
 
 
@@ -65,9 +76,17 @@ def rotor_speeds(flight: Flight) -> dict | None:
         return None
     rev = np.asarray(flight.motors_rpm, np.float64) / 60.0
     source = str(flight.attrs.get("motors_source", "log"))
-    out = {"time_s": np.asarray(flight.motors_time_s, np.float64), "rev_s": rev, "std_rev_s": None,
-           "source": source, "method": "motor log", "ambiguous": None, "ratios": [], "likelihood": [],
-           "alternatives_rev_s": []}
+    out = {
+        "time_s": np.asarray(flight.motors_time_s, np.float64),
+        "rev_s": rev,
+        "std_rev_s": None,
+        "source": source,
+        "method": "motor log",
+        "ambiguous": None,
+        "ratios": [],
+        "likelihood": [],
+        "alternatives_rev_s": [],
+    }
     radar = flight.attrs.get("motors_radar") if source == "radar" else None
     if isinstance(radar, dict):
         out["method"] = str(radar.get("method", ""))
@@ -75,8 +94,12 @@ def rotor_speeds(flight: Flight) -> dict | None:
         if std is not None:
             s = np.asarray(std, np.float64) / 60.0
             if s.shape != rev.shape:
-                raise InputError(flight.flight_id, "motors_radar.rpm_std", f"has shape {s.shape}",
-                                 f"the shape of motors/rpm, {rev.shape}")
+                raise InputError(
+                    flight.flight_id,
+                    "motors_radar.rpm_std",
+                    f"has shape {s.shape}",
+                    f"the shape of motors/rpm, {rev.shape}",
+                )
             out["std_rev_s"] = s
         order = radar.get("rotor_order") or {}
         out["ambiguous"] = bool(order["ambiguous"]) if "ambiguous" in order else None
@@ -101,14 +124,21 @@ def rotor_table(flight: Flight) -> list[dict]:
         col = sp["rev_s"][:, j]
         mean = float(np.mean(col))
         sigma = None if sp["std_rev_s"] is None else float(np.sqrt(np.mean(sp["std_rev_s"][:, j] ** 2)))
-        rows.append({
-            "flight_id": flight.flight_id, "rotor": j + 1, "source": sp["source"], "method": sp["method"],
-            "n_rows": int(len(col)), "mean_rev_s": mean, "sigma_rev_s": sigma,
-            "scatter_rev_s": float(np.std(col, ddof=1)) if len(col) > 1 else 0.0,
-            "ambiguous": sp["ambiguous"],
-            "alternatives_rev_s": [mean * a / sp["chosen_rev_s"] for a in sp["alternatives_rev_s"]],
-            "alternatives_likelihood": list(sp["likelihood"]),
-        })
+        rows.append(
+            {
+                "flight_id": flight.flight_id,
+                "rotor": j + 1,
+                "source": sp["source"],
+                "method": sp["method"],
+                "n_rows": int(len(col)),
+                "mean_rev_s": mean,
+                "sigma_rev_s": sigma,
+                "scatter_rev_s": float(np.std(col, ddof=1)) if len(col) > 1 else 0.0,
+                "ambiguous": sp["ambiguous"],
+                "alternatives_rev_s": [mean * a / sp["chosen_rev_s"] for a in sp["alternatives_rev_s"]],
+                "alternatives_likelihood": list(sp["likelihood"]),
+            }
+        )
     return rows
 
 
@@ -137,9 +167,19 @@ def table_csv(rows: list[dict]) -> str:
 def table_text(rows: list[dict]) -> str:
     """The rows as an aligned text table (speeds to 0.01 rev/s)."""
     head = ("flight", "rotor", "mean rev/s", "sigma", "scatter", "method", "ambiguous", "alternatives rev/s")
-    body = [(r["flight_id"], str(r["rotor"]), _cell(r["mean_rev_s"], 2), _cell(r["sigma_rev_s"], 2),
-             _cell(r["scatter_rev_s"], 2), r["method"], _cell(r["ambiguous"]),
-             _cell(r["alternatives_rev_s"], 2)) for r in rows]
+    body = [
+        (
+            r["flight_id"],
+            str(r["rotor"]),
+            _cell(r["mean_rev_s"], 2),
+            _cell(r["sigma_rev_s"], 2),
+            _cell(r["scatter_rev_s"], 2),
+            r["method"],
+            _cell(r["ambiguous"]),
+            _cell(r["alternatives_rev_s"], 2),
+        )
+        for r in rows
+    ]
     widths = [max(len(x) for x in col) for col in zip(head, *body)]
     return "\n".join("  ".join(x.ljust(w) for x, w in zip(line, widths)).rstrip() for line in (head, *body))
 
@@ -158,8 +198,12 @@ def spectrograms(flight: Flight, settings: SpectrogramSettings | None = None) ->
     cfg = settings.resolve(flight.prf_hz, flight.carrier_hz, blade_length_m=flight.attrs.get("blade_length_m"))
     n = len(flight.iq)
     if n < cfg.n_fft:
-        raise InputError(flight.flight_id, "iq", f"holds {n} pulses ({n / flight.prf_hz:.3g} s)",
-                         f"at least one CPI, {cfg.n_fft} pulses ({cfg.n_fft / flight.prf_hz:.3g} s)")
+        raise InputError(
+            flight.flight_id,
+            "iq",
+            f"holds {n} pulses ({n / flight.prf_hz:.3g} s)",
+            f"at least one CPI, {cfg.n_fft} pulses ({cfg.n_fft / flight.prf_hz:.3g} s)",
+        )
     whole = spectrogram(flight.iq, flight.prf_hz, replace(cfg, n_bins=0))
     image = whole if cfg.n_bins in (0, cfg.n_fft) else spectrogram(flight.iq, flight.prf_hz, cfg)
     return whole, image, cfg
@@ -194,8 +238,9 @@ def _velocity_axis(ax, carrier_hz: float) -> None:
     sec.set_ylabel("radial velocity [m/s]")
 
 
-def plot_store(flight: Flight, out_png, *, settings: SpectrogramSettings | None = None,
-               dynamic_range_db: float = 60.0) -> Path:
+def plot_store(
+    flight: Flight, out_png, *, settings: SpectrogramSettings | None = None, dynamic_range_db: float = 60.0
+) -> Path:
     """Write the figure of one store to ``out_png`` and return its path.
 
     Panels: (a) the spectrogram over the whole PRF (±PRF / 2) with the blade tips'
@@ -217,34 +262,53 @@ def plot_store(flight: Flight, out_png, *, settings: SpectrogramSettings | None 
     sp = rotor_speeds(flight)
     a = flight.attrs
     n_panels = 3 if sp is not None else 2
-    fig, axes = plt.subplots(n_panels, 1, figsize=(12, 4.2 * n_panels), constrained_layout=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(n_panels, 1, figsize=(12, 4.2 * n_panels), constrained_layout=True, squeeze=False)
     axes = axes[:, 0]
     cpi = f"CPI {cfg.n_fft} pulses = {cfg.n_fft / flight.prf_hz:.3g} s"
     span = cfg.doppler_span_hz(flight.prf_hz)
-    titles = (f"(a) whole PRF: ±{flight.prf_hz / 2:.0f} Hz ({cpi})",
-              f"(b) the images' span: {span:.0f} Hz = {span * C_MPS / flight.carrier_hz / 2:.1f} m/s "
-              f"({cfg.n_bins or cfg.n_fft} bins)")
+    titles = (
+        f"(a) whole PRF: ±{flight.prf_hz / 2:.0f} Hz ({cpi})",
+        f"(b) the images' span: {span:.0f} Hz = {span * C_MPS / flight.carrier_hz / 2:.1f} m/s "
+        f"({cfg.n_bins or cfg.n_fft} bins)",
+    )
     for ax, spec, title in zip(axes[:2], (whole, image), titles):
         shown, k = for_display(spec)
-        im = plot_spectrogram(ax, shown, dynamic_range_db=_range_db(spec, dynamic_range_db),
-                              title=title + (f", max of {k} bins per row" if k > 1 else ""))
+        im = plot_spectrogram(
+            ax,
+            shown,
+            dynamic_range_db=_range_db(spec, dynamic_range_db),
+            title=title + (f", max of {k} bins per row" if k > 1 else ""),
+        )
         fig.colorbar(im, ax=ax, label="power [dB]", pad=0.01)
         _velocity_axis(ax, flight.carrier_hz)
         ax.set_ylim(spec.doppler_hz[0], spec.doppler_hz[-1])
     if sp is not None and a.get("blade_length_m"):
-        tips = [blade_tip_doppler_hz(float(np.mean(sp["rev_s"][:, j])), float(a["blade_length_m"]),
-                                     flight.carrier_hz) for j in range(sp["rev_s"].shape[1])]
+        tips = [
+            blade_tip_doppler_hz(float(np.mean(sp["rev_s"][:, j])), float(a["blade_length_m"]), flight.carrier_hz)
+            for j in range(sp["rev_s"].shape[1])
+        ]
         top = max(tips)
         box = {"facecolor": "w", "alpha": 0.8, "lw": 0}
         if top < flight.prf_hz / 2:
             for s in (1, -1):
                 axes[0].axhline(s * top, color="w", ls="--", lw=1.0)
-            axes[0].text(0.01, 0.02, f"dashed: the blade tips' Doppler at the mean speed, ±{top:.0f} Hz",
-                         transform=axes[0].transAxes, fontsize=9, bbox=box)
+            axes[0].text(
+                0.01,
+                0.02,
+                f"dashed: the blade tips' Doppler at the mean speed, ±{top:.0f} Hz",
+                transform=axes[0].transAxes,
+                fontsize=9,
+                bbox=box,
+            )
         else:
-            axes[0].text(0.01, 0.02, f"the blade tips' Doppler at the mean speed, ±{top:.0f} Hz, folds past "
-                         "±PRF/2", transform=axes[0].transAxes, fontsize=9, bbox=box)
+            axes[0].text(
+                0.01,
+                0.02,
+                f"the blade tips' Doppler at the mean speed, ±{top:.0f} Hz, folds past ±PRF/2",
+                transform=axes[0].transAxes,
+                fontsize=9,
+                bbox=box,
+            )
     if sp is not None:
         ax = axes[2]
         t, rev, std = sp["time_s"], sp["rev_s"], sp["std_rev_s"]
@@ -254,8 +318,7 @@ def plot_store(flight: Flight, out_png, *, settings: SpectrogramSettings | None 
             what = "rank" if sp["source"] == "radar" else "motor"
             ax.plot(t, rev[:, j], "-", color=c, lw=1.2, label=f"{what} {j + 1}: {np.mean(rev[:, j]):.1f} rev/s")
             if std is not None:
-                ax.fill_between(t, rev[:, j] - 2 * std[:, j], rev[:, j] + 2 * std[:, j], color=c, alpha=0.2,
-                                lw=0)
+                ax.fill_between(t, rev[:, j] - 2 * std[:, j], rev[:, j] + 2 * std[:, j], color=c, alpha=0.2, lw=0)
             for r in sp["ratios"]:
                 ax.plot(t, rev[:, j] * r, ":", color=c, lw=1.0)
         if sp["ratios"]:
@@ -268,9 +331,14 @@ def plot_store(flight: Flight, out_png, *, settings: SpectrogramSettings | None 
         ax.set_xlim(axes[0].get_xlim())
         ax.legend(fontsize=8, ncol=2, loc="best")
         ax.grid(alpha=0.3)
-    desc = (f"{a.get('drone_model', '')} {a.get('n_motors', '')}x{a.get('n_blades', '')} blades, "
-            f"L {a.get('blade_length_m')} m, " if a.get("target") == "drone" else f"{a.get('target')}, ")
-    fig.suptitle(f"{flight.flight_id}: {desc}{flight.carrier_hz / 1e9:.4g} GHz, PRF {flight.prf_hz:g} Hz, "
-                 f"{flight.duration_s:.2f} s")
+    desc = (
+        f"{a.get('drone_model', '')} {a.get('n_motors', '')}x{a.get('n_blades', '')} blades, "
+        f"L {a.get('blade_length_m')} m, "
+        if a.get("target") == "drone"
+        else f"{a.get('target')}, "
+    )
+    fig.suptitle(
+        f"{flight.flight_id}: {desc}{flight.carrier_hz / 1e9:.4g} GHz, PRF {flight.prf_hz:g} Hz, "
+        f"{flight.duration_s:.2f} s"
+    )
     return _save(fig, out_png)
-

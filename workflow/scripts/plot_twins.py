@@ -9,7 +9,10 @@ with log_to(snakemake.log[0]):
     spec_cfg = spectrogram_for_flights(snakemake.params.spectrogram, snakemake.input.measured)
     for model, png in zip(snakemake.params.models, snakemake.output.figures):
         fid = plot_twins(
-            snakemake.input.measured, injected, model, png,
+            snakemake.input.measured,
+            injected,
+            model,
+            png,
             spec_cfg=spec_cfg,
             max_timesteps=snakemake.params.timesteps,
         )

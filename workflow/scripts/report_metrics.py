@@ -12,6 +12,7 @@ with log_to(snakemake.log[0]):
     for path in snakemake.input.predictions:
         p = Path(path)  # results/eval/{trainset}/seed{seed}.csv
         predictions[(p.parent.name, int(p.stem.removeprefix("seed")))] = pd.read_csv(p, keep_default_na=False)
-    paths = write_reports(predictions, Path(snakemake.output.metrics).parent,
-                          confusion_trainsets=snakemake.params.trainsets)
+    paths = write_reports(
+        predictions, Path(snakemake.output.metrics).parent, confusion_trainsets=snakemake.params.trainsets
+    )
     print(pd.read_csv(paths["table_v"]).to_string())

@@ -14,7 +14,11 @@ with log_to(snakemake.log[0]):
     else:
         records = twin_records(snakemake.input.measured, snakemake.input.injected, split)
     labels = build_tiles(
-        records, split, snakemake.output.tiles, dataset=dataset,
-        spec_cfg=spec_cfg, search_hz=snakemake.params.search_hz,
+        records,
+        split,
+        snakemake.output.tiles,
+        dataset=dataset,
+        spec_cfg=spec_cfg,
+        search_hz=snakemake.params.search_hz,
     )
     print(labels.groupby(["set", "drone_model"]).size().to_string())

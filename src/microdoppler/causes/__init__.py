@@ -22,5 +22,16 @@ from .base import Cause, CauseSpec, Param
 from .extensions import ExtensionSet, load_extensions, save_extensions
 from .registry import get, names, register, specs, unregister
 
-__all__ = ["Cause", "CauseSpec", "Param", "get", "names", "register", "specs", "unregister",
-           "ExtensionSet", "load_extensions", "save_extensions"]
+__all__ = [
+    "Cause",
+    "CauseSpec",
+    "Param",
+    "get",
+    "names",
+    "register",
+    "specs",
+    "unregister",
+    "ExtensionSet",
+    "load_extensions",
+    "save_extensions",
+]

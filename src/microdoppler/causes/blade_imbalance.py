@@ -56,7 +56,7 @@ def imbalance_interval(z, idx, n_blades: int, block_cpis: int, seed: int) -> dic
     one blade dominates), the data bound the imbalance from below only (``high`` None,
     ``bound`` "lower"); where its lower end reaches 0, from above only."""
     cpis = np.unique(idx)
-    blocks = [cpis[i:i + block_cpis] for i in range(0, len(cpis), max(int(block_cpis), 1))]
+    blocks = [cpis[i : i + block_cpis] for i in range(0, len(cpis), max(int(block_cpis), 1))]
     members = [np.flatnonzero(np.isin(idx, b)) for b in blocks]
     rng = np.random.default_rng(seed)
     r = np.empty(N_BOOT)
@@ -68,16 +68,28 @@ def imbalance_interval(z, idx, n_blades: int, block_cpis: int, seed: int) -> dic
     lo, hi = imbalance_from_ratio(float(r_lo), n_blades), imbalance_from_ratio(float(r_hi), n_blades)
     top = not np.isfinite(hi)  # the ratio's upper end: more than one blade alone can make, or one blade alone
     if not np.isfinite(lo):  # even the lower end: the lines are no imbalance
-        return {"low": None, "high": None, "bound": "none", "level": INTERVAL_LEVEL,
-                "meaning": "the non-multiple lines stand at or above the blade-passing lines: no imbalance of "
-                           "one blade makes that"}
+        return {
+            "low": None,
+            "high": None,
+            "bound": "none",
+            "level": INTERVAL_LEVEL,
+            "meaning": "the non-multiple lines stand at or above the blade-passing lines: no imbalance of "
+            "one blade makes that",
+        }
     bound = "lower" if top else ("upper" if lo <= 0 else "two-sided")
-    meaning = {"lower": f"one blade dominates: its imbalance is at least {lo:.1f} dB; the noise does not let "
-                        "the data say how much more",
-               "upper": f"the imbalance is at most {hi:.1f} dB; the data cannot tell it from none",
-               "two-sided": f"{INTERVAL_LEVEL:.0%} interval of the weakest blade's amplitude below the others"}[bound]
-    return {"low": round(float(lo), 2), "high": None if top else round(float(hi), 2), "bound": bound,
-            "level": INTERVAL_LEVEL, "meaning": meaning}
+    meaning = {
+        "lower": f"one blade dominates: its imbalance is at least {lo:.1f} dB; the noise does not let "
+        "the data say how much more",
+        "upper": f"the imbalance is at most {hi:.1f} dB; the data cannot tell it from none",
+        "two-sided": f"{INTERVAL_LEVEL:.0%} interval of the weakest blade's amplitude below the others",
+    }[bound]
+    return {
+        "low": round(float(lo), 2),
+        "high": None if top else round(float(hi), 2),
+        "bound": bound,
+        "level": INTERVAL_LEVEL,
+        "meaning": meaning,
+    }
 
 
 def imbalance_observations(M):
@@ -89,8 +101,9 @@ def imbalance_observations(M):
     so the envelope exp(-alpha |f|) and the wire's own line powers cancel, scaled by
     the share of rotors whose line of order k is clear. Returns flat arrays and each
     observation's CPI index (:func:`non_multiple_observations` of ``M``'s rotation lines)."""
-    return non_multiple_observations(M.rot_pow, M.rot_var, M.rot_cross, M.rot_n, M.rot_wire,
-                                     M.info["n_blades"], M.log.n_motors)
+    return non_multiple_observations(
+        M.rot_pow, M.rot_var, M.rot_cross, M.rot_n, M.rot_wire, M.info["n_blades"], M.log.n_motors
+    )
 
 
 def non_multiple_observations(P, V, W, R, c2, n_blades: int, n_motors: int, *, min_z: float = 0.0):
@@ -108,12 +121,23 @@ def non_multiple_observations(P, V, W, R, c2, n_blades: int, n_motors: int, *, m
         for s in (0, 1):
             a, b = P[:, n1 - 1, s], P[:, n2 - 1, s]
             with np.errstate(invalid="ignore", divide="ignore"):
-                ref = (np.sqrt(np.clip(a, 0, None) * np.clip(b, 0, None)) * c2[k] / np.sqrt(c2[n1] * c2[n2])
-                       * R[:, k - 1, s] / n_motors)
+                ref = (
+                    np.sqrt(np.clip(a, 0, None) * np.clip(b, 0, None))
+                    * c2[k]
+                    / np.sqrt(c2[n1] * c2[n2])
+                    * R[:, k - 1, s]
+                    / n_motors
+                )
                 seen = (a > min_z * np.sqrt(V[:, n1 - 1, s])) & (b > min_z * np.sqrt(V[:, n2 - 1, s]))
             x = P[:, k - 1, s]
-            ok = (np.isfinite(x) & np.isfinite(ref) & (ref > 0) & (R[:, n1 - 1, s] == n_motors)
-                  & (R[:, n2 - 1, s] == n_motors) & seen)
+            ok = (
+                np.isfinite(x)
+                & np.isfinite(ref)
+                & (ref > 0)
+                & (R[:, n1 - 1, s] == n_motors)
+                & (R[:, n2 - 1, s] == n_motors)
+                & seen
+            )
             i = np.flatnonzero(ok)
             for lst, arr in zip(out, (x[i], V[i, k - 1, s], W[i, k - 1, s], ref[i], i)):
                 lst.append(arr)
@@ -139,11 +163,13 @@ def test_imbalance(M, cfg, fold) -> CauseTest:
     n_cpi = len(np.unique(idx))
     if n_cpi < cfg.block_cpis or len(np.unique(f)) < 2:
         res.testable = False
-        res.evidence = {"reason": f"blade-passing lines on both sides of a non-multiple order, clear of "
-                                  f"other lines, in {n_cpi} CPIs (expected >= {cfg.block_cpis}, two folds)"}
+        res.evidence = {
+            "reason": f"blade-passing lines on both sides of a non-multiple order, clear of "
+            f"other lines, in {n_cpi} CPIs (expected >= {cfg.block_cpis}, two folds)"
+        }
         return res
     z = x / ref
-    vz0 = v0 / ref ** 2
+    vz0 = v0 / ref**2
     wz = w / ref
 
     def fit(sel):
@@ -154,8 +180,10 @@ def test_imbalance(M, cfg, fold) -> CauseTest:
 
     def score(th, sel):
         r, vb, ve = th
-        return (_gauss_ll(z[sel], 0.0, vz0[sel] + vb + 1e-12),
-                _gauss_ll(z[sel], r, vz0[sel] + wz[sel] * r + ve + 1e-12))
+        return (
+            _gauss_ll(z[sel], 0.0, vz0[sel] + vb + 1e-12),
+            _gauss_ll(z[sel], r, vz0[sel] + wz[sel] * r + ve + 1e-12),
+        )
 
     _crossfit(f, fit, score, res)
     r = max(float(np.median(z)), 0.0)
@@ -163,15 +191,25 @@ def test_imbalance(M, cfg, fold) -> CauseTest:
     res.params = {"imbalance_db": imb if np.isfinite(imb) else float("nan")}
     res.effect = imb if np.isfinite(imb) else 0.0
     res.relevant = bool(np.isfinite(imb) and imb >= cfg.margin_imbalance_db)
-    res.evidence = {"ratio_db": round(float(DB * np.log(max(r, 1e-12))), 2), "n_blades": int(B),
-                    "n_cpis": int(n_cpi), "n_lines": int(len(z)),
-                    "intervals": {"imbalance_db": imbalance_interval(z, idx, B, cfg.block_cpis, cfg.seed)}}
+    res.evidence = {
+        "ratio_db": round(float(DB * np.log(max(r, 1e-12))), 2),
+        "n_blades": int(B),
+        "n_cpis": int(n_cpi),
+        "n_lines": int(len(z)),
+        "intervals": {"imbalance_db": imbalance_interval(z, idx, B, cfg.block_cpis, cfg.seed)},
+    }
     if not np.isfinite(imb):
-        res.evidence["reason"] = (f"the non-multiple lines stand {DB * np.log(r):.1f} dB from the blade-passing "
-                                  "lines: more than one weak or strong blade can make, not an imbalance")
+        res.evidence["reason"] = (
+            f"the non-multiple lines stand {DB * np.log(r):.1f} dB from the blade-passing "
+            "lines: more than one weak or strong blade can make, not an imbalance"
+        )
     cpi_r = np.array([np.median(z[idx == i]) for i in np.unique(idx)])
-    res.series = {"t_s": M.t_s[np.unique(idx)], "stat": DB * np.log(np.clip(cpi_r, 1e-6, None)),
-                  "base": np.full(n_cpi, -60.0), "ext": np.full(n_cpi, DB * np.log(max(r, 1e-6)))}
+    res.series = {
+        "t_s": M.t_s[np.unique(idx)],
+        "stat": DB * np.log(np.clip(cpi_r, 1e-6, None)),
+        "base": np.full(n_cpi, -60.0),
+        "ext": np.full(n_cpi, DB * np.log(max(r, 1e-6))),
+    }
     return res
 
 
@@ -200,14 +238,23 @@ def imbalance_amplitudes(imbalance_db: float, n_blades: int, weak_blade: int = 0
 
 class BladeImbalance(CauseSpec):
     name = NAME
-    meaning = ("the blades of a propeller do not scatter alike (a tagged, chipped, bent or differently pitched "
-               "blade): lines at multiples of the rotation rate that are not multiples of the blade-passing rate")
-    params = (Param("imbalance_db", "dB", "how far the weakest blade's scattering amplitude lies below the mean of "
-                    "the propeller's other blades, 20 log10 of the amplitude ratio, positive", ">= 3"),)
+    meaning = (
+        "the blades of a propeller do not scatter alike (a tagged, chipped, bent or differently pitched "
+        "blade): lines at multiples of the rotation rate that are not multiples of the blade-passing rate"
+    )
+    params = (
+        Param(
+            "imbalance_db",
+            "dB",
+            "how far the weakest blade's scattering amplitude lies below the mean of "
+            "the propeller's other blades, 20 log10 of the amplitude ratio, positive",
+            ">= 3",
+        ),
+    )
     observations = ("rot_pow", "rot_var", "rot_cross", "rot_n", "rot_wire", "log", "info", "t_s")
     line = "rotor"
     floor_partner = True
-    floor_stage = 0   # its lines enter the floor's model before a skirt does
+    floor_stage = 0  # its lines enter the floor's model before a skirt does
     margin_field = "margin_imbalance_db"
 
     def test(self, M, cfg, fold, given=frozenset()):

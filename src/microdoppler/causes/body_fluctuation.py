@@ -48,26 +48,36 @@ def test_body(M, cfg, fold) -> CauseTest:
     res, s2 = _power_fluct_test(NAME, y, M.body_sd_db, m, M, cfg, fold, smooth=BODY_SMOOTH_CPIS)
     res.statistic = "body power [dB], detrended"
     if s2 is not None:
-        est = body_estimate(M) if s2 > 0 else {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": [],
-                                               "variogram_db2": []}
+        est = (
+            body_estimate(M)
+            if s2 > 0
+            else {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": [], "variogram_db2": []}
+        )
         sd = float(est["sigma_db"])
         tau = float(est["timescale_s"]) if sd > 0 and np.isfinite(est["timescale_s"]) else float("nan")
         res.params = {"body_std_db": sd, "timescale_s": tau}
         res.effect = sd
         res.relevant = sd >= cfg.margin_std_db
-        res.evidence.update({"body_std_db": round(sd, 2), "timescale_s": round(tau, 3),
-                             "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
-                             "variogram_db2": [round(x, 3) for x in est["variogram_db2"]]})
+        res.evidence.update(
+            {
+                "body_std_db": round(sd, 2),
+                "timescale_s": round(tau, 3),
+                "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
+                "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
+            }
+        )
     return res
-
 
 
 class BodyFluctuation(CauseSpec):
     name = NAME
     meaning = "the body return's power fluctuates from CPI to CPI (RCS scintillation)"
-    params = (Param("body_std_db", "dB", "standard deviation of the body power gain in dB", ">= 3"),
-              Param("timescale_s", "s", "1/e correlation time of the body power gain (default 0.3 s when "
-                    "not given)", "0.05-3 s"))
+    params = (
+        Param("body_std_db", "dB", "standard deviation of the body power gain in dB", ">= 3"),
+        Param(
+            "timescale_s", "s", "1/e correlation time of the body power gain (default 0.3 s when not given)", "0.05-3 s"
+        ),
+    )
     observations = ("body_pow", "body_sd_db", "body_fine", "valid", "t_s", "range_m", "info")
     line = "body"
     margin_field = "margin_std_db"
@@ -84,8 +94,9 @@ class BodyFluctuation(CauseSpec):
 
     def world_check(self, full):
         if not (full["body_std_db"] >= 0 and full["timescale_s"] > 0):
-            raise ValueError(f"{NAME}: body_std_db={full['body_std_db']} must be >= 0 and "
-                             f"timescale_s={full['timescale_s']} > 0")
+            raise ValueError(
+                f"{NAME}: body_std_db={full['body_std_db']} must be >= 0 and timescale_s={full['timescale_s']} > 0"
+            )
 
     def world_body_gain(self, p, duration_s, rng):
         return SlowGain(duration_s, p["body_std_db"], p["timescale_s"], rng)

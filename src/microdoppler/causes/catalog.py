@@ -14,8 +14,12 @@ from collections.abc import Mapping
 
 from . import registry
 from .base import Cause, Param  # noqa: F401 (re-exported)
-from .phase_noise import (PHASE_NOISE_BANDWIDTH_HZ, SKIRT_OFFSET_HZ, flat_rms_rad,  # noqa: F401 (re-exported)
-                          flat_skirt_dbc_hz)
+from .phase_noise import (
+    PHASE_NOISE_BANDWIDTH_HZ,
+    SKIRT_OFFSET_HZ,
+    flat_rms_rad,  # noqa: F401 (re-exported)
+    flat_skirt_dbc_hz,
+)
 
 NONE = Cause("none", "the paper's model explains the flight", ())
 #: not a model extension: the model, with every named cause's extension, still misses

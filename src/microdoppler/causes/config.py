@@ -137,16 +137,31 @@ PN_CLUTTER_DECAYS_HZ: tuple = ()
 #: removed fields of DiagnosisConfig -> the constant that replaced them (named in
 #: the "unknown key" error of a config that still sets one)
 REMOVED_FIELDS = {
-    "artifact_floor_db": "RAISED_FLOOR_DB", "raised_floor_db": "RAISED_FLOOR_DB",
-    "body_search_hz": "BODY_SEARCH_HZ", "scale_min": "SCALE_MIN", "scale_max": "SCALE_MAX",
-    "scale_step": "SCALE_STEP", "n_match_harmonics": "N_MATCH_HARMONICS", "min_match": "MIN_MATCH",
-    "n_harmonics": "N_HARMONICS", "line_half_bins": "LINE_HALF_BINS", "min_pair_snr": "MIN_PAIR_SNR",
-    "lag_step_s": "LAG_STEP_S", "pn_inner_hz": "PN_INNER_HZ", "pn_outer_hz": "PN_OUTER_HZ",
-    "pn_bin_step": "PN_BIN_STEP", "pn_smooth_cpis": "PN_SMOOTH_CPIS", "pn_smooth_bins": "PN_SMOOTH_BINS",
-    "pn_clutter_line_hz": "PN_CLUTTER_LINE_HZ", "pn_line_guard_frac": "LINE_GUARD_FRAC",
-    "pn_body_guard_hz": "PN_BODY_GUARD_HZ", "pn_model_guard_db": "PN_MODEL_GUARD_DB",
-    "body_smooth_cpis": "BODY_SMOOTH_CPIS", "pn_body_skirt_hz": "PN_BODY_SKIRT_HZ",
-    "pn_nuisance_decay_hz": "PN_CLUTTER_DECAYS_HZ", "margin_body_std_db": "the field margin_std_db",
+    "artifact_floor_db": "RAISED_FLOOR_DB",
+    "raised_floor_db": "RAISED_FLOOR_DB",
+    "body_search_hz": "BODY_SEARCH_HZ",
+    "scale_min": "SCALE_MIN",
+    "scale_max": "SCALE_MAX",
+    "scale_step": "SCALE_STEP",
+    "n_match_harmonics": "N_MATCH_HARMONICS",
+    "min_match": "MIN_MATCH",
+    "n_harmonics": "N_HARMONICS",
+    "line_half_bins": "LINE_HALF_BINS",
+    "min_pair_snr": "MIN_PAIR_SNR",
+    "lag_step_s": "LAG_STEP_S",
+    "pn_inner_hz": "PN_INNER_HZ",
+    "pn_outer_hz": "PN_OUTER_HZ",
+    "pn_bin_step": "PN_BIN_STEP",
+    "pn_smooth_cpis": "PN_SMOOTH_CPIS",
+    "pn_smooth_bins": "PN_SMOOTH_BINS",
+    "pn_clutter_line_hz": "PN_CLUTTER_LINE_HZ",
+    "pn_line_guard_frac": "LINE_GUARD_FRAC",
+    "pn_body_guard_hz": "PN_BODY_GUARD_HZ",
+    "pn_model_guard_db": "PN_MODEL_GUARD_DB",
+    "body_smooth_cpis": "BODY_SMOOTH_CPIS",
+    "pn_body_skirt_hz": "PN_BODY_SKIRT_HZ",
+    "pn_nuisance_decay_hz": "PN_CLUTTER_DECAYS_HZ",
+    "margin_body_std_db": "the field margin_std_db",
 }
 
 
@@ -162,6 +177,7 @@ def unknown_key_error(source, key: str, names) -> ConfigError:
 
 
 # ---------------------------------------------------------------- the config
+
 
 def _is_int(v) -> bool:
     return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
@@ -187,8 +203,7 @@ def _check_value(source, key: str, v, kind: str, lo=None, hi=None, lo_open=False
         return a or b
 
     def in_range(x):
-        return ((lo is None or (x > lo if lo_open else x >= lo))
-                and (hi is None or (x < hi if hi_open else x <= hi)))
+        return (lo is None or (x > lo if lo_open else x >= lo)) and (hi is None or (x < hi if hi_open else x <= hi))
 
     what = {"int": "an integer", "float": "a number", "bool": "true or false"}[kind]
     expected = f"{what} {rng_text()}".strip() if kind != "bool" else what

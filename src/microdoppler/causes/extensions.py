@@ -35,8 +35,11 @@ from . import registry
 from .base import number
 from .body_fluctuation import BODY_TIMESCALE_S  # noqa: F401 (re-exported)
 from .catalog import CAUSES
-from .phase_noise import (check_skirt_profile, flat_phase_noise,  # noqa: F401 (re-exported)
-                          profile_phase_noise)
+from .phase_noise import (
+    check_skirt_profile,
+    flat_phase_noise,  # noqa: F401 (re-exported)
+    profile_phase_noise,
+)
 from .sideband_asymmetry import asymmetry_envelope  # noqa: F401 (re-exported)
 from .sideband_fading import DEFAULT_FADING_TIMESCALE_S  # noqa: F401 (re-exported)
 
@@ -52,8 +55,9 @@ def check_params(cause: str, params: Mapping | None, *, source="extensions") -> 
         Unknown cause or parameter, missing or out-of-range value.
     """
     if cause not in CAUSES or cause == "none":
-        raise InputError(source, f"extensions.{cause}", "is not a catalog cause",
-                         f"one of {[c for c in CAUSES if c != 'none']}")
+        raise InputError(
+            source, f"extensions.{cause}", "is not a catalog cause", f"one of {[c for c in CAUSES if c != 'none']}"
+        )
     spec = registry.get(cause)
     params = dict(params or {})
     names = spec.param_names
@@ -159,9 +163,7 @@ class ExtensionSet:
         return iq
 
     def to_dict(self) -> dict:
-        return {"schema": SCHEMA,
-                "extensions": {c: dict(p) for c, p in self.effects.items()},
-                "meta": dict(self.meta)}
+        return {"schema": SCHEMA, "extensions": {c: dict(p) for c, p in self.effects.items()}, "meta": dict(self.meta)}
 
 
 def read_yaml(path, expected: str):

@@ -30,19 +30,19 @@ class CauseTest:
     """Result of one cause's test."""
 
     cause: str
-    log_e: float = 0.0                  # log of the averaged held-out likelihood ratio
-    nll_base: float = np.nan            # held-out negative log-likelihood per observation
+    log_e: float = 0.0  # log of the averaged held-out likelihood ratio
+    nll_base: float = np.nan  # held-out negative log-likelihood per observation
     nll_ext: float = np.nan
     n_obs: int = 0
-    held_out: bool = False              # nll_base/nll_ext really scored on data the fits did not see
-    params: dict = field(default_factory=dict)   # fitted on the whole flight
-    effect: float = 0.0                 # size compared with the relevance margin
+    held_out: bool = False  # nll_base/nll_ext really scored on data the fits did not see
+    params: dict = field(default_factory=dict)  # fitted on the whole flight
+    effect: float = 0.0  # size compared with the relevance margin
     relevant: bool = False
     testable: bool = True
     statistic: str = ""
     evidence: dict = field(default_factory=dict)
-    series: dict = field(default_factory=dict)   # per-CPI series for the figure
-    fit: dict = field(default_factory=dict)      # fitted model other tests condition on (phase noise: its skirt)
+    series: dict = field(default_factory=dict)  # per-CPI series for the figure
+    fit: dict = field(default_factory=dict)  # fitted model other tests condition on (phase noise: its skirt)
 
 
 def folds(n_t: int, block: int) -> np.ndarray:
@@ -73,7 +73,9 @@ def _crossfit(fold, fit, score, res: "CauseTest") -> None:
         lb, le = np.asarray(lb, float), np.asarray(le, float)
         held &= bool(np.all(np.isfinite(lb)) and np.all(np.isfinite(le)))
         dl.append(float(np.sum(le - lb)))
-        nb -= float(np.sum(lb)); ne -= float(np.sum(le)); n += len(lb)
+        nb -= float(np.sum(lb))
+        ne -= float(np.sum(le))
+        n += len(lb)
     m = max(dl)
     log_e = m + np.log(0.5 * sum(np.exp(d - m) for d in dl)) if np.isfinite(m) else float("nan")
     res.log_e, res.nll_base, res.nll_ext, res.n_obs = float(log_e), nb / max(n, 1), ne / max(n, 1), n
@@ -105,13 +107,12 @@ def _ml_extra_var(e, v0):
 
     def nll(s2):
         v = v0 + s2
-        return 0.5 * np.sum(np.log(v) + e ** 2 / v)
+        return 0.5 * np.sum(np.log(v) + e**2 / v)
 
-    hi = max(4 * float(np.mean(e ** 2)), 1e-6)
+    hi = max(4 * float(np.mean(e**2)), 1e-6)
     r = minimize_scalar(nll, bounds=(0.0, hi), method="bounded", options={"xatol": 1e-4})
     s2 = float(r.x)
     return s2 if nll(s2) < nll(0.0) else 0.0
-
 
 
 def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
@@ -121,7 +122,7 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
         res.evidence = {"reason": f"{int(m.sum())} usable CPIs (expected >= {2 * cfg.block_cpis + 4})"}
         return res, None
     e = _detrend(y[m], M.t_s[m], M.range_m[m], smooth)
-    v0 = sd0[m] ** 2 + cfg.model_floor_db ** 2
+    v0 = sd0[m] ** 2 + cfg.model_floor_db**2
     f = fold[m]
 
     def fit(sel):
@@ -134,9 +135,11 @@ def _power_fluct_test(cause, y, sd0, m, M, cfg, fold, smooth=0):
     s2 = _ml_extra_var(e, v0)
     meas_sd = float(np.sqrt(s2))
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
-    res.evidence = {"measured_excess_std_db": round(meas_sd, 2),
-                    "noise_std_db": round(float(np.sqrt(np.median(sd0[m] ** 2))), 3),
-                    "residual_std_db": round(float(e.std()), 2)}
+    res.evidence = {
+        "measured_excess_std_db": round(meas_sd, 2),
+        "noise_std_db": round(float(np.sqrt(np.median(sd0[m] ** 2))), 3),
+        "residual_std_db": round(float(e.std()), 2),
+    }
     return res, s2
 
 
@@ -217,12 +220,12 @@ def window_offsets(window: np.ndarray, prf_hz: float, n_points: int = 24) -> tup
 #: correlation shapes: name -> (rho(x), x at which rho = 1/e); Matern 1/2 (exponential,
 #: an Ornstein-Uhlenbeck or telegraph process) and Matern 3/2 (a smooth process, e.g.
 #: two cascaded first-order filters)
-SHAPES = {"exponential": (lambda x: np.exp(-x), 1.0),
-          "matern32": (lambda x: (1 + x) * np.exp(-x), 2.1462)}
+SHAPES = {"exponential": (lambda x: np.exp(-x), 1.0), "matern32": (lambda x: (1 + x) * np.exp(-x), 2.1462)}
 
 
-def model_cov_db2(lags_s: np.ndarray, sigma_db, tau_s, ds: np.ndarray, W: np.ndarray,
-                  shape: str = "exponential") -> np.ndarray:
+def model_cov_db2(
+    lags_s: np.ndarray, sigma_db, tau_s, ds: np.ndarray, W: np.ndarray, shape: str = "exponential"
+) -> np.ndarray:
     """c(L) [dB^2] of the window-averaged gain (module doc) with 1/e correlation time
     ``tau_s`` and correlation ``shape`` (:data:`SHAPES`); broadcasting over
     ``sigma_db`` and ``tau_s`` (leading axes) and ``lags_s`` (last axis)."""
@@ -285,10 +288,20 @@ def harmonic_speed_slope(Y: np.ndarray, V: np.ndarray, harm: np.ndarray, u: np.n
     return float(np.sum(D[W] * G[W]) / den) if den > 1e-12 * max(int(W.sum()), 1) else 0.0
 
 
-def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
-                     window: np.ndarray, prf_hz: float, *, max_lag_s: float = 10.0,
-                     tau_bounds_s: tuple = (0.01, 30.0), min_pairs: int = 20, drift: bool = True,
-                     noise_free: bool = False) -> dict:
+def fit_gain_process(
+    y: np.ndarray,
+    valid: np.ndarray,
+    noise_var_db2: np.ndarray,
+    hop_s: float,
+    window: np.ndarray,
+    prf_hz: float,
+    *,
+    max_lag_s: float = 10.0,
+    tau_bounds_s: tuple = (0.01, 30.0),
+    min_pairs: int = 20,
+    drift: bool = True,
+    noise_free: bool = False,
+) -> dict:
     """Joint (sigma [dB], T [s]) of the gain seen in the series ``y`` [dB] on a grid
     of hops ``hop_s`` (module doc).
 
@@ -322,20 +335,47 @@ def fit_gain_process(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray
     lags = _lag_grid(len(y), hop_s, max_lag_s)
     g, npair = variogram(y, valid, lags)
     nv = float(np.mean(noise_var_db2[valid])) if valid.any() else 0.0
-    return fit_variogram(lags, g, npair, nv, hop_s, window, prf_hz, tau_bounds_s=tau_bounds_s,
-                         min_pairs=min_pairs, drift=drift, noise_free=noise_free)
+    return fit_variogram(
+        lags,
+        g,
+        npair,
+        nv,
+        hop_s,
+        window,
+        prf_hz,
+        tau_bounds_s=tau_bounds_s,
+        min_pairs=min_pairs,
+        drift=drift,
+        noise_free=noise_free,
+    )
 
 
-def fit_variogram(lags: np.ndarray, g: np.ndarray, npair: np.ndarray, nv: float, hop_s: float,
-                  window: np.ndarray, prf_hz: float, *, tau_bounds_s: tuple = (0.01, 30.0),
-                  min_pairs: int = 20, drift: bool = True, noise_free: bool = False) -> dict:
+def fit_variogram(
+    lags: np.ndarray,
+    g: np.ndarray,
+    npair: np.ndarray,
+    nv: float,
+    hop_s: float,
+    window: np.ndarray,
+    prf_hz: float,
+    *,
+    tau_bounds_s: tuple = (0.01, 30.0),
+    min_pairs: int = 20,
+    drift: bool = True,
+    noise_free: bool = False,
+) -> dict:
     """Fit (sigma [dB], T [s]) (and the nuisance drift) to a measured variogram ``g``
     [dB^2] at integer ``lags`` [hops] with ``npair`` pairs each, noise variance ``nv``
     [dB^2] (see :func:`fit_gain_process` for the other arguments and the result)."""
     ok = np.isfinite(g) & (npair >= min_pairs) & (g > 0)
     lags, g = lags[ok], g[ok]
-    out = {"sigma_db": 0.0, "timescale_s": float("nan"), "lags_s": (lags * hop_s).tolist(),
-           "variogram_db2": g.tolist(), "noise_db2": nv}
+    out = {
+        "sigma_db": 0.0,
+        "timescale_s": float("nan"),
+        "lags_s": (lags * hop_s).tolist(),
+        "variogram_db2": g.tolist(),
+        "noise_db2": nv,
+    }
     if len(lags) < 3:
         return out
     ds, W = window_offsets(window, prf_hz)
@@ -350,8 +390,11 @@ def fit_variogram(lags: np.ndarray, g: np.ndarray, npair: np.ndarray, nv: float,
 
     def best(sv, tv, shape):
         C = model_cov_db2(np.concatenate([[0.0], Ls]), sv[:, None], tv[None, :], ds, W, shape)  # [n_sig, n_tau, 1+n]
-        gm = ((C[..., :1] - C[..., 1:])[:, :, None, None, :] + kap[None, None, :, None, None] * Ls
-              + nug[None, None, None, :, None])
+        gm = (
+            (C[..., :1] - C[..., 1:])[:, :, None, None, :]
+            + kap[None, None, :, None, None] * Ls
+            + nug[None, None, None, :, None]
+        )
         cost = np.sum((lg - np.log(np.maximum(gm, 1e-9))) ** 2, axis=-1)
         i, j, k, q = np.unravel_index(int(np.argmin(cost)), cost.shape)
         return float(cost[i, j, k, q]), i, j, k, gm[i, j, k, q]
@@ -368,16 +411,31 @@ def fit_variogram(lags: np.ndarray, g: np.ndarray, npair: np.ndarray, nv: float,
         results.append((c0, shape, s_best, t_best, k_best, fit))
     cost_best, shape_best, s_best, t_best, k_best, fit = min(results, key=lambda r: r[0])
     out["shape"] = shape_best
-    out.update({"sigma_db": s_best, "timescale_s": t_best if s_best > 0 else float("nan"),
-                "drift_db2_per_s": k_best,
-                "variogram_fit_db2": np.asarray(fit).tolist()})
+    out.update(
+        {
+            "sigma_db": s_best,
+            "timescale_s": t_best if s_best > 0 else float("nan"),
+            "drift_db2_per_s": k_best,
+            "variogram_fit_db2": np.asarray(fit).tolist(),
+        }
+    )
     return out
 
 
-def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndarray, hop_s: float,
-                        window: np.ndarray, prf_hz: float, start: tuple, *, block: int = 512,
-                        tau_bounds_s: tuple = (0.01, 30.0), design: np.ndarray | None = None,
-                        free_white: bool = False) -> dict:
+def fit_gain_process_ml(
+    y: np.ndarray,
+    valid: np.ndarray,
+    noise_var_db2: np.ndarray,
+    hop_s: float,
+    window: np.ndarray,
+    prf_hz: float,
+    start: tuple,
+    *,
+    block: int = 512,
+    tau_bounds_s: tuple = (0.01, 30.0),
+    design: np.ndarray | None = None,
+    free_white: bool = False,
+) -> dict:
     """Joint (sigma [dB], T [s]) of the gain in the series ``y`` [dB] (mean zero,
     e.g. detrended) by its exact Gaussian likelihood: covariance c(L) of the
     window-averaged exponentially correlated gain (:func:`model_cov_db2`, window
@@ -412,8 +470,13 @@ def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndar
 
     y = np.asarray(y, float)
     idx = np.flatnonzero(np.asarray(valid, bool))
-    out = {"sigma_db": float(start[0]), "timescale_s": float(start[1]), "nll": float("nan"), "n_eval": 0,
-           "extra_white_db2": 0.0}
+    out = {
+        "sigma_db": float(start[0]),
+        "timescale_s": float(start[1]),
+        "nll": float("nan"),
+        "n_eval": 0,
+        "extra_white_db2": 0.0,
+    }
     if len(idx) < 20 or not (start[0] > 0 and np.isfinite(start[1]) and start[1] > 0):
         return out
     ds, W = window_offsets(window, prf_hz)
@@ -459,9 +522,20 @@ def fit_gain_process_ml(y: np.ndarray, valid: np.ndarray, noise_var_db2: np.ndar
     x0 = np.log([start[0], start[1]])
     if free_white:  # from a small extra white, a tenth of the known noise (at least 0.01 dB^2)
         x0 = np.r_[x0, np.log(max(0.1 * float(np.mean(nv[idx])), 0.01))]
-    r = minimize(nll, x0, method="Nelder-Mead",
-                 options={"xatol": 0.005, "fatol": 0.01, "maxiter": 300 if not free_white else 600})
+    r = minimize(
+        nll,
+        x0,
+        method="Nelder-Mead",
+        options={"xatol": 0.005, "fatol": 0.01, "maxiter": 300 if not free_white else 600},
+    )
     if np.isfinite(r.fun) and r.fun < 1e11:
-        out.update({"sigma_db": float(np.exp(r.x[0])), "timescale_s": float(np.exp(r.x[1])), "nll": float(r.fun),
-                    "n_eval": int(r.nfev), "extra_white_db2": float(np.exp(r.x[2])) if free_white else 0.0})
+        out.update(
+            {
+                "sigma_db": float(np.exp(r.x[0])),
+                "timescale_s": float(np.exp(r.x[1])),
+                "nll": float(r.fun),
+                "n_eval": int(r.nfev),
+                "extra_white_db2": float(np.exp(r.x[2])) if free_white else 0.0,
+            }
+        )
     return out

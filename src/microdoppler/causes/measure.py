@@ -48,17 +48,38 @@ from ..io.inventory import RADAR_SOURCE
 from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
-from .config import (BODY_SEARCH_HZ, LAG_STEP_S, LINE_GUARD_FRAC, LINE_HALF_BINS, MIN_MATCH, MIN_PAIR_SNR,
-                     N_HARMONICS, N_MATCH_HARMONICS, PN_BIN_STEP, PN_BODY_GUARD_HZ, PN_CLUTTER_LINE_HZ,
-                     PN_INNER_HZ, PN_MODEL_GUARD_DB, PN_OUTER_HZ, PN_PROFILE_INNER_HZ,
-                     PN_PROFILE_OUTER_HZ, PN_SMOOTH_BINS, PN_SMOOTH_CPIS, RAISED_FLOOR_DB,
-                     ROTATION_RAISED_FLOOR_DB,
-                     SCALE_MAX, SCALE_MIN, SCALE_STEP, DiagnosisConfig)
+from .config import (
+    BODY_SEARCH_HZ,
+    LAG_STEP_S,
+    LINE_GUARD_FRAC,
+    LINE_HALF_BINS,
+    MIN_MATCH,
+    MIN_PAIR_SNR,
+    N_HARMONICS,
+    N_MATCH_HARMONICS,
+    PN_BIN_STEP,
+    PN_BODY_GUARD_HZ,
+    PN_CLUTTER_LINE_HZ,
+    PN_INNER_HZ,
+    PN_MODEL_GUARD_DB,
+    PN_OUTER_HZ,
+    PN_PROFILE_INNER_HZ,
+    PN_PROFILE_OUTER_HZ,
+    PN_SMOOTH_BINS,
+    PN_SMOOTH_CPIS,
+    RAISED_FLOOR_DB,
+    ROTATION_RAISED_FLOOR_DB,
+    SCALE_MAX,
+    SCALE_MIN,
+    SCALE_STEP,
+    DiagnosisConfig,
+)
 
 DB = 10.0 / np.log(10.0)
 
 
 # ---------------------------------------------------------------- can it be diagnosed?
+
 
 class Undiagnosable(InputError):
     """A flight the diagnosis cannot judge (a bird, a Mini, no usable motor log, too
@@ -123,52 +144,70 @@ def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) 
     target = a.get("target")
     if target != "drone":
         reason = {"bird": "bird flight: no rotors", "none": "target-free recording: no rotors"}.get(
-            target, f"target {target!r}: not a drone")
+            target, f"target {target!r}: not a drone"
+        )
         raise Undiagnosable(fid, "attrs.target", f"is {target!r}", "'drone' (only drones are diagnosed)", reason=reason)
     lam = flight.wavelength_m
     blade = float(a["blade_length_m"])
     if blade < cfg.min_blade_wavelengths * lam:
         size = f"{blade:g} m = {blade / lam:.2f} wavelengths at {flight.carrier_hz / 1e9:.3g} GHz"
         raise Undiagnosable(
-            fid, "attrs.blade_length_m", f"is {size}: the rotor lines are below the noise",
+            fid,
+            "attrs.blade_length_m",
+            f"is {size}: the rotor lines are below the noise",
             f">= {cfg.min_blade_wavelengths:g} wavelengths (diagnosis.min_blade_wavelengths)",
             reason=f"{a.get('drone_model', 'drone')}: rotor lines invisible (attrs.blade_length_m {size}, "
-                   f"< {cfg.min_blade_wavelengths:g})")
+            f"< {cfg.min_blade_wavelengths:g})",
+        )
     log = flight_log(flight, motor_log)
     if log is None:
-        raise Undiagnosable(fid, "motors", "no motor log", "motors/time_s + motors/rpm or a motor log",
-                            reason="no motor log")
+        raise Undiagnosable(
+            fid, "motors", "no motor log", "motors/time_s + motors/rpm or a motor log", reason="no motor log"
+        )
     t_field, s_field = "motors/time_s", "motors/rpm"
     src = fid if motor_log is None else (log.source or fid)
     try:
         log = check_motor_log(src, log.time_s, log.rpm, unit="rpm", time_field=t_field, speed_field=s_field)
     except InputError as e:
-        raise Undiagnosable(e.source, e.field, e.problem, e.expected,
-                            reason=f"unusable motor log: {e.field}: {e.problem}"
-                                   + (f" (expected {e.expected})" if e.expected else "")) from None
+        raise Undiagnosable(
+            e.source,
+            e.field,
+            e.problem,
+            e.expected,
+            reason=f"unusable motor log: {e.field}: {e.problem}" + (f" (expected {e.expected})" if e.expected else ""),
+        ) from None
     span = flight.duration_s
     t0, t1 = float(log.time_s[0]), float(log.time_s[-1])
     cover = max(0.0, min(t1, span) - max(t0, 0.0)) / span
     if cover < cfg.min_log_coverage:
         problem = f"spans {t0:.4g} to {t1:.4g} s, {cover:.0%} of the flight's 0 to {span:.4g} s"
         expected = f">= {cfg.min_log_coverage:.0%} of the flight covered (diagnosis.min_log_coverage)"
-        raise Undiagnosable(src, t_field, problem, expected,
-                            reason=f"motor log outside the flight: {t_field}: {problem} (expected {expected})")
+        raise Undiagnosable(
+            src,
+            t_field,
+            problem,
+            expected,
+            reason=f"motor log outside the flight: {t_field}: {problem} (expected {expected})",
+        )
     prf = flight.prf_hz
     n_fft = cfg.cpi_pulses(prf)
     n_t = _n_cpis(len(flight.iq), n_fft)
     duration_s = len(flight.iq) / prf
     if n_t < cfg.min_cpis() or duration_s < cfg.min_duration_s:
         problem = f"has {len(flight.iq)} pulses at {prf:g} Hz = {duration_s:.3g} s"
-        expected = (f">= {cfg.min_flight_s(prf):.3g} s: {cfg.min_cpis()} CPIs of {n_fft / prf:.3g} s, two held-out "
-                    f"folds of diagnosis.block_cpis={cfg.block_cpis}"
-                    + (f", and diagnosis.min_duration_s={cfg.min_duration_s:g} s" if cfg.min_duration_s else ""))
-        raise Undiagnosable(fid, "iq", problem, expected,
-                            reason=f"flight too short: iq: {problem} (expected {expected})")
+        expected = (
+            f">= {cfg.min_flight_s(prf):.3g} s: {cfg.min_cpis()} CPIs of {n_fft / prf:.3g} s, two held-out "
+            f"folds of diagnosis.block_cpis={cfg.block_cpis}"
+            + (f", and diagnosis.min_duration_s={cfg.min_duration_s:g} s" if cfg.min_duration_s else "")
+        )
+        raise Undiagnosable(
+            fid, "iq", problem, expected, reason=f"flight too short: iq: {problem} (expected {expected})"
+        )
     return log
 
 
 # ---------------------------------------------------------------- spectrogram helpers
+
 
 @dataclass
 class Stft:
@@ -199,7 +238,7 @@ def stft_power(iq: np.ndarray, prf_hz: float, n_fft: int, overlap: float = 0.5) 
     idx = np.arange(n_t)[:, None] * hop + np.arange(n_fft)[None, :]
     frames = np.asarray(iq, np.complex128)[idx] * w
     X = sfft.fftshift(sfft.fft(frames, axis=1, workers=1), axes=1)
-    p = X.real ** 2 + X.imag ** 2
+    p = X.real**2 + X.imag**2
     t = (np.arange(n_t) * hop + n_fft / 2) / prf_hz
     f = sfft.fftshift(sfft.fftfreq(n_fft, 1.0 / prf_hz))
     return Stft(p, t, f, w)
@@ -220,11 +259,12 @@ def noise_power_factor(window: np.ndarray) -> float:
     bins (kappa = 1) understate the std of the band power by sqrt(2.76) = 1.66 for
     Blackman-Harris (checked by simulation: 2.5-3.0 at 15-40 dB)."""
     w2 = np.asarray(window, float) ** 2
-    return float(len(w2) * np.sum(w2 ** 2) / np.sum(w2) ** 2)
+    return float(len(w2) * np.sum(w2**2) / np.sum(w2) ** 2)
 
 
-def cpi_average(t_s: np.ndarray, x: np.ndarray, cpi_t: np.ndarray, window: np.ndarray, prf_hz: float,
-                n_points: int = 64) -> np.ndarray:
+def cpi_average(
+    t_s: np.ndarray, x: np.ndarray, cpi_t: np.ndarray, window: np.ndarray, prf_hz: float, n_points: int = 64
+) -> np.ndarray:
     """Average of the series ``x(t)`` over each CPI, weighted by the window's power
     profile (what a periodogram 'sees'): float [len(cpi_t)] (clamped at the ends)."""
     n = len(window)
@@ -251,7 +291,7 @@ def refine_peak(st: Stft, f0: np.ndarray, search_hz: float) -> np.ndarray:
         if hi <= lo:
             out[i] = fc
             continue
-        j = lo + int(np.argmax(st.p[i, lo:hi + 1]))
+        j = lo + int(np.argmax(st.p[i, lo : hi + 1]))
         a, b, c = lp[i, j - 1], lp[i, j], lp[i, j + 1]
         d = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) < 0 else 0.0
         out[i] = st.f_hz[0] + (j + np.clip(d, -0.5, 0.5)) * st.bin_hz
@@ -265,7 +305,7 @@ def band_power(p_row: np.ndarray, st: Stft, f_c: float, half_hz: float) -> tuple
     lo, hi = max(lo, 0), min(hi, len(st.f_hz) - 1)
     if hi < lo:
         return 0.0, 0
-    return float(p_row[lo:hi + 1].sum()), hi - lo + 1
+    return float(p_row[lo : hi + 1].sum()), hi - lo + 1
 
 
 def local_floor(p_row: np.ndarray, st: Stft, f_c: float, excl_hz: float, span_hz: float) -> float:
@@ -275,18 +315,32 @@ def local_floor(p_row: np.ndarray, st: Stft, f_c: float, excl_hz: float, span_hz
     hi = min(int(np.floor(st.at(f_c + span_hz))), len(st.f_hz) - 1)
     if hi <= lo:
         return np.nan
-    seg = p_row[lo:hi + 1]
-    f = st.f_hz[lo:hi + 1]
+    seg = p_row[lo : hi + 1]
+    f = st.f_hz[lo : hi + 1]
     seg = seg[np.abs(f - f_c) > excl_hz]
     if len(seg) < 4:
         return np.nan
     return float(np.median(seg) / np.log(2.0))
 
 
-def simulate_blades(log: MotorLog, n_pulses: int, prf_hz: float, *, wavelength_m: float, n_blades: int,
-                    blade_length_m: float, n_fft: int, seed: int, extensions: ModelExtensions | None = None,
-                    alpha_s: float = 0.0, s_blade: float = 1.0, s_body: float = 0.0, track: Track | None = None,
-                    window_pulses: int = 2500, blade_amplitudes=None) -> tuple[np.ndarray, np.ndarray]:
+def simulate_blades(
+    log: MotorLog,
+    n_pulses: int,
+    prf_hz: float,
+    *,
+    wavelength_m: float,
+    n_blades: int,
+    blade_length_m: float,
+    n_fft: int,
+    seed: int,
+    extensions: ModelExtensions | None = None,
+    alpha_s: float = 0.0,
+    s_blade: float = 1.0,
+    s_body: float = 0.0,
+    track: Track | None = None,
+    window_pulses: int = 2500,
+    blade_amplitudes=None,
+) -> tuple[np.ndarray, np.ndarray]:
     """The paper's model of a flight: returns (iq complex64 [n_pulses], rev_s
     float32 [n_pulses, n_motors]) with sub-CPI sampled speeds of ``log``.
 
@@ -300,9 +354,15 @@ def simulate_blades(log: MotorLog, n_pulses: int, prf_hz: float, *, wavelength_m
     ext = extensions if extensions is not None else ModelExtensions()
     if alpha_s > 0 and ext.envelope_gain is None:
         ext = replace(ext, envelope_gain=_unit_envelope)  # the alpha envelope as the FFT filter of eq. (2)
-    config = SynthesisConfig.of(prf_hz=prf_hz, wavelength_m=wavelength_m, n_blades=n_blades,
-                                blade_length_m=blade_length_m, scaling=Scaling(s_body, s_blade, alpha_s), extensions=ext,
-                                blade_amplitudes=blade_amplitudes)
+    config = SynthesisConfig.of(
+        prf_hz=prf_hz,
+        wavelength_m=wavelength_m,
+        n_blades=n_blades,
+        blade_length_m=blade_length_m,
+        scaling=Scaling(s_body, s_blade, alpha_s),
+        extensions=ext,
+        blade_amplitudes=blade_amplitudes,
+    )
     iq = synthesize(config, trk, rev, seed=seed)
     return iq, rev
 
@@ -312,6 +372,7 @@ def _unit_envelope(f_hz):
 
 
 # ---------------------------------------------------------------- what the tests read
+
 
 @dataclass(frozen=True)
 class Calibration:
@@ -356,43 +417,45 @@ class Measurements:
 
     flight_id: str
     t_s: np.ndarray
-    valid: np.ndarray            # bool: CPI usable (body clear of clutter, no artifact, within the log)
+    valid: np.ndarray  # bool: CPI usable (body clear of clutter, no artifact, within the log)
     f_body_hz: np.ndarray
-    body_pow: np.ndarray         # noise-subtracted body power (periodogram units)
-    body_sd_db: np.ndarray       # noise std of 10 log10 body_pow (floor at the body: body_floor_ratio)
-    floor: np.ndarray            # far noise floor per bin
+    body_pow: np.ndarray  # noise-subtracted body power (periodogram units)
+    body_sd_db: np.ndarray  # noise std of 10 log10 body_pow (floor at the body: body_floor_ratio)
+    floor: np.ndarray  # far noise floor per bin
     range_m: np.ndarray
-    f_log_hz: np.ndarray         # CPI-average of the log's mean motor speed [rev/s]
-    dil: np.ndarray              # measured / model line spacing
-    dil_ok: np.ndarray           # bool
-    harm: np.ndarray             # harmonic numbers used [N]
-    up: np.ndarray               # [n_t, N] upper sideband power (noise-subtracted)
-    lo: np.ndarray               # [n_t, N] lower
-    up_sd: np.ndarray            # [n_t, N] noise std (linear)
+    f_log_hz: np.ndarray  # CPI-average of the log's mean motor speed [rev/s]
+    dil: np.ndarray  # measured / model line spacing
+    dil_ok: np.ndarray  # bool
+    harm: np.ndarray  # harmonic numbers used [N]
+    up: np.ndarray  # [n_t, N] upper sideband power (noise-subtracted)
+    lo: np.ndarray  # [n_t, N] lower
+    up_sd: np.ndarray  # [n_t, N] noise std (linear)
     lo_sd: np.ndarray
-    pair_ok: np.ndarray          # [n_t, N] bool
-    model_h: np.ndarray          # [n_t, N] model (alpha=0, S_blade=1) sideband power, mean of +-n
-    usable_pairs: np.ndarray     # [N] bool: weaker side clearly above the noise (usable_pairs)
+    pair_ok: np.ndarray  # [n_t, N] bool
+    model_h: np.ndarray  # [n_t, N] model (alpha=0, S_blade=1) sideband power, mean of +-n
+    usable_pairs: np.ndarray  # [N] bool: weaker side clearly above the noise (usable_pairs)
     usable_pair_sums: np.ndarray  # [N] bool: summed pair clearly above the noise
-    lag_s: np.ndarray            # [n_lags] motor-log lags searched [s]
-    lag_curves: np.ndarray       # [n_lags, n_t] ln f_log(t + lag) / f_log(t) (lag_curves)
-    log: MotorLog                # the checked motor log
-    log_from_radar: bool         # the log was estimated from this recording's own HERM lines
+    lag_s: np.ndarray  # [n_lags] motor-log lags searched [s]
+    lag_curves: np.ndarray  # [n_lags, n_t] ln f_log(t + lag) / f_log(t) (lag_curves)
+    log: MotorLog  # the checked motor log
+    log_from_radar: bool  # the log was estimated from this recording's own HERM lines
     stft: Stft
     bg_stft: Stft | None
-    sim_stft: Stft               # the model's blades (alpha = 0, S_blade = 1), body-relative
-    body_fine: dict              # short-window body power series (body_power_fine)
-    side_fine: dict              # short-window sideband power per harmonic (sideband_power_fine)
+    sim_stft: Stft  # the model's blades (alpha = 0, S_blade = 1), body-relative
+    body_fine: dict  # short-window body power series (body_power_fine)
+    side_fine: dict  # short-window sideband power per harmonic (sideband_power_fine)
     info: dict = field(default_factory=dict)  # spread, prf_hz, n_blades, n_artifact_cpis, match_q
-    rot_pow: np.ndarray | None = None   # [n_t, K, 2] power of rotation harmonic k = 1..K, upper/lower (rotation_line_powers)
-    rot_var: np.ndarray | None = None   # [n_t, K, 2] its noise variance (the part without the line)
+    rot_pow: np.ndarray | None = (
+        None  # [n_t, K, 2] power of rotation harmonic k = 1..K, upper/lower (rotation_line_powers)
+    )
+    rot_var: np.ndarray | None = None  # [n_t, K, 2] its noise variance (the part without the line)
     rot_cross: np.ndarray | None = None  # [n_t, K, 2] variance per unit line power (2 kappa fl)
-    rot_n: np.ndarray | None = None     # [n_t, K, 2] int: rotors whose line of order k the sum holds
+    rot_n: np.ndarray | None = None  # [n_t, K, 2] int: rotors whose line of order k the sum holds
     rot_wire: np.ndarray | None = None  # [K + 1] one thin-wire blade's line power per rotation harmonic
-    calib: Calibration | None = None          # the paper's model calibrated (calibrate)
+    calib: Calibration | None = None  # the paper's model calibrated (calibrate)
     floor_ordinates: FloorOrdinates | None = None  # None without a background recording
-    side_floor: np.ndarray | None = None        # [n_t, N, 2] local floor per bin at the upper/lower sideband
-    side_f_hz: np.ndarray | None = None         # [n_t, N, 2] their Doppler [Hz]
+    side_floor: np.ndarray | None = None  # [n_t, N, 2] local floor per bin at the upper/lower sideband
+    side_f_hz: np.ndarray | None = None  # [n_t, N, 2] their Doppler [Hz]
     pair_ok_any_floor: np.ndarray | None = None  # [n_t, N] bool: pair_ok but for the raised-floor guard
 
 
@@ -423,7 +486,7 @@ def _dilation(st: Stft, sim: Stft, f_body, h0, n_harm, s_grid, floor, clutter_hz
         ls = np.interp(arg, sim.f_hz, ls_full)
         ls -= ls.mean(axis=1, keepdims=True)
         num = ls @ lm
-        den = np.sqrt((ls ** 2).sum(axis=1) * (lm ** 2).sum()) + 1e-12
+        den = np.sqrt((ls**2).sum(axis=1) * (lm**2).sum()) + 1e-12
         c = num / den
         j = int(np.argmax(c))
         if 0 < j < len(s_grid) - 1:
@@ -436,8 +499,7 @@ def _dilation(st: Stft, sim: Stft, f_body, h0, n_harm, s_grid, floor, clutter_hz
     return out, q
 
 
-def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cfg,
-                     smooth_cpis: int = 2) -> np.ndarray:
+def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cfg, smooth_cpis: int = 2) -> np.ndarray:
     """Floor at the body's distance from the clutter line relative to the far noise
     floor, per CPI (>= 1) [n_t]: the median / ln 2 of the bins whose |f| is within
     ``3 body_half_hz`` of |f_b| (both sides of the clutter line), off the target
@@ -488,9 +550,18 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
 FINE_DIVISORS = (8, 4, 2)
 
 
-def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray, valid_cpi: np.ndarray,
-                    n_fft: int, range_t_s=None, range_m=None, min_fraction: float = 0.4,
-                    floor_ratio: np.ndarray | None = None) -> dict:
+def body_power_fine(
+    iq,
+    prf_hz: float,
+    t_cpi: np.ndarray,
+    f_body_hz: np.ndarray,
+    valid_cpi: np.ndarray,
+    n_fft: int,
+    range_t_s=None,
+    range_m=None,
+    min_fraction: float = 0.4,
+    floor_ratio: np.ndarray | None = None,
+) -> dict:
     """Body power in short windows (Blackman-Harris, 50 % overlap): the body line is
     strong, so its power can be read far faster than the CPI and a fluctuation's
     correlation time resolved down to ~0.05 s.
@@ -529,15 +600,22 @@ def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray,
         pw = s - nb * floor
         near = np.clip(np.searchsorted(t_cpi, st.t_s), 0, len(t_cpi) - 1)
         fl = floor * (floor_ratio[near] if floor_ratio is not None else 1.0)
-        var = noise_power_factor(st.window) * (2 * np.maximum(pw, 0) * fl + nb * fl ** 2)
+        var = noise_power_factor(st.window) * (2 * np.maximum(pw, 0) * fl + nb * fl**2)
         base = valid_cpi[near]
         ok = base & (pw > 3 * np.sqrt(var)) & (np.abs(fb) > 4.5 * df + 10.0)
         y = DB * np.log(np.maximum(pw, 1e-30))
         nv = (DB * np.sqrt(var) / np.maximum(pw, 1e-30)) ** 2
         r = np.interp(st.t_s, range_t_s, range_m) if range_m is not None else np.ones(len(st.t_s))
-        out = {"t_s": st.t_s, "y_db": y, "noise_var_db2": nv, "valid": ok, "window": st.window,
-               "hop_s": float(st.t_s[1] - st.t_s[0]) if len(st.t_s) > 1 else float(nw / prf_hz / 2),
-               "range_m": r, "n_window": int(nw)}
+        out = {
+            "t_s": st.t_s,
+            "y_db": y,
+            "noise_var_db2": nv,
+            "valid": ok,
+            "window": st.window,
+            "hop_s": float(st.t_s[1] - st.t_s[0]) if len(st.t_s) > 1 else float(nw / prf_hz / 2),
+            "range_m": r,
+            "n_window": int(nw),
+        }
         if ok.sum() >= min_fraction * max(base.sum(), 1):
             break
     return out
@@ -547,9 +625,19 @@ def body_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray,
 SIDE_FINE_DIVISOR = 2
 
 
-def sideband_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndarray, spacing_hz: np.ndarray,
-                        harm: np.ndarray, spread: float, n_fft: int, range_t_s=None, range_m=None,
-                        divisor: int = SIDE_FINE_DIVISOR) -> dict:
+def sideband_power_fine(
+    iq,
+    prf_hz: float,
+    t_cpi: np.ndarray,
+    f_body_hz: np.ndarray,
+    spacing_hz: np.ndarray,
+    harm: np.ndarray,
+    spread: float,
+    n_fft: int,
+    range_t_s=None,
+    range_m=None,
+    divisor: int = SIDE_FINE_DIVISOR,
+) -> dict:
     """Each HERM harmonic cluster's sideband power in short windows (``n_fft /
     divisor`` pulses, Blackman-Harris, 50 % overlap), for the fading's correlation
     time: the CPI grid (a 0.6 s window every 0.3 s) leaves a 1-2 s fading's time
@@ -606,15 +694,23 @@ def sideband_power_fine(iq, prf_hz: float, t_cpi: np.ndarray, f_body_hz: np.ndar
             s = cs[rows, b + 1] - cs[rows, a]
             pw = s - nb * floor
             out[key][:, k] = pw
-            out[key + "_sd"][:, k] = np.sqrt(kap * (2 * np.maximum(pw, 0) * floor + nb * floor ** 2))
+            out[key + "_sd"][:, k] = np.sqrt(kap * (2 * np.maximum(pw, 0) * floor + nb * floor**2))
             inside[:, k] &= ins
     near = np.clip(np.searchsorted(t_cpi, st.t_s), 0, len(t_cpi) - 1)
     prev = np.clip(near - 1, 0, len(t_cpi) - 1)
     near = np.where(np.abs(t_cpi[prev] - st.t_s) < np.abs(t_cpi[near] - st.t_s), prev, near)
     r = np.interp(st.t_s, range_t_s, range_m) if range_m is not None else np.ones(m)
-    out.update({"t_s": st.t_s, "inside": inside, "cpi": near, "window": st.window,
-                "hop_s": float(st.t_s[1] - st.t_s[0]) if m > 1 else float(nw / prf_hz / 2),
-                "range_m": r, "n_window": int(nw)})
+    out.update(
+        {
+            "t_s": st.t_s,
+            "inside": inside,
+            "cpi": near,
+            "window": st.window,
+            "hop_s": float(st.t_s[1] - st.t_s[0]) if m > 1 else float(nw / prf_hz / 2),
+            "range_m": r,
+            "n_window": int(nw),
+        }
+    )
     return out
 
 
@@ -628,7 +724,7 @@ def usable_pairs(up, lo, up_sd, lo_sd, pair_ok, *, summed: bool = False) -> np.n
     :class:`Measurements`."""
     with np.errstate(divide="ignore", invalid="ignore"):
         if summed:
-            snr = (up + lo) / np.maximum(np.sqrt(up_sd ** 2 + lo_sd ** 2), 1e-30)
+            snr = (up + lo) / np.maximum(np.sqrt(up_sd**2 + lo_sd**2), 1e-30)
         else:
             snr = np.minimum(up, lo) / np.maximum(np.maximum(up_sd, lo_sd), 1e-30)
     snr = np.where(pair_ok, snr, np.nan)
@@ -643,7 +739,7 @@ def calibrate(M: Measurements) -> Calibration:
     envelope), and over the usable pairs (``M.usable_pairs``) a line in dB over the
     harmonics' frequency n B f (f the median logged speed): its intercept is
     S_blade^2, its slope the envelope's alpha."""
-    w2 = float((M.stft.window ** 2).sum())
+    w2 = float((M.stft.window**2).sum())
     n = len(M.stft.window)
     good = M.valid & (M.body_pow > 0)
     s_body = float(np.sqrt(np.median(M.body_pow[good]) / (n * w2))) if good.any() else float("nan")
@@ -669,10 +765,17 @@ def calibrate(M: Measurements) -> Calibration:
     ref = max(s_body, 1e-30)
     per_h_err = {}
     for k in ks:
-        pred = s_blade ** 2 * np.exp(-2 * alpha * M.harm[k] * hbar)
+        pred = s_blade**2 * np.exp(-2 * alpha * M.harm[k] * hbar)
         per_h_err[f"h{int(M.harm[k])}"] = round(float(10 * np.log10(gains[k] / pred)), 2)
-    return Calibration(s_body=1.0, s_blade=s_blade / ref, alpha_s=float(alpha), blade_gain=gains, blade_abs=s_blade,
-                       per_harmonic_power_error_db=per_h_err, n_usable_harmonics=int(len(ks)))
+    return Calibration(
+        s_body=1.0,
+        s_blade=s_blade / ref,
+        alpha_s=float(alpha),
+        blade_gain=gains,
+        blade_abs=s_blade,
+        per_harmonic_power_error_db=per_h_err,
+        n_usable_harmonics=int(len(ks)),
+    )
 
 
 def lag_curves(log: MotorLog, t_s: np.ndarray, window: np.ndarray, prf_hz: float, lags: np.ndarray) -> np.ndarray:
@@ -698,8 +801,9 @@ def clutter_line_power(M: Measurements) -> np.ndarray:
     return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
 
 
-def floor_ordinates(M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = PN_INNER_HZ,
-                    outer_hz: float = PN_OUTER_HZ) -> FloorOrdinates | None:
+def floor_ordinates(
+    M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = PN_INNER_HZ, outer_hz: float = PN_OUTER_HZ
+) -> FloorOrdinates | None:
     """The phase-noise test's data (:class:`FloorOrdinates`; None without a background
     recording): on every second valid CPI (non-overlapping), the periodogram bins
     ``inner_hz`` to ``outer_hz`` (default :data:`.config.PN_INNER_HZ` to
@@ -750,8 +854,11 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = 
         if M.sim_stft is not None and calib is not None:
             # off the blade power the calibrated model predicts there (smeared lines too)
             d = ff - fb
-            pred = (calib.blade_abs ** 2 * np.exp(-2 * calib.alpha_s * np.abs(d))
-                    * np.interp(d, M.sim_stft.f_hz, M.sim_stft.p[i]))
+            pred = (
+                calib.blade_abs**2
+                * np.exp(-2 * calib.alpha_s * np.abs(d))
+                * np.interp(d, M.sim_stft.f_hz, M.sim_stft.p[i])
+            )
             keep &= pred < M.floor[i] * 10 ** (PN_MODEL_GUARD_DB / 10)
         cc = cols[keep]
         if len(cc) < 5:
@@ -762,8 +869,16 @@ def floor_ordinates(M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = 
         ps.append(st.p[i, cc])
         ss.append(s_bg_t[min(i, len(s_bg_t) - 1), cc])
     kept = np.asarray(kept, int)
-    return FloorOrdinates(bin_hz=st.bin_hz, cpi=kept, f_body_hz=M.f_body_hz[kept], body_pow=M.body_pow[kept],
-                          clutter_pow=np.asarray(cs, float), f_hz=tuple(fs), power=tuple(ps), background=tuple(ss))
+    return FloorOrdinates(
+        bin_hz=st.bin_hz,
+        cpi=kept,
+        f_body_hz=M.f_body_hz[kept],
+        body_pow=M.body_pow[kept],
+        clutter_pow=np.asarray(cs, float),
+        f_hz=tuple(fs),
+        power=tuple(ps),
+        background=tuple(ss),
+    )
 
 
 def skirt_shape(f_hz: np.ndarray, bandwidth_hz: float, offset_hz: float) -> tuple[np.ndarray, np.ndarray]:
@@ -775,8 +890,7 @@ def skirt_shape(f_hz: np.ndarray, bandwidth_hz: float, offset_hz: float) -> tupl
         return f_hz < bandwidth_hz, (offset_hz / np.maximum(f_hz, 20.0)) ** 2
 
 
-def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
-                offset_hz: float) -> np.ndarray:
+def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float, offset_hz: float) -> np.ndarray:
     """The floor per bin [n_t, N, 2] that a phase-noise skirt adds at each sideband
     (``M.side_f_hz``): the phase-noise test's model (:func:`.phase_noise.test_phase_noise`),
     (bin / 2 bandwidth) x line power x (q_flat [|f| < bandwidth] + q_slope (offset /
@@ -821,7 +935,9 @@ def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
     for j in range(len(O.cpi)):
         fc, fb = O.f_hz[j], O.f_body_hz[j]
         C, Bt = float(O.clutter_pow[j]), max(float(O.body_pow[j]), 0.0)
-        P.append(O.power[j]); S.append(O.background[j]); CP.append(np.full(len(fc), O.cpi[j]))
+        P.append(O.power[j])
+        S.append(O.background[j])
+        CP.append(np.full(len(fc), O.cpi[j]))
         JC.append(np.searchsorted(edges, np.abs(fc), side="right") - 1)
         JB.append(np.searchsorted(edges, np.abs(fc - fb), side="right") - 1)
         A.append(np.column_stack([np.full(len(fc), df * C), np.full(len(fc), df * Bt)]))
@@ -833,8 +949,19 @@ def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
         return None
     F = np.concatenate(O.f_hz)
     FB = np.concatenate([np.full(len(f), fb) for f, fb in zip(O.f_hz, O.f_body_hz)])
-    return {"P": P, "S": S, "A": A, "jc": JC, "jb": JB, "cpi": CP, "pos": F > 0, "f_rel_body_hz": F - FB,
-            "edges": edges, "nb": nb, "counts": counts}
+    return {
+        "P": P,
+        "S": S,
+        "A": A,
+        "jc": JC,
+        "jb": JB,
+        "cpi": CP,
+        "pos": F > 0,
+        "f_rel_body_hz": F - FB,
+        "edges": edges,
+        "nb": nb,
+        "counts": counts,
+    }
 
 
 #: the per-ordinate arrays of :func:`skirt_ordinates` (the rest describe the bands)
@@ -931,8 +1058,11 @@ def skirt_profile(M: Measurements, cfg: DiagnosisConfig, d: dict | None = None) 
     db = np.where(lev[meas] > 0, 10 * np.log10(np.maximum(lev[meas], 1e-300)), -300.0)
     last = meas[-1]
     db = np.interp(np.arange(d["nb"]), meas, db)[: last + 1]
-    return {"band_edges_hz": [round(float(e), 3) for e in d["edges"][: last + 2]],
-            "dbc_hz": [round(float(v), 2) for v in db], "n_ordinates": [int(c) for c in d["counts"][: last + 1]]}
+    return {
+        "band_edges_hz": [round(float(e), 3) for e in d["edges"][: last + 2]],
+        "dbc_hz": [round(float(v), 2) for v in db],
+        "n_ordinates": [int(c) for c in d["counts"][: last + 1]],
+    }
 
 
 def given_imbalance(M: Measurements) -> Measurements:
@@ -956,13 +1086,18 @@ def given_imbalance(M: Measurements) -> Measurements:
     ok = M.pair_ok | (M.pair_ok_any_floor & np.all(rise <= ROTATION_RAISED_FLOOR_DB, axis=2))
     if np.array_equal(ok, M.pair_ok):
         return M
-    M = replace(M, pair_ok=ok, usable_pairs=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok),
-                usable_pair_sums=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok, summed=True))
+    M = replace(
+        M,
+        pair_ok=ok,
+        usable_pairs=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok),
+        usable_pair_sums=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok, summed=True),
+    )
     return replace(M, calib=calibrate(M))
 
 
-def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float,
-                offset_hz: float, *, clear_side: bool = False) -> Measurements:
+def given_skirt(
+    M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: float, offset_hz: float, *, clear_side: bool = False
+) -> Measurements:
     """``M`` with a named phase-noise skirt in the model of the floor under the
     sidebands: a sideband whose local floor is raised over the far floor is kept when
     the far floor plus the skirt (:func:`skirt_floor`) accounts for it to within
@@ -993,7 +1128,7 @@ def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
         # cancels against the harmonic's median; a common gain moves both sides)
         with np.errstate(invalid="ignore", divide="ignore"):
             rise = DB * np.log(M.side_floor / M.floor[:, None, None])
-        hi = ~(rise <= RAISED_FLOOR_DB)                       # raised (or no floor)
+        hi = ~(rise <= RAISED_FLOOR_DB)  # raised (or no floor)
         up, lo, up_sd, lo_sd = up.copy(), lo.copy(), up_sd.copy(), lo_sd.copy()
         ok = ok.copy()
         fine = dict(M.side_fine) if M.side_fine else None
@@ -1004,7 +1139,7 @@ def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
             n = base[:, k].sum()
             if n == 0:
                 continue
-            for j, (a, b) in enumerate((("up", "lo"), ("lo", "up"))):   # side a on the skirt, b clear
+            for j, (a, b) in enumerate((("up", "lo"), ("lo", "up"))):  # side a on the skirt, b clear
                 if (base[:, k] & hi[:, k, j] & ~hi[:, k, 1 - j]).sum() < 0.5 * n:
                     continue
                 ok[:, k] = M.pair_ok_any_floor[:, k] & ~hi[:, k, 1 - j]
@@ -1016,9 +1151,16 @@ def given_skirt(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
                         arrs[a][:, k], arrs[a + "_sd"][:, k] = arrs[b][:, k], arrs[b + "_sd"][:, k]
                 break
         M = replace(M, side_fine=fine if fine is not None else M.side_fine)
-    return replace(M, up=up, lo=lo, up_sd=up_sd, lo_sd=lo_sd, pair_ok=ok,
-                   usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
-                   usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True))
+    return replace(
+        M,
+        up=up,
+        lo=lo,
+        up_sd=up_sd,
+        lo_sd=lo_sd,
+        pair_ok=ok,
+        usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
+        usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True),
+    )
 
 
 # ---------------------------------------------------------------- the measurement
@@ -1063,12 +1205,22 @@ def _bins_near(st, centres, half) -> np.ndarray:
     for c, w in zip(np.ravel(centres), np.ravel(half)):
         lo, hi = int(np.ceil(st.at(c - w))), int(np.floor(st.at(c + w)))
         if hi >= 0 and lo < len(m):
-            m[max(lo, 0):min(hi, len(m) - 1) + 1] = True
+            m[max(lo, 0) : min(hi, len(m) - 1) + 1] = True
     return m
 
 
-def rotation_line_powers(st, f_body_hz, motor_rev_s, valid, n_blades: int, k_max: int, floor, *,
-                         clutter_guard_hz: float, raised_floor_db: float):
+def rotation_line_powers(
+    st,
+    f_body_hz,
+    motor_rev_s,
+    valid,
+    n_blades: int,
+    k_max: int,
+    floor,
+    *,
+    clutter_guard_hz: float,
+    raised_floor_db: float,
+):
     """Noise-subtracted power of every rotation harmonic k = 1..k_max on each side of
     the body, summed over the rotors whose line of order k is clear of every other
     rotor's lines of orders k-2..k+2.
@@ -1097,7 +1249,11 @@ def rotation_line_powers(st, f_body_hz, motor_rev_s, valid, n_blades: int, k_max
                 for m in range(n_m):
                     mine = _bins_near(st, cs[m], half[m])
                     oth = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
-                    if abs(cs[m]) + half[m] < nyq and abs(cs[m]) > clutter_guard_hz + half[m] and not np.any(mine & oth):
+                    if (
+                        abs(cs[m]) + half[m] < nyq
+                        and abs(cs[m]) > clutter_guard_hz + half[m]
+                        and not np.any(mine & oth)
+                    ):
                         clear.append(m)
                 if not clear:
                     continue
@@ -1111,7 +1267,7 @@ def rotation_line_powers(st, f_body_hz, motor_rev_s, valid, n_blades: int, k_max
                     continue
                 nb = int(mine.sum())
                 P[i, k - 1, s] = float(st.p[i, mine].sum()) - nb * fl
-                V[i, k - 1, s] = kappa * nb * fl ** 2
+                V[i, k - 1, s] = kappa * nb * fl**2
                 W[i, k - 1, s] = 2 * kappa * fl
                 R[i, k - 1, s] = len(clear)
     return P, V, W, R
@@ -1136,8 +1292,11 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     cfg = cfg if cfg is not None else DiagnosisConfig()
     log = check_diagnosable(flight, motor_log, cfg)
     # a log estimated from this recording's own HERM lines (motors_source radar)
-    log_from_radar = (flight.attrs.get("motors_source") == "radar" if motor_log is None
-                      else str(motor_log.source).startswith(RADAR_SOURCE))
+    log_from_radar = (
+        flight.attrs.get("motors_source") == "radar"
+        if motor_log is None
+        else str(motor_log.source).startswith(RADAR_SOURCE)
+    )
     prf = flight.prf_hz
     a = flight.attrs
     n_fft = cfg.cpi_pulses(prf)
@@ -1158,8 +1317,16 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         s, body_nb[i] = band_power(st.p[i], st, f_body[i], cfg.body_half_hz)
         body_pow[i] = s - body_nb[i] * floor[i]
     # the paper's model (blades only, body-relative, alpha = 0)
-    sim_iq, rev = simulate_blades(log, len(iq), prf, wavelength_m=flight.wavelength_m, n_blades=int(a["n_blades"]),
-                                  blade_length_m=float(a["blade_length_m"]), n_fft=n_fft, seed=cfg.seed)
+    sim_iq, rev = simulate_blades(
+        log,
+        len(iq),
+        prf,
+        wavelength_m=flight.wavelength_m,
+        n_blades=int(a["n_blades"]),
+        blade_length_m=float(a["blade_length_m"]),
+        n_fft=n_fft,
+        seed=cfg.seed,
+    )
     sim = stft_power(sim_iq, prf, n_fft)
     t_fine = np.arange(rev.shape[0]) / prf
     step = max(1, int(prf / 200))
@@ -1176,17 +1343,20 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     # (noise_power_factor)
     fl_ratio = body_floor_ratio(st, f_body, h0 * dil_f, cfg)
     fl_body = floor * fl_ratio
-    var = noise_power_factor(st.window) * (2 * np.maximum(body_pow, 0) * fl_body + body_nb * fl_body ** 2)
+    var = noise_power_factor(st.window) * (2 * np.maximum(body_pow, 0) * fl_body + body_nb * fl_body**2)
     body_sd = DB * np.sqrt(var) / np.maximum(body_pow, 1e-30)
     # sidebands
     N = N_HARMONICS
     harm = np.arange(1, N + 1)
-    up = np.zeros((n_t, N)); lo = np.zeros((n_t, N))
-    up_sd = np.zeros((n_t, N)); lo_sd = np.zeros((n_t, N))
+    up = np.zeros((n_t, N))
+    lo = np.zeros((n_t, N))
+    up_sd = np.zeros((n_t, N))
+    lo_sd = np.zeros((n_t, N))
     ok = np.zeros((n_t, N), bool)
     # each side's local floor and Doppler, and the pairs good but for a raised floor
     # (given_skirt: a floor raised by a named phase-noise skirt)
-    side_fl = np.full((n_t, N, 2), np.nan); side_fc = np.full((n_t, N, 2), np.nan)
+    side_fl = np.full((n_t, N, 2), np.nan)
+    side_fc = np.full((n_t, N, 2), np.nan)
     ok_any_floor = np.zeros((n_t, N), bool)
     model_h = np.zeros((n_t, N))
     nyq = st.f_hz[-1]
@@ -1219,7 +1389,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
                     raised = True
                 side_fl[i, k, j], side_fc[i, k, j] = fl, fc
                 pw = s - nb * fl
-                sd = np.sqrt(2 * max(pw, 0) * fl + nb * fl ** 2)
+                sd = np.sqrt(2 * max(pw, 0) * fl + nb * fl**2)
                 if j == 0:
                     up[i, k], up_sd[i, k] = pw, sd
                 else:
@@ -1235,33 +1405,82 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     # so every CPI counts for them (tests that need the body report not testable)
     body_in_notch = bool(np.median(np.abs(f_body)) <= cfg.clutter_guard_hz + cfg.body_half_hz)
     valid = (body_valid | body_in_notch) & ~art & in_log
-    fine = body_power_fine(iq, prf, st.t_s, f_body, valid, n_fft, flight.track_time_s, flight.track_range_m,
-                           floor_ratio=fl_ratio)
-    side_fine = sideband_power_fine(iq, prf, st.t_s, f_body, h0 * dil_f, harm, spread, n_fft,
-                                    flight.track_time_s, flight.track_range_m)
+    fine = body_power_fine(
+        iq, prf, st.t_s, f_body, valid, n_fft, flight.track_time_s, flight.track_range_m, floor_ratio=fl_ratio
+    )
+    side_fine = sideband_power_fine(
+        iq, prf, st.t_s, f_body, h0 * dil_f, harm, spread, n_fft, flight.track_time_s, flight.track_range_m
+    )
     lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, LAG_STEP_S)
     # every rotation harmonic, per rotor at its own logged speed (times the measured
     # dilation): the blade-passing lines and, between them, what unequal blades add
-    rev_m = np.stack([cpi_average(t_fine[::step], rev[::step, m], st.t_s, st.window, prf)
-                      for m in range(rev.shape[1])], axis=1) * dil_f[:, None]
+    rev_m = (
+        np.stack(
+            [cpi_average(t_fine[::step], rev[::step, m], st.t_s, st.window, prf) for m in range(rev.shape[1])], axis=1
+        )
+        * dil_f[:, None]
+    )
     k_max = B * N_HARMONICS
-    rot = rotation_line_powers(st, f_body, rev_m, in_log & ~art, B, k_max, floor,
-                               clutter_guard_hz=cfg.clutter_guard_hz, raised_floor_db=ROTATION_RAISED_FLOOR_DB)
+    rot = rotation_line_powers(
+        st,
+        f_body,
+        rev_m,
+        in_log & ~art,
+        B,
+        k_max,
+        floor,
+        clutter_guard_hz=cfg.clutter_guard_hz,
+        raised_floor_db=ROTATION_RAISED_FLOOR_DB,
+    )
     rot_wire = thin_wire_line_power(float(a["blade_length_m"]), flight.wavelength_m, k_max)
     M = Measurements(
-        flight.flight_id, st.t_s, valid, f_body, body_pow, body_sd, floor, rng_m, f_log, dil, dil_ok, harm,
-        up, lo, up_sd, lo_sd, ok, model_h,
+        flight.flight_id,
+        st.t_s,
+        valid,
+        f_body,
+        body_pow,
+        body_sd,
+        floor,
+        rng_m,
+        f_log,
+        dil,
+        dil_ok,
+        harm,
+        up,
+        lo,
+        up_sd,
+        lo_sd,
+        ok,
+        model_h,
         usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
         usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True),
-        lag_s=lags, lag_curves=lag_curves(log, st.t_s, st.window, prf, lags),
-        log=log, log_from_radar=log_from_radar, stft=st, bg_stft=bg, sim_stft=sim, body_fine=fine,
+        lag_s=lags,
+        lag_curves=lag_curves(log, st.t_s, st.window, prf, lags),
+        log=log,
+        log_from_radar=log_from_radar,
+        stft=st,
+        bg_stft=bg,
+        sim_stft=sim,
+        body_fine=fine,
         side_fine=side_fine,
-        info={"spread": spread, "prf_hz": prf, "n_blades": B, "n_artifact_cpis": int(art.sum()),
-              "match_q": float(np.nanmedian(q)),
-              "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B),
-              "body_in_notch": body_in_notch},
-        rot_pow=rot[0], rot_var=rot[1], rot_cross=rot[2], rot_n=rot[3], rot_wire=rot_wire,
-        side_floor=side_fl, side_f_hz=side_fc, pair_ok_any_floor=ok_any_floor)
+        info={
+            "spread": spread,
+            "prf_hz": prf,
+            "n_blades": B,
+            "n_artifact_cpis": int(art.sum()),
+            "match_q": float(np.nanmedian(q)),
+            "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B),
+            "body_in_notch": body_in_notch,
+        },
+        rot_pow=rot[0],
+        rot_var=rot[1],
+        rot_cross=rot[2],
+        rot_n=rot[3],
+        rot_wire=rot_wire,
+        side_floor=side_fl,
+        side_f_hz=side_fc,
+        pair_ok_any_floor=ok_any_floor,
+    )
     # the model calibrated on the measurement, then the floor off the calibrated lines
     M = replace(M, calib=calibrate(M))
     return replace(M, floor_ordinates=floor_ordinates(M, cfg))

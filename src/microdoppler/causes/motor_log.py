@@ -10,8 +10,10 @@ from .config import LAG_STEP_S
 from .heldout import CauseTest, _crossfit, _gauss_ll
 
 #: why a log estimated from the recording's own lines tests neither
-FROM_RADAR = ("motors_source is radar: the motor log was estimated from this recording's HERM lines, so lag "
-              "and scale are not testable")
+FROM_RADAR = (
+    "motors_source is radar: the motor log was estimated from this recording's HERM lines, so lag "
+    "and scale are not testable"
+)
 
 
 #: outlier fraction of the lag/scale tests' contaminated-normal likelihood
@@ -65,8 +67,9 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
             return fit_joint(sel, *base_flags), fit_joint(sel, *ext_flags), wide
 
         def ll(x, mu, var, wide):
-            return np.logaddexp(np.log1p(-LOG_OUTLIER_FRAC) + _gauss_ll(x, mu, var),
-                                np.log(LOG_OUTLIER_FRAC) + _gauss_ll(x, 0.0, wide))
+            return np.logaddexp(
+                np.log1p(-LOG_OUTLIER_FRAC) + _gauss_ll(x, mu, var), np.log(LOG_OUTLIER_FRAC) + _gauss_ll(x, 0.0, wide)
+            )
 
         def score(th, sel):
             tb, te, wide = th
@@ -101,15 +104,19 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
     sc_res.effect = abs(scale - 1)
     sc_res.relevant = abs(scale - 1) >= cfg.margin_scale
     spd = M.f_log_hz[m]
-    ev = {"line_spacing_ratio": round(float(np.exp(np.median(y))), 4), "fitted_lag_s": round(lag, 3),
-          "log_speed_range_hz": round(float(spd.max() - spd.min()), 2),
-          "spacing_ratio_std": round(float(np.std(np.exp(y))), 4)}
+    ev = {
+        "line_spacing_ratio": round(float(np.exp(np.median(y))), 4),
+        "fitted_lag_s": round(lag, 3),
+        "log_speed_range_hz": round(float(spd.max() - spd.min()), 2),
+        "spacing_ratio_std": round(float(np.std(np.exp(y))), 4),
+    }
     lag_res.evidence = {**ev, "given": sorted(given & {"motor_speed_scale"})}
     sc_res.evidence = {**ev, "given": sorted(given & {"motor_log_lag"})}
     series = {"t_s": M.t_s[m], "stat": y}
     lag_res.series = {**series, "base": np.full_like(y, mu_l if with_scale else 0.0), "ext": G[j] + mu_l}
-    sc_res.series = {**series, "base": G[jl] if jl is not None else np.zeros_like(y),
-                     "ext": (G[jl] if jl is not None else 0.0) + np.full_like(y, np.log(scale))}
+    sc_res.series = {
+        **series,
+        "base": G[jl] if jl is not None else np.zeros_like(y),
+        "ext": (G[jl] if jl is not None else 0.0) + np.full_like(y, np.log(scale)),
+    }
     return lag_res, sc_res
-
-

@@ -20,8 +20,14 @@ NAME = "motor_log_lag"
 class MotorLogLag(CauseSpec):
     name = NAME
     meaning = "the motor log is shifted in time against the radar"
-    params = (Param("lag_s", "s", "t_logged - t_true: a row stamped t reports the speed at t - lag_s; "
-                    "positive = log late", "|lag_s| >= 0.3"),)
+    params = (
+        Param(
+            "lag_s",
+            "s",
+            "t_logged - t_true: a row stamped t reports the speed at t - lag_s; positive = log late",
+            "|lag_s| >= 0.3",
+        ),
+    )
     observations = ("dil", "dil_ok", "valid", "lag_s", "lag_curves", "f_log_hz", "t_s")
     line = "rotor"
     test_partners = frozenset({"motor_speed_scale"})

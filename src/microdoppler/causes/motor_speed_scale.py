@@ -22,8 +22,9 @@ NAME = "motor_speed_scale"
 class MotorSpeedScale(CauseSpec):
     name = NAME
     meaning = "the logged speeds are off by a constant factor"
-    params = (Param("scale", "1", "true speed / logged speed (HERM spacing / the log's prediction)",
-                    "|scale - 1| >= 0.05"),)
+    params = (
+        Param("scale", "1", "true speed / logged speed (HERM spacing / the log's prediction)", "|scale - 1| >= 0.05"),
+    )
     observations = ("dil", "dil_ok", "valid", "lag_s", "lag_curves", "f_log_hz", "t_s")
     line = "rotor"
     test_partners = frozenset({"motor_log_lag"})

@@ -27,11 +27,25 @@ import scipy.fft as sfft
 
 from ..errors import InputError
 from .base import CauseSpec, Param, number
-from .config import (PN_BODY_SKIRT_HZ, PN_CLUTTER_DECAYS_HZ, PN_OUTER_HZ, PN_PROFILE_AGREE_DB,
-                     PN_PROFILE_BODY_GUARD_HZ, PN_PROFILE_FALL_DB)
+from .config import (
+    PN_BODY_SKIRT_HZ,
+    PN_CLUTTER_DECAYS_HZ,
+    PN_OUTER_HZ,
+    PN_PROFILE_AGREE_DB,
+    PN_PROFILE_BODY_GUARD_HZ,
+    PN_PROFILE_FALL_DB,
+)
 from .heldout import CauseTest, _crossfit
-from .measure import (DB, given_skirt, ordinate_subset, robust_skirt_levels, skirt_ordinates, skirt_power,
-                      skirt_profile, skirt_shape)
+from .measure import (
+    DB,
+    given_skirt,
+    ordinate_subset,
+    robust_skirt_levels,
+    skirt_ordinates,
+    skirt_power,
+    skirt_profile,
+    skirt_shape,
+)
 
 NAME = "phase_noise"
 #: sub-seed of the twins' phase-noise process (independent streams from one seed)
@@ -41,8 +55,9 @@ PHASE_NOISE_BANDWIDTH_HZ = 100.0
 SKIRT_OFFSET_HZ = 50.0
 
 
-def flat_skirt_dbc_hz(rms_rad: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ,
-                      offset_hz: float = SKIRT_OFFSET_HZ) -> float:
+def flat_skirt_dbc_hz(
+    rms_rad: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ, offset_hz: float = SKIRT_OFFSET_HZ
+) -> float:
     """``skirt_dbc_hz`` of the catalog's flat phase noise of rms ``rms_rad`` [rad].
 
     theta(t) Gaussian with a flat two-sided PSD S = rms^2 / (2 B) on |f| < B. The
@@ -56,8 +71,9 @@ def flat_skirt_dbc_hz(rms_rad: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDT
     return float(10 * np.log10(lin)) if lin > 0 else float("-inf")
 
 
-def flat_rms_rad(skirt_dbc_hz: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ,
-                 offset_hz: float = SKIRT_OFFSET_HZ) -> float:
+def flat_rms_rad(
+    skirt_dbc_hz: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ, offset_hz: float = SKIRT_OFFSET_HZ
+) -> float:
     """Inverse of :func:`flat_skirt_dbc_hz`: the flat process's rms [rad]."""
     L = 10 ** (float(skirt_dbc_hz) / 10)
     c = max(2 * bandwidth_hz - offset_hz, 0.0)
@@ -65,8 +81,9 @@ def flat_rms_rad(skirt_dbc_hz: float, bandwidth_hz: float = PHASE_NOISE_BANDWIDT
     return float(np.sqrt(2 * bandwidth_hz * a))
 
 
-def profile_skirt_test(d: dict, fold, body_spread: float = 0.0,
-                       body_guard_hz: float = PN_PROFILE_BODY_GUARD_HZ) -> dict:
+def profile_skirt_test(
+    d: dict, fold, body_spread: float = 0.0, body_guard_hz: float = PN_PROFILE_BODY_GUARD_HZ
+) -> dict:
     """The measured skirt as a held-out test (:func:`test_phase_noise`'s second
     reading): on each fold the band levels by medians, in the bands measured on both
     sides of the clutter line (:func:`.measure.robust_skirt_levels`), scored on the other fold's ordinates by a
@@ -81,13 +98,16 @@ def profile_skirt_test(d: dict, fold, body_spread: float = 0.0,
     far the levels fall from that band to the outermost measured one (a skirt falls;
     a flat excess over the whole band is the target's spread, not the radar's
     skirt)}``."""
-    t = CauseTest("phase_noise", statistic="held-out Whittle likelihood of the floor 35 Hz-1.2 kHz from the "
-                                           "clutter line, the skirt's band levels by medians")
+    t = CauseTest(
+        "phase_noise",
+        statistic="held-out Whittle likelihood of the floor 35 Hz-1.2 kHz from the "
+        "clutter line, the skirt's band levels by medians",
+    )
     # off the body's own spread: a fluctuating body beside the clutter line spreads on
     # both sides of it too; its Lorentzian tail (as the phase-noise test's model with
     # a skirt fits it) is part of the background in both models
     if body_spread > 0:
-        g2 = PN_BODY_SKIRT_HZ ** 2
+        g2 = PN_BODY_SKIRT_HZ**2
         line = d["A"][:, 1] / (2 * PHASE_NOISE_BANDWIDTH_HZ)  # that test's column unit: bin x body power / 2 B
         d = {**d, "S": d["S"] + body_spread * line * g2 / (d["f_rel_body_hz"] ** 2 + g2)}
     d = ordinate_subset(d, np.abs(d["f_rel_body_hz"]) >= body_guard_hz)
@@ -135,17 +155,22 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
         # default: PN_CLUTTER_DECAYS_HZ) and a skirt around the body (a fluctuating
         # body spreads its own line)
         Bt = max(float(O.body_pow[j]), 0.0) * df / (2 * bw)
-        g2 = PN_BODY_SKIRT_HZ ** 2
+        g2 = PN_BODY_SKIRT_HZ**2
         # the skirt: flat, and falling as (f0 / f)^2 (f0 = 50 Hz), around the clutter
         # line and the body both; a mix of the two follows a flat, a Gaussian or a
         # 1/f-like phase-noise spectrum between PN_INNER_HZ and PN_OUTER_HZ
         db_ = np.abs(fc - fb)
         flat_c, slope_c = skirt_shape(af, bw, SKIRT_OFFSET_HZ)
         flat_b, slope_b = skirt_shape(db_, bw, SKIRT_OFFSET_HZ)
-        kern = np.column_stack([unit * flat_c + Bt * flat_b, unit * slope_c + Bt * slope_b]
-                               + [unit * np.exp(-af / d) for d in PN_CLUTTER_DECAYS_HZ]
-                               + [Bt * g2 / ((fc - fb) ** 2 + g2)])
-        P.append(O.power[j]); S.append(O.background[j]); K.append(kern); F.append(np.full(len(fc), fold[i]))
+        kern = np.column_stack(
+            [unit * flat_c + Bt * flat_b, unit * slope_c + Bt * slope_b]
+            + [unit * np.exp(-af / d) for d in PN_CLUTTER_DECAYS_HZ]
+            + [Bt * g2 / ((fc - fb) ** 2 + g2)]
+        )
+        P.append(O.power[j])
+        S.append(O.background[j])
+        K.append(kern)
+        F.append(np.full(len(fc), fold[i]))
     if len(P) < 4:
         res.testable = False
         res.evidence = {"reason": "no floor near the clutter line clear of the target"}
@@ -224,24 +249,41 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     spread = float(xe[-1] / norm[-1]) if len(xe) > NQ else 0.0
     prof = None if d is None or profile is None else profile_skirt_test(d, fold, spread)
     if prof is not None:
-        use_prof = bool(prof["test"].held_out and prof["test"].log_e > res.log_e
-                        and prof["rise_db"] >= cfg.margin_floor_rise_db and prof["fall_db"] >= PN_PROFILE_FALL_DB)
+        use_prof = bool(
+            prof["test"].held_out
+            and prof["test"].log_e > res.log_e
+            and prof["rise_db"] >= cfg.margin_floor_rise_db
+            and prof["fall_db"] >= PN_PROFILE_FALL_DB
+        )
         if use_prof:
             t = prof["test"]
-            res.log_e, res.nll_base, res.nll_ext, res.n_obs, res.held_out = (t.log_e, t.nll_base, t.nll_ext,
-                                                                             t.n_obs, t.held_out)
+            res.log_e, res.nll_base, res.nll_ext, res.n_obs, res.held_out = (
+                t.log_e,
+                t.nll_base,
+                t.nll_ext,
+                t.n_obs,
+                t.held_out,
+            )
             res.statistic = t.statistic
             res.effect, res.relevant = prof["rise_db"], True
-        res.evidence["profile_test"] = {"log_evalue": round(float(prof["test"].log_e), 2),
-                                        "floor_rise_db": round(float(prof["rise_db"]), 2),
-                                        "fall_db": round(min(float(prof["fall_db"]), 999.0), 2), "used": use_prof}
-    res.evidence.update({"floor_rise_db_vs_background": round(rise_meas, 2),
-                         "model_floor_rise_db": round(rise_model, 2),
-                         "skirt_profile_dbc_hz_at_offset": None if at_offset is None else round(at_offset, 2),
-                         "rms_rad": round(rms, 4), "skirt_dbc_hz": round(skirt, 2),
-                         "n_ordinates": int(len(P)),
-                         "skirt_flat_and_sloped": [round(q_flat, 6), round(q_slope, 6)],
-                         "nuisance_clutter_spread": [round(float(v), 4) for v in xe[NQ:]]})
+        res.evidence["profile_test"] = {
+            "log_evalue": round(float(prof["test"].log_e), 2),
+            "floor_rise_db": round(float(prof["rise_db"]), 2),
+            "fall_db": round(min(float(prof["fall_db"]), 999.0), 2),
+            "used": use_prof,
+        }
+    res.evidence.update(
+        {
+            "floor_rise_db_vs_background": round(rise_meas, 2),
+            "model_floor_rise_db": round(rise_model, 2),
+            "skirt_profile_dbc_hz_at_offset": None if at_offset is None else round(at_offset, 2),
+            "rms_rad": round(rms, 4),
+            "skirt_dbc_hz": round(skirt, 2),
+            "n_ordinates": int(len(P)),
+            "skirt_flat_and_sloped": [round(q_flat, 6), round(q_slope, 6)],
+            "nuisance_clutter_spread": [round(float(v), 4) for v in xe[NQ:]],
+        }
+    )
     return res
 
 
@@ -258,8 +300,17 @@ def check_skirt_profile(profile, source="extensions") -> dict:
         v = np.asarray(profile["dbc_hz"], float)
     except (TypeError, ValueError):
         raise InputError(source, key, "holds values that are not numbers", want) from None
-    if (e.ndim != 1 or v.ndim != 1 or len(e) != len(v) + 1 or len(v) < 1 or not np.all(np.isfinite(e))
-            or not np.all(np.isfinite(v)) or e[0] <= 0 or np.any(np.diff(e) <= 0) or np.any(v > 0)):
+    if (
+        e.ndim != 1
+        or v.ndim != 1
+        or len(e) != len(v) + 1
+        or len(v) < 1
+        or not np.all(np.isfinite(e))
+        or not np.all(np.isfinite(v))
+        or e[0] <= 0
+        or np.any(np.diff(e) <= 0)
+        or np.any(v > 0)
+    ):
         raise InputError(source, key, f"has {len(e)} edges and {len(v)} levels", want + ", levels finite and <= 0")
     out = {"band_edges_hz": [float(x) for x in e], "dbc_hz": [float(x) for x in v]}
     if "n_ordinates" in profile:
@@ -267,8 +318,9 @@ def check_skirt_profile(profile, source="extensions") -> dict:
     return out
 
 
-def flat_phase_noise(n: int, prf_hz: float, rms_rad: float, rng: np.random.Generator,
-                     bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ) -> np.ndarray:
+def flat_phase_noise(
+    n: int, prf_hz: float, rms_rad: float, rng: np.random.Generator, bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ
+) -> np.ndarray:
     """Gaussian phase error theta: float64 [n] [rad], flat spectrum on 0 < |f| <
     ``bandwidth_hz``, standard deviation ``rms_rad``."""
     if n == 0 or rms_rad == 0:
@@ -322,8 +374,10 @@ def world_phase_noise_params(p: dict) -> dict:
     if "rms_rad" in vals and "skirt_dbc_hz" in vals:
         want = flat_skirt_dbc_hz(vals["rms_rad"]) if vals["rms_rad"] > 0 else -300.0
         if not abs(want - vals["skirt_dbc_hz"]) <= 0.1:
-            raise ValueError(f"{NAME}: skirt_dbc_hz={vals['skirt_dbc_hz']} disagrees with rms_rad="
-                             f"{vals['rms_rad']} (whose flat skirt is {want:.2f} dBc/Hz); give one of them")
+            raise ValueError(
+                f"{NAME}: skirt_dbc_hz={vals['skirt_dbc_hz']} disagrees with rms_rad="
+                f"{vals['rms_rad']} (whose flat skirt is {want:.2f} dBc/Hz); give one of them"
+            )
     elif "rms_rad" in vals:
         p["skirt_dbc_hz"] = flat_skirt_dbc_hz(vals["rms_rad"]) if vals["rms_rad"] > 0 else -300.0
     elif "skirt_dbc_hz" in vals:
@@ -334,18 +388,41 @@ def world_phase_noise_params(p: dict) -> dict:
 class PhaseNoise(CauseSpec):
     name = NAME
     meaning = "the radar's phase noise spreads strong lines into a raised skirt"
-    params = (Param("rms_rad", "rad", "rms of the radar phase error theta(t), Gaussian, band-limited to "
-                    "|f| < 100 Hz (flat PSD); multiplies the whole echo incl. clutter by exp(j theta). For "
-                    "another spectral shape: the rms of the flat process with the same skirt at 50 Hz",
-                    "raises the floor within 100 Hz of the clutter line by >= 6 dB"),
-              Param("skirt_dbc_hz", "dBc/Hz", "single-sideband phase-noise density at 50 Hz from the carrier, "
-                    "relative to the carrier (any spectral shape; for the flat process "
-                    ":func:`flat_skirt_dbc_hz` of rms_rad)", ">= about -75 dBc/Hz"))
-    observations = ("floor_ordinates", "stft", "bg_stft", "sim_stft", "calib", "floor", "body_pow", "f_body_hz",
-                    "f_log_hz", "dil", "valid", "info")
+    params = (
+        Param(
+            "rms_rad",
+            "rad",
+            "rms of the radar phase error theta(t), Gaussian, band-limited to "
+            "|f| < 100 Hz (flat PSD); multiplies the whole echo incl. clutter by exp(j theta). For "
+            "another spectral shape: the rms of the flat process with the same skirt at 50 Hz",
+            "raises the floor within 100 Hz of the clutter line by >= 6 dB",
+        ),
+        Param(
+            "skirt_dbc_hz",
+            "dBc/Hz",
+            "single-sideband phase-noise density at 50 Hz from the carrier, "
+            "relative to the carrier (any spectral shape; for the flat process "
+            ":func:`flat_skirt_dbc_hz` of rms_rad)",
+            ">= about -75 dBc/Hz",
+        ),
+    )
+    observations = (
+        "floor_ordinates",
+        "stft",
+        "bg_stft",
+        "sim_stft",
+        "calib",
+        "floor",
+        "body_pow",
+        "f_body_hz",
+        "f_log_hz",
+        "dil",
+        "valid",
+        "info",
+    )
     line = "body"
     floor_partner = True
-    floor_stage = 1   # the skirt enters the floor's model after a named imbalance's lines
+    floor_stage = 1  # the skirt enters the floor's model after a named imbalance's lines
     floor_side_aware = True
     margin_field = "margin_floor_rise_db"
     bounds = (("rms_rad", ">= 0"),)
@@ -356,8 +433,7 @@ class PhaseNoise(CauseSpec):
 
     def floor_available(self, test) -> bool:
         # testable and its skirt not nil
-        return bool(test is not None and test.testable and test.fit
-                    and test.fit["q_flat"] + test.fit["q_slope"] > 0)
+        return bool(test is not None and test.testable and test.fit and test.fit["q_flat"] + test.fit["q_slope"] > 0)
 
     def floor_model(self, M, test, *, clear_side=False):
         q = (test.fit["q_flat"], test.fit["q_slope"], test.fit["bandwidth_hz"], test.fit["offset_hz"])
@@ -387,8 +463,9 @@ class PhaseNoise(CauseSpec):
     def post(self, p, iq, *, prf_hz, seed):
         rng = np.random.default_rng([int(seed), STREAM])
         if "skirt_profile" in p:
-            th = profile_phase_noise(len(iq), prf_hz, p["skirt_profile"]["band_edges_hz"],
-                                     p["skirt_profile"]["dbc_hz"], rng)
+            th = profile_phase_noise(
+                len(iq), prf_hz, p["skirt_profile"]["band_edges_hz"], p["skirt_profile"]["dbc_hz"], rng
+            )
         else:
             th = flat_phase_noise(len(iq), prf_hz, p["rms_rad"], rng)
         return (iq * np.exp(1j * th)).astype(np.complex64)

@@ -12,14 +12,28 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from . import (blade_imbalance, body_fluctuation, motor_log_lag, motor_speed_scale, phase_noise,
-               sideband_asymmetry, sideband_fading)
+from . import (
+    blade_imbalance,
+    body_fluctuation,
+    motor_log_lag,
+    motor_speed_scale,
+    phase_noise,
+    sideband_asymmetry,
+    sideband_fading,
+)
 from .base import CauseSpec
 
 #: the built-in cause modules, in the catalog's order (the order of the tests, the
 #: report's ``catalog`` and the twins' extensions)
-BUILTIN: tuple = (sideband_asymmetry, sideband_fading, body_fluctuation, motor_log_lag, motor_speed_scale,
-                  phase_noise, blade_imbalance)
+BUILTIN: tuple = (
+    sideband_asymmetry,
+    sideband_fading,
+    body_fluctuation,
+    motor_log_lag,
+    motor_speed_scale,
+    phase_noise,
+    blade_imbalance,
+)
 #: names that are no cause (the decision's outcomes)
 RESERVED = ("none", "unexplained", "skipped")
 

@@ -31,15 +31,17 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     res = CauseTest(NAME, statistic="upper/lower sideband power [dB]")
     if m.sum() < 2 * cfg.block_cpis:
         res.testable = False
-        res.evidence = {"reason": f"usable sideband pairs (median >= {MIN_PAIR_SNR:g} dB over the floor) "
-                                  f"in {int(m.sum())} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"}
+        res.evidence = {
+            "reason": f"usable sideband pairs (median >= {MIN_PAIR_SNR:g} dB over the floor) "
+            f"in {int(m.sum())} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"
+        }
         return res
     d = DB * np.log(U[m] / L[m])
     f = fold[m]
 
     def fit(sel):
         x = d[sel]
-        return float(x.mean()), float(np.mean(x ** 2)) + 1e-6, float(x.var()) + 1e-6
+        return float(x.mean()), float(np.mean(x**2)) + 1e-6, float(x.var()) + 1e-6
 
     def score(th, sel):
         mu, vb, ve = th
@@ -55,8 +57,7 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
         mk = M.valid & M.pair_ok[:, k] & (M.up[:, k] > 0) & (M.lo[:, k] > 0)
         if mk.sum() >= 4:
             per[f"h{int(n)}"] = round(float(np.median(DB * np.log(M.up[mk, k] / M.lo[mk, k]))), 2)
-    res.evidence = {"asymmetry_db": round(a, 2), "asymmetry_per_harmonic_db": per,
-                    "n_pairs_used": int(use.sum())}
+    res.evidence = {"asymmetry_db": round(a, 2), "asymmetry_per_harmonic_db": per, "n_pairs_used": int(use.sum())}
     res.series = {"t_s": M.t_s[m], "stat": d, "base": np.zeros_like(d), "ext": np.full_like(d, a)}
     return res
 
@@ -92,8 +93,14 @@ def world_envelope(asymmetry_db: float):
 class SidebandAsymmetry(CauseSpec):
     name = NAME
     meaning = "HERM sidebands above the body Doppler are stronger (or weaker) than their mirrors below"
-    params = (Param("asymmetry_db", "dB", "10 log10(power of upper sidebands / power of the mirror lower sidebands); "
-                    "positive = upper stronger", "|asymmetry_db| >= 3"),)
+    params = (
+        Param(
+            "asymmetry_db",
+            "dB",
+            "10 log10(power of upper sidebands / power of the mirror lower sidebands); positive = upper stronger",
+            "|asymmetry_db| >= 3",
+        ),
+    )
     observations = ("up", "lo", "pair_ok", "usable_pairs", "valid", "harm", "t_s")
     line = "rotor"
     reads_sidebands = True

@@ -21,8 +21,18 @@ import numpy as np
 
 from ..synthesis.processes import GainHook, SlowGain
 from .base import CauseSpec, Param, draw_band_panel
-from .heldout import (CauseTest, _crossfit, _detrend, _gauss_ll, _lag_grid, _ml_extra_var, fit_gain_process,
-                      fit_gain_process_ml, fit_variogram, harmonic_speed_slope)
+from .heldout import (
+    CauseTest,
+    _crossfit,
+    _detrend,
+    _gauss_ll,
+    _lag_grid,
+    _ml_extra_var,
+    fit_gain_process,
+    fit_gain_process_ml,
+    fit_variogram,
+    harmonic_speed_slope,
+)
 from .measure import DB
 
 NAME = "sideband_fading"
@@ -98,9 +108,9 @@ def test_fading(M, cfg, fold) -> CauseTest:
     beta, u = speed_tilt(M, x, ok, m, use)
     x = x - beta * np.asarray(M.harm, float)[None, :] * u[:, None]
     c = np.nanmean(np.where(ok, x, np.nan)[m], axis=1)
-    dev = (np.where(ok, x, np.nan)[m] - c[:, None])
+    dev = np.where(ok, x, np.nan)[m] - c[:, None]
     Km = K[m].astype(float)
-    ss = np.nansum(dev ** 2, axis=1)
+    ss = np.nansum(dev**2, axis=1)
     e = _detrend(c, M.t_s[m], M.range_m[m])
     f = fold[m]
 
@@ -114,18 +124,18 @@ def test_fading(M, cfg, fold) -> CauseTest:
         return float(ss.sum() / max((Km - 1).sum(), 1.0))
 
     def fit(sel):
-        v0 = sw2(sel) / Km[sel] + cfg.model_floor_db ** 2
+        v0 = sw2(sel) / Km[sel] + cfg.model_floor_db**2
         return sw2(sel), _ml_extra_var(e[sel], v0)
 
     def score(th, sel):
         s2w, s2 = th
-        v0 = s2w / Km[sel] + cfg.model_floor_db ** 2
+        v0 = s2w / Km[sel] + cfg.model_floor_db**2
         return _gauss_ll(e[sel], 0.0, v0), _gauss_ll(e[sel], 0.0, v0 + s2)
 
     _crossfit(f, fit, score, res)
     res.held_out = res.held_out and not borrowed
     s2w, s2 = fit(np.ones(len(e), bool))
-    v0 = s2w / Km + cfg.model_floor_db ** 2
+    v0 = s2w / Km + cfg.model_floor_db**2
     meas_sd = float(np.sqrt(s2))
     # size and correlation time jointly, from the variogram of the common-mode series
     # with the rotor-speed tilt taken out (fading_estimate)
@@ -145,29 +155,40 @@ def test_fading(M, cfg, fold) -> CauseTest:
     res.relevant = cpi_sd >= cfg.margin_std_db
     cg = common_gain_correlation(M, e, m)
     body_corr, body_share = cg if cg is not None else (None, None)
-    if (body_corr is not None and body_corr > COMMON_GAIN_CORR and body_share >= COMMON_GAIN_BODY_SHARE
-            and cpi_sd >= cfg.margin_common_gain_db and cpi_sd > 0):
+    if (
+        body_corr is not None
+        and body_corr > COMMON_GAIN_CORR
+        and body_share >= COMMON_GAIN_BODY_SHARE
+        and cpi_sd >= cfg.margin_common_gain_db
+        and cpi_sd > 0
+    ):
         # the sidebands follow the body, and the body moves as much: one gain on the
         # whole target (a range-cell straddle, an aspect change), not a blade fading
         # (its own margin: no catalog cause is named for it)
         res.relevant = False
         res.evidence["common_gain_db"] = round(cpi_sd, 2)
-        res.evidence["reason"] = (f"the common sideband power follows the body's (correlation {body_corr:.2f} > "
-                                  f"{COMMON_GAIN_CORR}, the body moving {body_share:.2f} as many dB): a gain on "
-                                  f"the whole target, not a fading of the blades")
+        res.evidence["reason"] = (
+            f"the common sideband power follows the body's (correlation {body_corr:.2f} > "
+            f"{COMMON_GAIN_CORR}, the body moving {body_share:.2f} as many dB): a gain on "
+            f"the whole target, not a fading of the blades"
+        )
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}
-    res.evidence = {**res.evidence, "fading_std_db": round(true_sd, 2), "timescale_s": round(tau, 2),
-                    "body_correlation": None if body_corr is None else round(body_corr, 3),
-                    "body_share": None if body_share is None else round(body_share, 3),
-                    "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
-                    "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
-                    "speed_tilt_db_per_harmonic_rev_s": round(est["speed_tilt_db"], 4),
-                    "measured_common_std_db": round(meas_sd, 2),
-                    "within_cpi_harmonic_std_db": round(float(np.sqrt(s2w)), 2),
-                    "n_pairs_used": int(use.sum()),
-                    "estimate_grid": "short windows" if fine is not None else "CPI",
-                    "cpi_grid_fading_std_db": round(cpi_sd, 2),
-                    "cpi_grid_timescale_s": round(float(est["timescale_s"]), 2)}
+    res.evidence = {
+        **res.evidence,
+        "fading_std_db": round(true_sd, 2),
+        "timescale_s": round(tau, 2),
+        "body_correlation": None if body_corr is None else round(body_corr, 3),
+        "body_share": None if body_share is None else round(body_share, 3),
+        "variogram_lags_s": [round(x, 3) for x in est["lags_s"]],
+        "variogram_db2": [round(x, 3) for x in est["variogram_db2"]],
+        "speed_tilt_db_per_harmonic_rev_s": round(est["speed_tilt_db"], 4),
+        "measured_common_std_db": round(meas_sd, 2),
+        "within_cpi_harmonic_std_db": round(float(np.sqrt(s2w)), 2),
+        "n_pairs_used": int(use.sum()),
+        "estimate_grid": "short windows" if fine is not None else "CPI",
+        "cpi_grid_fading_std_db": round(cpi_sd, 2),
+        "cpi_grid_timescale_s": round(float(est["timescale_s"]), 2),
+    }
     return res
 
 
@@ -289,14 +310,16 @@ def fading_estimate(M, x, ok, m, beta: float | None = None) -> dict:
     if mm.sum() >= 4:
         yy[mm] = _detrend(c[mm], t[mm], r[mm])
         nv[mm] = s2w / Kt[mm]
-    est = fit_gain_process(yy, mm.copy(), nv, float(np.median(np.diff(t))), M.stft.window, M.info["prf_hz"],
-                           drift=False, noise_free=True)
+    est = fit_gain_process(
+        yy, mm.copy(), nv, float(np.median(np.diff(t))), M.stft.window, M.info["prf_hz"], drift=False, noise_free=True
+    )
     est["speed_tilt_db"] = beta
     return est
 
 
-def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: int = 200,
-                         max_lag_s: float = 10.0) -> dict | None:
+def fading_estimate_fine(
+    M, ok, m, beta: float, u: np.ndarray, *, min_windows: int = 200, max_lag_s: float = 10.0
+) -> dict | None:
     """Size [dB] and 1/e correlation time [s] of the fading from the short-window
     sideband powers (:func:`.measure.sideband_power_fine`, ``M.side_fine``), or None
     when fewer than ``min_windows`` windows are usable (the caller then keeps the CPI
@@ -361,15 +384,15 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
         s1 = K >= 1
         s2 = K >= 2
         if s2.sum() < 20:
-            g.append(np.nan); npair.append(0)
+            g.append(np.nan)
+            npair.append(0)
             continue
         d = D.sum(1) / np.maximum(K, 1)
         dd = np.where(Vc, D - d[:, None], 0.0)
         nh[int(L)] = 0.5 * float(np.mean((dd[s2] ** 2).sum(1) / (K[s2] - 1)))
         g.append(0.5 * float(np.mean(d[s1] ** 2)) - nh[int(L)] * float(np.mean(1.0 / K[s1])))
         npair.append(int(s1.sum()))
-    est = fit_variogram(lags, np.array(g), np.array(npair), 0.0, F["hop_s"], F["window"], M.info["prf_hz"],
-                        drift=False)
+    est = fit_variogram(lags, np.array(g), np.array(npair), 0.0, F["hop_s"], F["window"], M.info["prf_hz"], drift=False)
     short = [nh[L] for L in (1, 2, 3, 4) if L in nh]
     if not (est["sigma_db"] > 0 and np.isfinite(est["timescale_s"])) or not short:
         return None
@@ -378,10 +401,18 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
     c[use] = _detrend(np.where(V, Y, 0.0).sum(1)[use] / Kt[use], t[use], r[use])
     # T searched up to the longest lag / 2.5, as the variogram fit (beyond, sigma and T trade off)
     t_hi = min(30.0, float(lags[-1]) * F["hop_s"] / 2.5)
-    ml = fit_gain_process_ml(c, use, np.where(use, n_h / np.maximum(Kt, 1), 0.0), F["hop_s"], F["window"],
-                             M.info["prf_hz"], (est["sigma_db"], est["timescale_s"]), tau_bounds_s=(0.01, t_hi),
-                             design=np.column_stack([np.ones(len(t)), t - t[use].mean(),
-                                                     np.log10(r / r[use].mean())]), free_white=True)
+    ml = fit_gain_process_ml(
+        c,
+        use,
+        np.where(use, n_h / np.maximum(Kt, 1), 0.0),
+        F["hop_s"],
+        F["window"],
+        M.info["prf_hz"],
+        (est["sigma_db"], est["timescale_s"]),
+        tau_bounds_s=(0.01, t_hi),
+        design=np.column_stack([np.ones(len(t)), t - t[use].mean(), np.log10(r / r[use].mean())]),
+        free_white=True,
+    )
     est["variogram_sigma_db"], est["variogram_timescale_s"] = est["sigma_db"], est["timescale_s"]
     # a likelihood still rising at the longest T searched has not seen the sill (a
     # record of a few tens of T): the variogram's estimate is kept there
@@ -393,15 +424,36 @@ def fading_estimate_fine(M, ok, m, beta: float, u: np.ndarray, *, min_windows: i
     return est
 
 
-
 class SidebandFading(CauseSpec):
     name = NAME
     meaning = "blade (sideband) power fluctuates over seconds independently of the body"
-    params = (Param("fading_std_db", "dB", "standard deviation over time of the blade power gain in dB "
-                    "(log-normal gain, Ornstein-Uhlenbeck in dB)", ">= 3"),
-              Param("timescale_s", "s", "correlation time of the fading", "1-2 s"))
-    observations = ("up", "lo", "pair_ok", "usable_pair_sums", "valid", "harm", "t_s", "range_m", "f_log_hz",
-                    "dil", "dil_ok", "model_h", "body_pow", "side_fine", "stft", "info")
+    params = (
+        Param(
+            "fading_std_db",
+            "dB",
+            "standard deviation over time of the blade power gain in dB (log-normal gain, Ornstein-Uhlenbeck in dB)",
+            ">= 3",
+        ),
+        Param("timescale_s", "s", "correlation time of the fading", "1-2 s"),
+    )
+    observations = (
+        "up",
+        "lo",
+        "pair_ok",
+        "usable_pair_sums",
+        "valid",
+        "harm",
+        "t_s",
+        "range_m",
+        "f_log_hz",
+        "dil",
+        "dil_ok",
+        "model_h",
+        "body_pow",
+        "side_fine",
+        "stft",
+        "info",
+    )
     line = "rotor"
     reads_sidebands = True
     clear_side = True
@@ -419,8 +471,9 @@ class SidebandFading(CauseSpec):
 
     def world_check(self, full):
         if not (full["fading_std_db"] >= 0 and full["timescale_s"] > 0):
-            raise ValueError(f"{NAME}: fading_std_db={full['fading_std_db']} must be >= 0 and "
-                             f"timescale_s={full['timescale_s']} > 0")
+            raise ValueError(
+                f"{NAME}: fading_std_db={full['fading_std_db']} must be >= 0 and timescale_s={full['timescale_s']} > 0"
+            )
 
     def world_blade_gain(self, p, duration_s, rng):
         return SlowGain(duration_s, p["fading_std_db"], p["timescale_s"], rng)

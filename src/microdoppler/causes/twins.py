@@ -102,8 +102,16 @@ class TwinExtensions:
     meta: Mapping = field(default_factory=dict)
 
     def __post_init__(self):
-        d = _check({"schema": SCHEMA, "mode": self.mode, "flights": self.flights,
-                    "population": self.population, "meta": self.meta}, "TwinExtensions")
+        d = _check(
+            {
+                "schema": SCHEMA,
+                "mode": self.mode,
+                "flights": self.flights,
+                "population": self.population,
+                "meta": self.meta,
+            },
+            "TwinExtensions",
+        )
         object.__setattr__(self, "flights", d["flights"])
         object.__setattr__(self, "population", d["population"])
 
@@ -135,12 +143,20 @@ class TwinExtensions:
             effects = entry["extensions"] if source == "own" else {}
         else:
             source, effects = "population", self.draw(flight_id, drone_model, seed=seed)
-        return ExtensionSet(effects, {"source": source, "mode": self.mode, "flight_id": flight_id,
-                                      "drone_model": drone_model})
+        return ExtensionSet(
+            effects, {"source": source, "mode": self.mode, "flight_id": flight_id, "drone_model": drone_model}
+        )
 
     def to_dict(self) -> dict:
-        return yaml_plain({"schema": SCHEMA, "mode": self.mode, "flights": self.flights,
-                       "population": self.population, "meta": dict(self.meta)})
+        return yaml_plain(
+            {
+                "schema": SCHEMA,
+                "mode": self.mode,
+                "flights": self.flights,
+                "population": self.population,
+                "meta": dict(self.meta),
+            }
+        )
 
 
 def twin_extensions(extensions, flight_id: str, drone_model: str, *, seed: int):
@@ -220,13 +236,18 @@ def _check(d: dict, source) -> dict:
     for fid, e in flights.items():
         where = f"flights.{fid}"
         if not isinstance(e, Mapping):
-            raise InputError(source, where, f"is a {type(e).__name__}", "a mapping with drone_model, status, extensions")
+            raise InputError(
+                source, where, f"is a {type(e).__name__}", "a mapping with drone_model, status, extensions"
+            )
         if e.get("status", "diagnosed") not in STATUSES:
             raise InputError(source, f"{where}.status", f"is {e.get('status')!r}", " or ".join(STATUSES))
         if not isinstance(e.get("drone_model", ""), str):
             raise InputError(source, f"{where}.drone_model", f"is {e.get('drone_model')!r}", "a drone model name")
-        out_f[str(fid)] = {"drone_model": e.get("drone_model", ""), "status": e.get("status", "diagnosed"),
-                           "extensions": _effects(e.get("extensions"), f"{where}.extensions", source)}
+        out_f[str(fid)] = {
+            "drone_model": e.get("drone_model", ""),
+            "status": e.get("status", "diagnosed"),
+            "extensions": _effects(e.get("extensions"), f"{where}.extensions", source),
+        }
     out_p = {}
     for model, m in pop.items():
         where = f"population.{model}"
@@ -247,8 +268,11 @@ def _check(d: dict, source) -> dict:
             if not isinstance(samples, list) or not samples:
                 raise InputError(source, f"{w}.samples", f"is {samples!r}", "a non-empty list of parameter mappings")
             checked = [_effects({cause: s}, f"{w}.samples[{i}]", source)[cause] for i, s in enumerate(samples)]
-            causes[str(cause)] = {**{k: v for k, v in c.items() if k not in ("incidence", "samples")},
-                                  "incidence": float(inc), "samples": checked}
+            causes[str(cause)] = {
+                **{k: v for k, v in c.items() if k not in ("incidence", "samples")},
+                "incidence": float(inc),
+                "samples": checked,
+            }
         out_p[str(model)] = {**{k: v for k, v in m.items() if k not in ("causes",)}, "n_flights": n, "causes": causes}
     return {"schema": SCHEMA, "mode": mode, "flights": out_f, "population": out_p, "meta": dict(meta)}
 
@@ -265,8 +289,9 @@ def _effects(x, where: str, source) -> dict:
         try:
             out[cause] = check_params(cause, params, source=source)
         except InputError as exc:
-            raise InputError(source, f"{where}.{cause}" + exc.field.split(cause, 1)[-1], exc.problem,
-                             exc.expected) from None
+            raise InputError(
+                source, f"{where}.{cause}" + exc.field.split(cause, 1)[-1], exc.problem, exc.expected
+            ) from None
     return out
 
 
@@ -274,8 +299,15 @@ def _effects(x, where: str, source) -> dict:
 _BACKGROUND_STREAM = 7919
 
 
-def inject(target_iq: np.ndarray, background_iq: np.ndarray, source: str = "twin", *,
-           effects: dict | None = None, prf_hz: float | None = None, seed: int = 0) -> np.ndarray:
+def inject(
+    target_iq: np.ndarray,
+    background_iq: np.ndarray,
+    source: str = "twin",
+    *,
+    effects: dict | None = None,
+    prf_hz: float | None = None,
+    seed: int = 0,
+) -> np.ndarray:
     """Sum of the simulated target and the recorded background, complex64 [n_pulses].
 
     ``effects`` (a twin's extensions, ``{cause: params}``): with a phase noise (a
@@ -334,10 +366,11 @@ def inject(target_iq: np.ndarray, background_iq: np.ndarray, source: str = "twin
         raise InputError(source, "background/iq", f"has {len(background_iq)} pulses", f"{len(target_iq)} (the twin's)")
     bg = np.asarray(background_iq, np.complex64)
     # the causes whose post-step acts on everything the radar receives (a phase noise)
-    on_bg = {s.name: dict(effects[s.name]) for s in registry.specs() if s.acts_on_background
-             and s.name in (effects or {})}
+    on_bg = {
+        s.name: dict(effects[s.name]) for s in registry.specs() if s.acts_on_background and s.name in (effects or {})
+    }
     if on_bg:
         if prf_hz is None:
             raise ValueError(f"inject: prf_hz is needed to apply {', '.join(on_bg)} to the background")
-        bg = ExtensionSet(on_bg).post(bg, prf_hz=float(prf_hz), seed=(int(seed) + _BACKGROUND_STREAM) % 2 ** 31)
+        bg = ExtensionSet(on_bg).post(bg, prf_hz=float(prf_hz), seed=(int(seed) + _BACKGROUND_STREAM) % 2**31)
     return (np.asarray(target_iq, np.complex64) + bg).astype(np.complex64)

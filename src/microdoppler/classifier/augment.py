@@ -57,13 +57,16 @@ class Augmentation:
     probability: float = 0.5
 
     def __post_init__(self):
-        checks = [("doppler_blur_bins", math.isfinite(self.doppler_blur_bins) and 0 <= self.doppler_blur_bins <= 50,
-                   "in [0, 50]"),
-                  ("doppler_stretch", math.isfinite(self.doppler_stretch) and 0 <= self.doppler_stretch < 0.5,
-                   "in [0, 0.5)"),
-                  ("doppler_wander", math.isfinite(self.doppler_wander) and 0 <= self.doppler_wander < 0.5,
-                   "in [0, 0.5)"),
-                  ("probability", math.isfinite(self.probability) and 0 <= self.probability <= 1, "in [0, 1]")]
+        checks = [
+            (
+                "doppler_blur_bins",
+                math.isfinite(self.doppler_blur_bins) and 0 <= self.doppler_blur_bins <= 50,
+                "in [0, 50]",
+            ),
+            ("doppler_stretch", math.isfinite(self.doppler_stretch) and 0 <= self.doppler_stretch < 0.5, "in [0, 0.5)"),
+            ("doppler_wander", math.isfinite(self.doppler_wander) and 0 <= self.doppler_wander < 0.5, "in [0, 0.5)"),
+            ("probability", math.isfinite(self.probability) and 0 <= self.probability <= 1, "in [0, 1]"),
+        ]
         for name, ok, want in checks:
             if not ok:
                 raise ConfigError("classifier.augment", name, f"{name}={getattr(self, name)} must be {want}")
@@ -71,8 +74,9 @@ class Augmentation:
     @property
     def active(self) -> bool:
         """True when any transform is on (and applied to a non-zero share of tiles)."""
-        return self.probability > 0 and (self.doppler_blur_bins > 0 or self.doppler_stretch > 0
-                                         or self.doppler_wander > 0)
+        return self.probability > 0 and (
+            self.doppler_blur_bins > 0 or self.doppler_stretch > 0 or self.doppler_wander > 0
+        )
 
     def __call__(self, x: torch.Tensor, gen: torch.Generator) -> torch.Tensor:
         """Augment a mini-batch ``x`` (float32 [b, T, D], normalised) with draws from ``gen``."""

@@ -46,8 +46,9 @@ class TileSet:
         if self.images.ndim != 3:
             raise InputError("TileSet", "images", f"has shape {self.images.shape}", "[n, n_timesteps, n_bins]")
         if len(self.images) != len(self.labels):
-            raise InputError("TileSet", "labels", f"has {len(self.labels)} rows for {len(self.images)} images",
-                             "one row per image")
+            raise InputError(
+                "TileSet", "labels", f"has {len(self.labels)} rows for {len(self.images)} images", "one row per image"
+            )
         self.labels = self.labels.reset_index(drop=True)
 
     def __len__(self) -> int:
@@ -65,8 +66,10 @@ class TileSet:
     @staticmethod
     def concat(parts) -> "TileSet":
         parts = list(parts)
-        return TileSet(np.concatenate([p.images for p in parts]).astype(np.float32, copy=False),
-                       pd.concat([p.labels for p in parts], ignore_index=True))
+        return TileSet(
+            np.concatenate([p.images for p in parts]).astype(np.float32, copy=False),
+            pd.concat([p.labels for p in parts], ignore_index=True),
+        )
 
 
 def as_tileset(obj) -> TileSet:
@@ -112,8 +115,9 @@ def load_trainset(name: str, tiles_dir) -> tuple[TileSet, TileSet, TileSet]:
     return parts
 
 
-def toy_tiles(n: int, *, seed: int, sets=("train",), n_timesteps: int = 20, n_bins: int = 480,
-              flight_tiles: int = 4) -> TileSet:
+def toy_tiles(
+    n: int, *, seed: int, sets=("train",), n_timesteps: int = 20, n_bins: int = 480, flight_tiles: int = 4
+) -> TileSet:
     """Toy dB tiles for tests and benchmarks (not physics; a stand-in for tile stores).
 
     Noise floor (exponential power, random level) plus a drifting body line; large
@@ -145,11 +149,22 @@ def toy_tiles(n: int, *, seed: int, sets=("train",), n_timesteps: int = 20, n_bi
             spacing = rng.uniform(15, 40) + rng.normal(0, 0.5, n_timesteps).cumsum()[:, None]
             for k in range(1, 6):
                 amp = snr * 10 ** (-1.5 - 0.3 * k) * rng.uniform(0.3, 1.0)
-                p = p + amp * (np.exp(-0.5 * ((d - b0 - k * spacing) / 1.5) ** 2)
-                               + np.exp(-0.5 * ((d - b0 + k * spacing) / 1.5) ** 2))
+                p = p + amp * (
+                    np.exp(-0.5 * ((d - b0 - k * spacing) / 1.5) ** 2)
+                    + np.exp(-0.5 * ((d - b0 + k * spacing) / 1.5) ** 2)
+                )
         images[i] = 10 * np.log10(floor + p)
-        rows.append(dict(index=i, flight_id=f"toy{f:04d}", set=sets[f % len(sets)], target=target,
-                         drone_model=model, radar_id=f"radar{1 + f % 2}", snr_db=10 * np.log10(snr)))
+        rows.append(
+            dict(
+                index=i,
+                flight_id=f"toy{f:04d}",
+                set=sets[f % len(sets)],
+                target=target,
+                drone_model=model,
+                radar_id=f"radar{1 + f % 2}",
+                snr_db=10 * np.log10(snr),
+            )
+        )
     return TileSet(images, pd.DataFrame(rows))
 
 

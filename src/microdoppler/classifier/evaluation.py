@@ -13,8 +13,9 @@ PREDICTION_COLUMNS = ("index", "flight_id", "target", "drone_model", "radar_id",
 
 
 @torch.no_grad()
-def predict(model: torch.nn.Module, images_db: np.ndarray, normalisation: Normalisation,
-            batch_size: int = 256) -> np.ndarray:
+def predict(
+    model: torch.nn.Module, images_db: np.ndarray, normalisation: Normalisation, batch_size: int = 256
+) -> np.ndarray:
     """Drone probability per image.
 
     Parameters
@@ -50,7 +51,7 @@ def predict(model: torch.nn.Module, images_db: np.ndarray, normalisation: Normal
     """
     model.eval()
     x = torch.from_numpy(normalisation(images_db))
-    out = [torch.softmax(model(x[i:i + batch_size]), dim=1)[:, 1] for i in range(0, len(x), batch_size)]
+    out = [torch.softmax(model(x[i : i + batch_size]), dim=1)[:, 1] for i in range(0, len(x), batch_size)]
     return torch.cat(out).double().numpy() if out else np.zeros(0)
 
 

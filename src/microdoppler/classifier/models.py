@@ -58,7 +58,9 @@ class Normalisation:
 
     def __post_init__(self):
         if not self.low_db < self.high_db:
-            raise ConfigError("classifier.normalisation", "low_db", f"low_db={self.low_db} must be < high_db={self.high_db}")
+            raise ConfigError(
+                "classifier.normalisation", "low_db", f"low_db={self.low_db} must be < high_db={self.high_db}"
+            )
         if not self.scale_db > 0:
             raise ConfigError("classifier.normalisation", "scale_db", f"scale_db={self.scale_db} must be > 0")
 
@@ -71,8 +73,9 @@ class Normalisation:
         if x.size == 0:
             return x.copy()
         med = np.median(x.reshape(len(x), -1), axis=1).astype(np.float32)[:, None, None]
-        return np.clip((x - med) / self.scale_db, self.low_db / self.scale_db,
-                       self.high_db / self.scale_db).astype(np.float32)
+        return np.clip((x - med) / self.scale_db, self.low_db / self.scale_db, self.high_db / self.scale_db).astype(
+            np.float32
+        )
 
 
 class CompactCNN(nn.Module):
@@ -101,8 +104,11 @@ class CompactCNN(nn.Module):
         layers, c_in = [], 1
         for i, c in enumerate(channels):
             k = (3, 5) if i == 0 else (3, 3)
-            layers += [nn.Conv2d(c_in, c, k, padding=(k[0] // 2, k[1] // 2)), nn.ReLU(inplace=True),
-                       nn.MaxPool2d((1, doppler_pool) if i == 0 else (2, 2), ceil_mode=True)]
+            layers += [
+                nn.Conv2d(c_in, c, k, padding=(k[0] // 2, k[1] // 2)),
+                nn.ReLU(inplace=True),
+                nn.MaxPool2d((1, doppler_pool) if i == 0 else (2, 2), ceil_mode=True),
+            ]
             c_in = c
         self.features = nn.Sequential(*layers)
         self.dropout = nn.Dropout(dropout)
@@ -126,16 +132,28 @@ class AlexNet(nn.Module):
     def __init__(self, n_classes: int = 2, colormap: str = "jet", value_range=(-0.5, 2.5), dropout: float = 0.5):
         super().__init__()
         self.features = nn.Sequential(
-            nn.Conv2d(3, 64, 11, stride=4, padding=2), nn.ReLU(inplace=True), nn.MaxPool2d(3, 2),
-            nn.Conv2d(64, 192, 5, padding=2), nn.ReLU(inplace=True), nn.MaxPool2d(3, 2),
-            nn.Conv2d(192, 384, 3, padding=1), nn.ReLU(inplace=True),
-            nn.Conv2d(384, 256, 3, padding=1), nn.ReLU(inplace=True),
-            nn.Conv2d(256, 256, 3, padding=1), nn.ReLU(inplace=True), nn.MaxPool2d(3, 2),
+            nn.Conv2d(3, 64, 11, stride=4, padding=2),
+            nn.ReLU(inplace=True),
+            nn.MaxPool2d(3, 2),
+            nn.Conv2d(64, 192, 5, padding=2),
+            nn.ReLU(inplace=True),
+            nn.MaxPool2d(3, 2),
+            nn.Conv2d(192, 384, 3, padding=1),
+            nn.ReLU(inplace=True),
+            nn.Conv2d(384, 256, 3, padding=1),
+            nn.ReLU(inplace=True),
+            nn.Conv2d(256, 256, 3, padding=1),
+            nn.ReLU(inplace=True),
+            nn.MaxPool2d(3, 2),
         )
         self.avgpool = nn.AdaptiveAvgPool2d((6, 6))
         self.classifier = nn.Sequential(
-            nn.Dropout(dropout), nn.Linear(256 * 6 * 6, 4096), nn.ReLU(inplace=True),
-            nn.Dropout(dropout), nn.Linear(4096, 4096), nn.ReLU(inplace=True),
+            nn.Dropout(dropout),
+            nn.Linear(256 * 6 * 6, 4096),
+            nn.ReLU(inplace=True),
+            nn.Dropout(dropout),
+            nn.Linear(4096, 4096),
+            nn.ReLU(inplace=True),
             nn.Linear(4096, n_classes),
         )
         self.register_buffer("lut", colormap_lut(colormap), persistent=False)
@@ -175,22 +193,34 @@ def load_pretrained_alexnet(model: AlexNet, weights_path) -> None:
     """
     path = Path(weights_path)
     if not path.is_file():
-        raise InputError(path, "classifier.alexnet_weights", "file not found", "a torchvision AlexNet state_dict (.pth)")
+        raise InputError(
+            path, "classifier.alexnet_weights", "file not found", "a torchvision AlexNet state_dict (.pth)"
+        )
     state = torch.load(path, map_location="cpu", weights_only=True)
     if isinstance(state, dict) and "state_dict" in state:
         state = state["state_dict"]
-    feats = {k[len("features."):]: v for k, v in state.items() if k.startswith("features.")}
+    feats = {k[len("features.") :]: v for k, v in state.items() if k.startswith("features.")}
     try:
         model.features.load_state_dict(feats, strict=True)
     except RuntimeError as exc:
-        raise InputError(path, "features", f"does not match AlexNet: {str(exc).splitlines()[0]}",
-                         "torchvision AlexNet parameter names and shapes") from None
+        raise InputError(
+            path,
+            "features",
+            f"does not match AlexNet: {str(exc).splitlines()[0]}",
+            "torchvision AlexNet parameter names and shapes",
+        ) from None
     for p in model.features.parameters():
         p.requires_grad_(False)
 
 
-def build_model(architecture: str = "compact", *, compact: dict | None = None, colormap: str = "jet",
-                alexnet_weights: str = "", normalisation: Normalisation = Normalisation()) -> nn.Module:
+def build_model(
+    architecture: str = "compact",
+    *,
+    compact: dict | None = None,
+    colormap: str = "jet",
+    alexnet_weights: str = "",
+    normalisation: Normalisation = Normalisation(),
+) -> nn.Module:
     """Build an untrained classifier (initialised from torch's current RNG state).
 
     Parameters

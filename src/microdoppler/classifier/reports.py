@@ -27,8 +27,7 @@ PAPER_FIG6 = np.array([[1661, 157], [219, 1599]])
 ORDER = ("real", "sub_cpi", "per_cpi", "single_motor", "fixed_speeds", "extended")
 #: paired differences reported besides ``<set> - real``: the paper's adjacent orderings
 #: (sub-CPI > per-CPI ~ single-motor > fixed-speeds) and the extension's gain
-PAIRS = (("sub_cpi", "per_cpi"), ("per_cpi", "single_motor"), ("single_motor", "fixed_speeds"),
-         ("extended", "sub_cpi"))
+PAIRS = (("sub_cpi", "per_cpi"), ("per_cpi", "single_motor"), ("single_motor", "fixed_speeds"), ("extended", "sub_cpi"))
 
 
 def _order(trainsets) -> list[str]:
@@ -86,9 +85,9 @@ def flight_counts(predictions: dict):
     correct : dict (trainset, seed) -> ndarray [n_flights]
     """
     first = next(iter(predictions.values()))
-    flights = first.groupby("flight_id", sort=True).agg(target=("target", "first"),
-                                                         drone_model=("drone_model", "first"),
-                                                         n_images=("target", "size"))
+    flights = first.groupby("flight_id", sort=True).agg(
+        target=("target", "first"), drone_model=("drone_model", "first"), n_images=("target", "size")
+    )
     correct = {}
     for key, p in predictions.items():
         n = p.groupby("flight_id").size().reindex(flights.index)
@@ -103,10 +102,13 @@ def _subsets(flights: pd.DataFrame) -> dict:
     """Flights each Table V metric is computed over (every metric is correct/images)."""
     drone = (flights["target"] == "drone").to_numpy()
     model = flights["drone_model"].astype(str)
-    return {"accuracy": np.ones(len(flights), bool), "drone_recall": drone,
-            "bird_recall": (flights["target"] == "bird").to_numpy(),
-            "large_drone_accuracy": drone & model.isin(LARGE_DRONES).to_numpy(),
-            "small_drone_accuracy": drone & model.isin(SMALL_DRONES).to_numpy()}
+    return {
+        "accuracy": np.ones(len(flights), bool),
+        "drone_recall": drone,
+        "bird_recall": (flights["target"] == "bird").to_numpy(),
+        "large_drone_accuracy": drone & model.isin(LARGE_DRONES).to_numpy(),
+        "small_drone_accuracy": drone & model.isin(SMALL_DRONES).to_numpy(),
+    }
 
 
 def bootstrap_table_v(predictions: dict, *, n_boot: int = N_BOOT, seed: int = 0) -> dict:
@@ -123,13 +125,16 @@ def bootstrap_table_v(predictions: dict, *, n_boot: int = N_BOOT, seed: int = 0)
     out = {}
     for t in trainsets:
         num = np.stack([correct[(t, s)] for s in seeds])
-        out[t] = {m: 100 * ratio_replicates(num * mask, flights["n_images"].to_numpy(float) * mask, draws)
-                  for m, mask in _subsets(flights).items()}
+        out[t] = {
+            m: 100 * ratio_replicates(num * mask, flights["n_images"].to_numpy(float) * mask, draws)
+            for m, mask in _subsets(flights).items()
+        }
     return out
 
 
-def table_v(metrics: pd.DataFrame, predictions: dict | None = None, *, n_boot: int = N_BOOT,
-            seed: int = 0) -> pd.DataFrame:
+def table_v(
+    metrics: pd.DataFrame, predictions: dict | None = None, *, n_boot: int = N_BOOT, seed: int = 0
+) -> pd.DataFrame:
     """Table V: mean ± std over seeds (in %) per training set, beside the paper's values,
     with 95 % intervals from a bootstrap over test flights and seeds.
 
@@ -190,8 +195,9 @@ def plot_confusion(cm: np.ndarray, title: str, path) -> None:
     for i in range(2):
         for j in range(2):
             pct = 100 * cm[i, j] / max(cm[i].sum(), 1e-12)
-            ax.text(j, i, f"{cm[i, j]:.1f}\n({pct:.1f} %)", ha="center", va="center",
-                    color="white" if pct > 60 else "black")
+            ax.text(
+                j, i, f"{cm[i, j]:.1f}\n({pct:.1f} %)", ha="center", va="center", color="white" if pct > 60 else "black"
+            )
     ax.set_xticks([0, 1], [c.capitalize() for c in CLASSES])
     ax.set_yticks([0, 1], [c.capitalize() for c in CLASSES])
     ax.set_xlabel("Predicted class")
@@ -209,15 +215,24 @@ def plot_boxplot(metrics: pd.DataFrame, path) -> None:
     import matplotlib.pyplot as plt
 
     order = _order(metrics["trainset"])
-    series = (("accuracy", "black", "Accuracy"), ("bird_recall", "tab:blue", "Bird recall"),
-              ("drone_recall", "tab:red", "Drone recall"))
+    series = (
+        ("accuracy", "black", "Accuracy"),
+        ("bird_recall", "tab:blue", "Bird recall"),
+        ("drone_recall", "tab:red", "Drone recall"),
+    )
     fig, ax = plt.subplots(figsize=(1.4 * len(order) + 2, 3.8))
     for k, (m, colour, label) in enumerate(series):
         data = [100 * metrics.loc[metrics["trainset"] == t, m].dropna().to_numpy() for t in order]
         pos = np.arange(len(order)) + (k - 1) * 0.27
-        bp = ax.boxplot(data, positions=pos, widths=0.22, whis=1.5, patch_artist=False,
-                        flierprops=dict(marker="+", markeredgecolor="red"),
-                        medianprops=dict(color="red"))
+        bp = ax.boxplot(
+            data,
+            positions=pos,
+            widths=0.22,
+            whis=1.5,
+            patch_artist=False,
+            flierprops=dict(marker="+", markeredgecolor="red"),
+            medianprops=dict(color="red"),
+        )
         for part in ("boxes", "whiskers", "caps"):
             for line in bp[part]:
                 line.set_color(colour)
@@ -237,8 +252,11 @@ def write_reports(predictions: dict, out_dir, *, confusion_trainsets=None) -> di
     """
     out_dir = Path(out_dir)
     metrics = metrics_table(predictions)
-    paths = {"metrics": out_dir / "metrics.csv", "table_v": out_dir / "table_v.csv",
-             "fig12": out_dir / "fig12_boxplot.png"}
+    paths = {
+        "metrics": out_dir / "metrics.csv",
+        "table_v": out_dir / "table_v.csv",
+        "fig12": out_dir / "fig12_boxplot.png",
+    }
     _write_csv(metrics, paths["metrics"])
     _write_csv(table_v(metrics, predictions), paths["table_v"])
     for t in confusion_trainsets or _order(metrics["trainset"]):

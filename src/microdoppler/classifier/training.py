@@ -109,11 +109,17 @@ class TrainConfig:
     augment: Augmentation = Augmentation()
 
     def __post_init__(self):
-        checks = [("learning_rate", self.learning_rate > 0, "> 0"), ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
-                  ("weight_decay", self.weight_decay >= 0, ">= 0"), ("batch_size", self.batch_size >= 1, ">= 1"),
-                  ("lr_step_epochs", self.lr_step_epochs >= 1, ">= 1"), ("lr_gamma", 0 < self.lr_gamma <= 1, "in (0, 1]"),
-                  ("max_epochs", self.max_epochs >= 1, ">= 1"), ("exceed_limit", self.exceed_limit >= 1, ">= 1"),
-                  ("average_last_epochs", self.average_last_epochs >= 0, ">= 0")]
+        checks = [
+            ("learning_rate", self.learning_rate > 0, "> 0"),
+            ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
+            ("weight_decay", self.weight_decay >= 0, ">= 0"),
+            ("batch_size", self.batch_size >= 1, ">= 1"),
+            ("lr_step_epochs", self.lr_step_epochs >= 1, ">= 1"),
+            ("lr_gamma", 0 < self.lr_gamma <= 1, "in (0, 1]"),
+            ("max_epochs", self.max_epochs >= 1, ">= 1"),
+            ("exceed_limit", self.exceed_limit >= 1, ">= 1"),
+            ("average_last_epochs", self.average_last_epochs >= 0, ">= 0"),
+        ]
         for name, ok, want in checks:
             if not ok:
                 raise ConfigError("classifier", name, f"{name}={getattr(self, name)} must be {want}")
@@ -127,8 +133,12 @@ class TrainConfig:
         names = {f for f in cls.__dataclass_fields__}
         for key in cfg:
             if key not in names:
-                raise ConfigError("classifier", f"classifier.{key}", "unknown key in section classifier",
-                                  f"one of: {', '.join(sorted(names | WORKFLOW_KEYS))}")
+                raise ConfigError(
+                    "classifier",
+                    f"classifier.{key}",
+                    "unknown key in section classifier",
+                    f"one of: {', '.join(sorted(names | WORKFLOW_KEYS))}",
+                )
         norm = Normalisation(**cfg.pop("normalisation", {}) or {})
         aug = Augmentation(**cfg.pop("augment", {}) or {})
         return cls(normalisation=norm, augment=aug, **cfg)
@@ -179,15 +189,22 @@ def _evaluate(model, x: torch.Tensor, y: torch.Tensor, batch_size: int) -> tuple
     model.eval()
     loss, correct = 0.0, 0
     for i in range(0, len(x), batch_size):
-        block = x[i:i + batch_size]
-        logits = torch.cat([model(block[j:j + EVAL_FORWARD_BATCH]) for j in range(0, len(block), EVAL_FORWARD_BATCH)])
-        loss += F.cross_entropy(logits, y[i:i + batch_size], reduction="sum").item()
-        correct += (logits.argmax(1) == y[i:i + batch_size]).sum().item()
+        block = x[i : i + batch_size]
+        logits = torch.cat([model(block[j : j + EVAL_FORWARD_BATCH]) for j in range(0, len(block), EVAL_FORWARD_BATCH)])
+        loss += F.cross_entropy(logits, y[i : i + batch_size], reduction="sum").item()
+        correct += (logits.argmax(1) == y[i : i + batch_size]).sum().item()
     return loss / len(x), correct / len(x)
 
 
-def train_epoch(model, opt, gen: torch.Generator, xt: torch.Tensor, yt: torch.Tensor,
-                batch_size: int, augment: Augmentation | None = None) -> tuple[float, float]:
+def train_epoch(
+    model,
+    opt,
+    gen: torch.Generator,
+    xt: torch.Tensor,
+    yt: torch.Tensor,
+    batch_size: int,
+    augment: Augmentation | None = None,
+) -> tuple[float, float]:
     """One epoch of SGD over ``xt`` in an order drawn from ``gen`` (mini-batches
     augmented by ``augment`` with draws from ``gen``); returns the running (mean
     mini-batch loss, accuracy) of the epoch."""
@@ -195,7 +212,7 @@ def train_epoch(model, opt, gen: torch.Generator, xt: torch.Tensor, yt: torch.Te
     order = torch.randperm(len(xt), generator=gen)
     run_loss, run_correct = 0.0, 0
     for i in range(0, len(xt), batch_size):
-        idx = order[i:i + batch_size]
+        idx = order[i : i + batch_size]
         xb = augment(xt[idx], gen) if augment is not None else xt[idx]  # inactive: returned as is, no draws
         logits = model(xb)
         loss = F.cross_entropy(logits, yt[idx])
@@ -227,8 +244,15 @@ class TrainResult:
     best_epoch: int
 
 
-def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig(), *, seed: int,
-          threads: int = 1, logger: logging.Logger | None = None) -> TrainResult:
+def train(
+    train_set: TileSet,
+    val_set: TileSet,
+    cfg: TrainConfig = TrainConfig(),
+    *,
+    seed: int,
+    threads: int = 1,
+    logger: logging.Logger | None = None,
+) -> TrainResult:
     """Train one classifier with seed ``seed`` (same seed and threads => same result).
 
     Parameters
@@ -278,20 +302,30 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     if len(classes) < 2:
         only = ", ".join(sorted(map(str, classes)))
         missing = " and ".join(c for c in ("bird", "drone") if c not in classes)
-        raise InputError("training set", "train.target",
-                         f"has {only} tiles only ({len(train_set)} tiles of "
-                         f"{train_set.labels['flight_id'].nunique()} flights)",
-                         f"tiles of both classes, bird and drone: add {missing} recordings to train a bird/drone "
-                         "classifier")
+        raise InputError(
+            "training set",
+            "train.target",
+            f"has {only} tiles only ({len(train_set)} tiles of {train_set.labels['flight_id'].nunique()} flights)",
+            f"tiles of both classes, bird and drone: add {missing} recordings to train a bird/drone classifier",
+        )
     if len(val_set) and len(set(val_set.labels["target"])) < 2:
-        logger.warning("the validation tiles hold one class only (%s): validation accuracy measures that class alone",
-                       ", ".join(sorted(map(str, set(val_set.labels["target"])))))
+        logger.warning(
+            "the validation tiles hold one class only (%s): validation accuracy measures that class alone",
+            ", ".join(sorted(map(str, set(val_set.labels["target"])))),
+        )
     if len(val_set) == 0:
-        logger.warning("no validation tiles: validation loss/accuracy are NaN, the stopping rule never fires "
-                       "and the kept epoch maximises training accuracy alone")
+        logger.warning(
+            "no validation tiles: validation loss/accuracy are NaN, the stopping rule never fires "
+            "and the kept epoch maximises training accuracy alone"
+        )
     gen = setup_determinism(seed, threads)
-    model = build_model(cfg.architecture, compact=cfg.compact, colormap=cfg.colormap,
-                        alexnet_weights=cfg.alexnet_weights, normalisation=cfg.normalisation)
+    model = build_model(
+        cfg.architecture,
+        compact=cfg.compact,
+        colormap=cfg.colormap,
+        alexnet_weights=cfg.alexnet_weights,
+        normalisation=cfg.normalisation,
+    )
     xt = torch.from_numpy(cfg.normalisation(train_set.images))
     yt = torch.from_numpy(train_set.y)
     xv = torch.from_numpy(cfg.normalisation(val_set.images))
@@ -299,8 +333,15 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.SGD(params, lr=cfg.learning_rate, momentum=cfg.momentum, weight_decay=cfg.weight_decay)
     sched = torch.optim.lr_scheduler.StepLR(opt, step_size=cfg.lr_step_epochs, gamma=cfg.lr_gamma)
-    logger.info("training %s: %d train (%d drone), %d validation tiles, %d trainable parameters, seed %d",
-                cfg.architecture, len(xt), int(yt.sum()), len(xv), sum(p.numel() for p in params), seed)
+    logger.info(
+        "training %s: %d train (%d drone), %d validation tiles, %d trainable parameters, seed %d",
+        cfg.architecture,
+        len(xt),
+        int(yt.sum()),
+        len(xv),
+        sum(p.numel() for p in params),
+        seed,
+    )
     rows, states = [], []
     for epoch in range(cfg.max_epochs):
         t0 = time.perf_counter()
@@ -313,18 +354,35 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
             tr_loss, tr_acc = run_loss, run_acc
         va_loss, va_acc = _evaluate(model, xv, yv, 256)
         states.append(copy.deepcopy(model.state_dict()))
-        rows.append(dict(epoch=epoch + 1, learning_rate=lr, train_loss=tr_loss, train_accuracy=tr_acc,
-                         val_loss=va_loss, val_accuracy=va_acc, val_exceeds_train=va_loss > tr_loss,
-                         seconds=time.perf_counter() - t0))
-        logger.info("epoch %3d  lr %.2e  train loss %.4f acc %.3f  val loss %.4f acc %.3f  (%.1f s)",
-                    epoch + 1, lr, tr_loss, tr_acc, va_loss, va_acc, rows[-1]["seconds"])
+        rows.append(
+            dict(
+                epoch=epoch + 1,
+                learning_rate=lr,
+                train_loss=tr_loss,
+                train_accuracy=tr_acc,
+                val_loss=va_loss,
+                val_accuracy=va_acc,
+                val_exceeds_train=va_loss > tr_loss,
+                seconds=time.perf_counter() - t0,
+            )
+        )
+        logger.info(
+            "epoch %3d  lr %.2e  train loss %.4f acc %.3f  val loss %.4f acc %.3f  (%.1f s)",
+            epoch + 1,
+            lr,
+            tr_loss,
+            tr_acc,
+            va_loss,
+            va_acc,
+            rows[-1]["seconds"],
+        )
         hist = pd.DataFrame(rows)
         if stop_epoch(hist["val_loss"], hist["train_loss"], cfg.exceed_limit) is not None:
             logger.info("stopping: validation loss exceeded training loss %d times", cfg.exceed_limit)
             break
     hist = pd.DataFrame(rows)
     if cfg.average_last_epochs > 0:
-        kept = states[-cfg.average_last_epochs:]
+        kept = states[-cfg.average_last_epochs :]
         model.load_state_dict(average_states(kept))
         best = len(states) - 1
         hist["selected"] = hist.index >= len(states) - len(kept)
@@ -333,8 +391,12 @@ def train(train_set: TileSet, val_set: TileSet, cfg: TrainConfig = TrainConfig()
         best = best_epoch(hist["train_accuracy"], hist["val_accuracy"])
         hist["selected"] = hist.index == best
         model.load_state_dict(states[best])
-        logger.info("kept epoch %d (train acc %.3f + val acc %.3f)", best + 1,
-                    hist["train_accuracy"][best], hist["val_accuracy"][best])
+        logger.info(
+            "kept epoch %d (train acc %.3f + val acc %.3f)",
+            best + 1,
+            hist["train_accuracy"][best],
+            hist["val_accuracy"][best],
+        )
     model.eval()
     return TrainResult(model, hist, best + 1)
 
@@ -358,8 +420,16 @@ def save_model(path, result: TrainResult, cfg: TrainConfig, *, seed: int, trains
     # through a file object: torch.save given a path names the archive's entries after
     # it (the random temporary name), and the same model would not give the same bytes
     with atomic_file(path) as tmp, open(tmp, "wb") as fh:
-        torch.save({"state_dict": result.model.state_dict(), "config": cfg.to_dict(), "seed": int(seed),
-                    "trainset": trainset, "best_epoch": int(result.best_epoch)}, fh)
+        torch.save(
+            {
+                "state_dict": result.model.state_dict(),
+                "config": cfg.to_dict(),
+                "seed": int(seed),
+                "trainset": trainset,
+                "best_epoch": int(result.best_epoch),
+            },
+            fh,
+        )
 
 
 def load_model(path) -> tuple[torch.nn.Module, TrainConfig]:
@@ -367,8 +437,13 @@ def load_model(path) -> tuple[torch.nn.Module, TrainConfig]:
     blob = torch.load(path, map_location="cpu", weights_only=False)
     cfg = TrainConfig.from_config(blob["config"])
     # pretrained conv weights are in the state_dict: do not need the original file
-    model = build_model(cfg.architecture, compact=cfg.compact, colormap=cfg.colormap, alexnet_weights="",
-                        normalisation=cfg.normalisation)
+    model = build_model(
+        cfg.architecture,
+        compact=cfg.compact,
+        colormap=cfg.colormap,
+        alexnet_weights="",
+        normalisation=cfg.normalisation,
+    )
     model.load_state_dict(blob["state_dict"])
     model.eval()
     return model, cfg

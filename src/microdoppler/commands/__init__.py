@@ -36,6 +36,8 @@ seed = _typed(int, lambda v: 0 <= v < 2**63, "an integer seed in [0, 2^63)")
 
 
 def add_overwrite(parser) -> None:
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace an existing output of the same kind that this tool wrote "
-                             "(never anything else)")
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an existing output of the same kind that this tool wrote (never anything else)",
+    )

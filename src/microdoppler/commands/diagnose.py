@@ -10,18 +10,32 @@ from . import add_overwrite
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("diagnose", help="diagnose measured drone flights against the paper's model",
-                              description=__doc__.splitlines()[0])
-    p.add_argument("flights", nargs="+", help="flight-zarr/1 stores (flights that cannot be diagnosed, such as "
-                                              "birds or drones without a motor log, are listed as skipped)")
-    p.add_argument("--out", required=True, help="report JSON to write; a one-row-per-flight table (causes, their "
-                                                "parameters, the causes not testable, the goodness of fit, a skipped "
-                                                "flight's reason and hint) is written beside it as CSV "
-                                                "(report.json -> report.csv)")
+    p = subparsers.add_parser(
+        "diagnose",
+        help="diagnose measured drone flights against the paper's model",
+        description=__doc__.splitlines()[0],
+    )
+    p.add_argument(
+        "flights",
+        nargs="+",
+        help="flight-zarr/1 stores (flights that cannot be diagnosed, such as "
+        "birds or drones without a motor log, are listed as skipped)",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        help="report JSON to write; a one-row-per-flight table (causes, their "
+        "parameters, the causes not testable, the goodness of fit, a skipped "
+        "flight's reason and hint) is written beside it as CSV "
+        "(report.json -> report.csv)",
+    )
     p.add_argument("--figures", default="", help="folder for one figure per flight (default: none)")
-    p.add_argument("--config", default="",
-                   help="YAML with diagnosis settings: the pipeline's config file (its diagnosis: section) "
-                        "or a mapping of diagnosis settings")
+    p.add_argument(
+        "--config",
+        default="",
+        help="YAML with diagnosis settings: the pipeline's config file (its diagnosis: section) "
+        "or a mapping of diagnosis settings",
+    )
     add_overwrite(p)
     p.set_defaults(func=run)
 
@@ -68,16 +82,20 @@ def check_table(path, report, *, overwrite: bool) -> None:
     if not (path.exists() or path.is_symlink()):
         return
     try:
-        ours = path.is_file() and not path.is_symlink() and \
-            path.open().readline().strip() == ",".join(TABLE_COLUMNS)
+        ours = path.is_file() and not path.is_symlink() and path.open().readline().strip() == ",".join(TABLE_COLUMNS)
     except (OSError, UnicodeDecodeError):
         ours = False
     if not ours:
-        raise InputError("--out", str(path), "exists and is not a table this tool wrote",
-                         "a report path whose .csv sibling is new or this tool's")
+        raise InputError(
+            "--out",
+            str(path),
+            "exists and is not a table this tool wrote",
+            "a report path whose .csv sibling is new or this tool's",
+        )
     if not overwrite:
-        raise InputError("--out", str(path), "already exists",
-                         "a new path (or --overwrite to replace the tool's table)")
+        raise InputError(
+            "--out", str(path), "already exists", "a new path (or --overwrite to replace the tool's table)"
+        )
 
 
 def run(args) -> int:
@@ -88,11 +106,17 @@ def run(args) -> int:
     check_output(args.out, kind="report", overwrite=args.overwrite)
     check_table(table_path(args.out), args.out, overwrite=args.overwrite)
     if args.figures:
-        check_output(args.figures, kind="folder", overwrite=args.overwrite, option="--figures",
-                     is_own=lambda e: e.suffix == ".png" and e.is_file())
+        check_output(
+            args.figures,
+            kind="folder",
+            overwrite=args.overwrite,
+            option="--figures",
+            is_own=lambda e: e.suffix == ".png" and e.is_file(),
+        )
     settings = read_settings(args.config) if args.config else {}
     _, cfg = split_settings(settings, source=args.config or "--config")
-    rep = diagnose(args.flights, args.out, config=cfg, figures_dir=args.figures or None,
-                   log=lambda m: print(m, file=sys.stderr))
+    rep = diagnose(
+        args.flights, args.out, config=cfg, figures_dir=args.figures or None, log=lambda m: print(m, file=sys.stderr)
+    )
     print(f"wrote {args.out} and {table_path(args.out)} ({len(rep['flights'])} flights)")
     return 0

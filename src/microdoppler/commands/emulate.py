@@ -28,6 +28,5 @@ def run(args) -> int:
     check_output(args.out, kind="folder", overwrite=args.overwrite, is_own=is_world_entry)
     if args.key:
         check_output(args.key, kind="report", overwrite=args.overwrite, option="--key")
-    emulate_world(args.profile, args.seed, args.out, key_path=args.key, progress=not args.quiet,
-                  workers=args.workers)
+    emulate_world(args.profile, args.seed, args.out, key_path=args.key, progress=not args.quiet, workers=args.workers)
     return 0

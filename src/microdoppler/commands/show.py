@@ -20,13 +20,19 @@ TABLE_NAME = "rotor_speeds.csv"
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("show", help="draw the spectrogram and rotor speeds of flight-zarr/1 stores",
-                              description=__doc__.split("\n\n")[1])
+    p = subparsers.add_parser(
+        "show",
+        help="draw the spectrogram and rotor speeds of flight-zarr/1 stores",
+        description=__doc__.split("\n\n")[1],
+    )
     p.add_argument("stores", nargs="+", help="flight-zarr/1 stores (directories)")
     p.add_argument("--out", required=True, help="folder for <flight_id>.png and " + TABLE_NAME)
-    p.add_argument("--config", default="",
-                   help="YAML whose spectrogram: section sets the CPI and the images' span (the pipeline's config "
-                        "file); default the paper's (0.56 s, ±47.5 m/s)")
+    p.add_argument(
+        "--config",
+        default="",
+        help="YAML whose spectrogram: section sets the CPI and the images' span (the pipeline's config "
+        "file); default the paper's (0.56 s, ±47.5 m/s)",
+    )
     add_overwrite(p)
     p.set_defaults(func=run)
 
@@ -64,8 +70,12 @@ def run(args) -> int:
     for store in args.stores:  # every store read (and checked) before anything is written
         f = read_flight(store)
         if f.flight_id in seen:
-            raise InputError(store, "flight_id", f"{f.flight_id!r} is also the flight id of {seen[f.flight_id]}",
-                             "one store per flight id (the figures are named by it)")
+            raise InputError(
+                store,
+                "flight_id",
+                f"{f.flight_id!r} is also the flight id of {seen[f.flight_id]}",
+                "one store per flight id (the figures are named by it)",
+            )
         seen[f.flight_id] = store
         flights.append((store, f))
     out.mkdir(parents=True, exist_ok=True)
@@ -73,9 +83,16 @@ def run(args) -> int:
     for store, f in flights:
         png = plot_store(f, out / f"{f.flight_id}.png", settings=settings)
         t = rotor_table(f)
-        note = "" if t else (": no rotor speeds in the store (import it with `microdoppler import "
-                             "--estimate-motors` to estimate them from the radar, or --motor-log)"
-                             if f.attrs.get("target") == "drone" else "")
+        note = (
+            ""
+            if t
+            else (
+                ": no rotor speeds in the store (import it with `microdoppler import "
+                "--estimate-motors` to estimate them from the radar, or --motor-log)"
+                if f.attrs.get("target") == "drone"
+                else ""
+            )
+        )
         print(f"wrote {png}{note}")
         rows += t
     with atomic_file(out / TABLE_NAME) as tmp:

@@ -17,13 +17,17 @@ from ..io.flightzarr import validate_store
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("validate", help="validate flight-zarr/1 stores",
-                              description="Validate flight-zarr/1 stores against the format's definition "
-                                          "(docs/format.md).")
+    p = subparsers.add_parser(
+        "validate",
+        help="validate flight-zarr/1 stores",
+        description="Validate flight-zarr/1 stores against the format's definition (docs/format.md).",
+    )
     p.add_argument("stores", nargs="+", help="flight-zarr/1 stores (directories)")
-    p.add_argument("--quick", action="store_true",
-                   help="check the metadata only (default: also every chunk's presence and content, "
-                        "streamed chunk by chunk)")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="check the metadata only (default: also every chunk's presence and content, streamed chunk by chunk)",
+    )
     p.set_defaults(func=run)
 
 

@@ -19,5 +19,14 @@ from .injection import inject
 from .loader import TileSet, load_trainset
 from .split import CLASSES, SETS, TWIN_MODELS, split_flights
 
-__all__ = ["TileSet", "load_trainset", "CLASSES", "SETS", "TWIN_MODELS", "split_flights", "fit_twin",
-           "CalibrationConfig", "inject"]
+__all__ = [
+    "TileSet",
+    "load_trainset",
+    "CLASSES",
+    "SETS",
+    "TWIN_MODELS",
+    "split_flights",
+    "fit_twin",
+    "CalibrationConfig",
+    "inject",
+]

@@ -102,8 +102,9 @@ def merge_tables(paths, speeds_zarr, out, *, log=print) -> pd.DataFrame:
     missing = sorted(set(order) - set(df.flight_id))
     extra = sorted(set(df.flight_id) - set(order))
     if missing or extra:
-        raise InputError(out, "flight_id", f"misses {missing[:3]} / has unknown {extra[:3]}",
-                         f"exactly the flights of {speeds_zarr}")
+        raise InputError(
+            out, "flight_id", f"misses {missing[:3]} / has unknown {extra[:3]}", f"exactly the flights of {speeds_zarr}"
+        )
     df = df.iloc[sorted(range(len(df)), key=lambda i: rank[df.flight_id.iloc[i]])].reset_index(drop=True)
     write_csv(df, out)
     log(f"{len(df)} Table IV rows from {len(tables)} batch tables -> {out}")

@@ -55,8 +55,15 @@ from ..causes.heldout import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig
-from ..synthesis.model import (ENVELOPE_SPEED_STRIDE, BladeModel, ModelExtensions, Scaling, SynthesisConfig, Track,
-                               synthesize)
+from ..synthesis.model import (
+    ENVELOPE_SPEED_STRIDE,
+    BladeModel,
+    ModelExtensions,
+    Scaling,
+    SynthesisConfig,
+    Track,
+    synthesize,
+)
 from .injection import SYNTHETIC_SCHEMA, inject
 from .lines import LineSNR, body_doppler_hz, log_rate_at, rotor_rate_at
 from .batches import batch_filter
@@ -143,7 +150,9 @@ class CalibrationConfig:
         if self.n_harmonics < 1:
             raise ValueError(f"n_harmonics={self.n_harmonics} must be >= 1")
         if not 0 < self.alpha_min_s < self.alpha_max_s:
-            raise ValueError(f"alpha_min_s={self.alpha_min_s}, alpha_max_s={self.alpha_max_s} must satisfy 0 < min < max")
+            raise ValueError(
+                f"alpha_min_s={self.alpha_min_s}, alpha_max_s={self.alpha_max_s} must satisfy 0 < min < max"
+            )
         if self.n_alpha < 1 or self.max_iter < 1:
             raise ValueError(f"n_alpha={self.n_alpha} and max_iter={self.max_iter} must be >= 1")
         if self.holdout_block_cpis < 0:
@@ -171,7 +180,7 @@ class CalibrationConfig:
         if cap == 0 or len(idx) <= cap:
             return idx
         breaks = np.flatnonzero(np.diff(idx) != 1) + 1
-        runs = [p[i:i + FIT_RUN_CPIS] for p in np.split(idx, breaks) for i in range(0, len(p), FIT_RUN_CPIS)]
+        runs = [p[i : i + FIT_RUN_CPIS] for p in np.split(idx, breaks) for i in range(0, len(p), FIT_RUN_CPIS)]
         n_runs = min(len(runs), -(-cap // FIT_RUN_CPIS))
         pick = np.unique(np.round(np.linspace(0, len(runs) - 1, n_runs)).astype(int))
         return np.sort(np.concatenate([runs[i] for i in pick]))[:cap]
@@ -192,8 +201,9 @@ class LineTargets:
 
     @classmethod
     def of(cls, lines: LineSNR, visible_db: float) -> "LineTargets":
-        return cls(lines.body_mean_db(), lines.sideband_mean_db(1), lines.n_pairs(visible_db),
-                   lines.harmonic_medians_db())
+        return cls(
+            lines.body_mean_db(), lines.sideband_mean_db(1), lines.n_pairs(visible_db), lines.harmonic_medians_db()
+        )
 
 
 class StftColumns:
@@ -223,8 +233,11 @@ class StftColumns:
         #: first pulse of each CPI's window, int64 [n_timesteps]
         self.frame_start = np.arange(k0, k1, dtype=np.int64) * cfg.hop - stft.m_num_mid
         self.window = win.astype(np.float32)
-        self.sos = (butter(cfg.highpass_order, cfg.highpass_hz, btype="highpass", fs=prf_hz, output="sos")
-                    if cfg.highpass_hz > 0 else None)
+        self.sos = (
+            butter(cfg.highpass_order, cfg.highpass_hz, btype="highpass", fs=prf_hz, output="sos")
+            if cfg.highpass_hz > 0
+            else None
+        )
         if self.sos is not None:  # sosfiltfilt's defaults (padtype "odd", padlen 3 ntaps), designed once
             ntaps = 2 * len(self.sos) + 1 - min((self.sos[:, 2] == 0).sum(), (self.sos[:, 5] == 0).sum())
             self._edge, self._zi = 3 * int(ntaps), sosfilt_zi(self.sos)
@@ -250,7 +263,7 @@ class StftColumns:
         e = self._edge
         if len(x) <= e:
             raise ValueError(f"segment of {len(x)} pulses is too short for the high-pass (needs > {e})")
-        ext = np.concatenate((2 * x[:1] - x[e:0:-1], x, 2 * x[-1:] - x[-2:-(e + 2):-1]))
+        ext = np.concatenate((2 * x[:1] - x[e:0:-1], x, 2 * x[-1:] - x[-2 : -(e + 2) : -1]))
         y, _ = sosfilt(self.sos, ext, zi=self._zi * ext[0])
         y, _ = sosfilt(self.sos, y[::-1], zi=self._zi * y[-1])
         return y[::-1][e:-e].astype(np.complex64)
@@ -263,13 +276,15 @@ class StftColumns:
         n = self.cfg.n_fft
         ramp = np.arange(n, dtype=np.int64)
         for c0 in range(0, len(cpis), _FFT_BATCH):
-            s = self.frame_start[cpis[c0:c0 + _FFT_BATCH]] - offset
+            s = self.frame_start[cpis[c0 : c0 + _FFT_BATCH]] - offset
             if len(s) and (s.min() < 0 or s.max() + n > len(hp)):
-                raise ValueError(f"CPI windows [{s.min() + offset}, {s.max() + offset + n}) are not all inside "
-                                 f"the segment [{offset}, {offset + len(hp)})")
+                raise ValueError(
+                    f"CPI windows [{s.min() + offset}, {s.max() + offset + n}) are not all inside "
+                    f"the segment [{offset}, {offset + len(hp)})"
+                )
             frames = np.asarray(hp, np.complex64)[s[:, None] + ramp[None, :]]
             frames *= self.window
-            out[c0:c0 + len(s)] = sfft.fft(frames, axis=1, workers=1, overwrite_x=True)[:, self.bins]
+            out[c0 : c0 + len(s)] = sfft.fft(frames, axis=1, workers=1, overwrite_x=True)[:, self.bins]
         return out
 
     def spectrogram(self, x: np.ndarray, cpis: np.ndarray | None = None) -> Spectrogram:
@@ -301,8 +316,17 @@ class LineWindows:
         As :func:`~microdoppler.datasets.lines.measure_lines`.
     """
 
-    def __init__(self, doppler_hz, body_hz, rotor_rev_s, *, n_blades: int, rotor_half_spread_rev_s: float,
-                 n_harmonics: int, search_hz: float):
+    def __init__(
+        self,
+        doppler_hz,
+        body_hz,
+        rotor_rev_s,
+        *,
+        n_blades: int,
+        rotor_half_spread_rev_s: float,
+        n_harmonics: int,
+        search_hz: float,
+    ):
         f = np.asarray(doppler_hz, np.float64)
         body = np.asarray(body_hz, np.float64)
         n_t = len(body)
@@ -346,15 +370,17 @@ class TwinMeter:
     measurement (the calibration's fold).
     """
 
-    def __init__(self, flight: Flight, spec_cfg: SpectrogramConfig, cfg: CalibrationConfig,
-                 fit_mask: np.ndarray | None = None):
+    def __init__(
+        self, flight: Flight, spec_cfg: SpectrogramConfig, cfg: CalibrationConfig, fit_mask: np.ndarray | None = None
+    ):
         self.flight, self.spec_cfg, self.cfg = flight, spec_cfg, cfg
         self.n_blades = int(flight.attrs["n_blades"])
         self.stft = StftColumns(len(flight.iq), flight.prf_hz, spec_cfg)
         self.measured_spec = self.stft.spectrogram(flight.iq)
         self.time_s = self.measured_spec.time_s
-        self.body_hz = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m,
-                                       self.time_s)
+        self.body_hz = body_doppler_hz(
+            flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, self.time_s
+        )
         n_t = len(self.time_s)
         self.fit_mask = cfg.fit_mask(n_t) if fit_mask is None else np.asarray(fit_mask, bool)
         if self.fit_mask.shape != (n_t,) or not self.fit_mask.any():
@@ -369,9 +395,15 @@ class TwinMeter:
         ``rotor_rev_s`` [n_timesteps] or None)."""
         cpis = np.asarray(cpis)
         rate = None if rotor_rev_s is None else np.asarray(rotor_rev_s)[cpis]
-        return LineWindows(self.stft.doppler_hz, self.body_hz[cpis], rate, n_blades=self.n_blades,
-                           rotor_half_spread_rev_s=half_spread_rev_s, n_harmonics=self.cfg.n_harmonics,
-                           search_hz=self.cfg.search_hz)
+        return LineWindows(
+            self.stft.doppler_hz,
+            self.body_hz[cpis],
+            rate,
+            n_blades=self.n_blades,
+            rotor_half_spread_rev_s=half_spread_rev_s,
+            n_harmonics=self.cfg.n_harmonics,
+            search_hz=self.cfg.search_hz,
+        )
 
     def lines(self, spec, rotor_rev_s, half_spread_rev_s) -> LineSNR:
         """Lines of a whole-record spectrogram ``spec`` on the fit CPIs."""
@@ -401,8 +433,18 @@ def _db_gain(err_db: float) -> float:
     return float(10 ** (np.clip(err_db, -60, 60) / 20))
 
 
-def fit_scales(windows: LineWindows, body_cols, blade_cols, background_cols, targets: LineTargets, *,
-               s_body0: float, s_blade0: float, max_iter: int, tol_db: float):
+def fit_scales(
+    windows: LineWindows,
+    body_cols,
+    blade_cols,
+    background_cols,
+    targets: LineTargets,
+    *,
+    s_body0: float,
+    s_blade0: float,
+    max_iter: int,
+    tol_db: float,
+):
     """Fixed-point fit of S_body and S_blade to the targets on the STFT columns
     (complex64 [n_cpis, n_bins]) of the unit body, unit blade and background records;
     returns (s_body, s_blade, lines) with ``lines`` the LineSNR of the last evaluated step."""
@@ -430,11 +472,19 @@ def _abs_peak_db(lines_db: np.ndarray, floor_db: np.ndarray) -> float:
     return float(np.mean(x)) if x.size else np.nan
 
 
-def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: SpectrogramConfig,
-             cfg: CalibrationConfig = CalibrationConfig(), seed: int = 0,
-             extensions: Callable[[int], ModelExtensions] | None = None,
-             post: Callable[[np.ndarray], np.ndarray] | None = None,
-             fit_mask: np.ndarray | None = None, blade_amplitudes=None) -> tuple[np.ndarray, dict]:
+def fit_twin(
+    flight: Flight,
+    rev_s: np.ndarray,
+    motor_log,
+    *,
+    spec_cfg: SpectrogramConfig,
+    cfg: CalibrationConfig = CalibrationConfig(),
+    seed: int = 0,
+    extensions: Callable[[int], ModelExtensions] | None = None,
+    post: Callable[[np.ndarray], np.ndarray] | None = None,
+    fit_mask: np.ndarray | None = None,
+    blade_amplitudes=None,
+) -> tuple[np.ndarray, dict]:
     """Synthesise and calibrate the twin of one measured drone flight.
 
     Parameters
@@ -520,16 +570,19 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
     m_rate, m_spread = log_rate_at(motor_log.time_s, motor_log.rev_s, meter.time_s)
     m_spread_flight = float(np.percentile(m_spread, 90))
     meas_db = meter.measured_spec.power_db
-    targets = LineTargets.of(meter.windows(cpis, m_rate, m_spread_flight).measure(meas_db[cpis])[0],
-                             cfg.visible_db)
+    targets = LineTargets.of(meter.windows(cpis, m_rate, m_spread_flight).measure(meas_db[cpis])[0], cfg.visible_db)
     # twin: HERM windows from its own rates
     t_rate, t_spread = rotor_rate_at(rev_s, meter.time_s, flight.prf_hz)
     t_spread_flight = float(np.percentile(t_spread, 90))
     win = meter.windows(cpis, t_rate, t_spread_flight)
     body_win = meter.windows(cpis, None, 0)
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
-    blades = BladeModel(int(flight.attrs["n_blades"]), float(flight.attrs["blade_length_m"]), flight.wavelength_m,
-                        blade_amplitudes=blade_amplitudes)
+    blades = BladeModel(
+        int(flight.attrs["n_blades"]),
+        float(flight.attrs["blade_length_m"]),
+        flight.wavelength_m,
+        blade_amplitudes=blade_amplitudes,
+    )
 
     n_motors = rev_s.shape[1]
     blade_mean = complex(blades.table().mean())
@@ -551,8 +604,12 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
         ext = extensions(seed) if extensions is not None else ModelExtensions()
         if cfg.remove_blade_mean and scaling.s_blade > 0:
             env = ext.envelope_gain
-            dc = np.complex64(scaling.s_blade * n_motors * blade_mean
-                              * (complex(np.asarray(env(np.zeros(1)))[0]) if env is not None else 1.0))
+            dc = np.complex64(
+                scaling.s_blade
+                * n_motors
+                * blade_mean
+                * (complex(np.asarray(env(np.zeros(1)))[0]) if env is not None else 1.0)
+            )
             then = ext.blade_hook
 
             def hook(i0, i1, t_s, x, dc=dc, then=then):
@@ -595,13 +652,26 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
 
     def trial(alpha, blade_cols, targets, win, body_cols, bg_cols, s_body0, s_blade0):
         """Scale fit at one alpha and its sort key (missed, |pairs error|, profile)."""
-        s_b, s_m, lines = fit_scales(win, body_cols, blade_cols, bg_cols, targets, s_body0=s_body0,
-                                     s_blade0=s_blade0, max_iter=max(3, cfg.max_iter // 2), tol_db=tol)
+        s_b, s_m, lines = fit_scales(
+            win,
+            body_cols,
+            blade_cols,
+            bg_cols,
+            targets,
+            s_body0=s_body0,
+            s_blade0=s_blade0,
+            max_iter=max(3, cfg.max_iter // 2),
+            tol_db=tol,
+        )
         got = LineTargets.of(lines, cfg.visible_db)
         both = np.isfinite(targets.harmonics_db[1:]) & np.isfinite(got.harmonics_db[1:])
-        profile = float(np.mean(np.abs(targets.harmonics_db[1:][both] - got.harmonics_db[1:][both]))) if both.any() else 0.0
-        err = max(abs(got.body_db - targets.body_db),
-                  abs(got.sideband1_db - targets.sideband1_db) if np.isfinite(targets.sideband1_db) else 0.0)
+        profile = (
+            float(np.mean(np.abs(targets.harmonics_db[1:][both] - got.harmonics_db[1:][both]))) if both.any() else 0.0
+        )
+        err = max(
+            abs(got.body_db - targets.body_db),
+            abs(got.sideband1_db - targets.sideband1_db) if np.isfinite(targets.sideband1_db) else 0.0,
+        )
         return (not (err <= tol), abs(got.n_pairs - targets.n_pairs), profile, float(alpha), s_b, s_m, blade_cols)
 
     trials = []
@@ -617,49 +687,95 @@ def fit_twin(flight: Flight, rev_s: np.ndarray, motor_log, *, spec_cfg: Spectrog
     if len(cpis) < len(fit_cpis):
         # a capped search: its best ALPHA_RECHECK alphas are tried again on every fit
         # CPI (whole body and blade records), starting from the scales it found
-        targets = LineTargets.of(meter.windows(fit_cpis, m_rate, m_spread_flight).measure(meas_db[fit_cpis])[0],
-                                 cfg.visible_db)
+        targets = LineTargets.of(
+            meter.windows(fit_cpis, m_rate, m_spread_flight).measure(meas_db[fit_cpis])[0], cfg.visible_db
+        )
         win = meter.windows(fit_cpis, t_rate, t_spread_flight)
         body_cols = stft.columns(stft.highpass(synth(Scaling(1.0, 0.0, 0.0))), fit_cpis)
         bg_cols = stft.columns(bg_hp, fit_cpis)
         best = [r[3:6] for r in trials[:ALPHA_RECHECK]]  # (alpha, s_body, s_blade)
-        trials = sorted((trial(a, stft.columns(stft.highpass(synth(Scaling(0.0, 1.0, a))), fit_cpis), targets, win,
-                               body_cols, bg_cols, sb, sm) for a, sb, sm in best), key=lambda r: r[:3])
+        trials = sorted(
+            (
+                trial(
+                    a,
+                    stft.columns(stft.highpass(synth(Scaling(0.0, 1.0, a))), fit_cpis),
+                    targets,
+                    win,
+                    body_cols,
+                    bg_cols,
+                    sb,
+                    sm,
+                )
+                for a, sb, sm in best
+            ),
+            key=lambda r: r[:3],
+        )
     alpha, s_b, s_m, blade_cols = trials[0][3:]
     del trials
     # final fit on every fit CPI, to a sixteenth of the tolerance (steps cost no
     # synthesis): where in the +-tolerance/4 window a search stopped is otherwise left
     # to chance, and shows on the held-out CPIs
-    s_b, s_m, _ = fit_scales(win, body_cols, blade_cols, bg_cols, targets, s_body0=s_b, s_blade0=s_m,
-                             max_iter=cfg.max_iter, tol_db=tol / FINAL_TOL_FRACTION)
+    s_b, s_m, _ = fit_scales(
+        win,
+        body_cols,
+        blade_cols,
+        bg_cols,
+        targets,
+        s_body0=s_b,
+        s_blade0=s_m,
+        max_iter=cfg.max_iter,
+        tol_db=tol / FINAL_TOL_FRACTION,
+    )
     del body_cols, blade_cols, bg_cols, bg_hp
     # check: synthesise the whole twin from scratch with the fitted values, inject and
     # measure on every fit CPI (targets too)
     iq = synth(Scaling(float(s_b), float(s_m), alpha)).astype(np.complex64)
-    measured = LineTargets.of(meter.windows(fit_cpis, m_rate, m_spread_flight).measure(meas_db[fit_cpis])[0],
-                              cfg.visible_db)
+    measured = LineTargets.of(
+        meter.windows(fit_cpis, m_rate, m_spread_flight).measure(meas_db[fit_cpis])[0], cfg.visible_db
+    )
     twin_db = power_db(stft.columns(stft.highpass(inject(iq, bg)), fit_cpis))
     got = LineTargets.of(meter.windows(fit_cpis, t_rate, t_spread_flight).measure(twin_db)[0], cfg.visible_db)
     e_body = got.body_db - measured.body_db
     e_sb = got.sideband1_db - measured.sideband1_db
     ok = abs(e_body) <= tol and (not np.isfinite(measured.sideband1_db) or abs(e_sb) <= tol)
     result = dict(
-        alpha_s=alpha, s_body=float(s_b), s_blade=float(s_m),
-        n_pairs_measured=measured.n_pairs, n_pairs_twin=got.n_pairs,
-        body_snr_measured_db=measured.body_db, body_snr_twin_db=got.body_db, body_error_db=float(e_body),
-        sideband1_snr_measured_db=measured.sideband1_db, sideband1_snr_twin_db=got.sideband1_db,
-        sideband1_error_db=float(e_sb), status="ok" if ok else "missed",
+        alpha_s=alpha,
+        s_body=float(s_b),
+        s_blade=float(s_m),
+        n_pairs_measured=measured.n_pairs,
+        n_pairs_twin=got.n_pairs,
+        body_snr_measured_db=measured.body_db,
+        body_snr_twin_db=got.body_db,
+        body_error_db=float(e_body),
+        sideband1_snr_measured_db=measured.sideband1_db,
+        sideband1_snr_twin_db=got.sideband1_db,
+        sideband1_error_db=float(e_sb),
+        status="ok" if ok else "missed",
         holdout_block_cpis=int(cfg.holdout_block_cpis) if fit_mask is None else None,
-        n_fit_cpis=int(meter.fit_mask.sum()), n_cpis=len(meter.fit_mask), n_search_cpis=len(cpis),
+        n_fit_cpis=int(meter.fit_mask.sum()),
+        n_cpis=len(meter.fit_mask),
+        n_search_cpis=len(cpis),
         **({} if fit_mask is None else {"fit_cpis": fit_cpis.tolist()}),
         fit_seconds=round(time.perf_counter() - t0, 2),
     )
     return iq, result
 
 
-def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant: str, spec_cfg: SpectrogramConfig,
-                cfg: CalibrationConfig, seed: int, extensions=None, batch: tuple[int, int] | None = None,
-                log=print) -> pd.DataFrame:
+def build_twins(
+    measured_dir,
+    speeds_zarr,
+    logs_zarr,
+    out,
+    table_iv,
+    *,
+    variant: str,
+    spec_cfg: SpectrogramConfig,
+    cfg: CalibrationConfig,
+    seed: int,
+    extensions=None,
+    batch: tuple[int, int] | None = None,
+    log=print,
+) -> pd.DataFrame:
     """Write ``results/synthetic/{variant}.zarr`` (group per twin: ``iq`` target only,
     calibration in attrs) and the per-flight Table IV of the variant.
 
@@ -675,16 +791,29 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
     speeds = open_speeds(speeds_zarr)
     flights = list_flights(measured_dir).set_index("flight_id")
     mine = batch_filter(*(batch or (None, 1)))
-    rows = [dict(flight_id=fid, variant=variant, drone_model=flights.drone_model.get(fid, ""),
-                 radar_id=flights.radar_id.get(fid, ""), status=f"skipped: {why}")
-            for fid, why in dict(speeds.attrs.get("skipped", {})).items() if mine(fid)]
+    rows = [
+        dict(
+            flight_id=fid,
+            variant=variant,
+            drone_model=flights.drone_model.get(fid, ""),
+            radar_id=flights.radar_id.get(fid, ""),
+            status=f"skipped: {why}",
+        )
+        for fid, why in dict(speeds.attrs.get("skipped", {})).items()
+        if mine(fid)
+    ]
     with writing_store(out, {"schema": SYNTHETIC_SCHEMA, "variant": variant, "target_only": True}) as root:
         for fid in filter(mine, flight_ids(speeds)):
             g = speeds[fid]
             flight = read_flight(flights.loc[fid, "path"])
-            base = dict(flight_id=fid, variant=variant, drone_model=flight.attrs["drone_model"],
-                        radar_id=flight.attrs["radar_id"], window_pulses=g.attrs.get("window_pulses", np.nan),
-                        fixed_rev_s=g.attrs.get("fixed_rev_s", np.nan))
+            base = dict(
+                flight_id=fid,
+                variant=variant,
+                drone_model=flight.attrs["drone_model"],
+                radar_id=flight.attrs["radar_id"],
+                window_pulses=g.attrs.get("window_pulses", np.nan),
+                fixed_rev_s=g.attrs.get("fixed_rev_s", np.nan),
+            )
             if flight.background_iq is None:
                 log(f"{fid}: no background/iq: skipped (cannot inject a twin)")
                 rows.append({**base, "status": "skipped: no background"})
@@ -699,26 +828,49 @@ def build_twins(measured_dir, speeds_zarr, logs_zarr, out, table_iv, *, variant:
             kw, post = {}, None
             if active:
                 kw["extensions"] = lambda s, n=len(flight.iq), prf=flight.prf_hz, e=ext: e.model_extensions(
-                    prf_hz=prf, n_pulses=n, seed=s)
+                    prf_hz=prf, n_pulses=n, seed=s
+                )
                 post = lambda x, prf=flight.prf_hz, s=fseed, e=ext: e.post(x, prf_hz=prf, seed=s)
                 if hasattr(ext, "blade_amplitudes"):
                     kw["blade_amplitudes"] = ext.blade_amplitudes(int(flight.attrs["n_blades"]))
-            iq, res = fit_twin(flight, read_rev_s(g, f"{speeds_zarr}/{fid}"), ml, spec_cfg=spec_cfg, cfg=cfg,
-                               seed=fseed, post=post, **kw)
+            iq, res = fit_twin(
+                flight,
+                read_rev_s(g, f"{speeds_zarr}/{fid}"),
+                ml,
+                spec_cfg=spec_cfg,
+                cfg=cfg,
+                seed=fseed,
+                post=post,
+                **kw,
+            )
             h = root.require_group(fid)
             if ext is not None and hasattr(ext, "effects"):
-                h.attrs["extensions"] = {"effects": {c: dict(p) for c, p in ext.effects.items()},
-                                         "source": dict(getattr(ext, "meta", {})).get("source", "uniform")}
-            h.attrs.update({**flight.attrs, "variant": variant, "twin_of": fid, "twin_seed": fseed,
-                            "calibration": {k: (None if isinstance(v, float) and not np.isfinite(v) else v)
-                                            for k, v in res.items()}, "speeds": dict(g.attrs)})
+                h.attrs["extensions"] = {
+                    "effects": {c: dict(p) for c, p in ext.effects.items()},
+                    "source": dict(getattr(ext, "meta", {})).get("source", "uniform"),
+                }
+            h.attrs.update(
+                {
+                    **flight.attrs,
+                    "variant": variant,
+                    "twin_of": fid,
+                    "twin_seed": fseed,
+                    "calibration": {
+                        k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in res.items()
+                    },
+                    "speeds": dict(g.attrs),
+                }
+            )
             put_array(h, "iq", iq)
             rows.append({**base, **res})
-            log(f"{fid}: {res['status']} alpha={res['alpha_s']:.3g} s S_body={res['s_body']:.3g} "
+            log(
+                f"{fid}: {res['status']} alpha={res['alpha_s']:.3g} s S_body={res['s_body']:.3g} "
                 f"S_blade={res['s_blade']:.3g} pairs {res['n_pairs_measured']}->{res['n_pairs_twin']} "
                 f"body {res['body_error_db']:+.2f} dB sideband1 {res['sideband1_error_db']:+.2f} dB "
-                f"({res['fit_seconds']} s)")
+                f"({res['fit_seconds']} s)"
+            )
     df = pd.DataFrame(rows).reindex(columns=TABLE_IV_COLUMNS)
     from .tables import write_csv
+
     write_csv(df, table_iv)
     return df

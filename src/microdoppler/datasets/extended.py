@@ -5,5 +5,13 @@ module re-exports them under the datasets' name.
 """
 
 from ..causes.twins import *  # noqa: F401,F403 (re-exported)
-from ..causes.twins import (MODES, SCHEMA, TwinExtensions, catalog_params,  # noqa: F401 (named re-exports)
-                            fit_population, load_twin_extensions, save_twin_extensions, twin_extensions)
+from ..causes.twins import (
+    MODES,
+    SCHEMA,
+    TwinExtensions,
+    catalog_params,  # noqa: F401 (named re-exports)
+    fit_population,
+    load_twin_extensions,
+    save_twin_extensions,
+    twin_extensions,
+)

@@ -82,9 +82,17 @@ from ..spectra.snr import noise_floor_db
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 
 #: distances of Table VI (name: unit), in column order
-DISTANCES = {"line_hz": "Hz", "n_pairs": "pairs", "first_pair_db": "dB", "asymmetry_db": "dB",
-             "blade_std_db": "dB", "blade_timescale_s": "s", "body_std_db": "dB", "floor_db": "dB",
-             "nonmultiple_db": "dB"}
+DISTANCES = {
+    "line_hz": "Hz",
+    "n_pairs": "pairs",
+    "first_pair_db": "dB",
+    "asymmetry_db": "dB",
+    "blade_std_db": "dB",
+    "blade_timescale_s": "s",
+    "body_std_db": "dB",
+    "floor_db": "dB",
+    "nonmultiple_db": "dB",
+}
 #: the paper's ordering of the sampling variants (sub-CPI > per-CPI ~ single-motor >
 #: fixed-speeds, as Table V's; classifier.reports is not imported: it needs torch)
 ORDER = ("sub_cpi", "per_cpi", "single_motor", "fixed_speeds")
@@ -208,9 +216,19 @@ def _finite(x) -> np.ndarray:
     return np.where(np.isfinite(x), x, np.nan)
 
 
-def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half_spread_rev_s: float = 0.0,
-                 highpass_hz: float = 15.0, cfg: FidelityConfig = FidelityConfig(), motor_rev_s=None,
-                 line_power=None, window=None) -> CpiFeatures:
+def cpi_features(
+    spec: Spectrogram,
+    body_hz,
+    rotor_rev_s,
+    *,
+    n_blades: int,
+    half_spread_rev_s: float = 0.0,
+    highpass_hz: float = 15.0,
+    cfg: FidelityConfig = FidelityConfig(),
+    motor_rev_s=None,
+    line_power=None,
+    window=None,
+) -> CpiFeatures:
     """Per-CPI features of a spectrogram.
 
     Parameters
@@ -236,8 +254,15 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     """
     body_hz = np.asarray(body_hz, float)
     h_hz = n_blades * np.asarray(rotor_rev_s, float)
-    lines = measure_lines(spec, body_hz, rotor_rev_s, n_blades=n_blades, rotor_half_spread_rev_s=half_spread_rev_s,
-                          n_harmonics=cfg.n_harmonics, search_hz=cfg.search_hz)
+    lines = measure_lines(
+        spec,
+        body_hz,
+        rotor_rev_s,
+        n_blades=n_blades,
+        rotor_half_spread_rev_s=half_spread_rev_s,
+        n_harmonics=cfg.n_harmonics,
+        search_hz=cfg.search_hz,
+    )
     pair = lines.pair_db
     n_pairs = np.cumprod(pair >= cfg.visible_db, axis=0).sum(axis=0)
     # line frequencies: power centroid of the stronger side's visible bins, relative to
@@ -273,12 +298,31 @@ def cpi_features(spec: Spectrogram, body_hz, rotor_rev_s, *, n_blades: int, half
     nm = (None, None, None)
     if motor_rev_s is not None and line_power is not None and window is not None:
         st_w = Stft(st.p, st.t_s, st.f_hz, np.asarray(window, float))
-        nm = rotation_line_sums(st_w, f_body, motor_rev_s, n_blades=n_blades, line_power=line_power,
-                                highpass_hz=highpass_hz, cfg=cfg, notched=notched)
+        nm = rotation_line_sums(
+            st_w,
+            f_body,
+            motor_rev_s,
+            n_blades=n_blades,
+            line_power=line_power,
+            highpass_hz=highpass_hz,
+            cfg=cfg,
+            notched=notched,
+        )
     body_db = np.full(len(spec.time_s), np.nan) if notched else lines.body_db  # no body line to read
-    return CpiFeatures(spec.time_s, line_hz, pair, n_pairs, _finite(pair[0] - body_db),
-                       _finite(lines.upper_db[0] - lines.lower_db[0]), _finite(pair[0]), _finite(body_db),
-                       floor - noise_floor_db(spec), hop_s, *nm, body_in_notch=notched)
+    return CpiFeatures(
+        spec.time_s,
+        line_hz,
+        pair,
+        n_pairs,
+        _finite(pair[0] - body_db),
+        _finite(lines.upper_db[0] - lines.lower_db[0]),
+        _finite(pair[0]),
+        _finite(body_db),
+        floor - noise_floor_db(spec),
+        hop_s,
+        *nm,
+        body_in_notch=notched,
+    )
 
 
 #: dilation grid step of :func:`line_dilation` and the CPIs of its running median
@@ -286,8 +330,9 @@ DILATION_STEP = 0.0025
 DILATION_SMOOTH_CPIS = 9
 
 
-def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max_rel: float,
-                  smooth_cpis: int = DILATION_SMOOTH_CPIS) -> np.ndarray:
+def line_dilation(
+    st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max_rel: float, smooth_cpis: int = DILATION_SMOOTH_CPIS
+) -> np.ndarray:
     """Per CPI the factor s (within 1 +- ``max_rel``) by which the rotors' lines sit
     off their given rates: the s whose blade-passing lines (orders B and 2B of every
     rotor, both sides, +-1 bin) hold the most power, then a running median over
@@ -305,8 +350,13 @@ def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max
         fr = np.asarray(motor_rev_s[i], float)
         if not np.all(np.isfinite(fr)) or np.any(fr <= 0):
             continue
-        f = (f_body_hz[i] + np.array([1.0, -1.0])[None, :, None, None] * grid[:, None, None, None]
-             * orders[None, None, :, None] * fr[None, None, None, :])  # [n_s, side, order, motor]
+        f = (
+            f_body_hz[i]
+            + np.array([1.0, -1.0])[None, :, None, None]
+            * grid[:, None, None, None]
+            * orders[None, None, :, None]
+            * fr[None, None, None, :]
+        )  # [n_s, side, order, motor]
         b = np.rint(st.at(f)).astype(int)
         inside = (b >= 1) & (b < n_bins - 1)
         bc = np.clip(b, 1, n_bins - 2)
@@ -321,8 +371,12 @@ def line_dilation(st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max
         return np.ones(n_t)
     fill = float(np.median(out[ok]))
     h = max(int(smooth_cpis) // 2, 0)
-    sm = np.array([np.nanmedian(out[max(0, i - h):i + h + 1]) if np.isfinite(out[max(0, i - h):i + h + 1]).any()
-                   else fill for i in range(n_t)])
+    sm = np.array(
+        [
+            np.nanmedian(out[max(0, i - h) : i + h + 1]) if np.isfinite(out[max(0, i - h) : i + h + 1]).any() else fill
+            for i in range(n_t)
+        ]
+    )
     return sm
 
 
@@ -334,9 +388,17 @@ def body_in_notch(f_body_hz, *, highpass_hz: float, search_hz: float) -> bool:
     return not bool(np.any(np.isfinite(f) & (np.abs(f) > highpass_hz + search_hz)))
 
 
-def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_power, highpass_hz: float,
-                       cfg: FidelityConfig = FidelityConfig(),
-                       notched: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def rotation_line_sums(
+    st: Stft,
+    f_body_hz,
+    motor_rev_s,
+    *,
+    n_blades: int,
+    line_power,
+    highpass_hz: float,
+    cfg: FidelityConfig = FidelityConfig(),
+    notched: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per CPI, the summed power of the rotation-rate lines at non-multiples of the
     blade count, of their blade-passing reference (module doc) and the summed power's
     noise variance (kappa (n_b fl^2 + 2 P fl) per line, ``rotation_line_powers``):
@@ -356,17 +418,34 @@ def rotation_line_sums(st: Stft, f_body_hz, motor_rev_s, *, n_blades: int, line_
         raise ValueError(f"line_power has {len(line_power)} orders, expected {cfg.rotation_orders + 1}")
     f_body_hz = np.asarray(f_body_hz, float)
     beyond = np.abs(f_body_hz) > highpass_hz + cfg.search_hz
-    valid = (np.isfinite(f_body_hz) & np.all(np.isfinite(rev), axis=1) & np.all(rev > 0, axis=1)
-             & (~beyond if notched else beyond))
+    valid = (
+        np.isfinite(f_body_hz)
+        & np.all(np.isfinite(rev), axis=1)
+        & np.all(rev > 0, axis=1)
+        & (~beyond if notched else beyond)
+    )
     floor = np.median(st.p, axis=1) / np.log(2.0)
     s = line_dilation(st, f_body_hz, rev, valid, n_blades=n_blades, max_rel=cfg.dilation_range)
-    P, V, W, R = rotation_line_powers(st, f_body_hz, rev * s[:, None], valid, n_blades, cfg.rotation_orders, floor,
-                                      clutter_guard_hz=highpass_hz, raised_floor_db=RAISED_FLOOR_DB)
-    x, v0, w, ref, idx = non_multiple_observations(P, V, W, R, np.asarray(line_power, float), n_blades, n_m,
-                                                   min_z=NONMULTIPLE_MIN_Z)
+    P, V, W, R = rotation_line_powers(
+        st,
+        f_body_hz,
+        rev * s[:, None],
+        valid,
+        n_blades,
+        cfg.rotation_orders,
+        floor,
+        clutter_guard_hz=highpass_hz,
+        raised_floor_db=RAISED_FLOOR_DB,
+    )
+    x, v0, w, ref, idx = non_multiple_observations(
+        P, V, W, R, np.asarray(line_power, float), n_blades, n_m, min_z=NONMULTIPLE_MIN_Z
+    )
     var = v0 + w * np.clip(x, 0, None)
-    return (np.bincount(idx, x, minlength=n_t), np.bincount(idx, ref, minlength=n_t),
-            np.bincount(idx, var, minlength=n_t))
+    return (
+        np.bincount(idx, x, minlength=n_t),
+        np.bincount(idx, ref, minlength=n_t),
+        np.bincount(idx, var, minlength=n_t),
+    )
 
 
 #: blade-passing lines used as the reference of the non-multiple lines stand this many
@@ -393,20 +472,31 @@ def nonmultiple_db(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig())
     return float(max(10 * np.log10(x / ref), cfg.nonmultiple_floor_db))
 
 
-def flight_features(flight, iq, motor_log, *, spec_cfg: SpectrogramConfig,
-                    cfg: FidelityConfig = FidelityConfig()) -> CpiFeatures:
+def flight_features(
+    flight, iq, motor_log, *, spec_cfg: SpectrogramConfig, cfg: FidelityConfig = FidelityConfig()
+) -> CpiFeatures:
     """Features of ``iq`` (the flight's own or its injected twin) with the flight's
     track and motor log placing the lines (as ``fit_twin`` measures its targets)."""
     spec = spectrogram(iq, flight.prf_hz, spec_cfg)
     body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, spec.time_s)
     rate, spread = log_rate_at(motor_log.time_s, motor_log.rev_s, spec.time_s)
     t = np.asarray(spec.time_s, float)
-    motors = np.column_stack([np.interp(t, motor_log.time_s, motor_log.rev_s[:, m])
-                              for m in range(motor_log.rev_s.shape[1])])
+    motors = np.column_stack(
+        [np.interp(t, motor_log.time_s, motor_log.rev_s[:, m]) for m in range(motor_log.rev_s.shape[1])]
+    )
     wire = thin_wire_line_power(float(flight.attrs["blade_length_m"]), flight.wavelength_m, cfg.rotation_orders)
-    return cpi_features(spec, body, rate, n_blades=int(flight.attrs["n_blades"]),
-                        half_spread_rev_s=float(np.percentile(spread, 90)), highpass_hz=spec_cfg.highpass_hz, cfg=cfg,
-                        motor_rev_s=motors, line_power=wire, window=blackmanharris(spec_cfg.n_fft, sym=False))
+    return cpi_features(
+        spec,
+        body,
+        rate,
+        n_blades=int(flight.attrs["n_blades"]),
+        half_spread_rev_s=float(np.percentile(spread, 90)),
+        highpass_hz=spec_cfg.highpass_hz,
+        cfg=cfg,
+        motor_rev_s=motors,
+        line_power=wire,
+        window=blackmanharris(spec_cfg.n_fft, sym=False),
+    )
 
 
 def correlation_timescale_s(x, mask, hop_s: float, max_lag: int) -> float:
@@ -452,11 +542,16 @@ def summarise(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> d
     pairs, first-pair level, asymmetry and floor, std of blade and body SNR, the
     blade fading timescale [s], the non-multiple rotation lines' level (:func:`nonmultiple_db`)."""
     mask = np.asarray(mask, bool)
-    return {"n_pairs": _mean(f.n_pairs, mask), "first_pair_db": _mean(f.first_pair_db, mask),
-            "asymmetry_db": _mean(f.asymmetry_db, mask), "blade_std_db": _std(f.blade_db, mask),
-            "blade_timescale_s": correlation_timescale_s(f.blade_db, mask, f.hop_s, cfg.max_lag_cpis),
-            "body_std_db": _std(f.body_db, mask), "floor_db": _mean(f.floor_db, mask),
-            "nonmultiple_db": nonmultiple_db(f, mask, cfg)}
+    return {
+        "n_pairs": _mean(f.n_pairs, mask),
+        "first_pair_db": _mean(f.first_pair_db, mask),
+        "asymmetry_db": _mean(f.asymmetry_db, mask),
+        "blade_std_db": _std(f.blade_db, mask),
+        "blade_timescale_s": correlation_timescale_s(f.blade_db, mask, f.hop_s, cfg.max_lag_cpis),
+        "body_std_db": _std(f.body_db, mask),
+        "floor_db": _mean(f.floor_db, mask),
+        "nonmultiple_db": nonmultiple_db(f, mask, cfg),
+    }
 
 
 def distances(measured: CpiFeatures, twin: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> dict:
@@ -465,8 +560,9 @@ def distances(measured: CpiFeatures, twin: CpiFeatures, mask, cfg: FidelityConfi
     mask = np.asarray(mask, bool)
     if measured.line_hz.shape != twin.line_hz.shape:
         raise ValueError(f"measured and twin have {measured.line_hz.shape} and {twin.line_hz.shape} lines x CPIs")
-    med = np.array([np.median(r[np.isfinite(r)]) if np.isfinite(r).any() else -np.inf
-                    for r in measured.pair_db[:, mask]])
+    med = np.array(
+        [np.median(r[np.isfinite(r)]) if np.isfinite(r).any() else -np.inf for r in measured.pair_db[:, mask]]
+    )
     vis = np.flatnonzero(np.cumprod(med >= cfg.visible_db))
     ks = vis if vis.size else np.array([0])
     d = np.abs(twin.line_hz[ks][:, mask] - measured.line_hz[ks][:, mask])
@@ -488,8 +584,17 @@ def scoring_mask(calibration: dict, n_t: int) -> tuple[np.ndarray, bool]:
     return mask, bool(mask.any())
 
 
-def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_cfg: SpectrogramConfig,
-                  cfg: FidelityConfig = FidelityConfig(), cache: dict | None = None, log=print) -> pd.DataFrame:
+def score_variant(
+    measured_dir,
+    logs_zarr,
+    injected_zarr,
+    variant: str,
+    *,
+    spec_cfg: SpectrogramConfig,
+    cfg: FidelityConfig = FidelityConfig(),
+    cache: dict | None = None,
+    log=print,
+) -> pd.DataFrame:
     """Distances of every injected twin of one variant to its measured flight.
 
     Returns one row per twin: flight_id, variant, drone_model, held_out, n_cpis_scored,
@@ -516,21 +621,51 @@ def score_variant(measured_dir, logs_zarr, injected_zarr, variant: str, *, spec_
         visible = rotor_lines_visible(cache[fid], mask)
         if not visible:
             d.update({k: float("nan") for k in ROTOR_LINE_DISTANCES})
-        rows.append({"flight_id": fid, "variant": variant, "drone_model": g.attrs.get("drone_model", ""),
-                     "held_out": held_out, "n_cpis_scored": int(mask.sum()),
-                     "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")), **d,
-                     "lines_visible": visible, "body_in_notch": bool(cache[fid].body_in_notch)})
-        log(f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
-            + " ".join(f"{k}={v:.3g}" for k, v in d.items()))
-    return pd.DataFrame(rows, columns=["flight_id", "variant", "drone_model", "held_out", "n_cpis_scored",
-                                       "extension_source", *DISTANCES, "lines_visible", "body_in_notch"])
+        rows.append(
+            {
+                "flight_id": fid,
+                "variant": variant,
+                "drone_model": g.attrs.get("drone_model", ""),
+                "held_out": held_out,
+                "n_cpis_scored": int(mask.sum()),
+                "extension_source": str(dict(g.attrs.get("extensions") or {}).get("source", "")),
+                **d,
+                "lines_visible": visible,
+                "body_in_notch": bool(cache[fid].body_in_notch),
+            }
+        )
+        log(
+            f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
+            + " ".join(f"{k}={v:.3g}" for k, v in d.items())
+        )
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "flight_id",
+            "variant",
+            "drone_model",
+            "held_out",
+            "n_cpis_scored",
+            "extension_source",
+            *DISTANCES,
+            "lines_visible",
+            "body_in_notch",
+        ],
+    )
 
 
 #: the distances read on the body line (not measured on a body in the clutter notch)
 BODY_LINE_DISTANCES = ("first_pair_db", "body_std_db")
 #: the distances read on the rotor lines (not measured on a flight without visible lines)
-ROTOR_LINE_DISTANCES = ("line_hz", "n_pairs", "first_pair_db", "asymmetry_db", "blade_std_db", "blade_timescale_s",
-                        "nonmultiple_db")
+ROTOR_LINE_DISTANCES = (
+    "line_hz",
+    "n_pairs",
+    "first_pair_db",
+    "asymmetry_db",
+    "blade_std_db",
+    "blade_timescale_s",
+    "nonmultiple_db",
+)
 
 
 def rotor_lines_visible(measured: CpiFeatures, mask) -> bool:
@@ -564,8 +699,9 @@ def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int 
     flights of each source (same draws): the gain of carrying a flight's own
     discrepancies is the ``own`` row, not the mixture.
     """
-    cols = ["variant", "n_flights"] + [f"{m}_{s}" for m in DISTANCES for s in ("mean", "ci95_low", "ci95_high",
-                                                                               "resolved")]
+    cols = ["variant", "n_flights"] + [
+        f"{m}_{s}" for m in DISTANCES for s in ("mean", "ci95_low", "ci95_high", "resolved")
+    ]
     variants = _order(per_flight["variant"])
     flights = sorted(per_flight["flight_id"].unique())
     if not flights:
@@ -590,7 +726,9 @@ def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int 
         row = {"variant": f"{a} - {b}"}
         for m in DISTANCES:
             mean, lo, hi, n = stats(table[a][m].to_numpy(float) - table[b][m].to_numpy(float))
-            row.update({f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)})
+            row.update(
+                {f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)}
+            )
             row["n_flights"] = max(row.get("n_flights", 0), n)
         rows.append(row)
     for src, keep in _extension_sources(per_flight, flights):
@@ -598,7 +736,9 @@ def fidelity_table(per_flight: pd.DataFrame, *, n_boot: int = N_BOOT, seed: int 
         for m in DISTANCES:
             diff = table["extended"][m].to_numpy(float) - table["sub_cpi"][m].to_numpy(float)
             mean, lo, hi, n = stats(np.where(keep, diff, np.nan))
-            row.update({f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)})
+            row.update(
+                {f"{m}_mean": mean, f"{m}_ci95_low": lo, f"{m}_ci95_high": hi, f"{m}_resolved": resolved(lo, hi)}
+            )
             row["n_flights"] = max(row.get("n_flights", 0), n)
         rows.append(row)
     return pd.DataFrame(rows).reindex(columns=cols)
@@ -633,8 +773,9 @@ def _ingest_reasons(logs_zarr) -> dict[str, str]:
     return {r.flight_id: str(r.reason) for r in df.itertuples() if str(r.reason)}
 
 
-def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame, *,
-                     cfg: FidelityConfig = FidelityConfig()) -> pd.DataFrame:
+def left_out_flights(
+    measured_dir, logs_zarr, injected: dict, per_flight: pd.DataFrame, *, cfg: FidelityConfig = FidelityConfig()
+) -> pd.DataFrame:
     """The drone flights that Table VI does not score, with the reason (one row per
     flight and reason; ``variants``: the variants it applies to, space-separated).
 
@@ -657,8 +798,10 @@ def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.Dat
     for fl in drones.itertuples():
         for v in injected:
             if not twin_model(fl.drone_model):
-                why = (f"no twins of drone model {fl.drone_model or '(none)'!r}: twins are made of "
-                       f"{', '.join(TWIN_MODELS)} and of drone models the catalog does not hold")
+                why = (
+                    f"no twins of drone model {fl.drone_model or '(none)'!r}: twins are made of "
+                    f"{', '.join(TWIN_MODELS)} and of drone models the catalog does not hold"
+                )
             elif fl.flight_id not in logged:
                 why = ingest.get(fl.flight_id) or "no motor log (not in the ingested logs)"
             elif not fl.has_background:
@@ -675,26 +818,41 @@ def left_out_flights(measured_dir, logs_zarr, injected: dict, per_flight: pd.Dat
                 else:
                     parts = []
                     if "lines_visible" in row.index and not bool(row["lines_visible"]):
-                        parts.append(f"rotor lines not visible on the held-out CPIs (first sideband pair below "
-                                     f"{cfg.visible_db:g} dB in all {int(row['n_cpis_scored'])}): its rotor-line "
-                                     f"features ({', '.join(ROTOR_LINE_DISTANCES)}) are left out, the others scored")
+                        parts.append(
+                            f"rotor lines not visible on the held-out CPIs (first sideband pair below "
+                            f"{cfg.visible_db:g} dB in all {int(row['n_cpis_scored'])}): its rotor-line "
+                            f"features ({', '.join(ROTOR_LINE_DISTANCES)}) are left out, the others scored"
+                        )
                     if "body_in_notch" in row.index and bool(row["body_in_notch"]):
-                        parts.append("body line in the clutter notch (hovering or stand-mounted): its body-line "
-                                     f"features ({', '.join(BODY_LINE_DISTANCES)}) are left out, the rotor lines "
-                                     "scored about the track's body Doppler")
+                        parts.append(
+                            "body line in the clutter notch (hovering or stand-mounted): its body-line "
+                            f"features ({', '.join(BODY_LINE_DISTANCES)}) are left out, the rotor lines "
+                            "scored about the track's body Doppler"
+                        )
                     if not parts:
                         continue
                     why = "; ".join(parts)
             reasons.setdefault((fl.flight_id, fl.drone_model, why), []).append(v)
-    rows = [{"flight_id": fid, "drone_model": model, "variants": " ".join(vs), "reason": why}
-            for (fid, model, why), vs in reasons.items()]
+    rows = [
+        {"flight_id": fid, "drone_model": model, "variants": " ".join(vs), "reason": why}
+        for (fid, model, why), vs in reasons.items()
+    ]
     return pd.DataFrame(rows, columns=LEFT_OUT_COLUMNS)
 
 
 def _note_panel(ax, lines: list[str]) -> None:
     ax.set_axis_off()
-    ax.text(0.02, 0.98, "\n".join(lines), va="top", ha="left", fontsize=9, family="monospace",
-            transform=ax.transAxes, wrap=True)
+    ax.text(
+        0.02,
+        0.98,
+        "\n".join(lines),
+        va="top",
+        ha="left",
+        fontsize=9,
+        family="monospace",
+        transform=ax.transAxes,
+        wrap=True,
+    )
 
 
 def plot_fidelity(table: pd.DataFrame, path, *, left_out: pd.DataFrame | None = None) -> None:
@@ -740,7 +898,7 @@ def plot_fidelity(table: pd.DataFrame, path, *, left_out: pd.DataFrame | None = 
         ax.set_xlim(-0.5, len(t) - 0.5)
         ax.set_title(f"|Δ {m}| [{unit}]", fontsize=9)
         ax.grid(axis="y", alpha=0.3)
-    for ax in axes.ravel()[len(DISTANCES):]:
+    for ax in axes.ravel()[len(DISTANCES) :]:
         ax.set_visible(False)
     fig.suptitle("Twin vs measured flight on held-out CPIs: mean distance over flights, 95 % flight bootstrap")
     fig.tight_layout()
@@ -749,9 +907,21 @@ def plot_fidelity(table: pd.DataFrame, path, *, left_out: pd.DataFrame | None = 
     plt.close(fig)
 
 
-def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, figure_png, flights_csv, *,
-                          spec_cfg: SpectrogramConfig, cfg: FidelityConfig = FidelityConfig(), n_boot: int = N_BOOT,
-                          seed: int = 0, left_out_csv=None, log=print) -> pd.DataFrame:
+def write_fidelity_report(
+    measured_dir,
+    logs_zarr,
+    injected: dict,
+    table_csv,
+    figure_png,
+    flights_csv,
+    *,
+    spec_cfg: SpectrogramConfig,
+    cfg: FidelityConfig = FidelityConfig(),
+    n_boot: int = N_BOOT,
+    seed: int = 0,
+    left_out_csv=None,
+    log=print,
+) -> pd.DataFrame:
     """Score every variant's injected twins (``injected``: variant -> store), write the
     per-flight distances, Table VI and its figure; returns Table VI.
 
@@ -759,15 +929,22 @@ def write_fidelity_report(measured_dir, logs_zarr, injected: dict, table_csv, fi
     with the reason and written to ``left_out_csv``; a Table VI without rows is
     logged with why, and its figure is a panel that says so."""
     cache: dict = {}
-    per_flight = pd.concat([score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache,
-                                          log=log) for v, path in injected.items()], ignore_index=True)
+    per_flight = pd.concat(
+        [
+            score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache, log=log)
+            for v, path in injected.items()
+        ],
+        ignore_index=True,
+    )
     table = fidelity_table(per_flight, n_boot=n_boot, seed=seed)
     left = left_out_flights(measured_dir, logs_zarr, injected, per_flight, cfg=cfg)
     for r in left.itertuples():
         log(f"{r.flight_id}: left out of Table VI ({r.variants}): {r.reason}")
     if table.empty:
-        log(f"Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
-            f"({left.flight_id.nunique()} drone flights left out, reasons above)")
+        log(
+            f"Table VI has no rows: no drone flight has a twin scored on held-out CPIs "
+            f"({left.flight_id.nunique()} drone flights left out, reasons above)"
+        )
     elif len(per_flight):
         for m in DISTANCES:
             if not np.isfinite(per_flight[m].to_numpy(float)).any():

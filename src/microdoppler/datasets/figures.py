@@ -23,8 +23,15 @@ def _imshow(ax, spec, title):
         plot_spectrogram(ax, spec, title=title)
         return
     p = spec.power_db.T
-    ax.imshow(p, aspect="auto", origin="lower", cmap="jet", vmin=float(p.max()) - 60, vmax=float(p.max()),
-              extent=[spec.time_s[0], spec.time_s[-1], spec.doppler_hz[0], spec.doppler_hz[-1]])
+    ax.imshow(
+        p,
+        aspect="auto",
+        origin="lower",
+        cmap="jet",
+        vmin=float(p.max()) - 60,
+        vmax=float(p.max()),
+        extent=[spec.time_s[0], spec.time_s[-1], spec.doppler_hz[0], spec.doppler_hz[-1]],
+    )
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("time [s]")
 
@@ -40,8 +47,9 @@ def pick_flight(stores: dict, drone_model: str, measured_dir) -> str | None:
     return max(sorted(common), key=lambda f: next(iter(stores.values()))[f]["iq"].shape[0])
 
 
-def plot_twins(measured_dir, injected: dict, drone_model: str, out_png, *, spec_cfg: SpectrogramConfig,
-               max_timesteps: int = 100) -> str | None:
+def plot_twins(
+    measured_dir, injected: dict, drone_model: str, out_png, *, spec_cfg: SpectrogramConfig, max_timesteps: int = 100
+) -> str | None:
     """Write the comparison figure of ``drone_model``; returns the flight shown (None:
     no twin of that model, an empty figure saying so is written)."""
     import matplotlib

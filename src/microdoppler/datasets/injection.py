@@ -23,8 +23,14 @@ def build_injected(measured_dir, synthetic_zarr, out, *, log=print) -> pd.DataFr
             g = syn[fid]
             flight = read_flight(f"{measured_dir}/{fid}.zarr")
             effects = dict(dict(g.attrs.get("extensions") or {}).get("effects") or {})
-            iq = inject(np.asarray(g["iq"][...]), flight.background_iq, f"{measured_dir}/{fid}.zarr",
-                        effects=effects, prf_hz=flight.prf_hz, seed=int(g.attrs.get("twin_seed", 0)))
+            iq = inject(
+                np.asarray(g["iq"][...]),
+                flight.background_iq,
+                f"{measured_dir}/{fid}.zarr",
+                effects=effects,
+                prf_hz=flight.prf_hz,
+                seed=int(g.attrs.get("twin_seed", 0)),
+            )
             h = root.require_group(fid)
             h.attrs.update(dict(g.attrs))
             put_array(h, "iq", iq)

@@ -26,8 +26,6 @@ from ..spectra.snr import body_doppler_hz, line_snr_db  # noqa: F401 (body_doppl
 from ..spectra.spectrogram import Spectrogram
 
 
-
-
 def rotor_rate_at(rev_s: np.ndarray, time_s, prf_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """Mean and half-spread over motors of pulse-rate rotor rates at ``time_s``.
 
@@ -106,8 +104,16 @@ def finite_mean(x) -> float:
     return float(np.mean(x)) if x.size else float("nan")
 
 
-def measure_lines(spec: Spectrogram, body_hz: np.ndarray, rotor_rev_s: np.ndarray | None, *, n_blades: int = 2,
-                  rotor_half_spread_rev_s: float = 0.0, n_harmonics: int = 6, search_hz: float = 10.0) -> LineSNR:
+def measure_lines(
+    spec: Spectrogram,
+    body_hz: np.ndarray,
+    rotor_rev_s: np.ndarray | None,
+    *,
+    n_blades: int = 2,
+    rotor_half_spread_rev_s: float = 0.0,
+    n_harmonics: int = 6,
+    search_hz: float = 10.0,
+) -> LineSNR:
     """SNR of the body line and of ``n_harmonics`` sideband pairs, per timestep.
 
     Parameters

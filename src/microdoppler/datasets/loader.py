@@ -47,8 +47,11 @@ def _part(images, table, mask, source) -> TileSet:
 
 
 def _concat(a: TileSet, b: TileSet) -> TileSet:
-    return TileSet(np.concatenate([a.images, b.images]), np.concatenate([a.labels, b.labels]),
-                   pd.concat([a.table, b.table], ignore_index=True))
+    return TileSet(
+        np.concatenate([a.images, b.images]),
+        np.concatenate([a.labels, b.labels]),
+        pd.concat([a.table, b.table], ignore_index=True),
+    )
 
 
 def load_trainset(name: str, tiles_dir="results/tiles") -> tuple[TileSet, TileSet, TileSet]:
@@ -112,8 +115,9 @@ def load_trainset(name: str, tiles_dir="results/tiles") -> tuple[TileSet, TileSe
     v_images, v_table = read_tiles(path)
     models = {str(m) for m in set(v_table.drone_model) if isinstance(m, str) and m}
     if not all(twin_model(m) for m in models):
-        raise InputError(path, "labels.csv", f"has drone models {sorted(models)}",
-                         f"only {TWIN_MODELS} or drone models of your own")
+        raise InputError(
+            path, "labels.csv", f"has drone models {sorted(models)}", f"only {TWIN_MODELS} or drone models of your own"
+        )
     # the measured flights of every twinned model are replaced by their twins
     twinned = set(TWIN_MODELS) | models
     out = []

@@ -49,8 +49,13 @@ SPEEDS_SCHEMA = "speeds/2"
 #: how the per-pulse speeds are rebuilt from the knots, per form: its parameters (group attrs)
 FORMS = {"hold": ("hold_pulses",), "sub_cpi": ("up", "pad", "window_pulses")}
 #: the sampling function behind each variant
-BASE_SAMPLING = {"sub_cpi": "sub_cpi", "per_cpi": "per_cpi", "single_motor": "single_motor",
-                 "fixed_speeds": "fixed_speeds", "extended": "sub_cpi"}
+BASE_SAMPLING = {
+    "sub_cpi": "sub_cpi",
+    "per_cpi": "per_cpi",
+    "single_motor": "single_motor",
+    "fixed_speeds": "fixed_speeds",
+    "extended": "sub_cpi",
+}
 
 
 def draw_window(settings: dict, seed: int) -> int:
@@ -107,8 +112,9 @@ def expand_speeds(form: str, knots_rev_s: np.ndarray, n_pulses: int, params: dic
         raise InputError(source, "attrs", f"has {form} parameters {p}", "hold_pulses, up, window_pulses >= 1, pad >= 0")
     need = -(-n_pulses // step) + (2 * p["pad"] if form == "sub_cpi" else 0)
     if knots.shape[0] != need:
-        raise InputError(source, "knots_rev_s", f"has {knots.shape[0]} knots for {n_pulses} pulses ({form}, {p})",
-                         f"{need} knots")
+        raise InputError(
+            source, "knots_rev_s", f"has {knots.shape[0]} knots for {n_pulses} pulses ({form}, {p})", f"{need} knots"
+        )
     out = np.empty((n_pulses, knots.shape[1]), np.float32)
     for m in range(knots.shape[1]):
         if form == "hold":
@@ -118,9 +124,18 @@ def expand_speeds(form: str, knots_rev_s: np.ndarray, n_pulses: int, params: dic
     return out
 
 
-def resample_flight_compact(variant: str, log, n_pulses: int, prf_hz: float, drone_model: str, *,
-                            settings: dict, n_fft: int, seed: int,
-                            typical_hz: float | None = None) -> tuple[CompactSpeeds, dict]:
+def resample_flight_compact(
+    variant: str,
+    log,
+    n_pulses: int,
+    prf_hz: float,
+    drone_model: str,
+    *,
+    settings: dict,
+    n_fft: int,
+    seed: int,
+    typical_hz: float | None = None,
+) -> tuple[CompactSpeeds, dict]:
     """Rotor rates of one flight for ``variant``, as knots (:class:`CompactSpeeds`).
 
     ``typical_hz`` [rev/s]: the drone model's typical rotor speed that ``fixed_speeds``
@@ -150,16 +165,18 @@ def resample_flight_compact(variant: str, log, n_pulses: int, prf_hz: float, dro
         knots = sampling.per_cpi_knots(log, n_pulses, prf_hz, cfg).astype(np.float32)  # what per_cpi holds
         return CompactSpeeds("hold", knots, n_pulses, {"hold_pulses": n_fft}), attrs
     attrs["window_pulses"] = draw_window(settings, seed)
-    cfg = sampling.SamplingConfig(n_fft=n_fft, sub_cpi_per_cpi=int(settings.get("per_cpi", 8)),
-                                  window_pulses=attrs["window_pulses"])
+    cfg = sampling.SamplingConfig(
+        n_fft=n_fft, sub_cpi_per_cpi=int(settings.get("per_cpi", 8)), window_pulses=attrs["window_pulses"]
+    )
     motors = [0] if base == "single_motor" else range(log.n_motors)
     knots = np.column_stack([sampling.sub_cpi_knots(log, m, n_pulses, prf_hz, cfg) for m in motors])
     params = {"up": n_fft // cfg.sub_cpi_per_cpi, "pad": sampling.SUB_CPI_PAD, "window_pulses": cfg.window_pulses}
     return CompactSpeeds("sub_cpi", knots, n_pulses, params), attrs
 
 
-def resample_flight(variant: str, log, n_pulses: int, prf_hz: float, drone_model: str, *, settings: dict,
-                    n_fft: int, seed: int) -> tuple[np.ndarray, dict]:
+def resample_flight(
+    variant: str, log, n_pulses: int, prf_hz: float, drone_model: str, *, settings: dict, n_fft: int, seed: int
+) -> tuple[np.ndarray, dict]:
     """Rotor rates of one flight for ``variant``.
 
     Returns
@@ -168,8 +185,9 @@ def resample_flight(variant: str, log, n_pulses: int, prf_hz: float, drone_model
     attrs : dict
         What was drawn: window_pulses or fixed_rev_s, and the seed.
     """
-    compact, attrs = resample_flight_compact(variant, log, n_pulses, prf_hz, drone_model, settings=settings,
-                                             n_fft=n_fft, seed=seed)
+    compact, attrs = resample_flight_compact(
+        variant, log, n_pulses, prf_hz, drone_model, settings=settings, n_fft=n_fft, seed=seed
+    )
     return compact.expand(), attrs
 
 
@@ -190,8 +208,9 @@ def open_speeds(path):
     except InputError as exc:
         if exc.field != "attrs.schema":
             raise
-        raise InputError(path, "attrs.schema", f"{exc.problem} (an older store: re-run resample_motor_speeds)",
-                         repr(SPEEDS_SCHEMA)) from None
+        raise InputError(
+            path, "attrs.schema", f"{exc.problem} (an older store: re-run resample_motor_speeds)", repr(SPEEDS_SCHEMA)
+        ) from None
 
 
 def read_rev_s(group, source="speeds") -> np.ndarray:
@@ -234,8 +253,9 @@ def own_typical_hz(flights: pd.DataFrame, logs_zarr) -> dict[str, float]:
     return {m: float(np.median(v)) for m, v in speeds.items()}
 
 
-def build_speeds(measured_dir, logs_zarr, out, *, variant: str, settings: dict, n_fft: int, seed: int,
-                 extensions=None, log=print) -> pd.DataFrame:
+def build_speeds(
+    measured_dir, logs_zarr, out, *, variant: str, settings: dict, n_fft: int, seed: int, extensions=None, log=print
+) -> pd.DataFrame:
     """Write ``results/speeds/{variant}.zarr``: group per twin-able flight with
     ``knots_rev_s`` and its recipe (module docstring; read with :func:`read_rev_s`).
 
@@ -245,25 +265,46 @@ def build_speeds(measured_dir, logs_zarr, out, *, variant: str, settings: dict, 
     flights = flights[(flights.target == "drone") & flights.drone_model.map(twin_model)]
     typical = own_typical_hz(flights, logs_zarr)
     status, skipped = [], {}
-    with writing_store(out, {"schema": SPEEDS_SCHEMA, "variant": variant, "unit": "rev/s",
-                             "settings": dict(settings), "n_fft": n_fft, "seed": seed}) as root:
+    with writing_store(
+        out,
+        {
+            "schema": SPEEDS_SCHEMA,
+            "variant": variant,
+            "unit": "rev/s",
+            "settings": dict(settings),
+            "n_fft": n_fft,
+            "seed": seed,
+        },
+    ) as root:
         for fl in flights.itertuples():
             ml = read_ingested_log(logs_zarr, fl.flight_id) if Path(logs_zarr).exists() else None
             if ml is None:
                 log(f"{fl.flight_id}: no motor log: skipped (no twin)")
                 skipped[fl.flight_id] = "no motor log"
-                status.append(dict(flight_id=fl.flight_id, drone_model=fl.drone_model, status="skipped", detail="no motor log"))
+                status.append(
+                    dict(flight_id=fl.flight_id, drone_model=fl.drone_model, status="skipped", detail="no motor log")
+                )
                 continue
             if extensions is not None:
                 ml = twin_extensions(extensions, fl.flight_id, fl.drone_model, seed=seed).transform_log(ml)
             # extended draws sub_cpi's window: a twin without extensions is its sub_cpi twin
             fseed = stable_seed(seed, BASE_SAMPLING.get(variant, variant), fl.flight_id)
-            sp, attrs = resample_flight_compact(variant, ml, int(fl.n_pulses), fl.prf_hz, fl.drone_model,
-                                                settings=settings, n_fft=n_fft, seed=fseed,
-                                                typical_hz=typical.get(fl.drone_model))
+            sp, attrs = resample_flight_compact(
+                variant,
+                ml,
+                int(fl.n_pulses),
+                fl.prf_hz,
+                fl.drone_model,
+                settings=settings,
+                n_fft=n_fft,
+                seed=fseed,
+                typical_hz=typical.get(fl.drone_model),
+            )
             write_flight_speeds(root, fl.flight_id, sp, {**attrs, "drone_model": fl.drone_model, "prf_hz": fl.prf_hz})
-            log(f"{fl.flight_id}: {variant} rev_s [{sp.n_pulses}, {sp.knots_rev_s.shape[1]}] as {sp.form} knots "
-                f"{sp.knots_rev_s.shape}, mean {sp.knots_rev_s.mean():.1f} rev/s, {attrs}")
+            log(
+                f"{fl.flight_id}: {variant} rev_s [{sp.n_pulses}, {sp.knots_rev_s.shape[1]}] as {sp.form} knots "
+                f"{sp.knots_rev_s.shape}, mean {sp.knots_rev_s.mean():.1f} rev/s, {attrs}"
+            )
             status.append(dict(flight_id=fl.flight_id, drone_model=fl.drone_model, status="ok", detail=""))
         root.attrs["skipped"] = skipped
     return pd.DataFrame(status, columns=["flight_id", "drone_model", "status", "detail"])

@@ -105,7 +105,9 @@ def split_class(images: np.ndarray, *, seed: int, fractions=(0.6, 0.3, 0.1), n_t
     return best
 
 
-def split_flights(flights: pd.DataFrame, *, seed: int, fractions: dict | None = None, n_trials: int = 500) -> pd.DataFrame:
+def split_flights(
+    flights: pd.DataFrame, *, seed: int, fractions: dict | None = None, n_trials: int = 500
+) -> pd.DataFrame:
     """Assign every flight to a set, per class.
 
     Parameters
@@ -153,7 +155,9 @@ def split_flights(flights: pd.DataFrame, *, seed: int, fractions: dict | None = 
     df["class"] = [flight_class(t, m) for t, m in zip(df.target, df.drone_model)]
     df = df[df["class"].notna()].sort_values("flight_id").reset_index(drop=True)
     if df.flight_id.duplicated().any():
-        raise InputError("flights", "flight_id", f"{df.flight_id[df.flight_id.duplicated()].iloc[0]!r} twice", "unique ids")
+        raise InputError(
+            "flights", "flight_id", f"{df.flight_id[df.flight_id.duplicated()].iloc[0]!r} twice", "unique ids"
+        )
     df["set"] = ""
     for ci, (cls, part) in enumerate(sorted(df.groupby("class"), key=lambda kv: kv[0])):
         a = split_class(part.images.to_numpy(), seed=seed + 7919 * ci, fractions=fr, n_trials=n_trials)

@@ -25,8 +25,13 @@ def flight_snr_row(flight: Flight, *, spec_cfg: SpectrogramConfig, search_hz: fl
     whose body sits in the clutter notch, :func:`microdoppler.spectra.snr.snr_line`)."""
     s, line = flight_line_snr_db(flight, spec_cfg=spec_cfg, search_hz=search_hz)
     f = s[np.isfinite(s)]
-    return dict(images=n_images(len(flight.iq), spec_cfg), snr_mean_db=float(np.mean(f)) if f.size else np.nan,
-                snr_std_db=float(np.std(f)) if f.size else np.nan, snr_line=line, snr_db=f)
+    return dict(
+        images=n_images(len(flight.iq), spec_cfg),
+        snr_mean_db=float(np.mean(f)) if f.size else np.nan,
+        snr_std_db=float(np.std(f)) if f.size else np.nan,
+        snr_line=line,
+        snr_db=f,
+    )
 
 
 def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray], snr_line: dict[str, str] | None = None) -> pd.DataFrame:
@@ -81,10 +86,25 @@ def table_iii(split: pd.DataFrame, snr: dict[str, np.ndarray], snr_line: dict[st
 
 
 TABLE_IV_COLUMNS = [
-    "flight_id", "variant", "drone_model", "radar_id", "status", "window_pulses", "fixed_rev_s",
-    "alpha_s", "s_body", "s_blade", "n_pairs_measured", "n_pairs_twin",
-    "body_snr_measured_db", "body_snr_twin_db", "body_error_db",
-    "sideband1_snr_measured_db", "sideband1_snr_twin_db", "sideband1_error_db", "fit_seconds",
+    "flight_id",
+    "variant",
+    "drone_model",
+    "radar_id",
+    "status",
+    "window_pulses",
+    "fixed_rev_s",
+    "alpha_s",
+    "s_body",
+    "s_blade",
+    "n_pairs_measured",
+    "n_pairs_twin",
+    "body_snr_measured_db",
+    "body_snr_twin_db",
+    "body_error_db",
+    "sideband1_snr_measured_db",
+    "sideband1_snr_twin_db",
+    "sideband1_error_db",
+    "fit_seconds",
 ]
 
 
@@ -96,12 +116,21 @@ def aggregate_table_iv(paths) -> pd.DataFrame:
     if fit.empty:
         return pd.DataFrame(columns=["variant", "drone_model", "radar_id", "flights", "missed"])
     g = fit.groupby(["variant", "drone_model", "radar_id"])
-    out = g.agg(flights=("flight_id", "size"), missed=("status", lambda s: int((s == "missed").sum())),
-                s_body_min=("s_body", "min"), s_body_max=("s_body", "max"),
-                s_blade_min=("s_blade", "min"), s_blade_max=("s_blade", "max"),
-                alpha_s_min=("alpha_s", "min"), alpha_s_max=("alpha_s", "max"),
-                max_abs_body_error_db=("body_error_db", lambda s: float(np.max(np.abs(s)))),
-                max_abs_sideband1_error_db=("sideband1_error_db", lambda s: float(np.nanmax(np.abs(s))) if s.notna().any() else np.nan))
+    out = g.agg(
+        flights=("flight_id", "size"),
+        missed=("status", lambda s: int((s == "missed").sum())),
+        s_body_min=("s_body", "min"),
+        s_body_max=("s_body", "max"),
+        s_blade_min=("s_blade", "min"),
+        s_blade_max=("s_blade", "max"),
+        alpha_s_min=("alpha_s", "min"),
+        alpha_s_max=("alpha_s", "max"),
+        max_abs_body_error_db=("body_error_db", lambda s: float(np.max(np.abs(s)))),
+        max_abs_sideband1_error_db=(
+            "sideband1_error_db",
+            lambda s: float(np.nanmax(np.abs(s))) if s.notna().any() else np.nan,
+        ),
+    )
     skipped = df[~df.status.isin(["ok", "missed"])].groupby("variant").size().rename("skipped")
     out = out.reset_index().merge(skipped, on="variant", how="left").fillna({"skipped": 0})
     return out

@@ -53,7 +53,7 @@ def tile_record(flight: Flight, iq: np.ndarray, spec_cfg: SpectrogramConfig, sea
     else:
         s = record_snr_db(spec, body, line, highpass_hz=spec_cfg.highpass_hz, search_hz=search_hz)
     T = spec_cfg.tile_timesteps
-    snr = np.array([finite_mean(s[i * T:(i + 1) * T]) for i in range(len(imgs))])
+    snr = np.array([finite_mean(s[i * T : (i + 1) * T]) for i in range(len(imgs))])
     return imgs, snr, line
 
 
@@ -75,14 +75,29 @@ def twin_records(measured_dir, injected_zarr, split: pd.DataFrame) -> Iterator[t
         yield fl, np.asarray(root[fid]["iq"][...])
 
 
-def build_tiles(records: Iterable[tuple[Flight, np.ndarray]], split: pd.DataFrame, out, *, dataset: str,
-                spec_cfg: SpectrogramConfig, search_hz: float = 10.0, log=print) -> pd.DataFrame:
+def build_tiles(
+    records: Iterable[tuple[Flight, np.ndarray]],
+    split: pd.DataFrame,
+    out,
+    *,
+    dataset: str,
+    spec_cfg: SpectrogramConfig,
+    search_hz: float = 10.0,
+    log=print,
+) -> pd.DataFrame:
     """Write ``results/tiles/{dataset}.zarr`` (``images`` + ``labels.csv``)."""
     sets = split.set_index("flight_id")
     labels = []
     T, nb = spec_cfg.tile_timesteps, spec_cfg.n_bins
-    with writing_store(out, {"schema": TILES_SCHEMA, "dataset": dataset, "unit": "dB",
-                             "spectrogram": {k: getattr(spec_cfg, k) for k in spec_cfg.__dataclass_fields__}}) as root:
+    with writing_store(
+        out,
+        {
+            "schema": TILES_SCHEMA,
+            "dataset": dataset,
+            "unit": "dB",
+            "spectrogram": {k: getattr(spec_cfg, k) for k in spec_cfg.__dataclass_fields__},
+        },
+    ) as root:
         z = root.create_array("images", shape=(0, T, nb), dtype=np.float32, chunks=(64, T, nb))
         for fl, iq in records:
             imgs, snr, line = tile_record(fl, iq, spec_cfg, search_hz)
@@ -92,11 +107,21 @@ def build_tiles(records: Iterable[tuple[Flight, np.ndarray]], split: pd.DataFram
                 z.append(imgs, axis=0)
             a = fl.attrs
             for s in snr:
-                labels.append(dict(flight_id=fl.flight_id, set=sets.loc[fl.flight_id, "set"], target=a["target"],
-                                   drone_model=a.get("drone_model", ""), radar_id=a["radar_id"], snr_db=float(s),
-                                   snr_line=line))
-            log(f"{fl.flight_id}: {len(imgs)} images" + ("" if line == "body" else
-                                                        " (SNR on the rotor lines: body in the clutter notch)"))
+                labels.append(
+                    dict(
+                        flight_id=fl.flight_id,
+                        set=sets.loc[fl.flight_id, "set"],
+                        target=a["target"],
+                        drone_model=a.get("drone_model", ""),
+                        radar_id=a["radar_id"],
+                        snr_db=float(s),
+                        snr_line=line,
+                    )
+                )
+            log(
+                f"{fl.flight_id}: {len(imgs)} images"
+                + ("" if line == "body" else " (SNR on the rotor lines: body in the clutter notch)")
+            )
         rotor = any(r["snr_line"] != "body" for r in labels)
         df = pd.DataFrame(labels, columns=LABEL_COLUMNS[1:] + (["snr_line"] if rotor else []))
         df.insert(0, "index", np.arange(len(df)))
@@ -110,8 +135,9 @@ def build_tiles(records: Iterable[tuple[Flight, np.ndarray]], split: pd.DataFram
 def read_tiles(path) -> tuple[np.ndarray, pd.DataFrame]:
     """``images`` float32 [n, T, n_bins] and the labels of a tiles store."""
     root = open_store(path, TILES_SCHEMA)
-    labels = pd.read_csv(Path(path) / "labels.csv", dtype={"flight_id": str, "drone_model": str, "radar_id": str},
-                         keep_default_na=False)
+    labels = pd.read_csv(
+        Path(path) / "labels.csv", dtype={"flight_id": str, "drone_model": str, "radar_id": str}, keep_default_na=False
+    )
     images = np.asarray(root["images"][...])
     if images.shape[0] != len(labels):
         raise InputError(path, "labels.csv", f"has {len(labels)} rows", f"{images.shape[0]} (images)")

@@ -11,8 +11,16 @@ from .split import PAPER_FRACTIONS, flight_class, split_flights
 from .tables import flight_snr_row, table_iii
 
 
-def split_and_table_iii(measured_dir, *, spec_cfg: SpectrogramConfig, search_hz: float = 10.0, seed: int = 0,
-                        fractions: dict | None = None, n_trials: int = 500, log=print):
+def split_and_table_iii(
+    measured_dir,
+    *,
+    spec_cfg: SpectrogramConfig,
+    search_hz: float = 10.0,
+    seed: int = 0,
+    fractions: dict | None = None,
+    n_trials: int = 500,
+    log=print,
+):
     """Split the measured flights and build Table III.
 
     Returns
@@ -30,9 +38,10 @@ def split_and_table_iii(measured_dir, *, spec_cfg: SpectrogramConfig, search_hz:
         d = flight_snr_row(read_flight(fl.path), spec_cfg=spec_cfg, search_hz=search_hz)
         snr[fl.flight_id] = d.pop("snr_db")
         line[fl.flight_id] = d.pop("snr_line")
-        rows.append(dict(flight_id=fl.flight_id, target=fl.target, drone_model=fl.drone_model, radar_id=fl.radar_id, **d))
-        what = ("body SNR" if line[fl.flight_id] == "body"
-                else "rotor-line SNR (body in the clutter notch)")
+        rows.append(
+            dict(flight_id=fl.flight_id, target=fl.target, drone_model=fl.drone_model, radar_id=fl.radar_id, **d)
+        )
+        what = "body SNR" if line[fl.flight_id] == "body" else "rotor-line SNR (body in the clutter notch)"
         log(f"{fl.flight_id}: {d['images']} images, {what} {d['snr_mean_db']:.1f} +/- {d['snr_std_db']:.1f} dB")
     split = split_flights(pd.DataFrame(rows), seed=seed, fractions=fractions or PAPER_FRACTIONS, n_trials=n_trials)
     if any(v != "body" for v in line.values()):

@@ -26,6 +26,21 @@ from .explain import plot_diagnosis
 from .aggregate import aggregate
 from .pipeline import REPORT_SCHEMA, diagnose, diagnose_flight, write_json
 
-__all__ = ["DiagnosisConfig", "diagnose_flight", "diagnose", "aggregate", "measure", "Measurements", "run_tests",
-           "TestResults", "decide", "decide_all", "decide_flight", "Decision", "plot_diagnosis", "write_json",
-           "Undiagnosable", "REPORT_SCHEMA"]
+__all__ = [
+    "DiagnosisConfig",
+    "diagnose_flight",
+    "diagnose",
+    "aggregate",
+    "measure",
+    "Measurements",
+    "run_tests",
+    "TestResults",
+    "decide",
+    "decide_all",
+    "decide_flight",
+    "Decision",
+    "plot_diagnosis",
+    "write_json",
+    "Undiagnosable",
+    "REPORT_SCHEMA",
+]

@@ -91,19 +91,37 @@ def aggregate(report: dict, *, min_fraction: float = 0.25, flight_ids=None) -> E
         if cause == "none" or n == 0 or k / n < min_fraction:
             continue
         names = [p.name for p in CAUSES[cause].params]
-        vals = {p: [c["extension"]["params"][p] for cs in named.values() for c in cs
-                    if c["cause"] == cause and c.get("extension") and p in c["extension"].get("params", {})]
-                for p in names}
+        vals = {
+            p: [
+                c["extension"]["params"][p]
+                for cs in named.values()
+                for c in cs
+                if c["cause"] == cause and c.get("extension") and p in c["extension"].get("params", {})
+            ]
+            for p in names
+        }
         effects[cause] = {p: float(np.median(v)) for p, v in vals.items() if v}
     n_none = sum(1 for cs in named.values() if not cs)
-    meta = {"base_variant": "sub_cpi", "n_flights": n, "n_skipped": len(skipped),
-            "cause_counts": {**dict(counts), **({"none": n_none} if n_none else {})},
-            "min_fraction": min_fraction, "parameters": "median over the flights that named the cause"}
+    meta = {
+        "base_variant": "sub_cpi",
+        "n_flights": n,
+        "n_skipped": len(skipped),
+        "cause_counts": {**dict(counts), **({"none": n_none} if n_none else {})},
+        "min_fraction": min_fraction,
+        "parameters": "median over the flights that named the cause",
+    }
     return ExtensionSet(effects, meta)
 
 
-def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids=None, population_ids=None,
-                    mode: str = "per_flight", source="report"):
+def aggregate_twins(
+    report: dict,
+    drone_models: Mapping[str, str],
+    *,
+    flight_ids=None,
+    population_ids=None,
+    mode: str = "per_flight",
+    source="report",
+):
     """The ``extended`` variant's per-twin extensions (``extensions/2``) from a report.
 
     Parameters
@@ -157,16 +175,23 @@ def aggregate_twins(report: dict, drone_models: Mapping[str, str], *, flight_ids
             if cause in (None, "none") or cause in effects:
                 continue
             if cause not in CAUSES:
-                raise InputError(source, f"flights[{i}].causes.{cause}", "is not a catalog cause", f"one of {list(CAUSES)}")
+                raise InputError(
+                    source, f"flights[{i}].causes.{cause}", "is not a catalog cause", f"one of {list(CAUSES)}"
+                )
             effects[cause] = catalog_params(cause, (c.get("extension") or {}).get("params"))
         out[fid] = {"drone_model": model, "status": "diagnosed", "extensions": effects}
     n_diag = sum(1 for e in out.values() if e["status"] == "diagnosed")
-    meta = {"base_variant": "sub_cpi", "report_schema": report.get("schema", ""), "n_flights": len(out),
-            "n_diagnosed": n_diag, "n_skipped": len(out) - n_diag,
-            "cause_counts": dict(Counter(c for e in out.values() for c in e["extensions"])),
-            "parameters": "per_flight: each flight's own fitted parameters; population: per drone model, "
-                          "incidence = fraction of its diagnosed flights naming the cause, parameters drawn "
-                          "from the flights that named it"}
+    meta = {
+        "base_variant": "sub_cpi",
+        "report_schema": report.get("schema", ""),
+        "n_flights": len(out),
+        "n_diagnosed": n_diag,
+        "n_skipped": len(out) - n_diag,
+        "cause_counts": dict(Counter(c for e in out.values() for c in e["extensions"])),
+        "parameters": "per_flight: each flight's own fitted parameters; population: per drone model, "
+        "incidence = fraction of its diagnosed flights naming the cause, parameters drawn "
+        "from the flights that named it",
+    }
     pop_keep = None if population_ids is None else set(population_ids)
     pop_flights = {f: e for f, e in out.items() if pop_keep is None or f in pop_keep}
     meta["n_population_flights"] = sum(1 for e in pop_flights.values() if e["status"] == "diagnosed")

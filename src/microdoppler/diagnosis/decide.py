@@ -100,8 +100,14 @@ def decide_all(T: TestResults, cfg: DiagnosisConfig) -> tuple[list, list]:
         rest = {c: t for c, t in cur.items() if c not in named}
         n = sum(t.testable for t in cur.values())
         cause, thr = decide(rest, cfg, step=len(named) + 1, n_testable=n)
-        steps.append({"given": list(named), "log_evalue_threshold": thr,
-                      "log_evalue": {c: t.log_e for c, t in rest.items() if t.testable}, "named": cause})
+        steps.append(
+            {
+                "given": list(named),
+                "log_evalue_threshold": thr,
+                "log_evalue": {c: t.log_e for c, t in rest.items() if t.testable},
+                "named": cause,
+            }
+        )
         if cause == "none":
             break
         named.append(cause)
@@ -114,12 +120,19 @@ def gain(t) -> dict:
     extension; ``held_out`` is the test's own record of whether each fold was scored
     with parameters fitted on the other fold only; ``agrees_with_evalue`` whether the
     extension also improves the pooled fit (with ``why`` where it does not)."""
-    out = {"metric": f"nll_per_obs:{t.statistic}", "baseline": t.nll_base, "extended": t.nll_ext,
-           "held_out": bool(t.held_out), "agrees_with_evalue": _improves(t)}
+    out = {
+        "metric": f"nll_per_obs:{t.statistic}",
+        "baseline": t.nll_base,
+        "extended": t.nll_ext,
+        "held_out": bool(t.held_out),
+        "agrees_with_evalue": _improves(t),
+    }
     if not out["agrees_with_evalue"]:
-        out["why"] = ("the log e-value averages the two folds' held-out likelihood ratios, so one fold can carry "
-                      "it; this gain pools both folds' log-likelihoods, and the extension fits the pooled "
-                      "held-out data worse: the evidence rests on part of the flight")
+        out["why"] = (
+            "the log e-value averages the two folds' held-out likelihood ratios, so one fold can carry "
+            "it; this gain pools both folds' log-likelihoods, and the extension fits the pooled "
+            "held-out data worse: the evidence rests on part of the flight"
+        )
     return out
 
 
@@ -127,13 +140,23 @@ def cause_entry(t, thr: float, given=(), step: int = 1) -> dict:
     """One entry of a flight's ``causes`` list (report 2): ``t`` is the cause's test
     with the other named causes (``given``) in both models; ``thr`` the threshold of
     the greedy step (``step``) that named it."""
-    return {"cause": t.cause,
-            "extension": {"name": t.cause,
-                          "params": {k: v if isinstance(v, dict) else float(v) for k, v in t.params.items()}},
-            "gain": gain(t),
-            "evidence": {"log_evalue": t.log_e, "log_evalue_threshold": thr, "n_heldout_obs": t.n_obs,
-                         "effect": t.effect, "named_at_step": int(step), "other_causes_in_both_models": list(given),
-                         **t.evidence}}
+    return {
+        "cause": t.cause,
+        "extension": {
+            "name": t.cause,
+            "params": {k: v if isinstance(v, dict) else float(v) for k, v in t.params.items()},
+        },
+        "gain": gain(t),
+        "evidence": {
+            "log_evalue": t.log_e,
+            "log_evalue_threshold": thr,
+            "n_heldout_obs": t.n_obs,
+            "effect": t.effect,
+            "named_at_step": int(step),
+            "other_causes_in_both_models": list(given),
+            **t.evidence,
+        },
+    }
 
 
 def skipped_entry(flight_id: str, reason: str) -> dict:
@@ -210,29 +233,55 @@ def decide_flight(M: Measurements, T: TestResults, cfg: DiagnosisConfig, *, star
         if not failing:
             break
         worst = min(failing, key=lambda c: _strength(final[c]))
-        dropped.append({"cause": worst, "given": sorted(set(named) - {worst}), "log_evalue": final[worst].log_e,
-                        "log_evalue_threshold": thr_of[worst], "relevant": bool(final[worst].relevant),
-                        "improves_heldout_fit": _improves(final[worst])})
+        dropped.append(
+            {
+                "cause": worst,
+                "given": sorted(set(named) - {worst}),
+                "log_evalue": final[worst].log_e,
+                "log_evalue_threshold": thr_of[worst],
+                "relevant": bool(final[worst].relevant),
+                "improves_heldout_fit": _improves(final[worst]),
+            }
+        )
         named.remove(worst)
     order = sorted(named, key=lambda c: -(final[c].nll_base - final[c].nll_ext))
-    causes = [cause_entry(final[c], thr_of[c], given=sorted(set(named) - {c}),
-                          step=next(i for i, st in enumerate(steps, 1) if st["named"] == c)) for c in order]
+    causes = [
+        cause_entry(
+            final[c],
+            thr_of[c],
+            given=sorted(set(named) - {c}),
+            step=next(i for i, st in enumerate(steps, 1) if st["named"] == c),
+        )
+        for c in order
+    ]
     calib = M.calib
     evidence = {
         "log_evalue_threshold": thr,
         "multiple_testing": "greedy steps k = 1, 2, ...: Bonferroni over the testable causes at level "
-                            "alpha / (k (k + 1)) per step (levels add up to alpha)",
+        "alpha / (k (k + 1)) per step (levels add up to alpha)",
         "steps": steps,
         "dropped_with_the_others_in_both_models": dropped,
         "calibration": {"s_body": calib.s_body, "s_blade": calib.s_blade, "alpha_s": calib.alpha_s},
         "per_harmonic_power_error_db": calib.per_harmonic_power_error_db,
-        "tests": {c: {"log_evalue": t.log_e, "n_heldout_obs": t.n_obs, "significant": _significant(t, thr),
-                      "relevant": bool(t.relevant), "improves_heldout_fit": _improves(t),
-                      "testable": bool(t.testable), "params": t.params,
-                      "statistic": t.statistic, "heldout_nll_base": t.nll_base, "heldout_nll_ext": t.nll_ext,
-                      "held_out": bool(t.held_out), **t.evidence}
-                  for c, t in tests.items()},
-        "n_cpis": int(len(M.t_s)), "n_valid_cpis": int(M.valid.sum()),
+        "tests": {
+            c: {
+                "log_evalue": t.log_e,
+                "n_heldout_obs": t.n_obs,
+                "significant": _significant(t, thr),
+                "relevant": bool(t.relevant),
+                "improves_heldout_fit": _improves(t),
+                "testable": bool(t.testable),
+                "params": t.params,
+                "statistic": t.statistic,
+                "heldout_nll_base": t.nll_base,
+                "heldout_nll_ext": t.nll_ext,
+                "held_out": bool(t.held_out),
+                **t.evidence,
+            }
+            for c, t in tests.items()
+        },
+        "n_cpis": int(len(M.t_s)),
+        "n_valid_cpis": int(M.valid.sum()),
         "motor_log_speed_hz": float(np.median(M.f_log_hz)),
         "seconds": time.perf_counter() - t0,
     }

@@ -40,7 +40,7 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     it."""
     prf = flight.prf_hz
     n = len(flight.iq)
-    w2 = float((M.stft.window ** 2).sum())
+    w2 = float((M.stft.window**2).sum())
     good = M.valid & (M.body_pow > 0)
     amp = float(np.sqrt(np.median(M.body_pow[good]) / (n_fft * w2))) if good.any() else 1.0
     calib, log = M.calib, M.log
@@ -51,12 +51,24 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
     lg = ext.transform_log(log) if ext is not None else log
     extensions = ext.model_extensions(prf_hz=prf, n_pulses=n, seed=seed) if ext is not None else ModelExtensions()
     track = Track.from_tracker(flight.track_time_s, flight.track_range_m, flight.track_radial_velocity_mps)
-    common = dict(wavelength_m=flight.wavelength_m, n_blades=n_blades, blade_length_m=float(a["blade_length_m"]),
-                  n_fft=n_fft, seed=seed)
-    blades, rev = simulate_blades(lg, n, prf, **common,
-                                  extensions=replace(extensions, body_hook=None, blade_hook=None),
-                                  alpha_s=alpha, s_blade=amp * s_blade, s_body=0.0,
-                                  blade_amplitudes=ext.blade_amplitudes(n_blades) if ext is not None else None)
+    common = dict(
+        wavelength_m=flight.wavelength_m,
+        n_blades=n_blades,
+        blade_length_m=float(a["blade_length_m"]),
+        n_fft=n_fft,
+        seed=seed,
+    )
+    blades, rev = simulate_blades(
+        lg,
+        n,
+        prf,
+        **common,
+        extensions=replace(extensions, body_hook=None, blade_hook=None),
+        alpha_s=alpha,
+        s_blade=amp * s_blade,
+        s_body=0.0,
+        blade_amplitudes=ext.blade_amplitudes(n_blades) if ext is not None else None,
+    )
     f_rot = float(np.median(rev)) if rev.size else 0.0
     spec = sfft.fft(blades.astype(np.complex128))
     spec[np.abs(sfft.fftfreq(n, 1.0 / prf)) < f_rot / 2] = 0.0
@@ -66,8 +78,16 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
         # on it, the gain would spread a line 20 dB above the sidebands into a
         # skirt beyond half the rotation rate that the measured body line does not have
         extensions.blade_hook(0, n, np.arange(n, dtype=np.float64) / prf, blades)
-    body, _ = simulate_blades(lg, n, prf, **common, extensions=ModelExtensions(body_hook=extensions.body_hook),
-                              s_blade=0.0, s_body=amp, track=track)
+    body, _ = simulate_blades(
+        lg,
+        n,
+        prf,
+        **common,
+        extensions=ModelExtensions(body_hook=extensions.body_hook),
+        s_blade=0.0,
+        s_body=amp,
+        track=track,
+    )
     body = body.astype(np.complex128)
     iq = body + blades * body / np.maximum(np.abs(body), 1e-30)
     if ext is not None:
@@ -76,8 +96,7 @@ def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int
         # as the twins are injected: a named phase noise acts on the clutter too
         from ..causes.twins import inject
 
-        iq = inject(iq, flight.background_iq, effects=ext.effects if ext is not None else None, prf_hz=prf,
-                    seed=seed)
+        iq = inject(iq, flight.background_iq, effects=ext.effects if ext is not None else None, prf_hz=prf, seed=seed)
     else:
         floor = float(np.median(M.floor)) / w2
         iq = add_noise(iq.astype(np.complex64), floor, seed + 1)
@@ -92,8 +111,16 @@ def named_extensions(D: Decision) -> ExtensionSet | None:
     return ExtensionSet({c["extension"]["name"]: c["extension"]["params"] for c in causes})
 
 
-def band_power(spec, i: int, f_body_hz: float, bw: float, n_side: int, guard: float, body_half: float,
-               skirt_edge: tuple | None = None) -> np.ndarray:
+def band_power(
+    spec,
+    i: int,
+    f_body_hz: float,
+    bw: float,
+    n_side: int,
+    guard: float,
+    body_half: float,
+    skirt_edge: tuple | None = None,
+) -> np.ndarray:
     """The goodness of fit's bands of CPI ``i`` of ``spec`` (an STFT power): the mean
     power per band of width ``bw`` centred on multiples of ``bw`` from the body
     Doppler ``f_body_hz`` (``2 n_side + 1`` bands), leaving out the clutter line's
@@ -112,12 +139,13 @@ def band_power(spec, i: int, f_body_hz: float, bw: float, n_side: int, guard: fl
 
 
 #: what a band where the model's power stands far above the recording's says
-MODEL_BEYOND_HINT = ("the model and the recording put lines in different places beyond the analysed region: "
-                     "check prf_hz, carrier_hz, n_blades, blade_length_m")
+MODEL_BEYOND_HINT = (
+    "the model and the recording put lines in different places beyond the analysed region: "
+    "check prf_hz, carrier_hz, n_blades, blade_length_m"
+)
 
 
-def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level,
-                  cfg) -> list:
+def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level, cfg) -> list:
     """Bands beyond the analysed region (out to half the PRF from the body) where the
     model's and the recording's mean powers differ by at least ``margin_excess_db``,
     significantly (Student's t over the blocks at ``level``) and by at least half the
@@ -131,8 +159,10 @@ def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fo
     d = np.full((len(st.t_s), 2 * n_out + 1), np.nan)
     for i in use:
         with np.errstate(divide="ignore", invalid="ignore"):
-            d[i] = DB * np.log(band_power(st, i, M.f_body_hz[i], bw, n_out, guard, 0.0, skirt_edge)
-                               / band_power(sim, i, f_sim[i], bw, n_out, guard, 0.0, skirt_edge))
+            d[i] = DB * np.log(
+                band_power(st, i, M.f_body_hz[i], bw, n_out, guard, 0.0, skirt_edge)
+                / band_power(sim, i, f_sim[i], bw, n_out, guard, 0.0, skirt_edge)
+            )
     out = []
     centres = (np.arange(2 * n_out + 1) - n_out) * bw
     import warnings
@@ -149,13 +179,23 @@ def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fo
         if abs(j - n_out) <= n_side or nb[j] < 4 or not np.isfinite(mu[j]) or not se[j] > 0:
             continue
         sig = abs(mu[j]) / se[j] > student_t.isf(level, df=nb[j] - 1)
-        same = all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2
-                   for m in mf)
+        same = all(
+            np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2 for m in mf
+        )
         if abs(mu[j]) >= cfg.margin_excess_db and sig and same:
-            out.append({"band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
-                        "excess_db": round(float(mu[j]), 2), "z": round(float(mu[j] / se[j]), 1),
-                        "side": ("the model's lines stand above the recording" if mu[j] < 0 else
-                                 "the recording holds lines the model lacks") + ", beyond the analysed region"})
+            out.append(
+                {
+                    "band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
+                    "excess_db": round(float(mu[j]), 2),
+                    "z": round(float(mu[j] / se[j]), 1),
+                    "side": (
+                        "the model's lines stand above the recording"
+                        if mu[j] < 0
+                        else "the recording holds lines the model lacks"
+                    )
+                    + ", beyond the analysed region",
+                }
+            )
     return out
 
 
@@ -215,7 +255,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     # whole skirt band (the catalog's flat skirt need not have the measured shape)
     guard = cfg.clutter_guard_hz * (2.0 if flight.background_iq is not None else 3.0)
     skirt_edge = None
-    for spec in named:   # a named phase noise: its whole skirt band and the edge of the body's skirt
+    for spec in named:  # a named phase noise: its whole skirt band and the edge of the body's skirt
         guard, edge = spec.gof_guard(guard)
         skirt_edge = edge if edge is not None else skirt_edge
     # the body's band (its level is S_body's calibration); with a fluctuating body
@@ -228,8 +268,10 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     use = np.flatnonzero(M.valid)
     d = np.full((len(st.t_s), n_bands), np.nan)
     for i in use:
-        d[i] = DB * np.log(band_power(st, i, M.f_body_hz[i], bw, n_side, guard, body_half, skirt_edge)
-                           / band_power(sim, i, f_sim[i], bw, n_side, guard, body_half, skirt_edge))
+        d[i] = DB * np.log(
+            band_power(st, i, M.f_body_hz[i], bw, n_side, guard, body_half, skirt_edge)
+            / band_power(sim, i, f_sim[i], bw, n_side, guard, body_half, skirt_edge)
+        )
     fold = folds(len(st.t_s), cfg.block_cpis)
     block = np.arange(len(st.t_s)) // cfg.block_cpis
     blocks = np.unique(block[use])
@@ -238,7 +280,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            Db = np.array([np.nanmean(d[block == k], axis=0) for k in blocks])       # [n_blocks, n_bands]
+            Db = np.array([np.nanmean(d[block == k], axis=0) for k in blocks])  # [n_blocks, n_bands]
             fb = np.array([fold[block == k][0] for k in blocks])
             mu = np.nanmean(Db, axis=0)
             nb = np.sum(np.isfinite(Db), axis=0)
@@ -250,42 +292,56 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     z_crit = float(student_t.isf(level, df=max(int(np.median(nb[nb > 1])) - 1, 1))) if np.any(nb > 1) else np.inf
     centres = (np.arange(n_bands) - n_side) * bw
     flagged = []
-    largest_sig = 0.0   # the largest residual that is significant and of one sign in both folds, any size
+    largest_sig = 0.0  # the largest residual that is significant and of one sign in both folds, any size
     for j in range(n_bands):
         if nb[j] < 4 or not np.isfinite(mu[j]) or not np.isfinite(se[j]) or se[j] <= 0:
             continue
         sig = abs(mu[j]) / se[j] > student_t.isf(level, df=nb[j] - 1)
         if sig and all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) for m in mf):
             largest_sig = max(largest_sig, float(abs(mu[j])))
-        same = all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2
-                   for m in mf)
+        same = all(
+            np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2 for m in mf
+        )
         if abs(mu[j]) >= cfg.margin_excess_db and sig and same:
-            flagged.append({"band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
-                            "excess_db": round(float(mu[j]), 2), "z": round(float(mu[j] / se[j]), 1)})
+            flagged.append(
+                {
+                    "band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
+                    "excess_db": round(float(mu[j]), 2),
+                    "z": round(float(mu[j] / se[j]), 1),
+                }
+            )
     fin = np.isfinite(mu)
     # the other side: beyond the analysed region the model's envelope is extrapolated;
     # where it puts power (lines, sidebands, a blade flash) far above what the recording
     # holds there, the set-up or the model is wrong (a PRF, carrier, blade count or
     # blade length that puts the lines elsewhere). Both spectrograms carry the flight's
     # background, so where neither has lines the residual is ~0.
-    beyond = _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level,
-                           cfg)
+    beyond = _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level, cfg)
     flagged += beyond
     worst = max(flagged, key=lambda b: abs(b["excess_db"])) if flagged else None
-    return {"excess": bool(flagged), "excess_db": worst["excess_db"] if worst else None,
-            "model_beyond": {"bands": beyond, "direction": MODEL_BEYOND_HINT} if beyond else None,
-            "band_hz": worst["band_hz"] if worst else None, "bands": flagged, "n_bands": int(fin.sum()),
-            "n_blocks": int(len(blocks)), "z_threshold": round(z_crit, 2),
-            "max_abs_residual_db": round(float(np.nanmax(np.abs(mu))), 2) if fin.any() else None,
-            "largest_significant_db": round(largest_sig, 2), "margin_db": float(cfg.margin_excess_db),
-            "analysed_band_hz": [round(float(centres[0] - bw / 2), 2), round(float(centres[-1] + bw / 2), 2)],
-            "model": sorted(ext.effects) if ext is not None else [],
-            "_residual_db": mu, "_band_centres_hz": centres,
-            "_band_args": {"bw": bw, "n_side": n_side, "guard": guard, "body_half": body_half,
-                           "skirt_edge": skirt_edge}}
+    return {
+        "excess": bool(flagged),
+        "excess_db": worst["excess_db"] if worst else None,
+        "model_beyond": {"bands": beyond, "direction": MODEL_BEYOND_HINT} if beyond else None,
+        "band_hz": worst["band_hz"] if worst else None,
+        "bands": flagged,
+        "n_bands": int(fin.sum()),
+        "n_blocks": int(len(blocks)),
+        "z_threshold": round(z_crit, 2),
+        "max_abs_residual_db": round(float(np.nanmax(np.abs(mu))), 2) if fin.any() else None,
+        "largest_significant_db": round(largest_sig, 2),
+        "margin_db": float(cfg.margin_excess_db),
+        "analysed_band_hz": [round(float(centres[0] - bw / 2), 2), round(float(centres[-1] + bw / 2), 2)],
+        "model": sorted(ext.effects) if ext is not None else [],
+        "_residual_db": mu,
+        "_band_centres_hz": centres,
+        "_band_args": {"bw": bw, "n_side": n_side, "guard": guard, "body_half": body_half, "skirt_edge": skirt_edge},
+    }
 
 
-def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisConfig, *, gof: dict | None = None) -> Path:
+def plot_diagnosis(
+    flight, M: Measurements, D: Decision, path, cfg: DiagnosisConfig, *, gof: dict | None = None
+) -> Path:
     """Write the figure of ``flight``'s diagnosis (its measurement ``M``, decision
     ``D`` and goodness of fit ``gof``) to ``path`` (PNG, atomically); returns the path.
 
@@ -317,10 +373,20 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
     ext_t = [st.t_s[0], st.t_s[-1], f[0], f[-1]]
     ref = DB * np.log(np.median(M.floor))
     fig, ax = plt.subplots(1, 5, figsize=(20, 5), constrained_layout=True)
-    for a_, s_, title in ((ax[0], st, "measured"), (ax[1], sb, "baseline (paper model)"),
-                          (ax[2], se, f"extended ({named})")):
-        im = a_.imshow((DB * np.log(s_.p[:, sel] + 1e-30) - ref).T, origin="lower", aspect="auto", extent=ext_t,
-                       vmin=-5, vmax=45, cmap="viridis")
+    for a_, s_, title in (
+        (ax[0], st, "measured"),
+        (ax[1], sb, "baseline (paper model)"),
+        (ax[2], se, f"extended ({named})"),
+    ):
+        im = a_.imshow(
+            (DB * np.log(s_.p[:, sel] + 1e-30) - ref).T,
+            origin="lower",
+            aspect="auto",
+            extent=ext_t,
+            vmin=-5,
+            vmax=45,
+            cmap="viridis",
+        )
         a_.set_title(title)
         a_.set_xlabel("time [s]")
     ax[0].set_ylabel("Doppler [Hz]")
@@ -332,17 +398,27 @@ def plot_diagnosis(flight, M: Measurements, D: Decision, path, cfg: DiagnosisCon
         for edge in band["band_hz"]:
             ax[3].axhline(fc + edge, color="k", lw=0.8, ls="--")
     if gof and gof.get("excess"):
-        ax[3].set_title(f"residual: measured - extended [dB]\nunexplained: {gof['excess_db']:+.1f} dB in "
-                        f"{gof['band_hz'][0]:+.0f}..{gof['band_hz'][1]:+.0f} Hz (dashed)", fontsize=9)
+        ax[3].set_title(
+            f"residual: measured - extended [dB]\nunexplained: {gof['excess_db']:+.1f} dB in "
+            f"{gof['band_hz'][0]:+.0f}..{gof['band_hz'][1]:+.0f} Hz (dashed)",
+            fontsize=9,
+        )
     ax[3].set_xlabel("time [s]")
     fig.colorbar(im2, ax=ax[3])
-    show = cause if cause != "none" else max((t for t in tests.values() if t.testable),
-                                             key=lambda t: t.log_e, default=None)
+    show = (
+        cause
+        if cause != "none"
+        else max((t for t in tests.values() if t.testable), key=lambda t: t.log_e, default=None)
+    )
     show = tests[show] if isinstance(show, str) else show
     if show is not None and show.series:
-        registry.get(show.cause).draw_panel(ax[4], show)   # the cause's own panel
-    ax[4].set_title(f"{show.cause if show else ''}: {show.statistic if show else ''}\n"
-                    f"log e-value {show.log_e:.1f}" if show else "no statistic", fontsize=9)
+        registry.get(show.cause).draw_panel(ax[4], show)  # the cause's own panel
+    ax[4].set_title(
+        f"{show.cause if show else ''}: {show.statistic if show else ''}\nlog e-value {show.log_e:.1f}"
+        if show
+        else "no statistic",
+        fontsize=9,
+    )
     ax[4].set_xlabel("time [s]")
     shown = [c["cause"] for c in D.entry["causes"]] + (["unexplained"] if gof and gof.get("excess") else [])
     fig.suptitle(f"{flight.flight_id}: diagnosis = {', '.join(shown) or 'none'}")

@@ -78,19 +78,49 @@ from itertools import combinations
 import numpy as np
 
 from ..causes import registry
-from ..causes.blade_imbalance import (imbalance_from_ratio, imbalance_observations,  # noqa: F401 (re-exported)
-                                      non_multiple_observations, test_imbalance)
+from ..causes.blade_imbalance import (
+    imbalance_from_ratio,
+    imbalance_observations,  # noqa: F401 (re-exported)
+    non_multiple_observations,
+    test_imbalance,
+)
 from ..causes.body_fluctuation import body_estimate, test_body  # noqa: F401 (re-exported)
-from ..causes.heldout import (B, LOG2PI, SHAPES, TAU_GRID_S, CauseTest, _crossfit,  # noqa: F401 (re-exported)
-                              _detrend, _gauss_ll, _lag_grid, _ml_extra_var, _moving_average, _power_fluct_test,
-                              fit_gain_process, fit_gain_process_ml, fit_variogram, folds, harmonic_speed_slope,
-                              model_cov_db2, variogram, window_offsets)
+from ..causes.heldout import (
+    B,
+    LOG2PI,
+    SHAPES,
+    TAU_GRID_S,
+    CauseTest,
+    _crossfit,  # noqa: F401 (re-exported)
+    _detrend,
+    _gauss_ll,
+    _lag_grid,
+    _ml_extra_var,
+    _moving_average,
+    _power_fluct_test,
+    fit_gain_process,
+    fit_gain_process_ml,
+    fit_variogram,
+    folds,
+    harmonic_speed_slope,
+    model_cov_db2,
+    variogram,
+    window_offsets,
+)
 from ..causes.motor_log import LOG_OUTLIER_FRAC, test_log  # noqa: F401 (re-exported)
 from ..causes.phase_noise import profile_skirt_test, test_phase_noise  # noqa: F401 (re-exported)
 from ..causes.sideband_asymmetry import test_asymmetry  # noqa: F401 (re-exported)
-from ..causes.sideband_fading import (COMMON_GAIN_BODY_SHARE, COMMON_GAIN_CORR,  # noqa: F401 (re-exported)
-                                      common_gain_correlation, envelope_tilt, fading_estimate,
-                                      fading_estimate_fine, measured_speed, speed_tilt, test_fading)
+from ..causes.sideband_fading import (
+    COMMON_GAIN_BODY_SHARE,
+    COMMON_GAIN_CORR,  # noqa: F401 (re-exported)
+    common_gain_correlation,
+    envelope_tilt,
+    fading_estimate,
+    fading_estimate_fine,
+    measured_speed,
+    speed_tilt,
+    test_fading,
+)
 from .config import DiagnosisConfig
 from .measure import Measurements, Undiagnosable
 
@@ -184,16 +214,22 @@ def check_testable(M: Measurements, tests: dict, cfg: DiagnosisConfig) -> None:
     fid = M.flight_id
     nv = int(M.valid.sum())
     if nv < 2 * cfg.block_cpis or not any(t.testable for t in tests.values()):
-        problem = (f"has {nv} of {len(M.t_s)} CPIs usable (body Doppler outside the clutter notch, "
-                   f"no floor artifact, within the motor log's span)")
+        problem = (
+            f"has {nv} of {len(M.t_s)} CPIs usable (body Doppler outside the clutter notch, "
+            f"no floor artifact, within the motor log's span)"
+        )
         expected = f">= {2 * cfg.block_cpis} usable CPIs"
-        raise Undiagnosable(fid, "iq", problem, expected,
-                            reason=f"too few usable CPIs: iq: {problem} (expected {expected})")
+        raise Undiagnosable(
+            fid, "iq", problem, expected, reason=f"too few usable CPIs: iq: {problem} (expected {expected})"
+        )
     if not any(tests[c].testable for c in rotor_causes()):
-        problem = ("shows no rotor lines: no HERM sideband pair above the noise and too few CPIs whose line "
-                   "pattern matches the motor log's")
-        raise Undiagnosable(fid, "iq", problem, "visible HERM lines of the rotors",
-                            reason=f"no visible rotor sidebands: iq: {problem}")
+        problem = (
+            "shows no rotor lines: no HERM sideband pair above the noise and too few CPIs whose line "
+            "pattern matches the motor log's"
+        )
+        raise Undiagnosable(
+            fid, "iq", problem, "visible HERM lines of the rotors", reason=f"no visible rotor sidebands: iq: {problem}"
+        )
 
 
 def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
@@ -217,9 +253,14 @@ def run_tests(M: Measurements, cfg: DiagnosisConfig) -> TestResults:
     if M.info.get("body_in_notch"):
         for s in specs:
             if s.line == "body":
-                tests[s.name] = CauseTest(s.name, testable=False, evidence={
-                    "reason": "body Doppler inside the clutter notch (hovering, on a stand or a staring "
-                              "recording): the body line is not measurable"})
+                tests[s.name] = CauseTest(
+                    s.name,
+                    testable=False,
+                    evidence={
+                        "reason": "body Doppler inside the clutter notch (hovering, on a stand or a staring "
+                        "recording): the body line is not measurable"
+                    },
+                )
     for s in specs:
         reason = s.untestable(M)
         if reason is not None:
@@ -268,8 +309,11 @@ def tests_given_skirt(M: Measurements, cfg: DiagnosisConfig, fold, tests: dict) 
             names = frozenset(p.name for p in g)
             for s in readers:
                 Ms = floor_model(g, s.clear_side)
-                changed = not (np.array_equal(Ms.pair_ok, M.pair_ok) and np.array_equal(Ms.up, M.up)
-                               and np.array_equal(Ms.lo, M.lo))
+                changed = not (
+                    np.array_equal(Ms.pair_ok, M.pair_ok)
+                    and np.array_equal(Ms.up, M.up)
+                    and np.array_equal(Ms.lo, M.lo)
+                )
                 t = s.test(Ms, cfg, fold) if changed else tests[s.name]
                 if changed and t.testable:
                     n_new = int((Ms.pair_ok & ~M.pair_ok & M.valid[:, None]).sum())

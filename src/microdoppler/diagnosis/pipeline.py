@@ -108,30 +108,43 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
     causes = list(out["causes"])
     # a test that found a gain common to the body and the blades (the fading's)
     fading = next((t for t in T.tests.values() if "common_gain_db" in t.evidence), None)
-    common = (fading is not None and fading.testable and "common_gain_db" in fading.evidence
-              and fading.log_e >= entry["evidence"]["log_evalue_threshold"])
+    common = (
+        fading is not None
+        and fading.testable
+        and "common_gain_db" in fading.evidence
+        and fading.log_e >= entry["evidence"]["log_evalue_threshold"]
+    )
     if gof["excess"]:
-        causes.append({"cause": UNEXPLAINED,
-                       "params": {"excess_db": gof["excess_db"], "band_hz": gof["band_hz"]},
-                       "evidence": {k: v for k, v in gof.items() if not k.startswith("_")}})
+        causes.append(
+            {
+                "cause": UNEXPLAINED,
+                "params": {"excess_db": gof["excess_db"], "band_hz": gof["band_hz"]},
+                "evidence": {k: v for k, v in gof.items() if not k.startswith("_")},
+            }
+        )
     elif common:
         # a significant gain common to the body and the blades (range-cell straddle,
         # aspect): no catalog cause is a gain on the whole target
         span = gof["analysed_band_hz"]
-        causes.append({"cause": UNEXPLAINED,
-                       "params": {"excess_db": fading.evidence["common_gain_db"], "band_hz": span},
-                       "evidence": {"kind": "a power fluctuation common to the body and the blades",
-                                    "std_db": fading.evidence["common_gain_db"],
-                                    "body_correlation": fading.evidence.get("body_correlation"),
-                                    "body_share": fading.evidence.get("body_share"),
-                                    "log_evalue": fading.log_e}})
+        causes.append(
+            {
+                "cause": UNEXPLAINED,
+                "params": {"excess_db": fading.evidence["common_gain_db"], "band_hz": span},
+                "evidence": {
+                    "kind": "a power fluctuation common to the body and the blades",
+                    "std_db": fading.evidence["common_gain_db"],
+                    "body_correlation": fading.evidence.get("body_correlation"),
+                    "body_share": fading.evidence.get("body_share"),
+                    "log_evalue": fading.log_e,
+                },
+            }
+        )
     out["causes"] = causes
     out["cause"] = causes[0]["cause"] if causes else "none"
     # with the named causes in both models (a sideband cause may be testable only
     # with a named phase-noise skirt in the floor's model)
     given = tests_given(T, [c["cause"] for c in entry["causes"]])
-    out["not_testable"] = {c: str(t.evidence.get("reason", "not testable")) for c, t in given.items()
-                           if not t.testable}
+    out["not_testable"] = {c: str(t.evidence.get("reason", "not testable")) for c, t in given.items() if not t.testable}
     out["evidence"] = {**out["evidence"], "goodness_of_fit": {k: v for k, v in gof.items() if not k.startswith("_")}}
     return out
 
@@ -144,13 +157,26 @@ def write_json(obj, path) -> Path:
 
 
 #: columns of the one-row-per-flight table written beside the report (:func:`report_table`)
-TABLE_COLUMNS = ("flight_id", "cause", "causes", "params", "intervals", "log_evalues", "not_testable", "goodness_of_fit",
-                 "excess_db", "band_hz", "reason", "hint", "plausibility_warnings")
+TABLE_COLUMNS = (
+    "flight_id",
+    "cause",
+    "causes",
+    "params",
+    "intervals",
+    "log_evalues",
+    "not_testable",
+    "goodness_of_fit",
+    "excess_db",
+    "band_hz",
+    "reason",
+    "hint",
+    "plausibility_warnings",
+)
 #: hints for a skip reason: what the user can do about it
 SKIP_HINTS = {
     "no motor log": "import the recording with `microdoppler import --estimate-motors` to estimate its rotor "
-                    "speeds from the radar (pipeline: measurements.estimate_missing_motor_logs: true), or give "
-                    "its log with --motor-log",
+    "speeds from the radar (pipeline: measurements.estimate_missing_motor_logs: true), or give "
+    "its log with --motor-log",
 }
 
 
@@ -186,13 +212,18 @@ def report_row(entry: dict, *, warnings=()) -> dict:
     gof = (entry.get("evidence") or {}).get("goodness_of_fit") or {}
     skipped = entry.get("cause") == "skipped"
     return {
-        "flight_id": entry["flight_id"], "cause": entry["cause"],
+        "flight_id": entry["flight_id"],
+        "cause": entry["cause"],
         "causes": ";".join(c["cause"] for c in causes),
         "params": _flat({c["cause"]: (c.get("extension") or c).get("params") for c in causes}) if causes else "",
-        "intervals": _flat({c["cause"]: c["evidence"]["intervals"] for c in causes
-                            if "intervals" in (c.get("evidence") or {})}) if causes else "",
-        "log_evalues": ";".join(f"{c['cause']}={c['evidence']['log_evalue']}" for c in causes
-                                if "log_evalue" in (c.get("evidence") or {})),
+        "intervals": _flat(
+            {c["cause"]: c["evidence"]["intervals"] for c in causes if "intervals" in (c.get("evidence") or {})}
+        )
+        if causes
+        else "",
+        "log_evalues": ";".join(
+            f"{c['cause']}={c['evidence']['log_evalue']}" for c in causes if "log_evalue" in (c.get("evidence") or {})
+        ),
         "not_testable": ";".join(f"{k}: {v}" for k, v in (entry.get("not_testable") or {}).items()),
         "goodness_of_fit": "" if skipped or not gof else ("excess" if gof.get("excess") else "explained"),
         "excess_db": "" if gof.get("excess_db") is None else gof["excess_db"],
@@ -217,8 +248,7 @@ def write_table(rows: list[dict], path) -> Path:
     return Path(path)
 
 
-def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None,
-             log=print) -> dict:
+def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None, log=print) -> dict:
     """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``)
     and, beside it, the one-row-per-flight table (``report.csv``: ``table_path``, ``report_row``).
 
@@ -332,18 +362,26 @@ def split_settings(settings: dict | None, *, source="config") -> tuple[dict, Dia
     pop = _sets(s.pop("population_sets", ["train"]), "population_sets", source)
     for i, x in enumerate(pop):
         if x not in sets:
-            raise ConfigError(source, f"diagnosis.population_sets[{i}]", f"is {x!r}, which is not diagnosed",
-                              f"a set of diagnosis.sets ({', '.join(sets)})")
+            raise ConfigError(
+                source,
+                f"diagnosis.population_sets[{i}]",
+                f"is {x!r}, which is not diagnosed",
+                f"a set of diagnosis.sets ({', '.join(sets)})",
+            )
     mf = s.pop("min_fraction", 0.25)
     if isinstance(mf, bool) or not isinstance(mf, (int, float)) or not 0 <= float(mf) <= 1:
         raise ConfigError(source, "diagnosis.min_fraction", f"is {mf!r}", "a number in [0, 1]")
-    return ({"sets": sets, "population_sets": pop, "min_fraction": float(mf)},
-            DiagnosisConfig.from_dict(s, source=source))
+    return (
+        {"sets": sets, "population_sets": pop, "min_fraction": float(mf)},
+        DiagnosisConfig.from_dict(s, source=source),
+    )
 
 
 def _sets(sets, key: str, source) -> list:
     if isinstance(sets, (str, bytes)) or not isinstance(sets, (list, tuple)) or not sets:
-        raise ConfigError(source, f"diagnosis.{key}", f"is {sets!r}", f"a non-empty list of split sets from {list(SETS)}")
+        raise ConfigError(
+            source, f"diagnosis.{key}", f"is {sets!r}", f"a non-empty list of split sets from {list(SETS)}"
+        )
     for i, x in enumerate(sets):
         if x not in SETS:
             raise ConfigError(source, f"diagnosis.{key}[{i}]", f"is {x!r}", f"one of {', '.join(SETS)}")
@@ -371,8 +409,14 @@ def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *,
     logs = {}
     if Path(logs_zarr).exists():
         logs = {fid: ml for fid in fids if (ml := read_ingested_log(logs_zarr, fid)) is not None}
-    return diagnose([Path(measured_dir) / f"{fid}.zarr" for fid in fids], out_json, motor_logs=logs, config=cfg,
-                    figures_dir=figures_dir, log=log)
+    return diagnose(
+        [Path(measured_dir) / f"{fid}.zarr" for fid in fids],
+        out_json,
+        motor_logs=logs,
+        config=cfg,
+        figures_dir=figures_dir,
+        log=log,
+    )
 
 
 def aggregate_report(report_json, split_csv, out_yaml, *, settings=None):
@@ -397,14 +441,18 @@ def write_twin_extensions(report_json, split_csv, out_yaml, *, settings=None, mo
     try:
         report = json.loads(Path(report_json).read_text())
     except (OSError, ValueError) as exc:
-        raise InputError(report_json, "file", f"cannot be read as JSON ({type(exc).__name__})",
-                         "a diagnosis-report/2 JSON file") from None
+        raise InputError(
+            report_json, "file", f"cannot be read as JSON ({type(exc).__name__})", "a diagnosis-report/2 JSON file"
+        ) from None
     drones = _training_drones(split_csv, pipe["sets"])
     models = dict(zip(drones["flight_id"].astype(str), drones.get("drone_model", [""] * len(drones))))
     pop_ids = set(_training_drones(split_csv, pipe["population_sets"])["flight_id"].astype(str))
-    ext = aggregate_twins(report, models, flight_ids=set(models), population_ids=pop_ids, mode=mode,
-                          source=report_json)
-    ext = TwinExtensions(ext.flights, ext.population, ext.mode,
-                         {**ext.meta, "sets": list(pipe["sets"]), "population_sets": list(pipe["population_sets"])})
+    ext = aggregate_twins(report, models, flight_ids=set(models), population_ids=pop_ids, mode=mode, source=report_json)
+    ext = TwinExtensions(
+        ext.flights,
+        ext.population,
+        ext.mode,
+        {**ext.meta, "sets": list(pipe["sets"]), "population_sets": list(pipe["population_sets"])},
+    )
     save_twin_extensions(ext, out_yaml)
     return ext

@@ -34,7 +34,7 @@ CELL_FADE_S = 0.2
 def stft_gain_db(n_fft: int = 4096) -> float:
     """dB from per-pulse SNR to the expected spectrogram line-over-median-floor SNR."""
     w = blackmanharris(n_fft, sym=False)
-    return float(10 * np.log10(w.sum() ** 2 / (w ** 2).sum()) + 10 * np.log10(1 / np.log(2)))
+    return float(10 * np.log10(w.sum() ** 2 / (w**2).sum()) + 10 * np.log10(1 / np.log(2)))
 
 
 def pulse_amplitude(snr_db: float, n_fft: int = 4096) -> float:
@@ -44,7 +44,9 @@ def pulse_amplitude(snr_db: float, n_fft: int = 4096) -> float:
 
 def cell_ids(range_m: np.ndarray, azimuth_rad: np.ndarray) -> np.ndarray:
     """Resolution cell (range index, azimuth index) per sample: int64 [n, 2]."""
-    return np.column_stack([np.floor(range_m / RANGE_CELL_M), np.floor(np.rad2deg(azimuth_rad) / AZ_CELL_DEG)]).astype(np.int64)
+    return np.column_stack([np.floor(range_m / RANGE_CELL_M), np.floor(np.rad2deg(azimuth_rad) / AZ_CELL_DEG)]).astype(
+        np.int64
+    )
 
 
 def _cell_clutter(site: RadarSite, site_seed: int, cell) -> tuple[float, float]:
@@ -125,9 +127,20 @@ def artifacts(n: int, prf_hz: float, rate_per_min: float, rng: np.random.Generat
 PARTS = frozenset({"static", "windblown", "phase", "thermal", "artifacts"})
 
 
-def record(target: np.ndarray | None, n: int, *, t_track_s, cells, site: RadarSite, site_seed: int,
-           wind_mps: float, rng: np.random.Generator, knob_phase_rms_rad: float = 0.0,
-           clutter_scale_db: float = 0.0, parts=PARTS) -> tuple[np.ndarray, dict]:
+def record(
+    target: np.ndarray | None,
+    n: int,
+    *,
+    t_track_s,
+    cells,
+    site: RadarSite,
+    site_seed: int,
+    wind_mps: float,
+    rng: np.random.Generator,
+    knob_phase_rms_rad: float = 0.0,
+    clutter_scale_db: float = 0.0,
+    parts=PARTS,
+) -> tuple[np.ndarray, dict]:
     """What the radar records in the cell sequence: target + clutter, times the radar's
     phase noise (and the knob's), plus thermal noise and artifacts. complex64 [n].
 

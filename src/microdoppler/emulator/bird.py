@@ -74,14 +74,14 @@ class BirdGroup:
     """Everything needed to render a group: control-grid trajectories and wing params."""
 
     t_s: np.ndarray
-    range_m: np.ndarray       # [n_ctrl, n_birds]
-    azimuth_rad: np.ndarray   # [n_ctrl]
-    amp: np.ndarray           # [n_birds] body amplitude relative to the leader
-    wingbeat_hz: np.ndarray   # [n_birds]
-    wing_phase: np.ndarray    # [n_birds]
-    wing_rel: np.ndarray      # [n_birds] wing amplitude / body amplitude
+    range_m: np.ndarray  # [n_ctrl, n_birds]
+    azimuth_rad: np.ndarray  # [n_ctrl]
+    amp: np.ndarray  # [n_birds] body amplitude relative to the leader
+    wingbeat_hz: np.ndarray  # [n_birds]
+    wing_phase: np.ndarray  # [n_birds]
+    wing_rel: np.ndarray  # [n_birds] wing amplitude / body amplitude
     wing_excursion_m: np.ndarray
-    flapping: np.ndarray      # [n_ctrl, n_birds] 0..1
+    flapping: np.ndarray  # [n_ctrl, n_birds] 0..1
     species: str
     turn_rate_sd: float = 0.0
     speed_surge: float = 0.0
@@ -95,12 +95,20 @@ class BirdGroup:
 
     @property
     def centre_range_m(self) -> np.ndarray:
-        w = self.amp ** 2
+        w = self.amp**2
         return self.range_m @ w / w.sum()
 
 
-def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: float, speed_mps: float,
-               rng: np.random.Generator, manoeuvre_rng: np.random.Generator | None = None) -> BirdGroup:
+def plan_group(
+    kind: str,
+    duration_s: float,
+    *,
+    mean_range_m: float,
+    height_m: float,
+    speed_mps: float,
+    rng: np.random.Generator,
+    manoeuvre_rng: np.random.Generator | None = None,
+) -> BirdGroup:
     """A group's trajectories, wings and flapping; with ``manoeuvre_rng`` the group also
     turns, surges and scintillates as drawn from :data:`TURN_RATE_SD_RAD_S`,
     :data:`SPEED_SURGE` and :data:`SCINT_DB` (from that generator only, so the other
@@ -139,7 +147,7 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
     x += p0[0] - x[n // 2]
     y += p0[1] - y[n // 2]
     ground = np.hypot(x, y)
-    rng_c = np.sqrt(ground ** 2 + height_m ** 2)
+    rng_c = np.sqrt(ground**2 + height_m**2)
     az = np.arctan2(y, x)
     # individual birds: offsets along the line of sight and their own radial velocities
     dv = rng.normal(0, vspread, nb) if nb > 1 else np.zeros(1)
@@ -167,14 +175,34 @@ def plan_group(kind: str, duration_s: float, *, mean_range_m: float, height_m: f
         for i in range(nb):
             cyc = flap[:, i] - flap[:, i].mean() if sp.glides else ou_process(n, dt, 0.5, 1.0, manoeuvre_rng)
             r[:, i] += np.cumsum(surge * speed * cyc * radial) * dt
-    return BirdGroup(t, r, az, amp, f_wb, rng.uniform(0, 2 * np.pi, nb),
-                     10 ** (-rng.uniform(*WING_BELOW_BODY_DB, nb) / 20),
-                     0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb), flap, sp.name, turn_sd, surge, scint,
-                     glide_share, glide_time)
+    return BirdGroup(
+        t,
+        r,
+        az,
+        amp,
+        f_wb,
+        rng.uniform(0, 2 * np.pi, nb),
+        10 ** (-rng.uniform(*WING_BELOW_BODY_DB, nb) / 20),
+        0.15 * sp.wingspan_m * rng.uniform(0.7, 1.3, nb),
+        flap,
+        sp.name,
+        turn_sd,
+        surge,
+        scint,
+        glide_share,
+        glide_time,
+    )
 
 
-def render(group: BirdGroup, n_pulses: int, prf_hz: float, wavelength_m: float, body_amp: float,
-           rng: np.random.Generator, chunk: int = 1 << 16) -> np.ndarray:
+def render(
+    group: BirdGroup,
+    n_pulses: int,
+    prf_hz: float,
+    wavelength_m: float,
+    body_amp: float,
+    rng: np.random.Generator,
+    chunk: int = 1 << 16,
+) -> np.ndarray:
     """Echo of the group at pulse rate: complex64 [n_pulses] (no noise)."""
     out = np.zeros(n_pulses, np.complex64)
     k = 4 * np.pi / wavelength_m

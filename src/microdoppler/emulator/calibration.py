@@ -64,8 +64,14 @@ def motor_stats(time_s: np.ndarray, rev_s: np.ndarray) -> dict:
     P = np.abs(np.fft.rfft(d)) ** 2
     f = np.fft.rfftfreq(len(d), dt)
     low = float(P[(f > 0) & (f < 0.3)].sum() / max(P[f > 0].sum(), 1e-30))
-    return {"rate_hz": 1.0 / dt, "spread_rel": spread, "fluct_1s_rel": f1, "fluct_5s_rel": f5,
-            "step_rel": step, "psd_low_frac": low}
+    return {
+        "rate_hz": 1.0 / dt,
+        "spread_rel": spread,
+        "fluct_1s_rel": f1,
+        "fluct_5s_rel": f5,
+        "step_rel": step,
+        "psd_low_frac": low,
+    }
 
 
 def emulated_logs(n_flights: int = 6, seed: int = 0, duration_s: float = 40.0, rate_hz: float | None = None):
@@ -79,9 +85,16 @@ def emulated_logs(n_flights: int = 6, seed: int = 0, duration_s: float = 40.0, r
     for i in range(n_flights):
         model = ("inspire2", "matrice300")[i % 2]
         dyn = DYNAMICS[model]
-        s = int(rng.integers(2 ** 31))
-        path = loop_path(duration_s, mean_range_m=float(rng.uniform(1000, 3000)), height_m=80.0,
-                         speed_mps=float(rng.uniform(3, 12)), direction=1, hand_flown=False, rng=_rng(s, 1))
+        s = int(rng.integers(2**31))
+        path = loop_path(
+            duration_s,
+            mean_range_m=float(rng.uniform(1000, 3000)),
+            height_m=80.0,
+            speed_mps=float(rng.uniform(3, 12)),
+            direction=1,
+            hand_flown=False,
+            rng=_rng(s, 1),
+        )
         mt = motor_speeds(path, dyn, wind_mps=float(9 * rng.uniform() ** 1.5), rng=_rng(s, 2))
         r = rate_hz or dyn.log_rate_hz
         t = np.arange(0, duration_s, 1.0 / r)
@@ -99,13 +112,22 @@ def compare_with_real(ulog_path=None, *, n_flights: int = 6, seed: int = 0, prin
     rows = []
     for m in METRICS:
         vals = np.array([e[m] for e in em])
-        rows.append({"metric": m, "real": real[m], "emulated_mean": float(vals.mean()),
-                     "emulated_min": float(vals.min()), "emulated_max": float(vals.max()),
-                     "ratio": float(vals.mean() / real[m]) if real[m] else float("nan")})
+        rows.append(
+            {
+                "metric": m,
+                "real": real[m],
+                "emulated_mean": float(vals.mean()),
+                "emulated_min": float(vals.min()),
+                "emulated_max": float(vals.max()),
+                "ratio": float(vals.mean() / real[m]) if real[m] else float("nan"),
+            }
+        )
     df = pd.DataFrame(rows)
     if printout:
-        print(f"motor statistics at {real['rate_hz']:.2f} Hz: real log {Path(log.source).name} "
-              f"({log.rpm.shape[0]} rows) vs {n_flights} emulated Inspire/Matrice flights")
+        print(
+            f"motor statistics at {real['rate_hz']:.2f} Hz: real log {Path(log.source).name} "
+            f"({log.rpm.shape[0]} rows) vs {n_flights} emulated Inspire/Matrice flights"
+        )
         print(df.to_string(index=False, float_format=lambda v: f"{v:.4f}"))
     return df
 
@@ -120,8 +142,15 @@ if __name__ == "__main__":
 TABLE_III_SNR_DB = {"bird": 29.0, "inspire2": 39.0, "matrice300": 41.0, "mini2": 34.0}
 
 
-def snr_check(profile: str = "paper", seed: int = 20261121, *, n_per_class: int = 24, duration_cap_s: float = 12.0,
-              sample_seed: int = 0, printout: bool = True) -> pd.DataFrame:
+def snr_check(
+    profile: str = "paper",
+    seed: int = 20261121,
+    *,
+    n_per_class: int = 24,
+    duration_cap_s: float = 12.0,
+    sample_seed: int = 0,
+    printout: bool = True,
+) -> pd.DataFrame:
     """Per-class mean SNR of a profile vs Table III.
 
     The body SNR model's nominal value (range, radar, RCS scatter) is evaluated for
@@ -148,15 +177,25 @@ def snr_check(profile: str = "paper", seed: int = 20261121, *, n_per_class: int 
             m = measured_snr_db(f)[0]
             meas.append(m)
             loss.append(tr["snr_db_nominal"] - m)
-        rows.append({"class": cls, "table_iii_db": TABLE_III_SNR_DB[cls], "n_planned": len(ss),
-                     "nominal_mean_db": float(nominal.mean()), "n_emulated": len(idx),
-                     "loss_mean_db": float(np.mean(loss)), "loss_std_db": float(np.std(loss)),
-                     "predicted_mean_db": float(nominal.mean() - np.mean(loss)),
-                     "measured_subsample_mean_db": float(np.mean(meas)),
-                     "measured_subsample_std_db": float(np.std(meas))})
+        rows.append(
+            {
+                "class": cls,
+                "table_iii_db": TABLE_III_SNR_DB[cls],
+                "n_planned": len(ss),
+                "nominal_mean_db": float(nominal.mean()),
+                "n_emulated": len(idx),
+                "loss_mean_db": float(np.mean(loss)),
+                "loss_std_db": float(np.std(loss)),
+                "predicted_mean_db": float(nominal.mean() - np.mean(loss)),
+                "measured_subsample_mean_db": float(np.mean(meas)),
+                "measured_subsample_std_db": float(np.std(meas)),
+            }
+        )
     df = pd.DataFrame(rows)
     if printout:
-        print(f"mean SNR per class, profile {profile!r} seed {seed}: plan-wide nominal minus the loss "
-              f"measured on {n_per_class} emulated flights per class (<= {duration_cap_s:g} s each)")
+        print(
+            f"mean SNR per class, profile {profile!r} seed {seed}: plan-wide nominal minus the loss "
+            f"measured on {n_per_class} emulated flights per class (<= {duration_cap_s:g} s each)"
+        )
         print(df.to_string(index=False, float_format=lambda v: f"{v:.1f}"))
     return df

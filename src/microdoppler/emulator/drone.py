@@ -84,8 +84,8 @@ class DronePath:
     """Drone state on the control grid ``t_s`` (starting at -PAD_S)."""
 
     t_s: np.ndarray
-    pos_m: np.ndarray     # [n, 3] radar at origin, z up
-    vel_mps: np.ndarray   # [n, 3]
+    pos_m: np.ndarray  # [n, 3] radar at origin, z up
+    vel_mps: np.ndarray  # [n, 3]
     acc_mps2: np.ndarray  # [n, 3]
 
     @property
@@ -97,9 +97,18 @@ class DronePath:
         return np.einsum("ij,ij->i", self.pos_m, self.vel_mps) / self.range_m
 
 
-def loop_path(duration_s: float, *, mean_range_m: float, height_m: float, speed_mps: float,
-              direction: int, hand_flown: bool, rng: np.random.Generator, straight: bool = False,
-              wander_m: float = 5.0) -> DronePath:
+def loop_path(
+    duration_s: float,
+    *,
+    mean_range_m: float,
+    height_m: float,
+    speed_mps: float,
+    direction: int,
+    hand_flown: bool,
+    rng: np.random.Generator,
+    straight: bool = False,
+    wander_m: float = 5.0,
+) -> DronePath:
     """A stadium loop around a centre ``mean_range_m`` from the radar, or with
     ``straight`` one long leg within 17 deg of the line of sight through that centre
     (receding for ``direction`` +1): no turns, the body Doppler never nears zero.
@@ -174,22 +183,26 @@ class MotorTruth:
         return np.column_stack([np.interp(t_s, self.t_s, self.rev_s[:, m]) for m in range(self.rev_s.shape[1])])
 
 
-def motor_speeds(path: DronePath, dyn: DroneDynamics, *, wind_mps: float, rng: np.random.Generator,
-                 hover_scale: float = 1.0) -> MotorTruth:
+def motor_speeds(
+    path: DronePath, dyn: DroneDynamics, *, wind_mps: float, rng: np.random.Generator, hover_scale: float = 1.0
+) -> MotorTruth:
     """True per-motor rotation rates [rev/s] along ``path`` in a gusty wind."""
     t = path.t_s
     n = len(t)
     dt = 1.0 / CONTROL_HZ
     wdir = rng.uniform(0, 2 * np.pi)
     gust_sd = 0.3 + 0.25 * wind_mps
+
     def gust(sd, tau):  # OU smoothed over 0.5 s: gusts have no infinitely fast edges
         return _smooth(ou_process(n, dt, sd, tau, rng), 0.5)
 
-    wind = np.column_stack([
-        wind_mps * np.cos(wdir) + gust(gust_sd, 3.0),
-        wind_mps * np.sin(wdir) + gust(gust_sd, 3.0),
-        gust(0.4 * gust_sd, 1.5),
-    ])
+    wind = np.column_stack(
+        [
+            wind_mps * np.cos(wdir) + gust(gust_sd, 3.0),
+            wind_mps * np.sin(wdir) + gust(gust_sd, 3.0),
+            gust(0.4 * gust_sd, 1.5),
+        ]
+    )
     v_air = path.vel_mps - wind
     sp_air = np.linalg.norm(v_air, axis=1, keepdims=True)
     thrust = dyn.mass_kg * (path.acc_mps2 + np.array([0, 0, GRAVITY_MPS2])) + dyn.drag_coeff * sp_air * v_air
@@ -211,12 +224,15 @@ def motor_speeds(path: DronePath, dyn: DroneDynamics, *, wind_mps: float, rng: n
     p_mom = k_att * pdd + 0.004 * fwd + ou_process(n, dt, turb, 0.4, rng) + ou_process(n, dt, 0.004, 0.03, rng)
     r_mom = k_att * rdd + ou_process(n, dt, turb, 0.4, rng) + ou_process(n, dt, 0.004, 0.03, rng)
     yaw_rate = np.gradient(heading, dt)
-    y_mom = 0.01 * np.gradient(yaw_rate, dt) * 0.05 + ou_process(n, dt, 0.5 * turb, 1.0, rng) \
-        + rng.normal(0, 0.01)
+    y_mom = 0.01 * np.gradient(yaw_rate, dt) * 0.05 + ou_process(n, dt, 0.5 * turb, 1.0, rng) + rng.normal(0, 0.01)
     delta = rng.normal(0, dyn.static_spread, 4)
     delta -= delta.mean() - rng.normal(0, 0.3 * dyn.static_spread)
-    u = (delta[None, :] + p_mom[:, None] * np.cos(ARM_RAD)[None, :]
-         + r_mom[:, None] * np.sin(ARM_RAD)[None, :] + y_mom[:, None] * SPIN[None, :])
+    u = (
+        delta[None, :]
+        + p_mom[:, None] * np.cos(ARM_RAD)[None, :]
+        + r_mom[:, None] * np.sin(ARM_RAD)[None, :]
+        + y_mom[:, None] * SPIN[None, :]
+    )
     cmd = dyn.hover_rev_s * hover_scale * collective[:, None] * (1 + np.clip(u, -0.5, 0.5))
     a = np.exp(-dt / MOTOR_TAU_S)
     zi = cmd[0] * a
@@ -231,8 +247,15 @@ def _smooth(x: np.ndarray, window_s: float) -> np.ndarray:
     return np.convolve(np.pad(x, k, mode="edge"), w, mode="valid")
 
 
-def write_log(truth: MotorTruth, duration_s: float, rate_hz: float, rng: np.random.Generator, *,
-              lag_s: float = 0.0, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def write_log(
+    truth: MotorTruth,
+    duration_s: float,
+    rate_hz: float,
+    rng: np.random.Generator,
+    *,
+    lag_s: float = 0.0,
+    scale: float = 1.0,
+) -> tuple[np.ndarray, np.ndarray]:
     """The motor log as the drone writes it.
 
     Returns

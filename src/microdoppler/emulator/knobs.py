@@ -61,8 +61,15 @@ def validate_effects(effects: Mapping | None) -> dict:
     return out
 
 
-def band_limited_phase(n: int, prf_hz: float, rms_rad: float, rng: np.random.Generator, *,
-                       bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ, corner_hz: float | None = None) -> np.ndarray:
+def band_limited_phase(
+    n: int,
+    prf_hz: float,
+    rms_rad: float,
+    rng: np.random.Generator,
+    *,
+    bandwidth_hz: float = PHASE_NOISE_BANDWIDTH_HZ,
+    corner_hz: float | None = None,
+) -> np.ndarray:
     """Gaussian phase error theta [n] (float64, rad) with rms ``rms_rad``.
 
     Flat spectrum on |f| < ``bandwidth_hz`` (the catalog's phase-noise knob), or, with

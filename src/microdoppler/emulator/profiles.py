@@ -62,17 +62,32 @@ def _tile_duration_s(n_tiles: int, cfg=SpectrogramConfig()) -> float:
 def _drone_spec(fid, model, rng, seed, duration_s, radar_id, effects=None) -> FlightSpec:
     mini = model == "mini2"
     return FlightSpec(
-        flight_id=fid, target="drone", drone_model=model, radar_id=radar_id, duration_s=float(duration_s),
-        mean_range_m=float(rng.uniform(1000, 3000)), height_m=float(rng.choice([60.0, 80.0, 100.0])),
-        speed_mps=float(rng.uniform(5, 10) if mini else rng.uniform(3, 12)), effects=effects or {},
-        seed=int(seed), direction=int(rng.choice([1, -1])))
+        flight_id=fid,
+        target="drone",
+        drone_model=model,
+        radar_id=radar_id,
+        duration_s=float(duration_s),
+        mean_range_m=float(rng.uniform(1000, 3000)),
+        height_m=float(rng.choice([60.0, 80.0, 100.0])),
+        speed_mps=float(rng.uniform(5, 10) if mini else rng.uniform(3, 12)),
+        effects=effects or {},
+        seed=int(seed),
+        direction=int(rng.choice([1, -1])),
+    )
 
 
 def _bird_spec(fid, kind, rng, seed, duration_s, radar_id) -> FlightSpec:
     return FlightSpec(
-        flight_id=fid, target="bird", bird_kind=kind, radar_id=radar_id, duration_s=float(duration_s),
-        mean_range_m=float(rng.uniform(700, 2500)), height_m=float(rng.uniform(20, 120)),
-        speed_mps=float(rng.uniform(5, 20)), seed=int(seed))
+        flight_id=fid,
+        target="bird",
+        bird_kind=kind,
+        radar_id=radar_id,
+        duration_s=float(duration_s),
+        mean_range_m=float(rng.uniform(700, 2500)),
+        height_m=float(rng.uniform(20, 120)),
+        speed_mps=float(rng.uniform(5, 20)),
+        seed=int(seed),
+    )
 
 
 #: drone models whose flights carry effects (the Mini has no motor log and its blades
@@ -202,8 +217,13 @@ def plan_effects(models: list[str], seed: int) -> list[dict]:
         n_clean = min(n_clean, n - n_two)
         n_one = n - n_two - n_clean
         s_two, s_one = int(np.ceil(SYSTEMATIC_IN_TWO * n_two)), int(np.ceil(SYSTEMATIC_IN_ONE * n_one))
-        plan = ([(2, True)] * s_two + [(2, False)] * (n_two - s_two) + [(1, True)] * s_one
-                + [(1, False)] * (n_one - s_one) + [(0, False)] * n_clean)
+        plan = (
+            [(2, True)] * s_two
+            + [(2, False)] * (n_two - s_two)
+            + [(1, True)] * s_one
+            + [(1, False)] * (n_one - s_one)
+            + [(0, False)] * n_clean
+        )
         order = rng.permutation(n)
         sys_ = pop[model]
         for i, j in zip(idx, order):
@@ -227,12 +247,17 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
     specs: list[FlightSpec] = []
 
     def nxt():
-        return int(rng.integers(2 ** 31))
+        return int(rng.integers(2**31))
 
     if profile == "test":
-        plan = [("drone", "inspire2", "radar1", 36.0), ("drone", "matrice300", "radar2", 36.0),
-                ("drone", "inspire2", "radar2", 32.0), ("drone", "mini2", "radar1", 32.0),
-                ("bird", "single", "radar1", 32.0), ("bird", "small_flock", "radar2", 32.0)]
+        plan = [
+            ("drone", "inspire2", "radar1", 36.0),
+            ("drone", "matrice300", "radar2", 36.0),
+            ("drone", "inspire2", "radar2", 32.0),
+            ("drone", "mini2", "radar1", 32.0),
+            ("bird", "single", "radar1", 32.0),
+            ("bird", "small_flock", "radar2", 32.0),
+        ]
         for i, (tg, what, rid, dur) in enumerate(plan):
             fid = f"t{i:02d}_{what}"
             if tg == "drone":
@@ -244,8 +269,12 @@ def plan_world(profile: str, seed: int) -> list[FlightSpec]:
                 specs.append(_bird_spec(fid, what, rng, nxt(), dur, rid))
         return [replace(s, site_seed=int(seed)) for s in specs]
     if profile == "default":
-        classes = ([("bird", k) for k in ["single"] * 10 + ["pair"] * 6 + ["small_flock"] * 5 + ["large_flock"] * 3]
-                   + [("drone", "inspire2")] * 9 + [("drone", "matrice300")] * 8 + [("drone", "mini2")] * 7)
+        classes = (
+            [("bird", k) for k in ["single"] * 10 + ["pair"] * 6 + ["small_flock"] * 5 + ["large_flock"] * 3]
+            + [("drone", "inspire2")] * 9
+            + [("drone", "matrice300")] * 8
+            + [("drone", "mini2")] * 7
+        )
         for i, (tg, what) in enumerate(classes):
             rid = "radar1" if i % 2 == 0 else "radar2"
             if tg == "bird":
@@ -287,21 +316,34 @@ def _with_effects(specs: list[FlightSpec], seed: int) -> list[FlightSpec]:
     weak = np.random.default_rng([int(seed) & 0xFFFFFFFF, 1003]).uniform(size=len(specs)) < WEAK_BLADE_SHARE
     frames = world_airframes(seed)
     flown = plan_airframes(models, seed)
-    return [replace(s, site_seed=int(seed), effects={**e, **(frames[m][a] if a else {})},
-                    weak_blades=bool(w and s.drone_model in EFFECT_MODELS), airframe=a)
-            for s, e, w, m, a in zip(specs, effects, weak, models, flown)]
+    return [
+        replace(
+            s,
+            site_seed=int(seed),
+            effects={**e, **(frames[m][a] if a else {})},
+            weak_blades=bool(w and s.drone_model in EFFECT_MODELS),
+            airframe=a,
+        )
+        for s, e, w, m, a in zip(specs, effects, weak, models, flown)
+    ]
 
 
 def population_key(seed: int) -> dict:
     """The ``population`` section of the key: per-model systematic effects
     (:func:`world_population`), the per-flight effects' ranges and the quotas."""
-    return {"systematic": world_population(seed), "airframes": world_airframes(seed),
-            "airframes_per_model": AIRFRAMES_PER_MODEL, "imbalanced_share": IMBALANCED_SHARE,
-            "imbalance_db_range": list(IMBALANCE_DB),
-            "per_flight": {c: {k: list(r) for k, r in p.items()} for c, p in PER_FLIGHT.items()},
-            "signed": {"motor_log_lag": "lag_s = +-U(range)", "motor_speed_scale": "scale = 1 +- U(range)"},
-            "two_effects_share_min": TWO_SHARE, "clean_share_min": CLEAN_SHARE,
-            "systematic_in_one": SYSTEMATIC_IN_ONE, "systematic_in_two": SYSTEMATIC_IN_TWO}
+    return {
+        "systematic": world_population(seed),
+        "airframes": world_airframes(seed),
+        "airframes_per_model": AIRFRAMES_PER_MODEL,
+        "imbalanced_share": IMBALANCED_SHARE,
+        "imbalance_db_range": list(IMBALANCE_DB),
+        "per_flight": {c: {k: list(r) for k, r in p.items()} for c, p in PER_FLIGHT.items()},
+        "signed": {"motor_log_lag": "lag_s = +-U(range)", "motor_speed_scale": "scale = 1 +- U(range)"},
+        "two_effects_share_min": TWO_SHARE,
+        "clean_share_min": CLEAN_SHARE,
+        "systematic_in_one": SYSTEMATIC_IN_ONE,
+        "systematic_in_two": SYSTEMATIC_IN_TWO,
+    }
 
 
 def _systematic(spec: FlightSpec, pop: dict) -> list[str]:
@@ -335,13 +377,28 @@ def _emulate_one(spec: FlightSpec, out_dir: str) -> dict:
             w.writerow(["time_s"] + [f"motor{m + 1}_rpm" for m in range(flight.motors_rpm.shape[1])])
             for ti, row in zip(flight.motors_time_s, flight.motors_rpm):
                 w.writerow([f"{ti:.4f}"] + [f"{v:.0f}" for v in row])
-    return {"spec": spec, "truth": truth, "snr_mean": snr_mean, "snr_std": snr_std, "log": log_rel,
-            "mean_range_m": float(np.mean(flight.track_range_m)), "seconds": time.perf_counter() - t0,
-            "duration_s": flight.duration_s}
+    return {
+        "spec": spec,
+        "truth": truth,
+        "snr_mean": snr_mean,
+        "snr_std": snr_std,
+        "log": log_rel,
+        "mean_range_m": float(np.mean(flight.track_range_m)),
+        "seconds": time.perf_counter() - t0,
+        "duration_s": flight.duration_s,
+    }
 
 
-def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: bool = True,
-                  workers: int | None = None, specs: list[FlightSpec] | None = None) -> list[dict]:
+def emulate_world(
+    profile: str,
+    seed: int,
+    out_dir,
+    *,
+    key_path=None,
+    progress: bool = True,
+    workers: int | None = None,
+    specs: list[FlightSpec] | None = None,
+) -> list[dict]:
     """Emulate every flight of ``profile`` into ``out_dir``.
 
     Writes ``{flight_id}.zarr`` (flight-zarr/1), ``flights.csv`` (flight_id, target,
@@ -365,21 +422,34 @@ def emulate_world(profile: str, seed: int, out_dir, *, key_path=None, progress: 
     flown = sum(r["duration_s"] for r in results)
     if key_path is not None:
         pop = population_key(seed) if profile != "test" else {}
-        key = {"schema": "emulator-key/1", "profile": profile, "seed": int(seed),
-               "note": "hidden truth of the emulated world; never read downstream",
-               "population": pop,
-               "flights": {r["spec"].flight_id: {"effects": r["truth"]["effects"],
-                                                 "systematic": _systematic(r["spec"], pop),
-                                                 "airframe": r["spec"].airframe,
-                                                 "airframe_effects": _airframe_effects(r["spec"], pop),
-                                                 "spec": _spec_json(r["spec"]),
-                                                 "truth": r["truth"], "measured_snr_db": r["snr_mean"],
-                                                 "measured_snr_std_db": r["snr_std"]} for r in results}}
+        key = {
+            "schema": "emulator-key/1",
+            "profile": profile,
+            "seed": int(seed),
+            "note": "hidden truth of the emulated world; never read downstream",
+            "population": pop,
+            "flights": {
+                r["spec"].flight_id: {
+                    "effects": r["truth"]["effects"],
+                    "systematic": _systematic(r["spec"], pop),
+                    "airframe": r["spec"].airframe,
+                    "airframe_effects": _airframe_effects(r["spec"], pop),
+                    "spec": _spec_json(r["spec"]),
+                    "truth": r["truth"],
+                    "measured_snr_db": r["snr_mean"],
+                    "measured_snr_std_db": r["snr_std"],
+                }
+                for r in results
+            },
+        }
         with atomic_file(key_path) as tmp:
             tmp.write_text(json.dumps(key, indent=1, default=float))
     if progress:
-        print(f"emulated {len(results)} flights, {flown:.0f} s of flight in {wall:.1f} s "
-              f"({flown / max(wall, 1e-9):.1f} s of flight per s, {workers} workers)", file=sys.stderr)
+        print(
+            f"emulated {len(results)} flights, {flown:.0f} s of flight in {wall:.1f} s "
+            f"({flown / max(wall, 1e-9):.1f} s of flight per s, {workers} workers)",
+            file=sys.stderr,
+        )
     return rows
 
 
@@ -414,14 +484,35 @@ def _emulate_into(out: Path, specs, progress: bool, workers: int):
     rows = []
     for r in results:
         s = r["spec"]
-        rows.append({"flight_id": s.flight_id, "target": s.target, "drone_model": s.drone_model,
-                     "bird_kind": s.bird_kind, "radar_id": s.radar_id, "duration_s": round(r["duration_s"], 4),
-                     "mean_range_m": round(r["mean_range_m"], 1), "mean_snr_db": round(r["snr_mean"], 2)})
+        rows.append(
+            {
+                "flight_id": s.flight_id,
+                "target": s.target,
+                "drone_model": s.drone_model,
+                "bird_kind": s.bird_kind,
+                "radar_id": s.radar_id,
+                "duration_s": round(r["duration_s"], 4),
+                "mean_range_m": round(r["mean_range_m"], 1),
+                "mean_snr_db": round(r["snr_mean"], 2),
+            }
+        )
     _write_table(out / "flights.csv", rows, ",")
-    _write_table(out / "motor_logs.tsv",
-                 [{"flight_id": r["spec"].flight_id, "motor_log": r["log"], "format": "csv", "unit": "rpm",
-                   "time_offset_s": 0} for r in results if r["log"]], "\t",
-                 header=["flight_id", "motor_log", "format", "unit", "time_offset_s"])
+    _write_table(
+        out / "motor_logs.tsv",
+        [
+            {
+                "flight_id": r["spec"].flight_id,
+                "motor_log": r["log"],
+                "format": "csv",
+                "unit": "rpm",
+                "time_offset_s": 0,
+            }
+            for r in results
+            if r["log"]
+        ],
+        "\t",
+        header=["flight_id", "motor_log", "format", "unit", "time_offset_s"],
+    )
     return rows, results, time.perf_counter() - t0
 
 

@@ -65,12 +65,26 @@ class RadarSite:
 
 
 RADARS: dict[str, RadarSite] = {
-    "radar1": RadarSite("radar1", Radar(7300.0, 1.35e9, 4096), snr_offset_db=0.0,
-                        phase_noise_rms_rad=0.0015, phase_noise_corner_hz=20.0,
-                        clutter_cnr_db=(25.0, 55.0), artifact_rate_per_min=0.0, height_asl_m=176.0),
-    "radar2": RadarSite("radar2", Radar(7300.0, 1.35e9, 4096), snr_offset_db=-4.0,
-                        phase_noise_rms_rad=0.004, phase_noise_corner_hz=30.0,
-                        clutter_cnr_db=(25.0, 55.0), artifact_rate_per_min=2.0, height_asl_m=186.0),
+    "radar1": RadarSite(
+        "radar1",
+        Radar(7300.0, 1.35e9, 4096),
+        snr_offset_db=0.0,
+        phase_noise_rms_rad=0.0015,
+        phase_noise_corner_hz=20.0,
+        clutter_cnr_db=(25.0, 55.0),
+        artifact_rate_per_min=0.0,
+        height_asl_m=176.0,
+    ),
+    "radar2": RadarSite(
+        "radar2",
+        Radar(7300.0, 1.35e9, 4096),
+        snr_offset_db=-4.0,
+        phase_noise_rms_rad=0.004,
+        phase_noise_corner_hz=30.0,
+        clutter_cnr_db=(25.0, 55.0),
+        artifact_rate_per_min=2.0,
+        height_asl_m=186.0,
+    ),
 }
 
 

@@ -193,8 +193,9 @@ def nominal_snr_db(spec: FlightSpec, rng: np.random.Generator) -> float:
     """The range model: class reference - 40 log10(R / 1 km) + radar gain + RCS scatter."""
     site = radar_site(spec.radar_id)
     r = np.hypot(spec.mean_range_m, spec.height_m)
-    return float(SNR_REF_DB[spec.cls] - 40 * np.log10(r / 1000.0) + site.snr_offset_db
-                 + rng.normal(0, RCS_STD_DB[spec.cls]))
+    return float(
+        SNR_REF_DB[spec.cls] - 40 * np.log10(r / 1000.0) + site.snr_offset_db + rng.normal(0, RCS_STD_DB[spec.cls])
+    )
 
 
 def draw_conditions(spec: FlightSpec) -> tuple[float, float, float]:
@@ -249,11 +250,25 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
     t = np.arange(n) / prf
     wind, wind_bg, snr_db = draw_conditions(spec)
     a_body = bg.pulse_amplitude(snr_db, radar.n_fft)
-    truth: dict = {"flight_id": spec.flight_id, "target": spec.target, "class": spec.cls,
-                   "radar_id": spec.radar_id, "effects": effects, "snr_db_nominal": snr_db,
-                   "wind_mps": wind, "background_wind_mps": wind_bg}
-    attrs = {"schema": SCHEMA, "flight_id": spec.flight_id, "target": spec.target, "radar_id": spec.radar_id,
-             "prf_hz": float(prf), "carrier_hz": float(radar.carrier_hz), "source": "microdoppler.emulator"}
+    truth: dict = {
+        "flight_id": spec.flight_id,
+        "target": spec.target,
+        "class": spec.cls,
+        "radar_id": spec.radar_id,
+        "effects": effects,
+        "snr_db_nominal": snr_db,
+        "wind_mps": wind,
+        "background_wind_mps": wind_bg,
+    }
+    attrs = {
+        "schema": SCHEMA,
+        "flight_id": spec.flight_id,
+        "target": spec.target,
+        "radar_id": spec.radar_id,
+        "prf_hz": float(prf),
+        "carrier_hz": float(radar.carrier_hz),
+        "source": "microdoppler.emulator",
+    }
     tt = np.arange(0.0, spec.duration_s, 1.0 / TRACK_HZ)
     motors_t = motors_rpm = None
     if spec.target == "drone":
@@ -266,9 +281,17 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         weak_blades = spec.weak_blades and spec.drone_model != "mini2"
         weak_db = float(r_v3.uniform(*WEAK_BLADE_DB))
         scint_db = float(r_v3.uniform(*MINI_SCINT_DB)) if dyn.hand_flown else 1.0
-        path = loop_path(spec.duration_s, mean_range_m=spec.mean_range_m, height_m=spec.height_m,
-                         speed_mps=spec.speed_mps, direction=spec.direction, hand_flown=dyn.hand_flown,
-                         rng=_rng(spec.seed, 1), straight=spec.path == "straight", wander_m=wander_m)
+        path = loop_path(
+            spec.duration_s,
+            mean_range_m=spec.mean_range_m,
+            height_m=spec.height_m,
+            speed_mps=spec.speed_mps,
+            direction=spec.direction,
+            hand_flown=dyn.hand_flown,
+            rng=_rng(spec.seed, 1),
+            straight=spec.path == "straight",
+            wander_m=wander_m,
+        )
         r_mot = _rng(spec.seed, 2)
         hover_scale = float(r_mot.uniform(0.93, 1.07))
         mt = motor_speeds(path, dyn, wind_mps=wind, rng=r_mot, hover_scale=hover_scale)
@@ -293,14 +316,24 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
                 first_db = spec.first_sideband_db
             # log-uniform 4-16 dB per harmonic: the paper's text gives 3-8 dB at short range,
             # its Table IV alphas (5.5e-3 to 8e-2 s) flights whose sidebands end after one pair
-            falloff = (spec.harmonic_falloff_db if spec.harmonic_falloff_db is not None
-                       else float(np.exp(r_bl.uniform(np.log(FALLOFF_DB[0]), np.log(FALLOFF_DB[1])))))
+            falloff = (
+                spec.harmonic_falloff_db
+                if spec.harmonic_falloff_db is not None
+                else float(np.exp(r_bl.uniform(np.log(FALLOFF_DB[0]), np.log(FALLOFF_DB[1]))))
+            )
         # tapered blade current: nested thin wires from the hub (eq. 1 kernel at
         # lengths BLADE_TAPER x L) give a current that falls towards the tip, whose
         # own HERM harmonics roll off; an exp(-alpha |f|) filter supplies the rest of
         # the per-harmonic fall-off
-        coef = np.fft.fft(sum(synthesis.BladeModel(B, model.blade_length_m * fr, lam).table().astype(np.complex128)
-                              for fr in BLADE_TAPER)) / synthesis.TABLE_SIZE
+        coef = (
+            np.fft.fft(
+                sum(
+                    synthesis.BladeModel(B, model.blade_length_m * fr, lam).table().astype(np.complex128)
+                    for fr in BLADE_TAPER
+                )
+            )
+            / synthesis.TABLE_SIZE
+        )
         harm = 20 * np.log10(np.abs(coef[[B, 2 * B, 3 * B, 4 * B]]) + 1e-30)
         natural = float(max(0.0, (harm[0] - harm[3]) / 3))
         alpha_s = float(max(falloff - natural, 0.5) / (20 * np.log10(np.e) * B * f_rot))
@@ -310,7 +343,7 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         envs = [e for e in (s.world_envelope(p) for s, p in knobs) if e is not None]
 
         def envelope(f_hz):
-            g = np.ones(np.shape(f_hz), np.float32)   # no knob: the paper's envelope alone
+            g = np.ones(np.shape(f_hz), np.float32)  # no knob: the paper's envelope alone
             for k, env in enumerate(envs):
                 g = env(f_hz) if k == 0 else g * env(f_hz)
             g[f_hz == 0] = 0.0  # the blades' mean return is part of the body RCS
@@ -322,10 +355,8 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
             aspect = SlowGain(spec.duration_s + 1, scint_db, MINI_SCINT_S, r_v3)
         blade_nat = SlowGain(spec.duration_s + 1, 0.5, 5.0, r_bl)
         # the knobs' slow gains, drawn from r_bl in the registry's order: the blades', then the body's
-        blade_gains = [g for g in (s.world_blade_gain(p, spec.duration_s + 1, r_bl) for s, p in knobs)
-                       if g is not None]
-        body_gains = [g for g in (s.world_body_gain(p, spec.duration_s + 1, r_bl) for s, p in knobs)
-                      if g is not None]
+        blade_gains = [g for g in (s.world_blade_gain(p, spec.duration_s + 1, r_bl) for s, p in knobs) if g is not None]
+        body_gains = [g for g in (s.world_body_gain(p, spec.duration_s + 1, r_bl) for s, p in knobs) if g is not None]
 
         def blade_hook(i0, i1, ts, x):
             g = blade_nat.amplitude(ts)
@@ -347,63 +378,125 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
         target = None
         hooks = synthesis.ModelExtensions(envelope_gain=envelope, blade_hook=blade_hook, body_hook=body_hook)
         for k, fr in enumerate(BLADE_TAPER):
-            cfg = synthesis.SynthesisConfig.of(prf_hz=prf, wavelength_m=lam, n_blades=B,
-                                               blade_length_m=model.blade_length_m * fr,
-                                               scaling=synthesis.Scaling(a_body if k == 0 else 0.0, s_blade, alpha_s),
-                                               blade_amplitudes=amps, extensions=hooks)
+            cfg = synthesis.SynthesisConfig.of(
+                prf_hz=prf,
+                wavelength_m=lam,
+                n_blades=B,
+                blade_length_m=model.blade_length_m * fr,
+                scaling=synthesis.Scaling(a_body if k == 0 else 0.0, s_blade, alpha_s),
+                blade_amplitudes=amps,
+                extensions=hooks,
+            )
             part = synthesis.synthesize(cfg, track, rev, initial_cycles=start)
             target = part if target is None else target.__iadd__(part)
         target *= _straddle_gain(track.range_at(t))
-        attrs.update({"drone_model": spec.drone_model, "n_motors": int(model.n_motors),
-                      "n_blades": int(B), "blade_length_m": float(model.blade_length_m)})
+        attrs.update(
+            {
+                "drone_model": spec.drone_model,
+                "n_motors": int(model.n_motors),
+                "n_blades": int(B),
+                "blade_length_m": float(model.blade_length_m),
+            }
+        )
         if dyn.log_rate_hz > 0:
-            log_kw = {"lag_s": 0.0, "scale": 1.0}   # a log on the radar's clock, at the true speed
+            log_kw = {"lag_s": 0.0, "scale": 1.0}  # a log on the radar's clock, at the true speed
             for s, p in knobs:
                 log_kw.update(s.world_log(p))
             motors_t, motors_rpm = write_log(mt, spec.duration_s, dyn.log_rate_hz, _rng(spec.seed, 4), **log_kw)
         inflight = (mt.t_s >= 0) & (mt.t_s <= spec.duration_s)
         rv = mt.rev_s[inflight]
-        truth.update({"drone_model": spec.drone_model, "alpha_s": alpha_s, "s_body": a_body, "s_blade": s_blade,
-                      "first_sideband_db": float(first_db), "harmonic_falloff_db": float(falloff),
-                      "blade_taper": list(BLADE_TAPER), "natural_falloff_db": natural,
-                      "hover_rev_s": float(f_rot),
-                      "weak_blades": bool(weak_blades and spec.first_sideband_db is None),
-                      "airframe": spec.airframe, "blade_amplitudes": list(amps) if amps else None,
-                      "wander_m": wander_m if dyn.hand_flown else 0.0, "body_scint_db": scint_db,
-                      "motors": {"mean_rev_s": rv.mean(0).tolist(), "std_rev_s": rv.std(0).tolist(),
-                                 "min_rev_s": rv.min(0).tolist(), "max_rev_s": rv.max(0).tolist(),
-                                 "spread_rel": float(np.mean(rv.std(1) / rv.mean(1)))},
-                      "log_rate_hz": dyn.log_rate_hz})
+        truth.update(
+            {
+                "drone_model": spec.drone_model,
+                "alpha_s": alpha_s,
+                "s_body": a_body,
+                "s_blade": s_blade,
+                "first_sideband_db": float(first_db),
+                "harmonic_falloff_db": float(falloff),
+                "blade_taper": list(BLADE_TAPER),
+                "natural_falloff_db": natural,
+                "hover_rev_s": float(f_rot),
+                "weak_blades": bool(weak_blades and spec.first_sideband_db is None),
+                "airframe": spec.airframe,
+                "blade_amplitudes": list(amps) if amps else None,
+                "wander_m": wander_m if dyn.hand_flown else 0.0,
+                "body_scint_db": scint_db,
+                "motors": {
+                    "mean_rev_s": rv.mean(0).tolist(),
+                    "std_rev_s": rv.std(0).tolist(),
+                    "min_rev_s": rv.min(0).tolist(),
+                    "max_rev_s": rv.max(0).tolist(),
+                    "spread_rel": float(np.mean(rv.std(1) / rv.mean(1))),
+                },
+                "log_rate_hz": dyn.log_rate_hz,
+            }
+        )
     else:
-        group = plan_group(spec.bird_kind, spec.duration_s, mean_range_m=spec.mean_range_m,
-                           height_m=spec.height_m, speed_mps=spec.speed_mps, rng=_rng(spec.seed, 1),
-                           manoeuvre_rng=_rng(spec.seed, 8))
+        group = plan_group(
+            spec.bird_kind,
+            spec.duration_s,
+            mean_range_m=spec.mean_range_m,
+            height_m=spec.height_m,
+            speed_mps=spec.speed_mps,
+            rng=_rng(spec.seed, 1),
+            manoeuvre_rng=_rng(spec.seed, 8),
+        )
         target = render(group, n, prf, lam, a_body, _rng(spec.seed, 3))
         centre = group.centre_range_m
         target *= _straddle_gain(np.interp(t, group.t_s, centre))
         range_tt = np.interp(tt, group.t_s, centre)
         vr_tt = np.interp(tt, group.t_s, np.gradient(centre, group.t_s))
         az_tt = np.interp(tt, group.t_s, group.azimuth_rad)
-        truth.update({"bird_kind": spec.bird_kind, "species": group.species, "n_birds": group.n_birds,
-                      "wingbeat_hz": group.wingbeat_hz.tolist(),
-                      "turn_rate_sd_rad_s": group.turn_rate_sd, "speed_surge": group.speed_surge,
-                      "body_scint_db": group.scint_db, "glide_share": group.glide_share,
-                      "glide_time_s": group.glide_time_s,
-                      "body_doppler_offsets_hz": (-2 * (np.gradient(group.range_m, group.t_s, axis=0)
-                                                        - np.gradient(centre, group.t_s)[:, None]).mean(0) / lam).tolist()})
+        truth.update(
+            {
+                "bird_kind": spec.bird_kind,
+                "species": group.species,
+                "n_birds": group.n_birds,
+                "wingbeat_hz": group.wingbeat_hz.tolist(),
+                "turn_rate_sd_rad_s": group.turn_rate_sd,
+                "speed_surge": group.speed_surge,
+                "body_scint_db": group.scint_db,
+                "glide_share": group.glide_share,
+                "glide_time_s": group.glide_time_s,
+                "body_doppler_offsets_hz": (
+                    -2
+                    * (np.gradient(group.range_m, group.t_s, axis=0) - np.gradient(centre, group.t_s)[:, None]).mean(0)
+                    / lam
+                ).tolist(),
+            }
+        )
     cells = bg.cell_ids(range_tt, az_tt)
     # a flat phase error on the whole flight echo (a phase-noise knob; rms of the sum for several)
-    pn = [r for r in (s.world_phase_rms(effects[s.name]) for s in registry.specs() if s.name in effects)
-          if r is not None]
+    pn = [
+        r for r in (s.world_phase_rms(effects[s.name]) for s in registry.specs() if s.name in effects) if r is not None
+    ]
     knob_pn = 0.0 if not pn else pn[0] if len(pn) == 1 else float(np.sqrt(np.sum(np.square(pn))))
-    iq, info = bg.record(target, n, t_track_s=tt, cells=cells, site=site, site_seed=spec.site_seed,
-                         wind_mps=wind, rng=_rng(spec.seed, 5), knob_phase_rms_rad=knob_pn,
-                         clutter_scale_db=spec.clutter_scale_db)
+    iq, info = bg.record(
+        target,
+        n,
+        t_track_s=tt,
+        cells=cells,
+        site=site,
+        site_seed=spec.site_seed,
+        wind_mps=wind,
+        rng=_rng(spec.seed, 5),
+        knob_phase_rms_rad=knob_pn,
+        clutter_scale_db=spec.clutter_scale_db,
+    )
     del target
     bgiq = None
     if spec.with_background:
-        bgiq, _ = bg.record(None, n, t_track_s=tt, cells=cells, site=site, site_seed=spec.site_seed,
-                            wind_mps=wind_bg, rng=_rng(spec.seed, 6), clutter_scale_db=spec.clutter_scale_db)
+        bgiq, _ = bg.record(
+            None,
+            n,
+            t_track_s=tt,
+            cells=cells,
+            site=site,
+            site_seed=spec.site_seed,
+            wind_mps=wind_bg,
+            rng=_rng(spec.seed, 6),
+            clutter_scale_db=spec.clutter_scale_db,
+        )
     truth.update(info)
     # the tracker's output: true track plus a small smooth error
     r_tr = _rng(spec.seed, 7)
@@ -411,9 +504,16 @@ def emulate_flight(spec: FlightSpec) -> tuple[Flight, dict]:
     err = np.cumsum(verr) / TRACK_HZ
     track_r = range_tt + err
     track_v = vr_tt + verr
-    flight = Flight(attrs=attrs, iq=iq, track_time_s=tt.astype(np.float64), track_range_m=track_r,
-                    track_radial_velocity_mps=track_v, motors_time_s=motors_t, motors_rpm=motors_rpm,
-                    background_iq=bgiq)
+    flight = Flight(
+        attrs=attrs,
+        iq=iq,
+        track_time_s=tt.astype(np.float64),
+        track_range_m=track_r,
+        track_radial_velocity_mps=track_v,
+        motors_time_s=motors_t,
+        motors_rpm=motors_rpm,
+        background_iq=bgiq,
+    )
     return flight, truth
 
 

@@ -210,8 +210,12 @@ def _chunks_present(store, p: str, node) -> None:
     except Exception as exc:  # listing a broken store
         raise InputError(store, p, f"chunks cannot be listed ({type(exc).__name__})", "a readable store") from None
     if have < need:
-        raise InputError(store, p, f"has {need - have} of {need} chunk files missing (they would read back as zeros)",
-                         "every chunk stored")
+        raise InputError(
+            store,
+            p,
+            f"has {need - have} of {need} chunk files missing (they would read back as zeros)",
+            "every chunk stored",
+        )
 
 
 def _read(store, p: str, node, sel=Ellipsis) -> np.ndarray:
@@ -220,8 +224,12 @@ def _read(store, p: str, node, sel=Ellipsis) -> np.ndarray:
         return np.asarray(node[sel])
     except Exception as exc:
         where = f" in samples {sel.start}-{sel.stop - 1}" if isinstance(sel, slice) else ""
-        raise InputError(store, p, f"cannot be read{where} ({type(exc).__name__}: {str(exc)[:80]})",
-                         "complete, uncorrupted chunk files") from None
+        raise InputError(
+            store,
+            p,
+            f"cannot be read{where} ({type(exc).__name__}: {str(exc)[:80]})",
+            "complete, uncorrupted chunk files",
+        ) from None
 
 
 def _stream_finite(store, p: str, node) -> None:
@@ -289,7 +297,9 @@ def read_flight(path, *, load_iq: bool = True, content: bool = True) -> Flight:
         g = zarr.open_group(str(path), mode="r")
         attrs = dict(g.attrs)
     except Exception as exc:  # zarr raises several types for non-stores
-        raise InputError(path, "store", f"is not a Zarr group ({type(exc).__name__})", "a flight-zarr/1 group") from None
+        raise InputError(
+            path, "store", f"is not a Zarr group ({type(exc).__name__})", "a flight-zarr/1 group"
+        ) from None
     _check_attrs(path, attrs)
     arrs = {}
     for p, (dtype, ndim) in ARRAYS.items():

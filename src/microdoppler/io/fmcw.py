@@ -62,8 +62,14 @@ from ..errors import InputError
 SPEED_OF_LIGHT_MPS = 299_792_458.0
 BEAT_SIGNS = ("positive", "negative")
 #: parameters of an FMCW recording (besides the slow-time ones), and their types
-FMCW_PARAM_TYPES = {"chirp_rate_hz": float, "bandwidth_hz": float, "sample_rate_hz": float,
-                    "range_bin": int, "cpi_chirps": int, "beat_sign": str}
+FMCW_PARAM_TYPES = {
+    "chirp_rate_hz": float,
+    "bandwidth_hz": float,
+    "sample_rate_hz": float,
+    "range_bin": int,
+    "cpi_chirps": int,
+    "beat_sign": str,
+}
 #: what must be known to form range profiles
 FMCW_REQUIRED = ("chirp_rate_hz", "bandwidth_hz", "sample_rate_hz", "carrier_hz")
 #: variable names (lower case) of an FMCW .mat / .npz read as its parameters
@@ -71,12 +77,27 @@ FMCW_ALIASES = {
     "chirp_rate_hz": ("chirp_rate_hz", "chirp_rate", "chirps_per_s", "prf_hz", "prf"),
     "bandwidth_hz": ("bandwidth_hz", "bandwidth", "bw", "sweep_bandwidth_hz"),
     "sample_rate_hz": ("sample_rate_hz", "sample_rate", "fs", "adc_rate_hz", "adc_sample_rate_hz"),
-    "carrier_hz": ("carrier_hz", "fc", "carrier_frequency", "carrier_frequency_hz", "center_frequency",
-                   "centre_frequency_hz"),
+    "carrier_hz": (
+        "carrier_hz",
+        "fc",
+        "carrier_frequency",
+        "carrier_frequency_hz",
+        "center_frequency",
+        "centre_frequency_hz",
+    ),
 }
 #: file variables that mark a .mat / .npz as FMCW (the others are shared with slow-time files)
-FMCW_MARKERS = ("chirp_rate_hz", "chirp_rate", "chirps_per_s", "bandwidth_hz", "bandwidth", "bw",
-                "sweep_bandwidth_hz", "adc_rate_hz", "adc_sample_rate_hz")
+FMCW_MARKERS = (
+    "chirp_rate_hz",
+    "chirp_rate",
+    "chirps_per_s",
+    "bandwidth_hz",
+    "bandwidth",
+    "bw",
+    "sweep_bandwidth_hz",
+    "adc_rate_hz",
+    "adc_sample_rate_hz",
+)
 #: the CPI defaults to the largest power of two of chirps within this time [s] (at least 16 chirps)
 DEFAULT_CPI_S = 0.05
 #: the range rate is a straight-line fit over this time [s] (at least 5 CPIs)
@@ -176,15 +197,23 @@ def cube_array(a, source, where: str) -> np.ndarray:
         raise InputError(source, where, f"has shape {a.shape}", CUBE_EXPECTED)
     n_chirps, n_samples, n_ch = a.shape
     if n_samples < 8:
-        raise InputError(source, where, f"has shape {a.shape[:2] if n_ch == 1 else a.shape}: {n_samples} samples "
-                         "per chirp", "at least 8 fast-time samples per chirp (axis 1; " + CUBE_EXPECTED + ")")
+        raise InputError(
+            source,
+            where,
+            f"has shape {a.shape[:2] if n_ch == 1 else a.shape}: {n_samples} samples per chirp",
+            "at least 8 fast-time samples per chirp (axis 1; " + CUBE_EXPECTED + ")",
+        )
     if n_chirps < 32:
         raise InputError(source, where, f"has {n_chirps} chirps (axis 0)", "at least 32 chirps")
     bad = ~np.isfinite(a)
     if bad.any():
         c, s, ch = (int(x) for x in np.argwhere(bad)[0])
-        raise InputError(source, where, f"contains NaN or infinite values (first at chirp {c}, sample {s}, "
-                         f"channel {ch})", "finite beat samples")
+        raise InputError(
+            source,
+            where,
+            f"contains NaN or infinite values (first at chirp {c}, sample {s}, channel {ch})",
+            "finite beat samples",
+        )
     return a
 
 
@@ -192,13 +221,18 @@ def check_timing(params: FmcwParameters, source) -> None:
     """The sampled part of a chirp must fit in the chirp period."""
     period = 1 / params.chirp_rate_hz
     if params.sampled_chirp_s > period * (1 + 1e-9):
-        raise InputError(source, "sample_rate_hz", f"is {params.sample_rate_hz:g} Hz: {params.n_samples} samples "
-                         f"take {params.sampled_chirp_s * 1e6:.1f} us, longer than the chirp period "
-                         f"1/chirp_rate_hz = {period * 1e6:.1f} us",
-                         "n_samples / sample_rate_hz <= 1 / chirp_rate_hz (check the chirp rate and sample rate)")
+        raise InputError(
+            source,
+            "sample_rate_hz",
+            f"is {params.sample_rate_hz:g} Hz: {params.n_samples} samples "
+            f"take {params.sampled_chirp_s * 1e6:.1f} us, longer than the chirp period "
+            f"1/chirp_rate_hz = {period * 1e6:.1f} us",
+            "n_samples / sample_rate_hz <= 1 / chirp_rate_hz (check the chirp rate and sample rate)",
+        )
 
 
 # ---- processing -----------------------------------------------------------------------
+
 
 def _window(params: FmcwParameters) -> np.ndarray:
     from scipy.signal import get_window
@@ -252,8 +286,9 @@ def cpi_blocks(n_chirps: int, cpi_chirps: int) -> list[slice]:
     return [slice(a, b) for a, b in zip(edges[:-1], edges[1:])]
 
 
-def moving_power(cube: np.ndarray, params: FmcwParameters, cpi_chirps: int, *,
-                 beat_sign: str = "positive") -> np.ndarray:
+def moving_power(
+    cube: np.ndarray, params: FmcwParameters, cpi_chirps: int, *, beat_sign: str = "positive"
+) -> np.ndarray:
     """Moving-target power per CPI and range bin.
 
     Parameters
@@ -338,7 +373,7 @@ def sub_bin_position(bins: np.ndarray, power: np.ndarray) -> np.ndarray:
     tiny = np.finfo(np.float64).tiny
     for i, k in enumerate(bins):
         if 1 <= k < n_bins - 1:
-            lm, l0, lp = np.log(np.maximum(power[i, k - 1:k + 2], tiny))
+            lm, l0, lp = np.log(np.maximum(power[i, k - 1 : k + 2], tiny))
             den = lm - 2 * l0 + lp
             if den < 0:
                 frac[i] = float(np.clip(0.5 * (lm - lp) / den, -0.5, 0.5))
@@ -362,9 +397,17 @@ def _fit_half(params: FmcwParameters, cpi_chirps: int) -> int:
     return max(2, int(round(VELOCITY_FIT_S / (cpi_chirps / params.chirp_rate_hz) / 2)))
 
 
-def bin_slow_time(cube: np.ndarray, params: FmcwParameters, bins: np.ndarray, cpi_chirps: int, *,
-                  beat_sign: str = "positive", position: np.ndarray | None = None,
-                  weights: np.ndarray | None = None, smooth_cpis: int = 2) -> tuple[np.ndarray, np.ndarray]:
+def bin_slow_time(
+    cube: np.ndarray,
+    params: FmcwParameters,
+    bins: np.ndarray,
+    cpi_chirps: int,
+    *,
+    beat_sign: str = "positive",
+    position: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
+    smooth_cpis: int = 2,
+) -> tuple[np.ndarray, np.ndarray]:
     """The slow-time I/Q of the target's range cell, CPI by CPI.
 
     Parameters
@@ -418,7 +461,7 @@ def bin_slow_time(cube: np.ndarray, params: FmcwParameters, bins: np.ndarray, cp
         cross[i] = np.sum(mv * np.conj(mv[:, :1]), axis=0)
         cells.append((sl, ks, at, y))
     if weights is None:
-        cs = np.array([cross[max(0, i - smooth_cpis):i + smooth_cpis + 1].sum(axis=0) for i in range(len(blocks))])
+        cs = np.array([cross[max(0, i - smooth_cpis) : i + smooth_cpis + 1].sum(axis=0) for i in range(len(blocks))])
         tc = np.array([(sl.start + sl.stop - 1) / 2 for sl in blocks])
         tm = np.arange(cube.shape[0])
         weights = np.empty((cube.shape[0], n_ch), np.complex128)
@@ -440,8 +483,9 @@ def bin_slow_time(cube: np.ndarray, params: FmcwParameters, bins: np.ndarray, cp
     return np.conj(out).astype(np.complex64), weights
 
 
-def radial_velocity(t_s: np.ndarray, range_m: np.ndarray, iq: np.ndarray, params: FmcwParameters,
-                    cpi_chirps: int) -> tuple[np.ndarray, np.ndarray]:
+def radial_velocity(
+    t_s: np.ndarray, range_m: np.ndarray, iq: np.ndarray, params: FmcwParameters, cpi_chirps: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Radial velocity per CPI [m/s] and whether it came from the body Doppler.
 
     Parameters
@@ -518,9 +562,16 @@ class FmcwResult:
     info: dict = field(default_factory=dict)
 
 
-def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | None = None,
-                 range_bin: int | None = None, max_step_bins: int = 2, beat_sign: str = "positive",
-                 source="cube") -> FmcwResult:
+def process_fmcw(
+    cube: np.ndarray,
+    params: FmcwParameters,
+    *,
+    cpi_chirps: int | None = None,
+    range_bin: int | None = None,
+    max_step_bins: int = 2,
+    beat_sign: str = "positive",
+    source="cube",
+) -> FmcwResult:
     """An FMCW cube -> the target's slow-time I/Q and track (the module's steps 1-6).
 
     Parameters
@@ -546,16 +597,25 @@ def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | 
     if cpi < 8:
         raise InputError(source, "cpi_chirps", f"is {cpi}", "at least 8 chirps per CPI")
     if cube.shape[0] < 2 * cpi:
-        raise InputError(source, "cube", f"holds {cube.shape[0]} chirps", f"at least 2 CPIs of cpi_chirps={cpi} "
-                         f"({2 * cpi} chirps; a smaller --cpi-chirps)")
+        raise InputError(
+            source,
+            "cube",
+            f"holds {cube.shape[0]} chirps",
+            f"at least 2 CPIs of cpi_chirps={cpi} ({2 * cpi} chirps; a smaller --cpi-chirps)",
+        )
     blocks = cpi_blocks(cube.shape[0], cpi)
     n_cpi = len(blocks)
     power = moving_power(cube, params, cpi, beat_sign=beat_sign)
     if range_bin is not None:
         if not 1 <= range_bin < params.n_bins:
-            raise InputError(source, "range_bin", f"is {range_bin}", f"a bin in 1-{params.n_bins - 1} (of the "
-                             f"{params.n_bins} range bins of {params.range_bin_m:.3g} m up to "
-                             f"{params.max_range_m:.3g} m)")
+            raise InputError(
+                source,
+                "range_bin",
+                f"is {range_bin}",
+                f"a bin in 1-{params.n_bins - 1} (of the "
+                f"{params.n_bins} range bins of {params.range_bin_m:.3g} m up to "
+                f"{params.max_range_m:.3g} m)",
+            )
         bins = np.full(n_cpi, int(range_bin))
     else:
         bins = track_range_bins(power, max_step_bins=max_step_bins)
@@ -569,24 +629,42 @@ def process_fmcw(cube: np.ndarray, params: FmcwParameters, *, cpi_chirps: int | 
     iq, w = bin_slow_time(cube, params, bins, cpi, beat_sign=beat_sign, position=position)
     rng = np.maximum(pos, 0.5) * params.range_bin_m
     v, from_dop = radial_velocity(t, rng, iq, params, cpi)
-    trk = {"time_s": t, "range_m": rng, "radial_velocity_mps": v, "range_bin": bins.astype(int),
-           "velocity_from_doppler": from_dop}
+    trk = {
+        "time_s": t,
+        "range_m": rng,
+        "radial_velocity_mps": v,
+        "range_bin": bins.astype(int),
+        "velocity_from_doppler": from_dop,
+    }
     tiny = np.finfo(np.float64).tiny
     med = np.median(power[:, 1:], axis=1)
     contrast = 10 * np.log10(np.maximum(power[np.arange(n_cpi), bins], tiny) / np.maximum(med, tiny))
-    info = {"n_chirps": int(cube.shape[0]), "n_samples": int(cube.shape[1]), "n_channels": int(cube.shape[2]),
-            "input": "complex" if np.iscomplexobj(cube) else "real", "beat_sign": beat_sign,
-            "chirp_rate_hz": params.chirp_rate_hz, "bandwidth_hz": params.bandwidth_hz,
-            "sample_rate_hz": params.sample_rate_hz, "nfft": params.nfft, "range_bin_m": params.range_bin_m,
-            "cpi_chirps": cpi, "n_cpi": n_cpi, "range_bin": "fixed" if range_bin is not None else "followed",
-            "max_step_bins": max_step_bins, "bins_min": int(bins.min()), "bins_max": int(bins.max()),
-            "moving_contrast_db_median": round(float(np.median(contrast)), 2),
-            "velocity_from_doppler_fraction": round(float(np.mean(from_dop)), 3)}
+    info = {
+        "n_chirps": int(cube.shape[0]),
+        "n_samples": int(cube.shape[1]),
+        "n_channels": int(cube.shape[2]),
+        "input": "complex" if np.iscomplexobj(cube) else "real",
+        "beat_sign": beat_sign,
+        "chirp_rate_hz": params.chirp_rate_hz,
+        "bandwidth_hz": params.bandwidth_hz,
+        "sample_rate_hz": params.sample_rate_hz,
+        "nfft": params.nfft,
+        "range_bin_m": params.range_bin_m,
+        "cpi_chirps": cpi,
+        "n_cpi": n_cpi,
+        "range_bin": "fixed" if range_bin is not None else "followed",
+        "max_step_bins": max_step_bins,
+        "bins_min": int(bins.min()),
+        "bins_max": int(bins.max()),
+        "moving_contrast_db_median": round(float(np.median(contrast)), 2),
+        "velocity_from_doppler_fraction": round(float(np.mean(from_dop)), 3),
+    }
     return FmcwResult(iq=iq, track=trk, bins=bins, position=position, weights=w, power=power, info=info)
 
 
-def background_slow_time(cube: np.ndarray, params: FmcwParameters, result: FmcwResult, *,
-                         beat_sign: str = "positive", source="background") -> np.ndarray:
+def background_slow_time(
+    cube: np.ndarray, params: FmcwParameters, result: FmcwResult, *, beat_sign: str = "positive", source="background"
+) -> np.ndarray:
     """A target-free cube through the same cells and channel weights as ``result``.
 
     Returns
@@ -596,13 +674,28 @@ def background_slow_time(cube: np.ndarray, params: FmcwParameters, result: FmcwR
     cube = cube_array(cube, source, "cube")
     n = len(result.iq)
     if cube.shape[0] != n:
-        raise InputError(source, "chirps", f"has {cube.shape[0]}", f"{n} chirps, as the recording "
-                         "(background/iq pairs pulse by pulse)")
+        raise InputError(
+            source,
+            "chirps",
+            f"has {cube.shape[0]}",
+            f"{n} chirps, as the recording (background/iq pairs pulse by pulse)",
+        )
     if cube.shape[1:] != (result.info["n_samples"], result.info["n_channels"]):
-        raise InputError(source, "shape", f"is {cube.shape}", f"[{n}, {result.info['n_samples']}, "
-                         f"{result.info['n_channels']}] as the recording")
-    iq, _ = bin_slow_time(cube, params, result.bins, int(result.info["cpi_chirps"]), beat_sign=beat_sign,
-                          position=result.position, weights=result.weights)
+        raise InputError(
+            source,
+            "shape",
+            f"is {cube.shape}",
+            f"[{n}, {result.info['n_samples']}, {result.info['n_channels']}] as the recording",
+        )
+    iq, _ = bin_slow_time(
+        cube,
+        params,
+        result.bins,
+        int(result.info["cpi_chirps"]),
+        beat_sign=beat_sign,
+        position=result.position,
+        weights=result.weights,
+    )
     return iq
 
 

@@ -12,10 +12,30 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .fmcw import (CUBE_EXPECTED, FMCW_ALIASES, FMCW_REQUIRED, FmcwParameters, background_slow_time, cube_array,
-                   process_fmcw)
-from .recordings import (OPTION, PARAM_TYPES, TRACK_VARS, Recording, _real_vector, build_flight, check_required,
-                         constant_track, convert, explicit_track, read_arrays, resolve_parameters, set_flight_id)
+from .fmcw import (
+    CUBE_EXPECTED,
+    FMCW_ALIASES,
+    FMCW_REQUIRED,
+    FmcwParameters,
+    background_slow_time,
+    cube_array,
+    process_fmcw,
+)
+from .recordings import (
+    OPTION,
+    PARAM_TYPES,
+    TRACK_VARS,
+    Recording,
+    _real_vector,
+    build_flight,
+    check_required,
+    constant_track,
+    convert,
+    explicit_track,
+    read_arrays,
+    resolve_parameters,
+    set_flight_id,
+)
 
 
 @dataclass
@@ -63,12 +83,15 @@ def fmcw_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None
         names = [s.strip() for s in str(variable).split(",")]
         for nm in names:
             if nm not in arrays or isinstance(arrays[nm], str):
-                raise InputError(path, nm, "no such array", "--variable one of: " + (", ".join(sorted(cands)) or "none"))
+                raise InputError(
+                    path, nm, "no such array", "--variable one of: " + (", ".join(sorted(cands)) or "none")
+                )
         if len(names) == 2:
             i, q = (np.asarray(arrays[nm]) for nm in names)
             if np.iscomplexobj(i) or np.iscomplexobj(q) or i.shape != q.shape:
-                raise InputError(path, ",".join(names), f"have shapes {i.shape}, {q.shape}",
-                                 "two real arrays I, Q of one shape")
+                raise InputError(
+                    path, ",".join(names), f"have shapes {i.shape}, {q.shape}", "two real arrays I, Q of one shape"
+                )
             cube = cube_array(i.astype(np.float64) + 1j * q.astype(np.float64), path, ",".join(names))
         elif len(names) == 1:
             cube = cube_array(arrays[names[0]], path, names[0])
@@ -84,23 +107,43 @@ def fmcw_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None
         elif not cands:
             raise InputError(path, "variables", "hold no data array", CUBE_EXPECTED)
         else:
-            raise InputError(path, "variables", f"hold several arrays ({', '.join(sorted(cands))})",
-                             "--variable NAME (or NAME_I,NAME_Q) to pick the FMCW cube")
+            raise InputError(
+                path,
+                "variables",
+                f"hold several arrays ({', '.join(sorted(cands))})",
+                "--variable NAME (or NAME_I,NAME_Q) to pick the FMCW cube",
+            )
         cube = cube_array(arrays[chosen], path, chosen)
     trk = None
     if track:
         if not {"track_time_s", "track_range_m"} <= set(track):
-            raise InputError(path, next(iter(track)), "given without track_time_s and track_range_m",
-                             "both arrays, or neither")
-        trk = {"time_s": track["track_time_s"], "range_m": track["track_range_m"],
-               "radial_velocity_mps": track.get("track_radial_velocity_mps"), "source": "file arrays track_*"}
+            raise InputError(
+                path, next(iter(track)), "given without track_time_s and track_range_m", "both arrays, or neither"
+            )
+        trk = {
+            "time_s": track["track_time_s"],
+            "range_m": track["track_range_m"],
+            "radial_velocity_mps": track.get("track_radial_velocity_mps"),
+            "source": "file arrays track_*",
+        }
     return FmcwFile(path=path, format=fmt, cube=cube, metadata=md, fields=fields, track=trk, variable=chosen)
 
 
 # ---- import -------------------------------------------------------------------------
 
-def import_fmcw(path, fmt: str, arrays: dict, *, options: dict, sidecar: dict, variable: str | None = None,
-                default_flight_id: str | None = None, background=None, noise_s=None):
+
+def import_fmcw(
+    path,
+    fmt: str,
+    arrays: dict,
+    *,
+    options: dict,
+    sidecar: dict,
+    variable: str | None = None,
+    default_flight_id: str | None = None,
+    background=None,
+    noise_s=None,
+):
     """An FMCW recording -> ``(flight, warnings)`` (what
     :func:`~microdoppler.io.importing.import_recording` does for a cube).
 
@@ -117,27 +160,44 @@ def import_fmcw(path, fmt: str, arrays: dict, *, options: dict, sidecar: dict, v
     params, sources, warns = resolve_parameters(ff, options, sidecar)
     chirp, prf = params.get("chirp_rate_hz"), params.get("prf_hz")
     if chirp is not None and prf is not None and not math.isclose(chirp, prf, rel_tol=1e-9):
-        raise InputError(path, "prf_hz", f"is {prf:g} ({sources['prf_hz']}) but chirp_rate_hz is {chirp:g} "
-                         f"({sources['chirp_rate_hz']})", "one chirp rate: an FMCW recording's prf_hz is its chirp rate")
+        raise InputError(
+            path,
+            "prf_hz",
+            f"is {prf:g} ({sources['prf_hz']}) but chirp_rate_hz is {chirp:g} ({sources['chirp_rate_hz']})",
+            "one chirp rate: an FMCW recording's prf_hz is its chirp rate",
+        )
     if chirp is None and prf is not None:
         params["chirp_rate_hz"], sources["chirp_rate_hz"] = prf, sources["prf_hz"]
     for key in FMCW_REQUIRED:
         if key not in params:
-            raise InputError(path, key, f"missing: an FMCW cube of shape {ff.cube.shape} needs it, and it is not in "
-                             "the file, a sidecar or the options", f"{OPTION[key]} or the sidecar key {key}")
+            raise InputError(
+                path,
+                key,
+                f"missing: an FMCW cube of shape {ff.cube.shape} needs it, and it is not in "
+                "the file, a sidecar or the options",
+                f"{OPTION[key]} or the sidecar key {key}",
+            )
     params["prf_hz"], sources["prf_hz"] = params["chirp_rate_hz"], sources["chirp_rate_hz"]
     set_flight_id(ff, params, sources, default_flight_id)
     check_required(ff, params)
-    p = FmcwParameters(chirp_rate_hz=params["chirp_rate_hz"], bandwidth_hz=params["bandwidth_hz"],
-                       sample_rate_hz=params["sample_rate_hz"], carrier_hz=params["carrier_hz"],
-                       n_samples=ff.cube.shape[1])
+    p = FmcwParameters(
+        chirp_rate_hz=params["chirp_rate_hz"],
+        bandwidth_hz=params["bandwidth_hz"],
+        sample_rate_hz=params["sample_rate_hz"],
+        carrier_hz=params["carrier_hz"],
+        n_samples=ff.cube.shape[1],
+    )
     beat = params.get("beat_sign", "positive")
-    res = process_fmcw(ff.cube, p, cpi_chirps=params.get("cpi_chirps"), range_bin=params.get("range_bin"),
-                       beat_sign=beat, source=path)
+    res = process_fmcw(
+        ff.cube, p, cpi_chirps=params.get("cpi_chirps"), range_bin=params.get("range_bin"), beat_sign=beat, source=path
+    )
     duration = ff.cube.shape[0] / p.chirp_rate_hz
-    derived = {"time_s": res.track["time_s"], "range_m": res.track["range_m"],
-               "radial_velocity_mps": res.track["radial_velocity_mps"],
-               "source": f"FMCW range bins {res.info['bins_min']}-{res.info['bins_max']}"}
+    derived = {
+        "time_s": res.track["time_s"],
+        "range_m": res.track["range_m"],
+        "radial_velocity_mps": res.track["radial_velocity_mps"],
+        "source": f"FMCW range bins {res.info['bins_min']}-{res.info['bins_max']}",
+    }
     track = explicit_track(options, sidecar, duration)
     if track is None and ff.track is not None:
         track = dict(ff.track)
@@ -159,6 +219,13 @@ def import_fmcw(path, fmt: str, arrays: dict, *, options: dict, sidecar: dict, v
                 raise InputError(bpath, bff.fields[key], f"is {v:g}", f"{want:g} as the recording's {key}")
         bg = background_slow_time(bff.cube, p, res, beat_sign=beat, source=bpath)
     info = {"variable": ff.variable, "fmcw": {**res.info, "carrier_hz": p.carrier_hz}}
-    rec = Recording(path=path, format=ff.format, layout=f"fmcw-{res.info['input']}", iq=res.iq,
-                    metadata=ff.metadata, fields=ff.fields, info=info)
+    rec = Recording(
+        path=path,
+        format=ff.format,
+        layout=f"fmcw-{res.info['input']}",
+        iq=res.iq,
+        metadata=ff.metadata,
+        fields=ff.fields,
+        info=info,
+    )
     return build_flight(rec, params, track, sources=sources, warnings_=warns, background=bg, noise_s=noise_s)

@@ -13,10 +13,17 @@ from .plausibility import check_setup, mark
 from .recordings import _level_value, import_slow_time, wants_fmcw
 
 
-def import_recording(path, *, options: dict | None = None, sidecar: dict | None = None,
-                     layout: str | None = None, variable: str | None = None,
-                     default_flight_id: str | None = None, background=None,
-                     force: bool = False) -> tuple[Flight, list[str]]:
+def import_recording(
+    path,
+    *,
+    options: dict | None = None,
+    sidecar: dict | None = None,
+    layout: str | None = None,
+    variable: str | None = None,
+    default_flight_id: str | None = None,
+    background=None,
+    force: bool = False,
+) -> tuple[Flight, list[str]]:
     """Read ``path`` and return ``(flight, warnings)``.
 
     ``options`` and ``sidecar`` map keys of
@@ -98,13 +105,33 @@ def import_recording(path, *, options: dict | None = None, sidecar: dict | None 
     fmcw, read = wants_fmcw(path, options, sidecar, variable)
     if fmcw:
         if layout is not None:
-            raise InputError(path, "--layout", f"is {layout!r} for an FMCW cube",
-                             "no --layout (a real cube is a real beat signal, a complex one I/Q)")
-        flight, warns = import_fmcw(path, *read, options=options, sidecar=sidecar, variable=variable,
-                                    default_flight_id=default_flight_id, background=background, noise_s=noise_s)
+            raise InputError(
+                path,
+                "--layout",
+                f"is {layout!r} for an FMCW cube",
+                "no --layout (a real cube is a real beat signal, a complex one I/Q)",
+            )
+        flight, warns = import_fmcw(
+            path,
+            *read,
+            options=options,
+            sidecar=sidecar,
+            variable=variable,
+            default_flight_id=default_flight_id,
+            background=background,
+            noise_s=noise_s,
+        )
     else:
-        flight, warns = import_slow_time(path, read, options=options, sidecar=sidecar, layout=layout,
-                                         variable=variable, default_flight_id=default_flight_id,
-                                         background=background, noise_s=noise_s)
+        flight, warns = import_slow_time(
+            path,
+            read,
+            options=options,
+            sidecar=sidecar,
+            layout=layout,
+            variable=variable,
+            default_flight_id=default_flight_id,
+            background=background,
+            noise_s=noise_s,
+        )
     implausible = check_setup(path, flight.attrs, len(flight.iq), force=force)
     return mark(flight, implausible), warns + implausible

@@ -37,12 +37,21 @@ def list_flights(measured_dir) -> pd.DataFrame:
     for p in sorted(measured_dir.glob("*.zarr")):
         f = validate_store(p)
         a = f.attrs
-        rows.append(dict(
-            flight_id=a["flight_id"], path=str(p), target=a["target"], drone_model=a.get("drone_model", ""),
-            radar_id=a["radar_id"], prf_hz=float(a["prf_hz"]), carrier_hz=float(a["carrier_hz"]),
-            n_pulses=len(f.iq), duration_s=len(f.iq) / float(a["prf_hz"]),
-            has_motor_log=f.has_motor_log, has_background=f.background_iq is not None,
-        ))
+        rows.append(
+            dict(
+                flight_id=a["flight_id"],
+                path=str(p),
+                target=a["target"],
+                drone_model=a.get("drone_model", ""),
+                radar_id=a["radar_id"],
+                prf_hz=float(a["prf_hz"]),
+                carrier_hz=float(a["carrier_hz"]),
+                n_pulses=len(f.iq),
+                duration_s=len(f.iq) / float(a["prf_hz"]),
+                has_motor_log=f.has_motor_log,
+                has_background=f.background_iq is not None,
+            )
+        )
     if not rows:
         raise InputError(measured_dir, "directory", "holds no *.zarr stores", "flight-zarr/1 stores")
     df = pd.DataFrame(rows)
@@ -71,8 +80,9 @@ def flight_targets(measured_dir) -> dict[str, str]:
 MIN_SPLIT_FLIGHTS = 3
 
 
-def missing_class_note(measured_dir, targets: dict[str, str] | None = None, *,
-                       min_flights: int = MIN_SPLIT_FLIGHTS) -> str:
+def missing_class_note(
+    measured_dir, targets: dict[str, str] | None = None, *, min_flights: int = MIN_SPLIT_FLIGHTS
+) -> str:
     """Why the flights in ``measured_dir`` cannot train a bird/drone classifier, in
     one line, or ``""`` when they hold both classes with at least ``min_flights``
     flights each (one per set of the flight-disjoint train/test/validation split), or
@@ -84,13 +94,17 @@ def missing_class_note(measured_dir, targets: dict[str, str] | None = None, *,
     held = ", ".join(f"{n} {c} flight{'s' if n != 1 else ''}" for c, n in counts.items() if n) or "no bird or drone"
     missing = [c for c in CLASSES if not counts[c]]
     if missing:
-        return (f"classifier left out: the campaign in {measured_dir} has no {' or '.join(missing)} flights ({held}); "
-                f"add {' and '.join(missing)} recordings to train a bird/drone classifier")
+        return (
+            f"classifier left out: the campaign in {measured_dir} has no {' or '.join(missing)} flights ({held}); "
+            f"add {' and '.join(missing)} recordings to train a bird/drone classifier"
+        )
     few = [c for c in CLASSES if counts[c] < min_flights]
     if few:
-        return (f"classifier left out: the campaign in {measured_dir} has too few {' and '.join(few)} flights for a "
-                f"flight-disjoint train/test/validation split ({held}; expected >= {min_flights} of each class, "
-                f"one per set); add {' and '.join(few)} recordings")
+        return (
+            f"classifier left out: the campaign in {measured_dir} has too few {' and '.join(few)} flights for a "
+            f"flight-disjoint train/test/validation split ({held}; expected >= {min_flights} of each class, "
+            f"one per set); add {' and '.join(few)} recordings"
+        )
     return ""
 
 
@@ -105,10 +119,17 @@ def read_flights_table(path) -> pd.DataFrame:
             raise InputError(path, c, "column missing", "columns " + ", ".join(TABLE_COLUMNS))
     df["format"] = df.get("format", pd.Series([None] * len(df))).where(lambda s: s.notna(), None)
     df["unit"] = df.get("unit", pd.Series(["rpm"] * len(df))).fillna("rpm")
-    df["time_offset_s"] = pd.to_numeric(df.get("time_offset_s", pd.Series([0.0] * len(df))), errors="coerce").fillna(0.0)
+    df["time_offset_s"] = pd.to_numeric(df.get("time_offset_s", pd.Series([0.0] * len(df))), errors="coerce").fillna(
+        0.0
+    )
     df["motor_log"] = [str((path.parent / p).resolve()) if not Path(p).is_absolute() else p for p in df.motor_log]
     if df.flight_id.duplicated().any():
-        raise InputError(path, "flight_id", f"{df.flight_id[df.flight_id.duplicated()].iloc[0]!r} appears twice", "one row per flight")
+        raise InputError(
+            path,
+            "flight_id",
+            f"{df.flight_id[df.flight_id.duplicated()].iloc[0]!r} appears twice",
+            "one row per flight",
+        )
     return df.set_index("flight_id")
 
 
@@ -116,8 +137,7 @@ def read_flights_table(path) -> pd.DataFrame:
 RADAR_SOURCE = "radar:"
 
 
-def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, estimator=None,
-                       log=print) -> pd.DataFrame:
+def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, estimator=None, log=print) -> pd.DataFrame:
     """Ingest the motor log of every drone flight into one Zarr group per flight.
 
     Returns the status table (flight_id, status, source, rows, duration_s, n_motors,
@@ -145,20 +165,32 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, esti
             ml: MotorLog | None = None
             if table is not None and fl.flight_id in table.index:
                 r = table.loc[fl.flight_id]
-                opts = {"unit": r["unit"]} if (r["format"] or Path(r.motor_log).suffix.lower()) in ("csv", ".csv") else {}
+                opts = (
+                    {"unit": r["unit"]} if (r["format"] or Path(r.motor_log).suffix.lower()) in ("csv", ".csv") else {}
+                )
                 ml = read_motor_log(r.motor_log, r["format"], **opts).shifted(float(r.time_offset_s))
                 source = r.motor_log
             elif fl.has_motor_log:
                 g = zarr.open_group(fl.path, mode="r")
-                ml = check_motor_log(fl.path, g["motors/time_s"][...], g["motors/rpm"][...], unit="rpm",
-                                     time_field="motors/time_s", speed_field="motors/rpm")
+                ml = check_motor_log(
+                    fl.path,
+                    g["motors/time_s"][...],
+                    g["motors/rpm"][...],
+                    unit="rpm",
+                    time_field="motors/time_s",
+                    speed_field="motors/rpm",
+                )
                 source = fl.path
             extra, state = {}, "ingested"
             if ml is None and estimator is not None:
                 from .flightzarr import read_flight
 
-                est = estimator(read_flight(fl.path), progress=lambda done, total, fid=fl.flight_id:
-                                            log(f"{fid}: rotor speeds from the radar: I/Q fit, {done} of {total} CPIs"))
+                est = estimator(
+                    read_flight(fl.path),
+                    progress=lambda done, total, fid=fl.flight_id: log(
+                        f"{fid}: rotor speeds from the radar: I/Q fit, {done} of {total} CPIs"
+                    ),
+                )
                 if est.ok:
                     ml, source, state, extra = est.to_motor_log(), "radar", "estimated", est.store_attrs()
                 else:
@@ -167,16 +199,34 @@ def ingest_flight_logs(measured_dir, out_zarr, out_csv, *, table_path=None, esti
                 why = "no motor log (neither in the store nor in the flights table)"
             if ml is None:
                 log(f"{fl.flight_id}: {why}: skipped")
-                status.append(dict(flight_id=fl.flight_id, status="skipped", source="", rows=0, duration_s=0.0,
-                                   n_motors=0, reason=why))
+                status.append(
+                    dict(
+                        flight_id=fl.flight_id,
+                        status="skipped",
+                        source="",
+                        rows=0,
+                        duration_s=0.0,
+                        n_motors=0,
+                        reason=why,
+                    )
+                )
                 continue
             g = root.require_group(fl.flight_id)
             g.attrs.update({"source": str(source), "drone_model": fl.drone_model, **extra})
             m = g.require_group("motors")
             m.create_array("time_s", data=ml.time_s.astype(np.float64))
             m.create_array("rpm", data=ml.rpm.astype(np.float32))
-            status.append(dict(flight_id=fl.flight_id, status=state, source=str(source), rows=len(ml.time_s),
-                               duration_s=ml.duration_s, n_motors=ml.n_motors, reason=""))
+            status.append(
+                dict(
+                    flight_id=fl.flight_id,
+                    status=state,
+                    source=str(source),
+                    rows=len(ml.time_s),
+                    duration_s=ml.duration_s,
+                    n_motors=ml.n_motors,
+                    reason="",
+                )
+            )
             log(f"{fl.flight_id}: {len(ml.time_s)} rows, {ml.duration_s:.1f} s, {ml.n_motors} motors from {source}")
         commit_dir(tmp, out_zarr)
     finally:

@@ -66,8 +66,15 @@ NOISE_MIN_SEGMENTS = 2
 #: a background bin next to 0 Hz belongs to the clutter notch while its mean power exceeds the median bin this much
 NOTCH_EXCESS = 4.0
 
-KEYS = ("image_rejection_db", "amplitude_imbalance_db", "phase_imbalance_deg", "image_rejection_from",
-        "image_rejection_floor_db", "image_rejection_note", "doppler_sign_db")
+KEYS = (
+    "image_rejection_db",
+    "amplitude_imbalance_db",
+    "phase_imbalance_deg",
+    "image_rejection_from",
+    "image_rejection_floor_db",
+    "image_rejection_note",
+    "doppler_sign_db",
+)
 
 
 def _segments(iq: np.ndarray, nfft: int, max_segments: int = 1024) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +90,7 @@ def _segments(iq: np.ndarray, nfft: int, max_segments: int = 1024) -> tuple[np.n
     starts = np.arange(0, len(iq) - nfft + 1, hop)
     idx = np.unique(np.linspace(0, len(starts) - 1, min(len(starts), max_segments)).round().astype(int))
     starts = starts[idx]
-    seg = np.stack([iq[a:a + nfft] for a in starts]).astype(np.complex128)
+    seg = np.stack([iq[a : a + nfft] for a in starts]).astype(np.complex128)
     seg -= seg.mean(axis=1, keepdims=True)  # the static clutter line, before its sidelobes reach every bin
     seg *= get_window("blackmanharris", nfft)
     return np.fft.fft(seg, axis=1), starts + nfft / 2
@@ -149,16 +156,21 @@ def _mirror_stat(Z: np.ndarray, keep: np.ndarray) -> dict | None:
     lag1 = float(np.real(np.sum(e[1:] * np.conj(e[:-1])))) / ee if ee > 0 and len(e) > 2 else 0.0
     se_rho = math.sqrt(ee * max(1.0, 1 + 2 * lag1)) / P
     kappa = min(abs(rho), 1.0)
-    r = 0.0 if kappa == 0 else (1 - math.sqrt(max(0.0, 1 - kappa ** 2))) / kappa
+    r = 0.0 if kappa == 0 else (1 - math.sqrt(max(0.0, 1 - kappa**2))) / kappa
     ei, eq, eiq = (1 + rho.real) / 2, (1 - rho.real) / 2, rho.imag / 2
     amp = phase = None
     if ei > 1e-12 and eq > 1e-12:
         amp = 10 * math.log10(ei / eq)
         phase = math.degrees(math.asin(max(-1.0, min(1.0, eiq / math.sqrt(ei * eq)))))
     # d r / d kappa = r / (kappa sqrt(1 - kappa^2)) -> 1/2 for small kappa
-    dr = 0.5 if kappa < 1e-6 else r / (kappa * math.sqrt(max(1e-12, 1 - kappa ** 2)))
-    return {"r": r, "se_r": se_rho * dr, "amplitude_imbalance_db": amp, "phase_imbalance_deg": phase,
-            "n_segments": int(len(Z))}
+    dr = 0.5 if kappa < 1e-6 else r / (kappa * math.sqrt(max(1e-12, 1 - kappa**2)))
+    return {
+        "r": r,
+        "se_r": se_rho * dr,
+        "amplitude_imbalance_db": amp,
+        "phase_imbalance_deg": phase,
+        "n_segments": int(len(Z)),
+    }
 
 
 def mirror_balance(iq: np.ndarray, nfft: int = 1024, guard_bins: int = 4) -> dict | None:
@@ -199,8 +211,7 @@ def mirror_balance(iq: np.ndarray, nfft: int = 1024, guard_bins: int = 4) -> dic
     return m
 
 
-def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int = 1024,
-                 guard_bins: int = 4) -> dict:
+def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int = 1024, guard_bins: int = 4) -> dict:
     """The receiver's balance from the segments whose body line lies well away from 0 Hz.
 
     Parameters
@@ -261,13 +272,21 @@ def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int 
         how = "the strongest line"
         need = max(BODY_MIN_SEGMENTS, int(math.ceil(0.5 * len(Z))))
         if ok.sum() < need:
-            return {"reason": (f"no body line away from 0 Hz: in {int(ok.sum())} of {len(Z)} segments the strongest "
-                               f"line beyond {kmin * df:.0f} Hz stands {BODY_LINE_DB:g} dB above the floor with a "
-                               f"mirror image >= {BODY_ACCEPT_DB:g} dB weaker ({need} needed; a hovering or staring "
-                               f"target's spectrum is mirror-symmetric about 0 Hz)")}
+            return {
+                "reason": (
+                    f"no body line away from 0 Hz: in {int(ok.sum())} of {len(Z)} segments the strongest "
+                    f"line beyond {kmin * df:.0f} Hz stands {BODY_LINE_DB:g} dB above the floor with a "
+                    f"mirror image >= {BODY_ACCEPT_DB:g} dB weaker ({need} needed; a hovering or staring "
+                    f"target's spectrum is mirror-symmetric about 0 Hz)"
+                )
+            }
     if ok.sum() < need:
-        return {"reason": (f"the body ({how}) lies within {kmin * df:.0f} Hz of 0 Hz in {int((~ok).sum())} of "
-                           f"{len(Z)} segments ({int(ok.sum())} usable, {need} needed)")}
+        return {
+            "reason": (
+                f"the body ({how}) lies within {kmin * df:.0f} Hz of 0 Hz in {int((~ok).sum())} of "
+                f"{len(Z)} segments ({int(ok.sum())} usable, {need} needed)"
+            )
+        }
     m = _mirror_stat(Z[ok], (np.abs(k) >= notch) & (np.abs(k) < nfft // 2))
     if m is None:
         return {"reason": "no bin pair outside the clutter notch"}
@@ -303,9 +322,17 @@ def _round(v, digits=3):
     return None if v is None or not math.isfinite(v) else round(float(v), digits)
 
 
-def iq_sanity(iq: np.ndarray, prf_hz: float, wavelength_m: float | None = None, track: dict | None = None, *,
-              background: np.ndarray | None = None, noise_s: tuple[float, float] | None = None,
-              nfft: int = 1024, guard_bins: int = 4) -> dict:
+def iq_sanity(
+    iq: np.ndarray,
+    prf_hz: float,
+    wavelength_m: float | None = None,
+    track: dict | None = None,
+    *,
+    background: np.ndarray | None = None,
+    noise_s: tuple[float, float] | None = None,
+    nfft: int = 1024,
+    guard_bins: int = 4,
+) -> dict:
     """The receiver's I/Q balance and the Doppler sign of a recording.
 
     Parameters
@@ -345,14 +372,22 @@ def iq_sanity(iq: np.ndarray, prf_hz: float, wavelength_m: float | None = None, 
     tried = []
 
     def take(m, source):
-        out.update(image_rejection_db=_from_ratio(m["r"]), amplitude_imbalance_db=m["amplitude_imbalance_db"],
-                   phase_imbalance_deg=m["phase_imbalance_deg"], image_rejection_from=source,
-                   image_rejection_floor_db=_from_ratio(2 * m["se_r"]),
-                   image_rejection_note="; ".join(tried) or None)
+        out.update(
+            image_rejection_db=_from_ratio(m["r"]),
+            amplitude_imbalance_db=m["amplitude_imbalance_db"],
+            phase_imbalance_deg=m["phase_imbalance_deg"],
+            image_rejection_from=source,
+            image_rejection_floor_db=_from_ratio(2 * m["se_r"]),
+            image_rejection_note="; ".join(tried) or None,
+        )
 
-    for source, x in (("background", background),
-                      ("noise segment", None if noise_s is None else
-                       iq[max(0, int(round(noise_s[0] * prf_hz))):int(round(noise_s[1] * prf_hz))])):
+    for source, x in (
+        ("background", background),
+        (
+            "noise segment",
+            None if noise_s is None else iq[max(0, int(round(noise_s[0] * prf_hz))) : int(round(noise_s[1] * prf_hz))],
+        ),
+    ):
         if x is None:
             continue
         if real_valued(x):
@@ -391,19 +426,28 @@ def sanity_warnings(s: dict) -> list[str]:
     if irr is not None and irr < IMAGE_REJECTION_WARN_DB:
         amp, ph = s.get("amplitude_imbalance_db"), s.get("phase_imbalance_deg")
         src = s.get("image_rejection_from")
-        detail = (f"amplitude imbalance {amp:.1f} dB, phase imbalance {ph:.1f} deg" if amp is not None and ph is not None
-                  else (s.get("image_rejection_note") or "one of I, Q is zero"))
-        where = {"samples": "", "background": ", measured on the background recording",
-                 "noise segment": ", measured on the noise segment",
-                 "body line": ", measured on the body line's mirror image"}.get(src, "")
+        detail = (
+            f"amplitude imbalance {amp:.1f} dB, phase imbalance {ph:.1f} deg"
+            if amp is not None and ph is not None
+            else (s.get("image_rejection_note") or "one of I, Q is zero")
+        )
+        where = {
+            "samples": "",
+            "background": ", measured on the background recording",
+            "noise segment": ", measured on the noise segment",
+            "body line": ", measured on the body line's mirror image",
+        }.get(src, "")
         head = f"I/Q image rejection is {irr:.1f} dB ({detail}{where}; expected > {IMAGE_REJECTION_WARN_DB:g} dB): "
         if irr < REAL_VALUED_DB:
             w.append(head + "the spectrum is nearly mirror-symmetric, as for a real-valued signal (Q = 0 or I = Q)")
         else:
-            w.append(head + f"the receiver's I and Q are unbalanced; every line has a mirror image at -f, "
-                            f"{irr:.0f} dB down")
+            w.append(
+                head + f"the receiver's I and Q are unbalanced; every line has a mirror image at -f, {irr:.0f} dB down"
+            )
     d = s.get("doppler_sign_db")
     if d is not None and d < DOPPLER_SIGN_WARN_DB:
-        w.append(f"the target's Doppler is {-d:.1f} dB stronger at the mirror of the track's -2 v / lambda: "
-                 "I and Q look swapped (or Q negated); expected an approaching target at positive Doppler")
+        w.append(
+            f"the target's Doppler is {-d:.1f} dB stronger at the mirror of the track's -2 v / lambda: "
+            "I and Q look swapped (or Q negated); expected an approaching target at positive Doppler"
+        )
     return w

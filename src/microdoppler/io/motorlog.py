@@ -75,8 +75,16 @@ class MotorLog:
         return MotorLog(self.time_s + offset_s, self.rpm, self.source)
 
 
-def check_motor_log(source, time_s, rpm, *, unit: str = "rpm", time_field="time", speed_field="rpm",
-                    motor_names: list[str] | None = None) -> MotorLog:
+def check_motor_log(
+    source,
+    time_s,
+    rpm,
+    *,
+    unit: str = "rpm",
+    time_field="time",
+    speed_field="rpm",
+    motor_names: list[str] | None = None,
+) -> MotorLog:
     """Validate arrays of a motor log and return a :class:`MotorLog` in rpm.
 
     ``motor_names`` (optional, one per column) name the motor in errors about a
@@ -104,7 +112,12 @@ def check_motor_log(source, time_s, rpm, *, unit: str = "rpm", time_field="time"
         raise InputError(source, time_field, f"row {i} repeats time {time_s[i]:g}", "strictly increasing times")
     if np.any(d < 0):
         i = int(np.flatnonzero(d < 0)[0]) + 1
-        raise InputError(source, time_field, f"row {i} goes back in time ({time_s[i - 1]:g} -> {time_s[i]:g})", "strictly increasing times")
+        raise InputError(
+            source,
+            time_field,
+            f"row {i} goes back in time ({time_s[i - 1]:g} -> {time_s[i]:g})",
+            "strictly increasing times",
+        )
     if unit not in UNIT_TO_RPM:
         raise InputError(source, "unit", f"is {unit!r}", " or ".join(UNIT_TO_RPM))
     rev_s = speeds * UNIT_TO_RPM[unit] / 60.0
@@ -117,7 +130,8 @@ def check_motor_log(source, time_s, rpm, *, unit: str = "rpm", time_field="time"
     lo, hi = PLAUSIBLE_MEDIAN_REV_S
     if not (lo <= med <= hi) or rev_s.max() > MAX_REV_S:
         raise InputError(
-            source, speed_field,
+            source,
+            speed_field,
             f"median {np.median(speeds[speeds > 0]):.4g} {unit} = {med:.3g} rev/s is implausible for a drone rotor",
             f"a median of {lo:g}-{hi:g} rev/s; check the declared unit ({unit})",
         )
@@ -136,7 +150,7 @@ def _ulog_cut_at(path: Path) -> int | None:
     if n < 16:
         return 0
     while pos + 3 <= n:
-        size = int.from_bytes(data[pos:pos + 2], "little")
+        size = int.from_bytes(data[pos : pos + 2], "little")
         if pos + 3 + size > n:
             return pos
         pos += 3 + size
@@ -168,16 +182,24 @@ def read_ulog(path, *, topic: str = "esc_status") -> MotorLog:
         raise InputError(path, "header", "has no ULog magic bytes", "a PX4 ULog file ('ULog' header)")
     cut = _ulog_cut_at(path)
     if cut is not None:
-        raise InputError(path, "file", f"is truncated: the message at byte {cut} runs past the end of the file",
-                         "a complete PX4 ULog file")
+        raise InputError(
+            path,
+            "file",
+            f"is truncated: the message at byte {cut} runs past the end of the file",
+            "a complete PX4 ULog file",
+        )
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             ulog = ULog(str(path), [topic])
     except Exception as exc:
-        raise InputError(path, "file", f"cannot be parsed ({type(exc).__name__}: {exc})", "a complete PX4 ULog file") from None
+        raise InputError(
+            path, "file", f"cannot be parsed ({type(exc).__name__}: {exc})", "a complete PX4 ULog file"
+        ) from None
     if getattr(ulog, "file_corruption", False):
-        raise InputError(path, "file", "is truncated or corrupt (pyulog reports file corruption)", "a complete PX4 ULog file")
+        raise InputError(
+            path, "file", "is truncated or corrupt (pyulog reports file corruption)", "a complete PX4 ULog file"
+        )
     try:
         ds = ulog.get_dataset(topic)
     except (IndexError, KeyError, ValueError):
@@ -201,14 +223,27 @@ def read_ulog(path, *, topic: str = "esc_status") -> MotorLog:
     t_us = np.asarray(data["timestamp"], dtype=np.float64)
     if t_us.size == 0:
         raise InputError(path, f"{topic}.timestamp", "has no rows", "at least 2 rows")
-    log = check_motor_log(path, (t_us - t_us[0]) * 1e-6, rpm, unit="rpm",
-                          time_field=f"{topic}.timestamp", speed_field=f"{topic}.esc_rpm",
-                          motor_names=[f"{topic}.{c}" for c in cols])
+    log = check_motor_log(
+        path,
+        (t_us - t_us[0]) * 1e-6,
+        rpm,
+        unit="rpm",
+        time_field=f"{topic}.timestamp",
+        speed_field=f"{topic}.esc_rpm",
+        motor_names=[f"{topic}.{c}" for c in cols],
+    )
     return log
 
 
-def read_csv(path, *, unit: str = "rpm", time_column: str = "time_s", time_unit: str = "s",
-             motor_columns: list[str] | None = None, n_motors: int | None = None) -> MotorLog:
+def read_csv(
+    path,
+    *,
+    unit: str = "rpm",
+    time_column: str = "time_s",
+    time_unit: str = "s",
+    motor_columns: list[str] | None = None,
+    n_motors: int | None = None,
+) -> MotorLog:
     """Read a CSV motor log: one time column and one column per motor.
 
     Parameters
@@ -239,7 +274,12 @@ def read_csv(path, *, unit: str = "rpm", time_column: str = "time_s", time_unit:
         if c not in df.columns:
             raise InputError(path, c, "motor column missing", f"columns {motor_columns}")
     if n_motors is not None and len(motor_columns) != n_motors:
-        raise InputError(path, "motor columns", f"found {len(motor_columns)} ({', '.join(motor_columns)})", f"{n_motors} motor columns")
+        raise InputError(
+            path,
+            "motor columns",
+            f"found {len(motor_columns)} ({', '.join(motor_columns)})",
+            f"{n_motors} motor columns",
+        )
     if not motor_columns:
         raise InputError(path, "motor columns", "none found", "one column per motor")
     try:
@@ -252,9 +292,15 @@ def read_csv(path, *, unit: str = "rpm", time_column: str = "time_s", time_unit:
             cols.append(pd.to_numeric(df[c], errors="raise").to_numpy(np.float64))
         except (ValueError, TypeError):
             raise InputError(path, c, "has non-numeric values", f"numbers [{unit}]") from None
-    return check_motor_log(path, t, np.column_stack(cols), unit=unit, time_field=time_column,
-                           speed_field=",".join(motor_columns) if len(motor_columns) < 2 else "motor columns",
-                           motor_names=list(motor_columns))
+    return check_motor_log(
+        path,
+        t,
+        np.column_stack(cols),
+        unit=unit,
+        time_field=time_column,
+        speed_field=",".join(motor_columns) if len(motor_columns) < 2 else "motor columns",
+        motor_names=list(motor_columns),
+    )
 
 
 def read_motor_log(path, fmt: str | None = None, **csv_options) -> MotorLog:
@@ -296,7 +342,9 @@ def read_motor_log(path, fmt: str | None = None, **csv_options) -> MotorLog:
     if fmt is None:
         fmt = {".ulg": "ulog", ".csv": "csv"}.get(path.suffix.lower())
         if fmt is None:
-            raise InputError(path, "format", f"unknown suffix {path.suffix!r}", "'.ulg' (PX4 ULog) or '.csv', or an explicit format")
+            raise InputError(
+                path, "format", f"unknown suffix {path.suffix!r}", "'.ulg' (PX4 ULog) or '.csv', or an explicit format"
+            )
     if fmt == "ulog":
         return read_ulog(path)
     if fmt == "csv":

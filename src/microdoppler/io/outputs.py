@@ -129,8 +129,12 @@ def commit_dir(tmp, final) -> None:
         os.replace(tmp, final)
         return
     if not is_tool_store(final):
-        raise InputError(final, "output", "exists and is not a store written by microdoppler",
-                         "a new path (existing files are never replaced)")
+        raise InputError(
+            final,
+            "output",
+            "exists and is not a store written by microdoppler",
+            "a new path (existing files are never replaced)",
+        )
     old = final.parent / f".{final.name}.old-{uuid.uuid4().hex[:8]}"
     os.replace(final, old)
     os.replace(tmp, final)
@@ -150,8 +154,12 @@ def commit_folder(tmp, final, is_own) -> None:
         return
     foreign = _foreign_entry(final, is_own)
     if foreign is not None:
-        raise InputError(final, "output", f"exists and holds {foreign}, which this tool did not write",
-                         "a new or empty folder (existing files are never replaced)")
+        raise InputError(
+            final,
+            "output",
+            f"exists and holds {foreign}, which this tool did not write",
+            "a new or empty folder (existing files are never replaced)",
+        )
     old = final.parent / f".{final.name}.old-{uuid.uuid4().hex[:8]}"
     os.replace(final, old)
     os.replace(tmp, final)
@@ -237,33 +245,51 @@ def check_output(path, *, kind: str, overwrite: bool = False, option: str = "--o
         if not path.is_dir():
             raise InputError(option, str(path), "exists and is a file", "a new or empty directory")
         if not overwrite:
-            raise InputError(option, str(path), "exists and is not empty",
-                             "a new or empty directory (or --overwrite to replace this tool's own outputs)")
+            raise InputError(
+                option,
+                str(path),
+                "exists and is not empty",
+                "a new or empty directory (or --overwrite to replace this tool's own outputs)",
+            )
         foreign = _foreign_entry(path, is_own or (lambda e: False))
         if foreign is not None:
-            raise InputError(option, str(path), f"holds {foreign}, which this tool did not write",
-                             "a new or empty directory (--overwrite replaces only this tool's own outputs)")
+            raise InputError(
+                option,
+                str(path),
+                f"holds {foreign}, which this tool did not write",
+                "a new or empty directory (--overwrite replaces only this tool's own outputs)",
+            )
         return path
     if kind == "store":
         if not path.is_dir():
             raise InputError(option, str(path), "exists and is a file", "a new path for a Zarr store")
         if not overwrite:
-            raise InputError(option, str(path), "already exists",
-                             "a new path (or --overwrite to replace a store this tool wrote)")
+            raise InputError(
+                option, str(path), "already exists", "a new path (or --overwrite to replace a store this tool wrote)"
+            )
         if not is_tool_store(path):
             bad = foreign_files(path)
-            what = f"holds files that are not part of a Zarr store ({bad[0].name})" if bad \
+            what = (
+                f"holds files that are not part of a Zarr store ({bad[0].name})"
+                if bad
                 else "is not a store written by microdoppler"
-            raise InputError(option, str(path), f"exists and {what}",
-                             "a new path (--overwrite replaces only stores this tool wrote)")
+            )
+            raise InputError(
+                option, str(path), f"exists and {what}", "a new path (--overwrite replaces only stores this tool wrote)"
+            )
         return path
     # report
     if path.is_dir():
         raise InputError(option, str(path), "exists and is a directory", "a new path for a JSON report")
     if not overwrite:
-        raise InputError(option, str(path), "already exists",
-                         "a new path (or --overwrite to replace a report this tool wrote)")
+        raise InputError(
+            option, str(path), "already exists", "a new path (or --overwrite to replace a report this tool wrote)"
+        )
     if not _is_report(path):
-        raise InputError(option, str(path), "exists and is not a report written by microdoppler",
-                         "a new path (--overwrite replaces only this tool's reports)")
+        raise InputError(
+            option,
+            str(path),
+            "exists and is not a report written by microdoppler",
+            "a new path (--overwrite replaces only this tool's reports)",
+        )
     return path

@@ -19,7 +19,6 @@ set-up that no such radar has (the legitimate recordings of every supported kind
 
 from __future__ import annotations
 
-import math
 
 from ..errors import InputError
 
@@ -43,8 +42,9 @@ def _unit(hz: float) -> str:
     return f"{hz:.4g} Hz"
 
 
-def setup_problems(*, prf_hz: float, carrier_hz: float, n_pulses: int, target: str | None = None,
-                   blade_length_m: float | None = None) -> list[tuple[str, str, str]]:
+def setup_problems(
+    *, prf_hz: float, carrier_hz: float, n_pulses: int, target: str | None = None, blade_length_m: float | None = None
+) -> list[tuple[str, str, str]]:
     """The declared set-up's contradictions: ``(field, what the recording shows,
     expected)`` each; empty where the set-up is plausible.
 
@@ -70,30 +70,40 @@ def setup_problems(*, prf_hz: float, carrier_hz: float, n_pulses: int, target: s
             if lo <= carrier_hz * f <= hi:
                 guess = f": looks like {u} typed as Hz ({carrier_hz:g} {u} = {carrier_hz * f:.4g} Hz)"
                 break
-        out.append(("carrier_hz", f"is {carrier_hz:g} Hz{guess}",
-                    f"a radar carrier in {_unit(lo)}-{_unit(hi)}, in Hz"))
+        out.append(("carrier_hz", f"is {carrier_hz:g} Hz{guess}", f"a radar carrier in {_unit(lo)}-{_unit(hi)}, in Hz"))
     lo, hi = PRF_RANGE_HZ
     prf_ok = lo <= prf_hz <= hi
     if not prf_ok:
-        guess = f": looks like kHz typed as Hz ({prf_hz:g} kHz = {prf_hz * 1e3:g} Hz)" if lo <= prf_hz * 1e3 <= hi \
-            else ""
+        guess = (
+            f": looks like kHz typed as Hz ({prf_hz:g} kHz = {prf_hz * 1e3:g} Hz)" if lo <= prf_hz * 1e3 <= hi else ""
+        )
         out.append(("prf_hz", f"is {prf_hz:g} Hz{guess}", f"a PRF or slow-time sample rate in {_unit(lo)}-{_unit(hi)}"))
     if prf_ok and carrier_ok:
         n_fft = SpectrogramSettings().resolve(prf_hz, carrier_hz).n_fft
         if n_pulses < n_fft:
-            out.append(("duration", f"the recording holds {n_pulses} pulses = {n_pulses / prf_hz:.3g} s at prf_hz "
-                        f"{prf_hz:g}, shorter than one CPI",
-                        f"at least one CPI of the pipeline, {n_fft} pulses = {n_fft / prf_hz:.3g} s"))
+            out.append(
+                (
+                    "duration",
+                    f"the recording holds {n_pulses} pulses = {n_pulses / prf_hz:.3g} s at prf_hz "
+                    f"{prf_hz:g}, shorter than one CPI",
+                    f"at least one CPI of the pipeline, {n_fft} pulses = {n_fft / prf_hz:.3g} s",
+                )
+            )
         if target == "drone":
             lam = SPEED_OF_LIGHT_MPS / carrier_hz
             tip_hz = 2 * TIP_SPEED_RANGE_MPS[0] / lam
             folds = tip_hz / (prf_hz / 2)
             if folds > MAX_TIP_FOLDS:
                 length = f" of the {blade_length_m:g} m blades" if blade_length_m else ""
-                out.append(("prf_hz", f"is {prf_hz:g} Hz with carrier_hz {carrier_hz:g}: even the slowest plausible "
-                            f"tips{length} ({TIP_SPEED_RANGE_MPS[0]:g} m/s) reach {tip_hz:.0f} Hz, {folds:.0f} times "
-                            "±PRF/2 (check prf_hz and carrier_hz)",
-                            f"blade tips' Doppler within {MAX_TIP_FOLDS:g} x PRF/2"))
+                out.append(
+                    (
+                        "prf_hz",
+                        f"is {prf_hz:g} Hz with carrier_hz {carrier_hz:g}: even the slowest plausible "
+                        f"tips{length} ({TIP_SPEED_RANGE_MPS[0]:g} m/s) reach {tip_hz:.0f} Hz, {folds:.0f} times "
+                        "±PRF/2 (check prf_hz and carrier_hz)",
+                        f"blade tips' Doppler within {MAX_TIP_FOLDS:g} x PRF/2",
+                    )
+                )
     return out
 
 
@@ -109,8 +119,13 @@ def check_setup(source, attrs: dict, n_pulses: int, *, force: bool = False) -> l
         One line naming ``source``, the fields and what the recording shows, when the
         set-up is implausible and not ``force``.
     """
-    probs = setup_problems(prf_hz=float(attrs["prf_hz"]), carrier_hz=float(attrs["carrier_hz"]), n_pulses=n_pulses,
-                           target=attrs.get("target"), blade_length_m=attrs.get("blade_length_m"))
+    probs = setup_problems(
+        prf_hz=float(attrs["prf_hz"]),
+        carrier_hz=float(attrs["carrier_hz"]),
+        n_pulses=n_pulses,
+        target=attrs.get("target"),
+        blade_length_m=attrs.get("blade_length_m"),
+    )
     return settle(source, probs, force=force)
 
 
@@ -130,8 +145,9 @@ def settle(source, probs: list[tuple[str, str, str]], *, force: bool = False) ->
         fields = ", ".join(dict.fromkeys(f.strip() for fs, _, _ in probs for f in fs.split(",")))
         first = probs[0]
         more = "".join(f"; {f}: {p}" for f, p, _ in probs[1:])
-        raise InputError(source, fields, f"{first[1]}{more}",
-                         f"{first[2]}; --force imports it anyway, with the warning stored")
+        raise InputError(
+            source, fields, f"{first[1]}{more}", f"{first[2]}; --force imports it anyway, with the warning stored"
+        )
     return [f"{f}: {p} (expected {e})" for f, p, e in probs]
 
 

@@ -60,9 +60,18 @@ SPEED_OF_LIGHT_MPS = 299_792_458.0
 
 #: parameters a file, a sidecar, a batch row or an option may give, and their types
 PARAM_TYPES = {
-    "prf_hz": float, "carrier_hz": float, "radar_id": str, "target": str, "drone_model": str,
-    "n_motors": int, "n_blades": int, "blade_length_m": float, "range_m": float, "flight_id": str,
-    "n_samples": int, **FMCW_PARAM_TYPES,
+    "prf_hz": float,
+    "carrier_hz": float,
+    "radar_id": str,
+    "target": str,
+    "drone_model": str,
+    "n_motors": int,
+    "n_blades": int,
+    "blade_length_m": float,
+    "range_m": float,
+    "flight_id": str,
+    "n_samples": int,
+    **FMCW_PARAM_TYPES,
 }
 #: further keys of a sidecar / batch row (paths and reading options; ``noise_segment_s``:
 #: ``START:END`` [s] of the recording that holds no target, for the I/Q balance)
@@ -81,8 +90,10 @@ ALIASES = {
 TRACK_VARS = ("track_time_s", "track_range_m", "track_radial_velocity_mps")
 SIGMF_DATATYPE_RE = re.compile(r"^(c|r)(f32|f64|i32|i16|u32|u16|i8|u8)(_le|_be)?$")
 SIGMF_NS = "microdoppler:"
-SHAPE_EXPECTED = ("a complex vector [n] or two real columns I, Q [n, 2]; an FMCW cube [chirps, samples(, channels)] "
-                  "needs --chirp-rate-hz, --bandwidth-hz and --sample-rate-hz")
+SHAPE_EXPECTED = (
+    "a complex vector [n] or two real columns I, Q [n, 2]; an FMCW cube [chirps, samples(, channels)] "
+    "needs --chirp-rate-hz, --bandwidth-hz and --sample-rate-hz"
+)
 
 
 @dataclass
@@ -119,6 +130,7 @@ class Recording:
 
 
 # ---- values ------------------------------------------------------------------------
+
 
 def convert(key: str, value, source, where: str):
     """Type-check one parameter value; ``source``/``where`` name it in errors."""
@@ -182,6 +194,7 @@ def _index(value, source, where: str) -> int:
 
 # ---- I/Q arrays ----------------------------------------------------------------------
 
+
 def _check_finite(iq: np.ndarray, source, where: str) -> None:
     bad = ~np.isfinite(iq)
     if bad.any():
@@ -213,9 +226,13 @@ def iq_from_array(a: np.ndarray, source, where: str, layout: str | None = None) 
         if a.ndim == 2 and 1 in a.shape:
             a = a.reshape(-1)
         if a.ndim != 1:
-            raise InputError(source, where, f"is complex with shape {a.shape}",
-                             "a complex vector [n] (one channel); an FMCW cube [chirps, samples(, channels)] needs "
-                             "--chirp-rate-hz, --bandwidth-hz and --sample-rate-hz")
+            raise InputError(
+                source,
+                where,
+                f"is complex with shape {a.shape}",
+                "a complex vector [n] (one channel); an FMCW cube [chirps, samples(, channels)] needs "
+                "--chirp-rate-hz, --bandwidth-hz and --sample-rate-hz",
+            )
         iq = a
     else:
         found = "iq-columns"
@@ -228,18 +245,25 @@ def iq_from_array(a: np.ndarray, source, where: str, layout: str | None = None) 
         iq = i.astype(np.float64) + 1j * q.astype(np.float64)
     if layout is not None and layout != found:
         hint = "real I, Q columns" if found == "iq-columns" else "a complex array"
-        raise InputError(source, where, f"holds {hint} of shape {a.shape}, not --layout {layout}",
-                         f"--layout {found} (or no --layout) for this array")
+        raise InputError(
+            source,
+            where,
+            f"holds {hint} of shape {a.shape}, not --layout {layout}",
+            f"--layout {found} (or no --layout) for this array",
+        )
     _check_finite(iq, source, where)
     return np.ascontiguousarray(iq, dtype=np.complex64), found
 
 
-def iq_from_pair(i: np.ndarray, q: np.ndarray, source, names: tuple[str, str],
-                 layout: str | None = None) -> np.ndarray:
+def iq_from_pair(i: np.ndarray, q: np.ndarray, source, names: tuple[str, str], layout: str | None = None) -> np.ndarray:
     """Two real vectors I, Q -> complex64."""
     if layout == "complex":
-        raise InputError(source, f"{names[0]},{names[1]}", "are separate I and Q arrays, not --layout complex",
-                         "--layout iq-columns (or no --layout) for I and Q arrays")
+        raise InputError(
+            source,
+            f"{names[0]},{names[1]}",
+            "are separate I and Q arrays, not --layout complex",
+            "--layout iq-columns (or no --layout) for I and Q arrays",
+        )
     i = _real_vector(i, source, names[0])
     q = _real_vector(q, source, names[1])
     if len(i) != len(q):
@@ -252,6 +276,7 @@ def iq_from_pair(i: np.ndarray, q: np.ndarray, source, names: tuple[str, str],
 
 
 # ---- SigMF -------------------------------------------------------------------------------
+
 
 def _sigmf_paths(path: Path) -> tuple[Path, Path | None]:
     name = path.name
@@ -286,8 +311,12 @@ def read_sigmf(path, *, layout: str | None = None) -> Recording:
         raise InputError(meta_path, "annotations", "is not a list of objects", "SigMF annotations")
     dt = glob.get("core:datatype")
     if not isinstance(dt, str) or not SIGMF_DATATYPE_RE.match(dt):
-        raise InputError(meta_path, "global.core:datatype", "missing" if dt is None else f"is {dt!r}",
-                         "a SigMF datatype (c|r)(f32|f64|i32|i16|u32|u16|i8|u8)[_le|_be], e.g. cf32_le, ci16_le")
+        raise InputError(
+            meta_path,
+            "global.core:datatype",
+            "missing" if dt is None else f"is {dt!r}",
+            "a SigMF datatype (c|r)(f32|f64|i32|i16|u32|u16|i8|u8)[_le|_be], e.g. cf32_le, ci16_le",
+        )
     dinfo = dtype_info(dt)
     n_ch = glob.get("core:num_channels", 1)
     if not isinstance(n_ch, int) or isinstance(n_ch, bool) or n_ch < 1:
@@ -295,60 +324,101 @@ def read_sigmf(path, *, layout: str | None = None) -> Recording:
     if dinfo["is_complex"]:
         found = "complex"
         if n_ch != 1:
-            raise InputError(meta_path, "global.core:num_channels", f"is {n_ch} with complex datatype {dt}",
-                             "1 (one complex channel: the target's slow-time sequence)")
+            raise InputError(
+                meta_path,
+                "global.core:num_channels",
+                f"is {n_ch} with complex datatype {dt}",
+                "1 (one complex channel: the target's slow-time sequence)",
+            )
     else:
         found = "iq-columns"
         if n_ch != 2:
-            raise InputError(meta_path, "global.core:datatype", f"is real ({dt}) with {n_ch} channel(s)",
-                             "a complex datatype (c...), or a real one with core:num_channels 2 (I, Q)")
+            raise InputError(
+                meta_path,
+                "global.core:datatype",
+                f"is real ({dt}) with {n_ch} channel(s)",
+                "a complex datatype (c...), or a real one with core:num_channels 2 (I, Q)",
+            )
     if layout is not None and layout != found:
-        raise InputError(meta_path, "global.core:datatype", f"is {dt} with {n_ch} channel(s), i.e. {found}",
-                         f"--layout {found} (or no --layout: SigMF states its layout)")
+        raise InputError(
+            meta_path,
+            "global.core:datatype",
+            f"is {dt} with {n_ch} channel(s), i.e. {found}",
+            f"--layout {found} (or no --layout: SigMF states its layout)",
+        )
 
     with warnings.catch_warnings():  # its warnings (truncation, ...) are checked below as errors
         warnings.simplefilter("ignore")
         try:
             sf = fromfile(str(meta_path), skip_checksum=True, autoscale=False)
         except (SigMFError, ValueError, KeyError, TypeError) as exc:
-            raise InputError(meta_path, "metadata", f"cannot be read by sigmf ({_brief(exc)})",
-                             "SigMF metadata") from None
+            raise InputError(
+                meta_path, "metadata", f"cannot be read by sigmf ({_brief(exc)})", "SigMF metadata"
+            ) from None
     data_path = getattr(sf, "data_file", None)
     if data_path is None or not Path(data_path).is_file():
-        raise InputError(meta_path, "dataset", "has no data file",
-                         f"{meta_path.name[:-len('.sigmf-meta')]}.sigmf-data beside the metadata")
+        raise InputError(
+            meta_path,
+            "dataset",
+            "has no data file",
+            f"{meta_path.name[: -len('.sigmf-meta')]}.sigmf-data beside the metadata",
+        )
     data_path = Path(data_path)
     sample_size = int(dinfo["sample_size"]) * n_ch
-    header = sum(_index(c.get("core:header_bytes", 0), meta_path, f"captures[{k}].core:header_bytes")
-                 for k, c in enumerate(captures))
+    header = sum(
+        _index(c.get("core:header_bytes", 0), meta_path, f"captures[{k}].core:header_bytes")
+        for k, c in enumerate(captures)
+    )
     trailing = _index(glob.get("core:trailing_bytes", 0), meta_path, "global.core:trailing_bytes")
     nbytes = data_path.stat().st_size - header - trailing
     if nbytes < 0:
-        raise InputError(data_path, "size", f"is {nbytes + header + trailing} bytes, less than the "
-                         f"{header + trailing} header/trailing bytes of the metadata", "a complete data file")
+        raise InputError(
+            data_path,
+            "size",
+            f"is {nbytes + header + trailing} bytes, less than the "
+            f"{header + trailing} header/trailing bytes of the metadata",
+            "a complete data file",
+        )
     n, rem = divmod(nbytes, sample_size)
     if rem:
-        raise InputError(data_path, "size", f"is {nbytes} bytes of samples, not a whole number of {dt} samples "
-                         f"({sample_size} bytes each; {rem} left over: truncated?)",
-                         f"a multiple of {sample_size} bytes")
+        raise InputError(
+            data_path,
+            "size",
+            f"is {nbytes} bytes of samples, not a whole number of {dt} samples "
+            f"({sample_size} bytes each; {rem} left over: truncated?)",
+            f"a multiple of {sample_size} bytes",
+        )
     if n == 0:
         raise InputError(data_path, "size", "holds no samples", "at least one sample")
     for k, a in enumerate(annotations):
-        end = (_index(a.get("core:sample_start", 0), meta_path, f"annotations[{k}].core:sample_start")
-               + _index(a.get("core:sample_count", 0), meta_path, f"annotations[{k}].core:sample_count"))
+        end = _index(a.get("core:sample_start", 0), meta_path, f"annotations[{k}].core:sample_start") + _index(
+            a.get("core:sample_count", 0), meta_path, f"annotations[{k}].core:sample_count"
+        )
         if end > n:
-            raise InputError(data_path, f"annotations[{k}]", f"reaches sample {end}, but the file holds {n} samples "
-                             "(truncated?)", f"at least {end} samples")
+            raise InputError(
+                data_path,
+                f"annotations[{k}]",
+                f"reaches sample {end}, but the file holds {n} samples (truncated?)",
+                f"at least {end} samples",
+            )
     for k, c in enumerate(captures):
         start = _index(c.get("core:sample_start", 0), meta_path, f"captures[{k}].core:sample_start")
         if start >= n:
-            raise InputError(data_path, f"captures[{k}].core:sample_start", f"is {start}, but the file holds {n} "
-                             "samples (truncated?)", f"more than {start} samples")
+            raise InputError(
+                data_path,
+                f"captures[{k}].core:sample_start",
+                f"is {start}, but the file holds {n} samples (truncated?)",
+                f"more than {start} samples",
+            )
     digest = glob.get("core:sha512")
     if digest:
         if hashing.calculate_sha512(filename=data_path) != digest:
-            raise InputError(data_path, "global.core:sha512", "does not match the data file's checksum",
-                             "the data the metadata was written for (corrupted or replaced?)")
+            raise InputError(
+                data_path,
+                "global.core:sha512",
+                "does not match the data file's checksum",
+                "the data the metadata was written for (corrupted or replaced?)",
+            )
 
     raw = sf.read_samples()
     if found == "complex":
@@ -376,11 +446,18 @@ def read_sigmf(path, *, layout: str | None = None) -> Recording:
     for key in PARAM_TYPES:  # the microdoppler: namespace first
         put(key, glob.get(SIGMF_NS + key), f"global.{SIGMF_NS}{key}")
     put("prf_hz", glob.get("core:sample_rate"), "global.core:sample_rate")
-    freqs = [convert("carrier_hz", c["core:frequency"], meta_path, f"captures[{k}].core:frequency")
-             for k, c in enumerate(captures) if c.get("core:frequency") is not None]
+    freqs = [
+        convert("carrier_hz", c["core:frequency"], meta_path, f"captures[{k}].core:frequency")
+        for k, c in enumerate(captures)
+        if c.get("core:frequency") is not None
+    ]
     if any(not _same(f, freqs[0]) for f in freqs):
-        raise InputError(meta_path, "captures.core:frequency", f"changes between captures ({freqs[0]:g} ... "
-                         f"{freqs[-1]:g} Hz)", "one carrier frequency per recording")
+        raise InputError(
+            meta_path,
+            "captures.core:frequency",
+            f"changes between captures ({freqs[0]:g} ... {freqs[-1]:g} Hz)",
+            "one carrier frequency per recording",
+        )
     if captures and captures[0].get("core:frequency") is not None:
         put("carrier_hz", captures[0]["core:frequency"], "captures[0].core:frequency")
     put("radar_id", glob.get("core:hw"), "global.core:hw")
@@ -399,14 +476,16 @@ def read_sigmf(path, *, layout: str | None = None) -> Recording:
 
 # ---- MATLAB / NumPy: named arrays ---------------------------------------------------
 
+
 def _mat_v5(path: Path) -> dict:
     import scipy.io
 
     try:
         raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
     except Exception as exc:  # scipy raises many types for a damaged file
-        raise InputError(path, "file", f"cannot be read as a MATLAB .mat file ({_brief(exc)})",
-                         "a MATLAB v5 or v7.3 .mat file") from None
+        raise InputError(
+            path, "file", f"cannot be read as a MATLAB .mat file ({_brief(exc)})", "a MATLAB v5 or v7.3 .mat file"
+        ) from None
     out = {}
     for k, v in raw.items():
         if k.startswith("__"):
@@ -441,8 +520,12 @@ def _mat_v73(path: Path) -> dict:
                 elif v.dtype.kind in "biufc":
                     out[k] = v
     except OSError as exc:
-        raise InputError(path, "file", f"cannot be read as a MATLAB v7.3 (HDF5) file ({_brief(exc)})",
-                         "a MATLAB v5 or v7.3 .mat file") from None
+        raise InputError(
+            path,
+            "file",
+            f"cannot be read as a MATLAB v7.3 (HDF5) file ({_brief(exc)})",
+            "a MATLAB v5 or v7.3 .mat file",
+        ) from None
     return out
 
 
@@ -460,8 +543,9 @@ def _npz(path: Path) -> dict:
     except InputError:
         raise
     except Exception as exc:
-        raise InputError(path, "file", f"cannot be read as a NumPy .npz archive ({_brief(exc)})",
-                         "an .npz written by numpy.savez") from None
+        raise InputError(
+            path, "file", f"cannot be read as a NumPy .npz archive ({_brief(exc)})", "an .npz written by numpy.savez"
+        ) from None
 
 
 def _from_named(path: Path, fmt: str, arrays: dict, *, variable=None, layout=None) -> Recording:
@@ -505,21 +589,31 @@ def _from_named(path: Path, fmt: str, arrays: dict, *, variable=None, layout=Non
         elif not candidates:
             raise InputError(path, "variables", "hold no I/Q array", SHAPE_EXPECTED)
         else:
-            raise InputError(path, "variables", f"hold several arrays ({names_txt})",
-                             "--variable NAME (or NAME_I,NAME_Q) to pick the I/Q")
+            raise InputError(
+                path,
+                "variables",
+                f"hold several arrays ({names_txt})",
+                "--variable NAME (or NAME_I,NAME_Q) to pick the I/Q",
+            )
     trk = None
     if track:
         if not {"track_time_s", "track_range_m"} <= set(track):
             have = next(iter(track))
             raise InputError(path, have, "given without track_time_s and track_range_m", "both arrays, or neither")
-        trk = {"time_s": track["track_time_s"], "range_m": track["track_range_m"],
-               "radial_velocity_mps": track.get("track_radial_velocity_mps"), "source": "file arrays track_*"}
-    return Recording(path=path, format=fmt, layout=found, iq=iq, metadata=md, fields=fields, track=trk,
-                     info={"variable": chosen})
+        trk = {
+            "time_s": track["track_time_s"],
+            "range_m": track["track_range_m"],
+            "radial_velocity_mps": track.get("track_radial_velocity_mps"),
+            "source": "file arrays track_*",
+        }
+    return Recording(
+        path=path, format=fmt, layout=found, iq=iq, metadata=md, fields=fields, track=trk, info={"variable": chosen}
+    )
 
 
-def recording_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None = None,
-                          layout: str | None = None) -> Recording:
+def recording_from_arrays(
+    path: Path, fmt: str, arrays: dict, *, variable: str | None = None, layout: str | None = None
+) -> Recording:
     """A slow-time :class:`Recording` from :func:`read_arrays`' output."""
     if layout is not None and layout not in LAYOUTS:
         raise InputError("--layout", "value", f"is {layout!r}", " or ".join(LAYOUTS))
@@ -555,8 +649,9 @@ def read_npy(path, *, layout: str | None = None) -> Recording:
     try:
         a = np.load(path, allow_pickle=False)
     except Exception as exc:
-        raise InputError(path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})",
-                         "an .npy written by numpy.save") from None
+        raise InputError(
+            path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})", "an .npy written by numpy.save"
+        ) from None
     iq, found = iq_from_array(a, path, "array", layout)
     return Recording(path=path, format="npy", layout=found, iq=iq)
 
@@ -568,8 +663,9 @@ def detect_format(path) -> str:
     for fmt in ("mat", "npy", "npz"):
         if name.endswith("." + fmt):
             return fmt
-    raise InputError(path, "file", "has an unknown suffix",
-                     "a .sigmf-meta/.sigmf-data pair, a .mat, an .npy or an .npz recording")
+    raise InputError(
+        path, "file", "has an unknown suffix", "a .sigmf-meta/.sigmf-data pair, a .mat, an .npy or an .npz recording"
+    )
 
 
 def read_recording(path, *, variable: str | None = None, layout: str | None = None) -> Recording:
@@ -580,7 +676,9 @@ def read_recording(path, *, variable: str | None = None, layout: str | None = No
         raise InputError("--layout", "value", f"is {layout!r}", " or ".join(LAYOUTS))
     if fmt == "sigmf":
         if variable:
-            raise InputError(path, "--variable", "given for a SigMF recording", "no --variable (SigMF holds one dataset)")
+            raise InputError(
+                path, "--variable", "given for a SigMF recording", "no --variable (SigMF holds one dataset)"
+            )
         return read_sigmf(path, layout=layout)
     if not path.exists():
         raise InputError(path, "file", "does not exist", f"a .{fmt} recording")
@@ -597,6 +695,7 @@ def read_recording(path, *, variable: str | None = None, layout: str | None = No
 
 # ---- sidecar and parameters ------------------------------------------------------------
 
+
 def read_sidecar(path) -> dict:
     """YAML sidecar -> ``{key: (value, label)}`` (keys of :data:`SIDECAR_KEYS`; a
     relative ``track`` path is relative to the sidecar)."""
@@ -604,8 +703,12 @@ def read_sidecar(path) -> dict:
 
     path = Path(path)
     if not path.is_file():
-        raise InputError(path, "file", "does not exist" if not path.exists() else "is not a file",
-                         "a YAML sidecar with keys " + ", ".join(SIDECAR_KEYS))
+        raise InputError(
+            path,
+            "file",
+            "does not exist" if not path.exists() else "is not a file",
+            "a YAML sidecar with keys " + ", ".join(SIDECAR_KEYS),
+        )
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
@@ -660,8 +763,7 @@ def resolve_parameters(rec: Recording, options: dict, sidecar: dict) -> tuple[di
             if key in level and level[key][0] is not None:
                 v, label = level[key]
                 if file_v is not None and not _same(v, file_v):
-                    warns.append(f"{label} = {v!r} contradicts the file's {rec.fields[key]} = {file_v!r}; "
-                                 f"using {v!r}")
+                    warns.append(f"{label} = {v!r} contradicts the file's {rec.fields[key]} = {file_v!r}; using {v!r}")
                 params[key], sources[key] = v, label
                 break
         else:
@@ -673,8 +775,12 @@ def resolve_parameters(rec: Recording, options: dict, sidecar: dict) -> tuple[di
 def missing_parameter(rec: Recording, key: str) -> InputError:
     where = {"prf_hz": " (SigMF global core:sample_rate)", "carrier_hz": " (SigMF captures[0].core:frequency)"}
     hint = where.get(key, "") if rec.format == "sigmf" else ""
-    return InputError(rec.path, key, f"missing{hint}: not in the file's metadata, a sidecar or the options",
-                      f"{OPTION[key]} or the sidecar key {key}")
+    return InputError(
+        rec.path,
+        key,
+        f"missing{hint}: not in the file's metadata, a sidecar or the options",
+        f"{OPTION[key]} or the sidecar key {key}",
+    )
 
 
 def check_required(rec: Recording, params: dict, *, track_missing: bool = False) -> None:
@@ -687,12 +793,16 @@ def check_required(rec: Recording, params: dict, *, track_missing: bool = False)
     if missing:
         first = missing_parameter(rec, missing[0])
         opts = [OPTION[k] for k in missing] + (["--track CSV or --range-m"] if track_missing else [])
-        raise InputError(rec.path, ", ".join(missing + (["track"] if track_missing else [])),
-                         f"missing{first.problem[len('missing'):]}",
-                         f"{', '.join(opts)} or the sidecar keys {', '.join(missing)}")
+        raise InputError(
+            rec.path,
+            ", ".join(missing + (["track"] if track_missing else [])),
+            f"missing{first.problem[len('missing') :]}",
+            f"{', '.join(opts)} or the sidecar keys {', '.join(missing)}",
+        )
 
 
 # ---- tracks -----------------------------------------------------------------------------
+
 
 def read_track(path) -> dict:
     """Track CSV (``time_s``, ``range_m``, optional ``radial_velocity_mps``), checked by
@@ -706,8 +816,7 @@ def read_track(path) -> dict:
     t, r = read_track_table(path)
     df = pd.read_csv(path)
     t0 = float(pd.to_numeric(df["time_s"]).iloc[0])
-    out = {"time_s": (t - t[0]) + t0, "range_m": r, "radial_velocity_mps": None,
-           "source": f"track {path}"}
+    out = {"time_s": (t - t[0]) + t0, "range_m": r, "radial_velocity_mps": None, "source": f"track {path}"}
     if "radial_velocity_mps" in df.columns:
         v = pd.to_numeric(df["radial_velocity_mps"], errors="coerce").to_numpy(np.float64)
         if not np.all(np.isfinite(v)):
@@ -718,8 +827,12 @@ def read_track(path) -> dict:
 
 def constant_track(range_m: float, duration_s: float, label: str) -> dict:
     """A staring / CW recording: constant range, radial velocity 0, over [0, duration]."""
-    return {"time_s": np.array([0.0, duration_s]), "range_m": np.full(2, float(range_m)),
-            "radial_velocity_mps": np.zeros(2), "source": label}
+    return {
+        "time_s": np.array([0.0, duration_s]),
+        "range_m": np.full(2, float(range_m)),
+        "radial_velocity_mps": np.zeros(2),
+        "source": label,
+    }
 
 
 def finish_track(trk: dict, source) -> dict:
@@ -736,16 +849,25 @@ def finish_track(trk: dict, source) -> dict:
         v = np.gradient(r, t)
     v = np.asarray(v, np.float64)
     if len(v) != len(t) or not np.all(np.isfinite(v)):
-        raise InputError(source, "track radial_velocity_mps", f"has {len(v)} rows or non-finite values",
-                         f"{len(t)} finite values")
+        raise InputError(
+            source, "track radial_velocity_mps", f"has {len(v)} rows or non-finite values", f"{len(t)} finite values"
+        )
     return {"time_s": t, "range_m": r, "radial_velocity_mps": v, "source": trk.get("source", str(source))}
 
 
 # ---- the flight ---------------------------------------------------------------------------
 
-def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | None = None,
-                 warnings_: list[str] | None = None, background: np.ndarray | None = None,
-                 noise_s: tuple[float, float] | None = None) -> tuple[Flight, list[str]]:
+
+def build_flight(
+    rec: Recording,
+    params: dict,
+    track: dict,
+    *,
+    sources: dict | None = None,
+    warnings_: list[str] | None = None,
+    background: np.ndarray | None = None,
+    noise_s: tuple[float, float] | None = None,
+) -> tuple[Flight, list[str]]:
     """A validated :class:`Flight` from a recording, its parameters and its track.
 
     Checks the required parameters, ``n_samples`` against the data, and the
@@ -762,42 +884,74 @@ def build_flight(rec: Recording, params: dict, track: dict, *, sources: dict | N
     n = len(rec.iq)
     if "n_samples" in params and params["n_samples"] != n:
         where = (sources or {}).get("n_samples", "metadata")
-        raise InputError(rec.path, "n_samples", f"the data holds {n} samples but {where} says "
-                         f"{params['n_samples']}", f"{params['n_samples']} samples")
+        raise InputError(
+            rec.path,
+            "n_samples",
+            f"the data holds {n} samples but {where} says {params['n_samples']}",
+            f"{params['n_samples']} samples",
+        )
     prf, carrier = float(params["prf_hz"]), float(params["carrier_hz"])
     duration = n / prf
     if noise_s is not None and noise_s[1] > duration + 1e-9:
-        raise InputError(rec.path, "noise_segment_s", f"is {noise_s[0]:g}:{noise_s[1]:g} s, beyond the recording's "
-                         f"{duration:.3f} s", "a stretch within the recording")
+        raise InputError(
+            rec.path,
+            "noise_segment_s",
+            f"is {noise_s[0]:g}:{noise_s[1]:g} s, beyond the recording's {duration:.3f} s",
+            "a stretch within the recording",
+        )
     track = finish_track(track, track.get("source", rec.path))
     t = track["time_s"]
     if t[0] > 1.0 or t[-1] < duration - 1.0:
-        warns.append(f"the track ({track['source']}) covers {t[0]:.2f}-{t[-1]:.2f} s of the recording's "
-                     f"0-{duration:.2f} s")
+        warns.append(
+            f"the track ({track['source']}) covers {t[0]:.2f}-{t[-1]:.2f} s of the recording's 0-{duration:.2f} s"
+        )
     target = params["target"]
     if target != "drone":
         for k in DRONE_REQUIRED:
             if k in params and not str((sources or {}).get(k, "file")).startswith("file"):
                 warns.append(f"{sources[k]} = {params[k]!r} is ignored: the target is {target}, not a drone")
-    sanity = iq_sanity(rec.iq, prf, SPEED_OF_LIGHT_MPS / carrier,
-                       track if target != "none" and np.any(track["radial_velocity_mps"] != 0) else None,
-                       background=background, noise_s=noise_s)
+    sanity = iq_sanity(
+        rec.iq,
+        prf,
+        SPEED_OF_LIGHT_MPS / carrier,
+        track if target != "none" and np.any(track["radial_velocity_mps"] != 0) else None,
+        background=background,
+        noise_s=noise_s,
+    )
     warns += sanity_warnings(sanity)
-    attrs = {"schema": SCHEMA, "flight_id": params["flight_id"], "target": target, "radar_id": params["radar_id"],
-             "prf_hz": prf, "carrier_hz": carrier}
+    attrs = {
+        "schema": SCHEMA,
+        "flight_id": params["flight_id"],
+        "target": target,
+        "radar_id": params["radar_id"],
+        "prf_hz": prf,
+        "carrier_hz": carrier,
+    }
     if target == "drone":
         attrs.update({k: params[k] for k in DRONE_REQUIRED})
     attrs["import"] = {
-        "source_file": str(rec.path), "format": rec.format, "layout": rec.layout, **rec.info,
-        "n_samples": n, **sanity, "track": track["source"],
-        "parameter_sources": dict(sorted((sources or {}).items())), "warnings": warns,
+        "source_file": str(rec.path),
+        "format": rec.format,
+        "layout": rec.layout,
+        **rec.info,
+        "n_samples": n,
+        **sanity,
+        "track": track["source"],
+        "parameter_sources": dict(sorted((sources or {}).items())),
+        "warnings": warns,
     }
     if noise_s is not None:
         attrs["import"]["noise_segment_s"] = [float(noise_s[0]), float(noise_s[1])]
     json.dumps(attrs)  # zarr attributes are JSON
     _check_attrs(rec.path, attrs)
-    flight = Flight(attrs=attrs, iq=rec.iq, track_time_s=track["time_s"], track_range_m=track["range_m"],
-                    track_radial_velocity_mps=track["radial_velocity_mps"], background_iq=background)
+    flight = Flight(
+        attrs=attrs,
+        iq=rec.iq,
+        track_time_s=track["time_s"],
+        track_range_m=track["range_m"],
+        track_radial_velocity_mps=track["radial_velocity_mps"],
+        background_iq=background,
+    )
     _check_consistency(rec.path, attrs, flight.arrays())
     return flight, warns
 
@@ -843,8 +997,9 @@ def read_arrays(path: Path) -> tuple[str, dict]:
     try:
         return "npy", {"array": np.load(path, allow_pickle=False)}
     except Exception as exc:
-        raise InputError(path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})",
-                         "an .npy written by numpy.save") from None
+        raise InputError(
+            path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})", "an .npy written by numpy.save"
+        ) from None
 
 
 def wants_fmcw(path, options: dict, sidecar: dict, variable: str | None = None) -> tuple[bool, tuple | None]:
@@ -855,15 +1010,29 @@ def wants_fmcw(path, options: dict, sidecar: dict, variable: str | None = None) 
     given = any(_level_value(options, sidecar, k) is not None for k in FMCW_PARAM_TYPES)
     if detect_format(path) == "sigmf":
         if given:
-            raise InputError(path, "file", "is SigMF, but FMCW parameters were given",
-                             "an FMCW cube as .npy, .npz or .mat (SigMF holds slow-time I/Q)")
+            raise InputError(
+                path,
+                "file",
+                "is SigMF, but FMCW parameters were given",
+                "an FMCW cube as .npy, .npz or .mat (SigMF holds slow-time I/Q)",
+            )
         return False, None
     fmt, arrays = read_arrays(path)
     return given or looks_fmcw(arrays), (fmt, arrays)
 
 
-def import_slow_time(path, read, *, options: dict, sidecar: dict, layout: str | None, variable: str | None,
-                     default_flight_id: str | None, background, noise_s) -> tuple[Flight, list[str]]:
+def import_slow_time(
+    path,
+    read,
+    *,
+    options: dict,
+    sidecar: dict,
+    layout: str | None,
+    variable: str | None,
+    default_flight_id: str | None,
+    background,
+    noise_s,
+) -> tuple[Flight, list[str]]:
     """A slow-time recording -> ``(flight, warnings)``; ``read`` is ``(format, arrays)``
     when :func:`wants_fmcw` already read the file, else None. Called by
     :func:`microdoppler.io.importing.import_recording`, which documents the arguments."""
@@ -874,8 +1043,7 @@ def import_slow_time(path, read, *, options: dict, sidecar: dict, layout: str | 
         rec = recording_from_arrays(path, *read, variable=variable, layout=layout)
     params, sources, warns = resolve_parameters(rec, options, sidecar)
     set_flight_id(rec, params, sources, default_flight_id)
-    no_track = (not explicit_track_given(options, sidecar) and rec.track is None
-                and "range_m" not in rec.metadata)
+    no_track = not explicit_track_given(options, sidecar) and rec.track is None and "range_m" not in rec.metadata
     check_required(rec, params, track_missing=no_track)
     duration = len(rec.iq) / float(params["prf_hz"])
     track = explicit_track(options, sidecar, duration)
@@ -887,15 +1055,23 @@ def import_slow_time(path, read, *, options: dict, sidecar: dict, layout: str | 
         elif "range_m" in rec.metadata:
             track = constant_track(rec.metadata["range_m"], duration, f"constant range file {rec.fields['range_m']}")
         else:
-            raise InputError(rec.path, "track", "missing: no track in the file, a sidecar or the options",
-                             "--track CSV (time_s, range_m) or --range-m for a staring recording")
+            raise InputError(
+                rec.path,
+                "track",
+                "missing: no track in the file, a sidecar or the options",
+                "--track CSV (time_s, range_m) or --range-m for a staring recording",
+            )
     sources.pop("range_m", None)
     bg = None
     if background:
         bg = read_recording(background, variable=variable, layout=layout).iq
         if len(bg) != len(rec.iq):
-            raise InputError(background, "samples", f"has {len(bg)}",
-                             f"{len(rec.iq)} samples, as the recording (background/iq pairs pulse by pulse)")
+            raise InputError(
+                background,
+                "samples",
+                f"has {len(bg)}",
+                f"{len(rec.iq)} samples, as the recording (background/iq pairs pulse by pulse)",
+            )
     return build_flight(rec, params, track, sources=sources, warnings_=warns, background=bg, noise_s=noise_s)
 
 

@@ -249,7 +249,7 @@ class _Model:
         n = len(tt)
         # d(phase)/d(f_b, a_b, f_r, g_r) factors of the Jacobian's columns
         tt = self.tt
-        self._dphase = (2j * np.pi * tt, 1j * np.pi * tt ** 2, 2j * np.pi * B * tt, 1j * np.pi * B * tt ** 2)
+        self._dphase = (2j * np.pi * tt, 1j * np.pi * tt**2, 2j * np.pi * B * tt, 1j * np.pi * B * tt**2)
         self.B, self.M, self.cfg = B, M, cfg
         s = self.tt / self.tt.max()
         self.clutter = self.w[:, None] * np.column_stack([np.ones(n), s, s * s])
@@ -261,19 +261,19 @@ class _Model:
         """The model's columns at ``p`` with ``N`` harmonics [n, 1 + M 2N + 3], in
         Fortran order (each column contiguous: filled row by row of its transpose)."""
         tt, B, M = self.tt, self.B, self.M
-        eb = self.w * np.exp(2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt ** 2))
+        eb = self.w * np.exp(2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt**2))
         K = 2 * N
         AT = np.empty((1 + M * K + 3, len(tt)), complex)
         AT[0] = eb
         pw = np.empty((N, len(tt)), complex)
         for r in range(M):
-            e1 = np.exp(2j * np.pi * B * (p[2 + r] * tt + 0.5 * p[2 + M + r] * tt ** 2))
+            e1 = np.exp(2j * np.pi * B * (p[2 + r] * tt + 0.5 * p[2 + M + r] * tt**2))
             pw[0] = e1
             for k in range(1, N):
                 np.multiply(pw[k - 1], e1, out=pw[k])
             base = 1 + r * K
-            np.multiply(eb, pw[::-1].conj(), out=AT[base:base + N])  # n = -N .. -1
-            np.multiply(eb, pw, out=AT[base + N:base + K])  # n = 1 .. N
+            np.multiply(eb, pw[::-1].conj(), out=AT[base : base + N])  # n = -N .. -1
+            np.multiply(eb, pw, out=AT[base + N : base + K])  # n = 1 .. N
         AT[-3:] = self.clutter.T
         return AT.T
 
@@ -291,14 +291,14 @@ class _Model:
         return U, c, r, float(np.vdot(r, r).real) + self.out_power
 
     def prior(self, p: np.ndarray) -> float:
-        d = (p[2 + self.M:] - self.g0) / self.cfg.chirp_sd_rev_s2
+        d = (p[2 + self.M :] - self.g0) / self.cfg.chirp_sd_rev_s2
         return float(0.5 * self.s2 * np.sum(d * d))
 
     def _jacobian(self, p, A, L, c, ns):
         """Kaufman's Jacobian of the projected residual, stacked real/imaginary [2n, P]."""
         M, tt = self.M, self.tt
         K = len(ns)
-        mb = A[:, :1 + M * K] @ c[:1 + M * K]
+        mb = A[:, : 1 + M * K] @ c[: 1 + M * K]
         D = np.empty((len(tt), 2 + 2 * M), complex, order="F")
         d = self._dphase
         np.multiply(d[0], mb, out=D[:, 0])
@@ -323,7 +323,7 @@ class _Model:
         cost += self.prior(p)
         lam = 1e-3
         gi = np.arange(2 + M, 2 + 2 * M)
-        prior_h = 0.5 * self.s2 / cfg.chirp_sd_rev_s2 ** 2
+        prior_h = 0.5 * self.s2 / cfg.chirp_sd_rev_s2**2
         for _ in range(iterations):
             Jr = self._jacobian(p, A, L, c, ns)
             JtJ = Jr.T @ Jr
@@ -347,7 +347,7 @@ class _Model:
                 lam *= 6
             if not accepted or rel < TOLERANCE:
                 break
-        self.power = np.array([np.sum(np.abs(c[1 + q * K:1 + (q + 1) * K]) ** 2) for q in range(M)])
+        self.power = np.array([np.sum(np.abs(c[1 + q * K : 1 + (q + 1) * K]) ** 2) for q in range(M)])
         self.c, self.A, self.r, self._L, self._ns = c, A, r, L, ns
         return p, cost
 
@@ -356,7 +356,7 @@ class _Model:
         Jr = self._jacobian(p, self.A, self._L, self.c, self._ns)
         JtJ = Jr.T @ Jr
         gi = np.arange(2 + self.M, 2 + 2 * self.M)
-        JtJ[gi, gi] += 0.5 * self.s2 / self.cfg.chirp_sd_rev_s2 ** 2
+        JtJ[gi, gi] += 0.5 * self.s2 / self.cfg.chirp_sd_rev_s2**2
         return JtJ
 
     def drop_power(self) -> np.ndarray:
@@ -367,7 +367,7 @@ class _Model:
         out = np.empty(self.M)
         for q in range(self.M):
             keep = np.ones(A.shape[1], bool)
-            keep[1 + q * K:1 + (q + 1) * K] = False
+            keep[1 + q * K : 1 + (q + 1) * K] = False
             out[q] = self.solve(A[:, keep])[3] - base
         return out
 
@@ -378,21 +378,25 @@ class _Model:
         signs), summed. Decimated, the same bins' values come from the chirp z-transform
         of the band-limited samples (their DTFT at those frequencies, over D)."""
         tt, B, D = self.tt, self.B, self.decimation
-        z = r * np.exp(-2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt ** 2))
+        z = r * np.exp(-2j * np.pi * (p[0] * tt + 0.5 * p[1] * tt**2))
         nfft = 4 * self.n_full
         prf = 1.0 / (tt[1] - tt[0]) if D == 1 else self.prf
         grid = np.arange(lo, hi, step)
         S = np.zeros(len(grid))
         for n in range(1, N + 1):
             for sign in (1, -1):
-                zc = z * np.exp(-1j * sign * np.pi * n * B * self.g0 * tt ** 2)
+                zc = z * np.exp(-1j * sign * np.pi * n * B * self.g0 * tt**2)
                 k = np.round(sign * n * B * grid / prf * nfft).astype(int)
                 if D == 1:
                     S += (np.abs(np.fft.fft(zc, nfft)) ** 2)[k % nfft]
                 else:
                     k0 = int(k.min())
-                    Z = czt(zc, int(k.max()) - k0 + 1, w=np.exp(-2j * np.pi * D / nfft),
-                            a=np.exp(2j * np.pi * k0 * D / nfft))
+                    Z = czt(
+                        zc,
+                        int(k.max()) - k0 + 1,
+                        w=np.exp(-2j * np.pi * D / nfft),
+                        a=np.exp(2j * np.pi * k0 * D / nfft),
+                    )
                     S += np.abs(Z[k - k0]) ** 2
         return float(grid[np.argmax(S)])
 
@@ -412,9 +416,19 @@ def refine_cpi(*args, **kwargs) -> CpiFit | None:
         return _refine_cpi(*args, **kwargs)
 
 
-def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body_hz: float, body_rate_hz_s: float,
-               lines_rev_s, rate_rev_s2: float, n_pairs: int | None = None,
-               config: FitConfig | None = None) -> CpiFit | None:
+def _refine_cpi(
+    x: np.ndarray,
+    prf: float,
+    n_blades: int,
+    n_motors: int,
+    *,
+    body_hz: float,
+    body_rate_hz_s: float,
+    lines_rev_s,
+    rate_rev_s2: float,
+    n_pairs: int | None = None,
+    config: FitConfig | None = None,
+) -> CpiFit | None:
     """Fit the harmonic-chirp model to one CPI's samples ``x``.
 
     Parameters
@@ -451,26 +465,28 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
     # the fastest rotor a fit may reach: the bound, the re-seeding and the moves' windows
     f_top = max(hi, mid * (1 + max(cfg.reseed_rel, cfg.move_rel)))
     half_t = 0.5 * len(x) / prf
-    band = BAND_MARGIN * (abs(body_hz) + abs(body_rate_hz_s) * half_t + max(Ns) * B * (
-        f_top + (abs(rate_rev_s2) + 3 * cfg.chirp_sd_rev_s2) * half_t)) + BAND_BINS * prf / len(x)
+    band = BAND_MARGIN * (
+        abs(body_hz)
+        + abs(body_rate_hz_s) * half_t
+        + max(Ns) * B * (f_top + (abs(rate_rev_s2) + 3 * cfg.chirp_sd_rev_s2) * half_t)
+    ) + BAND_BINS * prf / len(x)
     F = _Model(x, prf, B, M, cfg, band if BAND_MARGIN > 0 else None)
     p0 = np.r_[body_hz, body_rate_hz_s, np.resize(lines, M), np.full(M, rate_rev_s2)]
     F.g0 = float(rate_rev_s2)
     F.s2 = F.solve(F.build(p0, Ns[0]))[3] / len(x)
 
     def inside(p):
-        f = p[2:2 + M]
+        f = p[2 : 2 + M]
         return bool(np.all((f >= lo) & (f <= hi)))
 
     starts = []
-    for comp in (_compositions(M, k) if k < M else [[1] * M]):
-        for sp in (SPREADS_BINS if max(comp) > 1 else SPREADS_BINS[:1]):
+    for comp in _compositions(M, k) if k < M else [[1] * M]:
+        for sp in SPREADS_BINS if max(comp) > 1 else SPREADS_BINS[:1]:
             f0 = np.concatenate([ln + (np.arange(m) - (m - 1) / 2) * sp * bin_rev for ln, m in zip(lines, comp)])
             starts.append((f0, "+".join(map(str, comp))))
     cands = []
     for f0, name in starts:
-        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0],
-                        SCREEN_ITERATIONS)
+        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0], SCREEN_ITERATIONS)
         if inside(p):
             cands.append((cost, name, p))
     cands.sort(key=lambda c: c[0])
@@ -502,7 +518,7 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
         pm[2 + q] = F.comb_peak(r, p, N, wlo, whi, 0.1 * bin_rev)
         pm[2 + M + q] = F.g0
         pn, cn = F.fit(pm, N)
-        f = pn[2:2 + M]
+        f = pn[2 : 2 + M]
         if cn < cost and np.all((f >= wlo) & (f <= whi)) and _comb_like(F, q):
             p, cost, name = pn, cn, name + "/reseed"
         else:
@@ -516,8 +532,8 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
         cov = s2 * np.linalg.inv(F.information(p))
     except np.linalg.LinAlgError:
         return None
-    f = p[2:2 + M].copy()
-    sd = np.sqrt(np.clip(np.diag(cov)[2:2 + M], 0, None))
+    f = p[2 : 2 + M].copy()
+    sd = np.sqrt(np.clip(np.diag(cov)[2 : 2 + M], 0, None))
     # a spare rotor (its lines coincide with another's) turns with the strongest line;
     # weak in power *and* in what the fit loses without it: two rotors' models on nearly
     # one line trade large opposite amplitudes, so beside them a rotor on lines of its
@@ -533,7 +549,7 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
         # which line a spare shares is not measured: the spread of the mean over the
         # lines it could share adds to the uncertainty
         strong = f[~spare]
-        var_count = float(spare.sum() * np.var(strong)) / M ** 2
+        var_count = float(spare.sum() * np.var(strong)) / M**2
         joined = np.zeros(M)
         for q in np.flatnonzero(spare):
             j = int(np.argmax(np.where(spare, -np.inf, F.power / (1.0 + joined))))
@@ -543,21 +559,22 @@ def _refine_cpi(x: np.ndarray, prf: float, n_blades: int, n_motors: int, *, body
             weight[q] = 0
         name += f"/{int(spare.sum())} spare"
     a = np.zeros(len(p))
-    a[2:2 + M] = weight / M
+    a[2 : 2 + M] = weight / M
     # the composition's ambiguity, by the fit's balance (see the module docstring)
     amb = min(AMBIGUITY_BINS * np.exp(-balance / AMBIGUITY_SCALE), AMBIGUITY_MAX_BINS) * bin_rev
     amb_rotor = AMBIGUITY_ROTOR_BINS * bin_rev * np.exp(-balance / AMBIGUITY_ROTOR_SCALE)
     if n_pairs == 1:
         amb = np.hypot(amb, ONE_PAIR_BINS * bin_rev * np.exp(-balance / ONE_PAIR_SCALE))
         amb_rotor = np.hypot(amb_rotor, ONE_PAIR_ROTOR_BINS * bin_rev * np.exp(-balance / ONE_PAIR_ROTOR_SCALE))
-    sd = np.sqrt(sd ** 2 + (REL_FLOOR * f) ** 2 + amb_rotor ** 2)
-    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (REL_FLOOR * f.mean()) ** 2 + amb ** 2))
+    sd = np.sqrt(sd**2 + (REL_FLOOR * f) ** 2 + amb_rotor**2)
+    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (REL_FLOOR * f.mean()) ** 2 + amb**2))
     order = np.argsort(f)
     return CpiFit(f[order], sd[order], mean_sd, name, balance)
 
 
-def _move_to_missed(F: _Model, p: np.ndarray, cost: float, name: str, N: int, lo: float, hi: float,
-                    bin_rev: float, cfg: FitConfig):
+def _move_to_missed(
+    F: _Model, p: np.ndarray, cost: float, name: str, N: int, lo: float, hi: float, bin_rev: float, cfg: FitConfig
+):
     """A rotor the periodogram's lines missed (module docstring): the residual's
     strongest harmonic comb within ``move_rel`` of the window's centre, tried in place
     of each of the ``MOVE_TRIES`` weakest rotors; the best fit that lowers the cost is
@@ -573,9 +590,8 @@ def _move_to_missed(F: _Model, p: np.ndarray, cost: float, name: str, N: int, lo
             pm = p.copy()
             pm[2 + q], pm[2 + M + q] = peak, F.g0
             pn, cn = F.fit(pm, N)
-            f = pn[2:2 + M]
-            if cn < cost and np.all((f >= mlo) & (f <= mhi)) and (best is None or cn < best[1]) \
-                    and _comb_like(F, q):
+            f = pn[2 : 2 + M]
+            if cn < cost and np.all((f >= mlo) & (f <= mhi)) and (best is None or cn < best[1]) and _comb_like(F, q):
                 best = (pn, cn)
         if best is None:
             break
@@ -601,7 +617,7 @@ def _comb_like(F: _Model, q: int) -> bool:
         return True
     N = len(F._ns) // 2
     K = 2 * N
-    cq = np.abs(F.c[1:1 + F.M * K].reshape(F.M, K)) ** 2
+    cq = np.abs(F.c[1 : 1 + F.M * K].reshape(F.M, K)) ** 2
     orders = cq[:, :N][:, ::-1] + cq[:, N:]  # n = 1 .. N, both signs
     prof = orders / np.maximum(orders.sum(axis=1, keepdims=True), 1e-300)
     share = 1.0 - prof.max(axis=1)

@@ -294,18 +294,29 @@ class OrderConfig:
         lo, hi = self.extent_range
         if not 0 < lo < hi:
             raise ValueError(f"extent_range={self.extent_range} must satisfy 0 < low < high")
-        for name in ("depart_max", "max_tip_mach", "line_sd_db", "spurious_per_cpi", "spurious_range_db", "temperature",
-                     "screen_step", "rerun_margin"):
+        for name in (
+            "depart_max",
+            "max_tip_mach",
+            "line_sd_db",
+            "spurious_per_cpi",
+            "spurious_range_db",
+            "temperature",
+            "screen_step",
+            "rerun_margin",
+        ):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}={getattr(self, name)} must be > 0")
         if not 0 <= self.fade < 1:
             raise ValueError(f"fade={self.fade} must be in [0, 1)")
         if not 0 < self.report_at <= self.ambiguous_at <= 1:
-            raise ValueError(f"report_at={self.report_at} and ambiguous_at={self.ambiguous_at} must satisfy "
-                             "0 < report_at <= ambiguous_at <= 1")
+            raise ValueError(
+                f"report_at={self.report_at} and ambiguous_at={self.ambiguous_at} must satisfy "
+                "0 < report_at <= ambiguous_at <= 1"
+            )
         if not self.tip_speed_mps > 0 or not self.tip_speed_log_sd >= 0:
-            raise ValueError(f"tip_speed_mps={self.tip_speed_mps} must be > 0 and tip_speed_log_sd="
-                             f"{self.tip_speed_log_sd} >= 0")
+            raise ValueError(
+                f"tip_speed_mps={self.tip_speed_mps} must be > 0 and tip_speed_log_sd={self.tip_speed_log_sd} >= 0"
+            )
         if self.max_cpis < 1 or self.screen_cpis < 1 or self.screen_keep < 0:
             raise ValueError("max_cpis and screen_cpis must be >= 1, screen_keep >= 0")
 
@@ -325,17 +336,17 @@ class _Data:
     prf: float
     bin_hz: float
     n_fft: int
-    peaks_x: np.ndarray      # [n_cpi, P] peak offset from the body [Hz], NaN padding
-    peaks_y: np.ndarray      # [n_cpi, P] height over the floor [dB]
-    pk_table: list           # sparse table of peak heights, CPIs concatenated (each doubled: circular)
-    masked: np.ndarray       # [n_cpi, 2 n_fft + 1] prefix counts of masked bins (doubled, circular)
-    centre_bin: np.ndarray   # [n_cpi] body [fractional bin, 0..n_fft)
-    p_lo: np.ndarray         # [n_cpi] slowest rotor's rate / reference
-    p_hi: np.ndarray         # [n_cpi] fastest rotor's rate / reference
-    cpi_index: np.ndarray    # which CPIs of the estimate
-    band_hz: np.ndarray      # [n_cpi] analysed offsets |x| <= band (the comb's harmonics resolved)
-    extent_hz: float         # the blade energy's Doppler extent: how far lines reach (a lower bound)
-    top_db: float = np.inf   # the strongest line over the floor (per CPI, the median over CPIs) [dB]
+    peaks_x: np.ndarray  # [n_cpi, P] peak offset from the body [Hz], NaN padding
+    peaks_y: np.ndarray  # [n_cpi, P] height over the floor [dB]
+    pk_table: list  # sparse table of peak heights, CPIs concatenated (each doubled: circular)
+    masked: np.ndarray  # [n_cpi, 2 n_fft + 1] prefix counts of masked bins (doubled, circular)
+    centre_bin: np.ndarray  # [n_cpi] body [fractional bin, 0..n_fft)
+    p_lo: np.ndarray  # [n_cpi] slowest rotor's rate / reference
+    p_hi: np.ndarray  # [n_cpi] fastest rotor's rate / reference
+    cpi_index: np.ndarray  # which CPIs of the estimate
+    band_hz: np.ndarray  # [n_cpi] analysed offsets |x| <= band (the comb's harmonics resolved)
+    extent_hz: float  # the blade energy's Doppler extent: how far lines reach (a lower bound)
+    top_db: float = np.inf  # the strongest line over the floor (per CPI, the median over CPIs) [dB]
 
 
 def _sparse_table(v: np.ndarray) -> list:
@@ -343,7 +354,7 @@ def _sparse_table(v: np.ndarray) -> list:
     j = 1
     while 2 * j <= len(v):
         prev = out[-1]
-        out.append(np.maximum(prev[:len(prev) - j], prev[j:]))
+        out.append(np.maximum(prev[: len(prev) - j], prev[j:]))
         j *= 2
     return out
 
@@ -391,8 +402,8 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
     P = []
     px, py, tabs, masks, cb = [], [], [], [], []
     for i in cpis:
-        x = np.asarray(flight.iq[i * hop:i * hop + n], np.complex128) * w
-        p = np.abs(np.fft.fft(x)) ** 2 / (w ** 2).sum()
+        x = np.asarray(flight.iq[i * hop : i * hop + n], np.complex128) * w
+        p = np.abs(np.fft.fft(x)) ** 2 / (w**2).sum()
         pdb = np.fft.fftshift(10 * np.log10(p + 1e-30))
         fl = local_floor_db(pdb[None, :])[0]
         z = np.fft.ifftshift(pdb - fl)
@@ -423,8 +434,8 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
     peaks_x = np.full((len(cpis), Pm), np.nan)
     peaks_y = np.full((len(cpis), Pm), np.nan)
     for r, (x, y) in enumerate(zip(px, py)):
-        peaks_x[r, :len(x)] = x
-        peaks_y[r, :len(y)] = y
+        peaks_x[r, : len(x)] = x
+        peaks_y[r, : len(y)] = y
     sp = np.asarray(est.speeds_rev_s[cpis], float)
     # a rotor put on another order's line (over 15 % from the CPI's median rotor) is no
     # part of the spread
@@ -468,8 +479,22 @@ def _prepare(flight, est, cpis: np.ndarray, ref: float, ocfg: OrderConfig, scfg)
     band = np.minimum(0.5 / (half / mid + 0.004) * ref * mid, prf / 2)
     peaks_x = np.where(np.abs(peaks_x) <= band[:, None], peaks_x, np.nan)
     peaks_y = np.where(np.isfinite(peaks_x), peaks_y, np.nan)
-    return _Data(prf, bin_hz, n, peaks_x, peaks_y, _sparse_table(np.concatenate(tabs)), np.array(masks),
-                 np.array(cb), mid - half, mid + half, np.asarray(cpis), band, extent, top)
+    return _Data(
+        prf,
+        bin_hz,
+        n,
+        peaks_x,
+        peaks_y,
+        _sparse_table(np.concatenate(tabs)),
+        np.array(masks),
+        np.array(cb),
+        mid - half,
+        mid + half,
+        np.asarray(cpis),
+        band,
+        extent,
+        top,
+    )
 
 
 @dataclass
@@ -477,27 +502,28 @@ class _Geometry:
     """Windows and peak assignments of one candidate rate (arrays over the CPIs)."""
 
     f: float
-    d: np.ndarray          # [n_cpi, W] unfolded offset of the outermost rotor's line [Hz]
-    fam: np.ndarray        # [n_cpi, W] True: rotation-rate family (k not a multiple of B)
-    valid: np.ndarray      # [n_cpi, W] window observable (centre unmasked)
-    detected: np.ndarray   # [n_cpi, W] a peak inside
-    fmax: np.ndarray       # [n_cpi] blade-tip Doppler of the fastest rotor [Hz]
-    tail: np.ndarray       # [n_cpi] the edge's allowance beyond kappa fmax [Hz]
+    d: np.ndarray  # [n_cpi, W] unfolded offset of the outermost rotor's line [Hz]
+    fam: np.ndarray  # [n_cpi, W] True: rotation-rate family (k not a multiple of B)
+    valid: np.ndarray  # [n_cpi, W] window observable (centre unmasked)
+    detected: np.ndarray  # [n_cpi, W] a peak inside
+    fmax: np.ndarray  # [n_cpi] blade-tip Doppler of the fastest rotor [Hz]
+    tail: np.ndarray  # [n_cpi] the edge's allowance beyond kappa fmax [Hz]
     tail_width: np.ndarray  # [n_cpi] (beta / 2)^(1/3) rotation harmonics of the fastest rotor [Hz]
-    pk_d: np.ndarray       # [n_cpi, P, 2] per peak: offset d of the covering window, per family (inf: none)
-    pk_w: np.ndarray       # [n_cpi, P, 2] its width [Hz]
-    pk_y: np.ndarray       # [n_cpi, P]
-    pk_ok: np.ndarray      # [n_cpi, P]
-    lo_bin: np.ndarray     # [n_cpi, W] first bin of each window (mod n_fft)
-    hi_bin: np.ndarray     # [n_cpi, W] last bin (lo_bin + width, may pass n_fft)
-    band: np.ndarray       # [n_cpi] analysed offsets |x| <= band [Hz]
+    pk_d: np.ndarray  # [n_cpi, P, 2] per peak: offset d of the covering window, per family (inf: none)
+    pk_w: np.ndarray  # [n_cpi, P, 2] its width [Hz]
+    pk_y: np.ndarray  # [n_cpi, P]
+    pk_ok: np.ndarray  # [n_cpi, P]
+    lo_bin: np.ndarray  # [n_cpi, W] first bin of each window (mod n_fft)
+    hi_bin: np.ndarray  # [n_cpi, W] last bin (lo_bin + width, may pass n_fft)
+    band: np.ndarray  # [n_cpi] analysed offsets |x| <= band [Hz]
 
 
-def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: OrderConfig,
-              rows: np.ndarray | None = None) -> _Geometry:
+def _geometry(
+    data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: OrderConfig, rows: np.ndarray | None = None
+) -> _Geometry:
     rows = np.arange(len(data.p_lo)) if rows is None else rows
     prf, bh, n = data.prf, data.bin_hz, data.n_fft
-    lo, hi = f * data.p_lo[rows], f * data.p_hi[rows]                    # [R] Hz per harmonic
+    lo, hi = f * data.p_lo[rows], f * data.p_hi[rows]  # [R] Hz per harmonic
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     kmax_ext = ocfg.extent_range[1]
     if L is not None:
@@ -536,17 +562,17 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
     valid = inrange & ~centre_masked & (folded <= data.band_hz[rows][:, None])
     fam = (np.r_[k, k] % B != 0)[None, :].repeat(len(rows), 0)
     # peaks: the covering window of each family, over the folds
-    x = data.peaks_x[rows]                                                # [R, P]
+    x = data.peaks_x[rows]  # [R, P]
     ok = np.isfinite(x)
     J = int(np.ceil(np.max(dmax) / prf)) + 1
     js = np.arange(-J, J + 1)
-    xj = np.where(ok, x, 0.0)[:, :, None] + js[None, None, :] * prf       # [R, P, 2J+1]
+    xj = np.where(ok, x, 0.0)[:, :, None] + js[None, None, :] * prf  # [R, P, 2J+1]
     ax = np.abs(xj)
     pk_d = np.full(x.shape + (2,), np.inf)
     pk_w = np.full(x.shape + (2,), np.inf)
     m_ = mid[:, None, None]
     # the nearest harmonic and its neighbours (windows widen with k and may reach over)
-    kf = np.round(ax / m_)[..., None] + np.array([-1.0, 0.0, 1.0])       # [R, P, 2J+1, 3]
+    kf = np.round(ax / m_)[..., None] + np.array([-1.0, 0.0, 1.0])  # [R, P, 2J+1, 3]
     kf = kf.reshape(ax.shape[:2] + (-1,))
     ax = np.repeat(ax, 3, axis=2)
     kf_ok = (kf >= 1) & (kf <= K)
@@ -560,8 +586,23 @@ def _geometry(data: _Data, f: float, B: int, L: float | None, lam: float, ocfg: 
         pk_d[:, :, fi] = np.take_along_axis(dsel, j[:, :, None], 2)[:, :, 0]
         wsel = np.take_along_axis(np.where(fsel & inside, 2 * hwk, np.inf), j[:, :, None], 2)[:, :, 0]
         pk_w[:, :, fi] = wsel
-    return _Geometry(f, d, fam, valid, det, fmax, tail, tail_width, pk_d, pk_w, data.peaks_y[rows], ok, lo_m, hi_m,
-                     data.band_hz[rows])
+    return _Geometry(
+        f,
+        d,
+        fam,
+        valid,
+        det,
+        fmax,
+        tail,
+        tail_width,
+        pk_d,
+        pk_w,
+        data.peaks_y[rows],
+        ok,
+        lo_m,
+        hi_m,
+        data.band_hz[rows],
+    )
 
 
 def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> tuple[np.ndarray, float]:
@@ -573,7 +614,7 @@ def _envelope(y: np.ndarray, d: np.ndarray, ex: np.ndarray, floor_db: float) -> 
         dm = np.where(n > 0, (d * ex).sum(axis=1) / n, 0.0)
         ym = np.where(n > 0, (y * ex).sum(axis=1) / n, 0.0)
     dc = np.where(ex, d - dm[:, None], 0.0)
-    sxx = float((dc ** 2).sum())
+    sxx = float((dc**2).sum())
     sxy = float((dc * np.where(ex, y - ym[:, None], 0.0)).sum())
     beta = max(0.0, -sxy / sxx) if sxx > 0 else 0.0
     return np.where(n > 0, ym + beta * dm, floor_db), beta
@@ -602,8 +643,17 @@ def _tail_reach_m(fall_db: float) -> float:
     return float(m[min(np.searchsorted(fall, max(fall_db, 0.0)), len(m) - 1)])
 
 
-def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_modes, beta_mults,
-            a_offsets, per_cpi=False, with_cpis=False):
+def _loglik(
+    g: _Geometry,
+    ocfg: OrderConfig,
+    kappas,
+    rho_cap_db: float,
+    rho_modes,
+    beta_mults,
+    a_offsets,
+    per_cpi=False,
+    with_cpis=False,
+):
     """Maximised log-likelihood of a candidate: (LL, params), (LL, params, per-CPI LL)
     where ``with_cpis``, or the per-CPI LL of the best parameters where ``per_cpi``.
 
@@ -676,8 +726,12 @@ def _loglik(g: _Geometry, ocfg: OrderConfig, kappas, rho_cap_db: float, rho_mode
     if per_cpi:
         return best[2]
     kap, beta, rho, a = best[1]
-    params = {"kappa": float(kap), "decay_db_per_khz": float(1e3 * beta),
-              "imbalance_db": None if rho is None else float(rho), "level_db": float(np.median(a))}
+    params = {
+        "kappa": float(kap),
+        "decay_db_per_khz": float(1e3 * beta),
+        "imbalance_db": None if rho is None else float(rho),
+        "level_db": float(np.median(a)),
+    }
     return (best[0], params, best[2]) if with_cpis else (best[0], params)
 
 
@@ -702,14 +756,17 @@ def _coverage(g: _Geometry, params: dict, data: _Data) -> float:
     """Share of the analysed band's bins inside the candidate's active line windows (the
     chance that a peak anywhere in it is explained: near 1 the comb tells little)."""
     n = data.n_fft
-    act = g.valid & (g.d <= params["kappa"] * g.fmax[:, None] + g.tail[:, None]) & (
-        ~g.fam | (params["imbalance_db"] is not None))
+    act = (
+        g.valid
+        & (g.d <= params["kappa"] * g.fmax[:, None] + g.tail[:, None])
+        & (~g.fam | (params["imbalance_db"] is not None))
+    )
     R = act.shape[0]
     diff = np.zeros((R, 2 * n + 2))
     rr = np.repeat(np.arange(R)[:, None], act.shape[1], 1)[act]
     np.add.at(diff, (rr, g.lo_bin[act]), 1)
     np.add.at(diff, (rr, np.minimum(g.hi_bin[act] + 1, 2 * n + 1)), -1)
-    cov = np.cumsum(diff, axis=1)[:, :2 * n] > 0
+    cov = np.cumsum(diff, axis=1)[:, : 2 * n] > 0
     cov = cov[:, :n] | cov[:, n:]
     rows = np.arange(R) if R == len(data.band_hz) else None
     x = ((np.arange(n)[None, :] - data.centre_bin[rows][:, None] + n / 2) % n - n / 2) * data.bin_hz
@@ -729,16 +786,35 @@ def _explained(g: _Geometry, params: dict) -> tuple[float, float]:
     return share, ext
 
 
-def _score(data: _Data, f: float, B: int, L, lam: float, ocfg: OrderConfig, grid_full: tuple, ref: float,
-           p_top: float, origin: str) -> Candidate:
+def _score(
+    data: _Data,
+    f: float,
+    B: int,
+    L,
+    lam: float,
+    ocfg: OrderConfig,
+    grid_full: tuple,
+    ref: float,
+    p_top: float,
+    origin: str,
+) -> Candidate:
     """The full model's score of rate ``f``: log-likelihood (over ``temperature``), the
     fitted envelope, per-CPI log-likelihoods, the blades' tip Mach, extent and coverage."""
     g = _geometry(data, f, B, L, lam, ocfg)
     ll, params, per = _loglik(g, ocfg, *grid_full, with_cpis=True)
     share, ext = _explained(g, params)
-    return Candidate(float(f), float(f / ref), float(ll) / ocfg.temperature, params,
-                     float(2 * np.pi * f * p_top * L / SOUND_MPS) if L is not None else float("nan"), ext, share,
-                     origin, _coverage(g, params, data), per / ocfg.temperature)
+    return Candidate(
+        float(f),
+        float(f / ref),
+        float(ll) / ocfg.temperature,
+        params,
+        float(2 * np.pi * f * p_top * L / SOUND_MPS) if L is not None else float("nan"),
+        ext,
+        share,
+        origin,
+        _coverage(g, params, data),
+        per / ocfg.temperature,
+    )
 
 
 def _relative(best: Candidate, c: Candidate, ocfg: OrderConfig) -> float:
@@ -834,8 +910,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         return 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach and data.extent_hz <= reach
 
     rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
-    kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None \
-        else (1.0,)
+    kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None else (1.0,)
     grid_full = (kappas, rmax_db, (None, "fit"), (0.6, 1.0, 1.5), (-4.0, 0.0))
     # screen: a coarse model on a few CPIs over the whole range
     srows = np.unique(np.round(np.linspace(0, len(cpis) - 1, min(ocfg.screen_cpis, len(cpis)))).astype(int))
@@ -857,8 +932,7 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         f = float(grid[gi])
         # near a simple ratio of the lines' comb it is that ratio (measured by the lines),
         # and a screen maximum near a kept one is the same
-        if any(abs(np.log(f / c)) <= (ocfg.snap_rel if how != "screen" else ocfg.min_separation)
-               for c, how in cand):
+        if any(abs(np.log(f / c)) <= (ocfg.snap_rel if how != "screen" else ocfg.min_separation) for c, how in cand):
             continue
         cand.append((f, "screen"))
         n_screen += 1
@@ -885,8 +959,10 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
             c.relative_likelihood = _relative(chosen, c, ocfg)
     rate = chosen.rev_s
     if chosen.origin == "screen":  # refined on a finer grid
-        fine = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, chosen.origin)
-                for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)]
+        fine = [
+            _score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, chosen.origin)
+            for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)
+        ]
         rate = max(fine, key=lambda c: c.loglik).rev_s
     kept = cands
     out = est
@@ -921,10 +997,11 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
     if split:  # the equal mixture of the chosen rate and the speeds as measured
         var_rel += 0.5 * (as_measured / rate - 1) ** 2
-    out.common_std_rev_s = np.sqrt(out.common_std_rev_s ** 2 + var_rel * out.common_rev_s ** 2)
-    out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s ** 2 + var_rel * out.speeds_rev_s ** 2)
-    listed = [(c, o) for c, o in zip(kept[1:], odds[1:])
-              if c.relative_likelihood >= ocfg.report_at or o >= ocfg.ambiguous_at]
+    out.common_std_rev_s = np.sqrt(out.common_std_rev_s**2 + var_rel * out.common_rev_s**2)
+    out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s**2 + var_rel * out.speeds_rev_s**2)
+    listed = [
+        (c, o) for c, o in zip(kept[1:], odds[1:]) if c.relative_likelihood >= ocfg.report_at or o >= ocfg.ambiguous_at
+    ]
     alts = [c for c, _ in listed]
     ambiguous = split or any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
     alt_rev_s = [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts]
@@ -948,18 +1025,34 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         "relative_likelihood": rel_l,
         "posterior_odds": post,
         "departs": round(depart, 4),
-        "split": (f"the speeds as measured ({as_measured:.2f} rev/s) departed from the chosen rate {rate:.2f} "
-                  f"rev/s by {100 * (as_measured / rate - 1):+.1f} %: the rotors split between two rates' lines "
-                  f"({n_moved} rotor-CPIs moved to the median); scaled to the chosen rate" if split else None),
-        "tip_prior": (None if likeliest is chosen else
-                      f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
-                      f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
-                      f"{2 * np.pi * chosen.rev_s * L:.0f} m/s is the more probable"),
+        "split": (
+            f"the speeds as measured ({as_measured:.2f} rev/s) departed from the chosen rate {rate:.2f} "
+            f"rev/s by {100 * (as_measured / rate - 1):+.1f} %: the rotors split between two rates' lines "
+            f"({n_moved} rotor-CPIs moved to the median); scaled to the chosen rate"
+            if split
+            else None
+        ),
+        "tip_prior": (
+            None
+            if likeliest is chosen
+            else f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
+            f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
+            f"{2 * np.pi * chosen.rev_s * L:.0f} m/s is the more probable"
+        ),
         "order_rel_std": float(np.sqrt(var_rel)),
         "n_rotors_to_median": int(n_moved),
         "n_cpis": int(len(cpis)),
-        "candidates": [{**{k: (round(v, 4) if isinstance(v, float) else v) for k, v in asdict(c).items()
-                           if k not in ("params", "per_cpi")}, **c.params} for c in kept],
+        "candidates": [
+            {
+                **{
+                    k: (round(v, 4) if isinstance(v, float) else v)
+                    for k, v in asdict(c).items()
+                    if k not in ("params", "per_cpi")
+                },
+                **c.params,
+            }
+            for c in kept
+        ],
         "settings": asdict(ocfg),
     }
     out.info = info
@@ -974,7 +1067,7 @@ def tip_log_prior(rev_s: np.ndarray, L, ocfg: OrderConfig) -> np.ndarray:
     if L is None or ocfg.tip_speed_log_sd <= 0:
         return np.zeros_like(rev_s)
     z = np.log(2 * np.pi * rev_s * L / ocfg.tip_speed_mps) / ocfg.tip_speed_log_sd
-    return -0.5 * z ** 2
+    return -0.5 * z**2
 
 
 def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
@@ -1002,8 +1095,12 @@ def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
     grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
     if L is not None:
         grid = grid[2 * np.pi * grid * (1 + ocfg.rescue_spread) * L / SOUND_MPS <= ocfg.max_tip_mach]
-    sc = np.array([_loglik(_geometry(data, f, B, L, lam, ocfg), ocfg, (1.0,), rmax_db, (None, "fit"),
-                           (1.0,), (-3.0,))[0] for f in grid])
+    sc = np.array(
+        [
+            _loglik(_geometry(data, f, B, L, lam, ocfg), ocfg, (1.0,), rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
+            for f in grid
+        ]
+    )
     tried = []
     for gi in np.argsort(sc)[::-1]:
         if len(tried) >= ocfg.rescue_tries or not np.isfinite(sc[gi]):
@@ -1014,15 +1111,16 @@ def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
         tried.append(f)
         # a lone pair's likely comb (lone_p_min) holds over the whole range only: in a
         # window the screen chose, a chance pair of a smeared line is one
-        narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel),
-                         lone_p_min=0.0)
+        narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel), lone_p_min=0.0)
         new = rerun(narrow)
         if new.ok and new.valid.any():
             out = resolve_order(flight, new, narrow, rerun, ocfg)
             if "order" in out.info:
-                out.info["order"]["rescued"] = (f"the lines over {scfg.min_rev_s:g}-{scfg.max_rev_s:g} rev/s found "
-                                                f"no comb ({est.reason}); found within "
-                                                f"{narrow.min_rev_s:.1f}-{narrow.max_rev_s:.1f} rev/s")
+                out.info["order"]["rescued"] = (
+                    f"the lines over {scfg.min_rev_s:g}-{scfg.max_rev_s:g} rev/s found "
+                    f"no comb ({est.reason}); found within "
+                    f"{narrow.min_rev_s:.1f}-{narrow.max_rev_s:.1f} rev/s"
+                )
             return out
     return est
 
@@ -1059,8 +1157,8 @@ def _within_spread(est, ocfg: OrderConfig):
     common, common_sd = np.array(est.common_rev_s, float), np.array(est.common_std_rev_s, float)
     moved = 0
     for i in np.flatnonzero(v):
-        near = v[max(0, i - 2):i + 3]
-        pool = speeds[max(0, i - 2):i + 3][near]
+        near = v[max(0, i - 2) : i + 3]
+        pool = speeds[max(0, i - 2) : i + 3][near]
         pool = pool[np.isfinite(pool)]
         if len(pool) == 0:
             continue
@@ -1092,11 +1190,16 @@ def ambiguity_line(est) -> str | None:
     speeds = " or ".join([f"{o['chosen_rev_s']:.1f}"] + [f"{a:.1f}" for a, _ in alts])
     ratios = ", ".join(f"{1 / r:.3g}" for _, r in alts)
     odds = o.get("posterior_odds")
-    prior = (f"; with the tip speed's prior {', '.join(f'{1 / x:.3g}' if x > 0 else 'inf' for x in odds)}"
-             if odds and list(odds) != list(o["relative_likelihood"]) else "")
+    prior = (
+        f"; with the tip speed's prior {', '.join(f'{1 / x:.3g}' if x > 0 else 'inf' for x in odds)}"
+        if odds and list(odds) != list(o["relative_likelihood"])
+        else ""
+    )
     split = f"; {o['split']}" if o.get("split") else ""
-    return (f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}{prior}{split}; "
-            f"the store's rpm_std includes it)")
+    return (
+        f"{est.flight_id}: rotor speed order ambiguous: {speeds} rev/s (likelihood ratio {ratios}{prior}{split}; "
+        f"the store's rpm_std includes it)"
+    )
 
 
 def order_attrs(est) -> dict:
@@ -1105,7 +1208,19 @@ def order_attrs(est) -> dict:
     o = (est.info or {}).get("order")
     if not o:
         return {}
-    return {"rotor_order": {k: o[k] for k in ("method", "chosen_rev_s", "lines_rev_s", "ratio_to_lines", "ambiguous",
-                                              "remeasured", "order_rel_std")},
-            "rotor_order_alternatives_rev_s": list(o["alternatives_rev_s"]),
-            "rotor_order_relative_likelihood": list(o["relative_likelihood"])}
+    return {
+        "rotor_order": {
+            k: o[k]
+            for k in (
+                "method",
+                "chosen_rev_s",
+                "lines_rev_s",
+                "ratio_to_lines",
+                "ambiguous",
+                "remeasured",
+                "order_rel_std",
+            )
+        },
+        "rotor_order_alternatives_rev_s": list(o["alternatives_rev_s"]),
+        "rotor_order_relative_likelihood": list(o["relative_likelihood"]),
+    }

@@ -92,7 +92,7 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
     w = blackmanharris(n_fft, sym=False)
     p = np.zeros(n_fft)
     for s in starts:
-        seg = iq[s:s + n_fft].astype(np.complex128)
+        seg = iq[s : s + n_fft].astype(np.complex128)
         p += np.abs(np.fft.fft((seg - seg.mean()) * w)) ** 2
     db = 10 * np.log10(p / len(starts) + 1e-30)
     floor = float(np.percentile(db, FLOOR_PERCENTILE))
@@ -106,7 +106,7 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
     # the centre of symmetry: the most occupied bins pairing about it (k and 2c - k), each
     # pair weighted by its bins' heights over the threshold (the body line pairs with itself)
     x = np.where(wide, 1.0 + np.clip(db - floor - ocfg.line_db, 0.0, None), 0.0)  # weighted by the height [dB]
-    pairs = np.real(np.fft.ifft(np.fft.fft(x) ** 2))         # [m]: pairs with k + k' = m (mod n_fft)
+    pairs = np.real(np.fft.ifft(np.fft.fft(x) ** 2))  # [m]: pairs with k + k' = m (mod n_fft)
     m = int(np.argmax(np.round(pairs, 6)))
     d = np.arange(1, n_fft // 2 + 1)
 
@@ -126,8 +126,13 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
     filled = reach_bins >= n_fft // 2 - 2
     centre_hz = float(((centre / n_fft + 0.5) % 1.0 - 0.5) * prf_hz)
     peak = int(np.argmax(np.where(occ, db, -np.inf)))
-    return {"extent_hz": float(reach_bins * prf_hz / n_fft), "centre_hz": centre_hz, "peak_hz": float(f[peak]),
-            "filled": bool(filled), "n_fft": int(n_fft)}
+    return {
+        "extent_hz": float(reach_bins * prf_hz / n_fft),
+        "centre_hz": centre_hz,
+        "peak_hz": float(f[peak]),
+        "filled": bool(filled),
+        "n_fft": int(n_fft),
+    }
 
 
 def tip_reach_hz(rev_s: float, blade_length_m: float, carrier_hz: float, ocfg: OrderConfig | None = None) -> float:
@@ -157,13 +162,20 @@ def spectrum_problems(flight, *, ocfg: OrderConfig | None = None) -> list[tuple[
     if ext["extent_hz"] <= reach:
         return out
     e = ext["extent_hz"]
-    shows = (f"the spectrum's lines fill ±PRF/2 = ±{e:.0f} Hz" if ext["filled"] else
-             f"the spectrum's lines reach ±{e:.0f} Hz about the body")
-    return out + [("prf_hz, carrier_hz",
-             f"{shows}, but tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} reach at most "
-             f"±{reach:.0f} Hz for tip speeds <= {v_max:.0f} m/s (a {e / reach:.2g}x wider Doppler): check prf_hz, "
-             "carrier_hz, blade_length_m",
-             f"lines within the blade tips' Doppler (prf_hz {prf:g} Hz as declared)")]
+    shows = (
+        f"the spectrum's lines fill ±PRF/2 = ±{e:.0f} Hz"
+        if ext["filled"]
+        else f"the spectrum's lines reach ±{e:.0f} Hz about the body"
+    )
+    return out + [
+        (
+            "prf_hz, carrier_hz",
+            f"{shows}, but tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} reach at most "
+            f"±{reach:.0f} Hz for tip speeds <= {v_max:.0f} m/s (a {e / reach:.2g}x wider Doppler): check prf_hz, "
+            "carrier_hz, blade_length_m",
+            f"lines within the blade tips' Doppler (prf_hz {prf:g} Hz as declared)",
+        )
+    ]
 
 
 def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
@@ -193,17 +205,22 @@ def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
     if abs(wrap(mean)) <= tol or off <= tol:
         return []
     v_mean = float(np.interp(t, tt, v).mean())
-    return [("prf_hz, carrier_hz",
-             f"the body line stands at {obs:+.0f} Hz (the spectrum's strongest line and the centre of its lines "
-             f"{ext['peak_hz']:+.0f}, {ext['centre_hz']:+.0f} Hz), but the track's radial "
-             f"velocity {v_mean:+.2f} m/s puts it at {wrap(mean):+.0f} Hz at carrier_hz {_unit(float(a['carrier_hz']))}"
-             f" and prf_hz {prf:g} (they differ by {off:.0f} Hz, more than the {tol:.0f} Hz the track's spread and "
-             f"{TRACK_SPEED_TOL_MPS:g} m/s allow): check prf_hz, carrier_hz (or the track)",
-             "the body line at the track's Doppler -2 v / lambda")]
+    return [
+        (
+            "prf_hz, carrier_hz",
+            f"the body line stands at {obs:+.0f} Hz (the spectrum's strongest line and the centre of its lines "
+            f"{ext['peak_hz']:+.0f}, {ext['centre_hz']:+.0f} Hz), but the track's radial "
+            f"velocity {v_mean:+.2f} m/s puts it at {wrap(mean):+.0f} Hz at carrier_hz {_unit(float(a['carrier_hz']))}"
+            f" and prf_hz {prf:g} (they differ by {off:.0f} Hz, more than the {tol:.0f} Hz the track's spread and "
+            f"{TRACK_SPEED_TOL_MPS:g} m/s allow): check prf_hz, carrier_hz (or the track)",
+            "the body line at the track's Doppler -2 v / lambda",
+        )
+    ]
 
 
-def rotor_problems(flight, rev_s: list[float], *, source: str, ocfg: OrderConfig | None = None
-                   ) -> list[tuple[str, str, str]]:
+def rotor_problems(
+    flight, rev_s: list[float], *, source: str, ocfg: OrderConfig | None = None
+) -> list[tuple[str, str, str]]:
     """The rotors' tip speed and Doppler at the rotation rates ``rev_s`` (the chosen
     one first, then the alternatives the lines allow) against physics and the
     spectrum's extent (module docstring): a problem only where no rate is plausible.
@@ -236,19 +253,28 @@ def rotor_problems(flight, rev_s: list[float], *, source: str, ocfg: OrderConfig
         else:
             return []
     kind, f, tip, reach = why[0]
-    alts = (f" (and {', '.join(f'{r:.1f}' for r in rates[1:])} rev/s, the order's alternatives)"
-            if len(rates) > 1 else "")
+    alts = (
+        f" (and {', '.join(f'{r:.1f}' for r in rates[1:])} rev/s, the order's alternatives)" if len(rates) > 1 else ""
+    )
     if kind == "tip":
-        return [("n_blades, blade_length_m, prf_hz",
-                 f"{source} turns at {f:.1f} rev/s{alts}: with blade_length_m {L:g} m the tips turn at {tip:.0f} m/s, "
-                 f"{'below' if tip < v_lo else 'above'} a drone's {v_lo:g}-{v_max:.0f} m/s: check n_blades, "
-                 "blade_length_m, prf_hz",
-                 f"blade tips at {v_lo:g}-{v_max:.0f} m/s")]
-    return [("carrier_hz, blade_length_m, n_blades",
-             f"the spectrum's lines reach ±{ext['extent_hz']:.0f} Hz about the body, but {source} at {f:.1f} "
-             f"rev/s{alts} puts tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} at most ±{reach:.0f} Hz "
-             "away: check carrier_hz, blade_length_m, n_blades",
-             "lines within the blade tips' Doppler")]
+        return [
+            (
+                "n_blades, blade_length_m, prf_hz",
+                f"{source} turns at {f:.1f} rev/s{alts}: with blade_length_m {L:g} m the tips turn at {tip:.0f} m/s, "
+                f"{'below' if tip < v_lo else 'above'} a drone's {v_lo:g}-{v_max:.0f} m/s: check n_blades, "
+                "blade_length_m, prf_hz",
+                f"blade tips at {v_lo:g}-{v_max:.0f} m/s",
+            )
+        ]
+    return [
+        (
+            "carrier_hz, blade_length_m, n_blades",
+            f"the spectrum's lines reach ±{ext['extent_hz']:.0f} Hz about the body, but {source} at {f:.1f} "
+            f"rev/s{alts} puts tips of blade_length_m {L:g} m at carrier_hz {_unit(carrier)} at most ±{reach:.0f} Hz "
+            "away: check carrier_hz, blade_length_m, n_blades",
+            "lines within the blade tips' Doppler",
+        )
+    ]
 
 
 def estimate_rates(est) -> list[float]:
@@ -275,15 +301,21 @@ def blade_count_hint(est) -> str | None:
     if lines <= 0 or chosen <= 0:
         return None
     B = int(est.n_blades)
-    rates = [("chosen", chosen)] + ([("listed", float(a)) for a in o.get("alternatives_rev_s", [])]
-                                    if o.get("ambiguous") else [])
+    rates = [("chosen", chosen)] + (
+        [("listed", float(a)) for a in o.get("alternatives_rev_s", [])] if o.get("ambiguous") else []
+    )
     for how, r in rates:
         for b in range(2, 5):
-            if b != B and not math.log2(b / B).is_integer() and abs(math.log(r / (lines * B / b))) <= \
-                    OrderConfig().snap_rel:
+            if (
+                b != B
+                and not math.log2(b / B).is_integer()
+                and abs(math.log(r / (lines * B / b))) <= OrderConfig().snap_rel
+            ):
                 what = "chose" if how == "chosen" else f"lists beside {chosen:.1f} rev/s"
-                return (f"n_blades: the lines' comb read with {B} blades per rotor gives {lines:.1f} rev/s, read with "
-                        f"{b} blades {r:.1f} rev/s, which the order check {what}: check n_blades")
+                return (
+                    f"n_blades: the lines' comb read with {B} blades per rotor gives {lines:.1f} rev/s, read with "
+                    f"{b} blades {r:.1f} rev/s, which the order check {what}: check n_blades"
+                )
     return None
 
 
@@ -300,12 +332,13 @@ def flight_rates(flight) -> tuple[list[float], str | None]:
         return [], None
     radar = flight.attrs.get("motors_source") == "radar"
     alts = (flight.attrs.get("motors_radar") or {}).get("rotor_order_alternatives_rev_s", []) if radar else []
-    return ([float(np.median(r)) / 60.0] + [float(a) for a in alts],
-            "the radar's rotor comb" if radar else "the motor log")
+    return (
+        [float(np.median(r)) / 60.0] + [float(a) for a in alts],
+        "the radar's rotor comb" if radar else "the motor log",
+    )
 
 
-def recording_problems(flight, *, rotors: bool = True, ocfg: OrderConfig | None = None
-                       ) -> list[tuple[str, str, str]]:
+def recording_problems(flight, *, rotors: bool = True, ocfg: OrderConfig | None = None) -> list[tuple[str, str, str]]:
     """Every check of this module on ``flight``: the spectrum's extent, and with
     ``rotors`` the tips at the rates of its motor log (where it has one)."""
     out = spectrum_problems(flight, ocfg=ocfg)

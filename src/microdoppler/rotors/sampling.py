@@ -102,15 +102,16 @@ def _moving_average(x: np.ndarray, w: int) -> np.ndarray:
     xp = np.concatenate([np.full(h, x[0]), x, np.full(w - h, x[-1])])
     c = np.cumsum(xp, dtype=np.float64)
     c = np.concatenate([[0.0], c])
-    return (c[w:w + len(x)] - c[:len(x)]) / w
+    return (c[w : w + len(x)] - c[: len(x)]) / w
 
 
 #: decimated samples of edge padding against filter transients (``sub_cpi``)
 SUB_CPI_PAD = 16
 
 
-def sub_cpi_knots(log: MotorLog, motor: int, n_pulses: int, prf_hz: float,
-                  cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
+def sub_cpi_knots(
+    log: MotorLog, motor: int, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()
+) -> np.ndarray:
     """The decimated log of ``sub_cpi`` (before upsampling): float64 [n_knots] rev/s.
 
     ``sub_cpi_per_cpi`` samples per CPI, i.e. one every ``up = n_fft / sub_cpi_per_cpi``
@@ -136,19 +137,26 @@ def sub_cpi_from_knots(knots: np.ndarray, n_pulses: int, *, up: int, pad: int, w
     start) and smoothed by a centred rolling average of ``window_pulses``.
     """
     upsampled = resample_poly(np.asarray(knots, np.float64), up, 1)
-    x = upsampled[pad * up: pad * up + n_pulses]
+    x = upsampled[pad * up : pad * up + n_pulses]
     return _moving_average(x, window_pulses)
 
 
-def sub_cpi_motor(log: MotorLog, motor: int, n_pulses: int, prf_hz: float,
-                  cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
+def sub_cpi_motor(
+    log: MotorLog, motor: int, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()
+) -> np.ndarray:
     """Sub-CPI sampling of one motor: [n_pulses] float64 rev/s."""
-    return sub_cpi_from_knots(sub_cpi_knots(log, motor, n_pulses, prf_hz, cfg), n_pulses,
-                              up=cfg.n_fft // cfg.sub_cpi_per_cpi, pad=SUB_CPI_PAD, window_pulses=cfg.window_pulses)
+    return sub_cpi_from_knots(
+        sub_cpi_knots(log, motor, n_pulses, prf_hz, cfg),
+        n_pulses,
+        up=cfg.n_fft // cfg.sub_cpi_per_cpi,
+        pad=SUB_CPI_PAD,
+        window_pulses=cfg.window_pulses,
+    )
 
 
-def sub_cpi(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig(),
-            motors: list[int] | None = None) -> np.ndarray:
+def sub_cpi(
+    log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig(), motors: list[int] | None = None
+) -> np.ndarray:
     motors = list(range(log.n_motors)) if motors is None else motors
     out = np.empty((n_pulses, len(motors)), np.float32)
     for j, m in enumerate(motors):
@@ -156,16 +164,25 @@ def sub_cpi(log: MotorLog, n_pulses: int, prf_hz: float, cfg: SamplingConfig = S
     return out
 
 
-def fixed_speeds(n_motors: int, n_pulses: int, typical_hz: float, seed: int,
-                 cfg: SamplingConfig = SamplingConfig()) -> tuple[np.ndarray, float]:
+def fixed_speeds(
+    n_motors: int, n_pulses: int, typical_hz: float, seed: int, cfg: SamplingConfig = SamplingConfig()
+) -> tuple[np.ndarray, float]:
     """Constant speeds: returns (rev_s [n_pulses, n_motors], the drawn speed [rev/s])."""
     rng = np.random.default_rng(seed)
     f = float(typical_hz * rng.uniform(1 - cfg.fixed_spread, 1 + cfg.fixed_spread))
     return np.full((n_pulses, n_motors), f, np.float32), f
 
 
-def resample(variant: str, log: MotorLog, n_pulses: int, prf_hz: float, *, typical_hz: float | None = None,
-             seed: int = 0, cfg: SamplingConfig = SamplingConfig()) -> np.ndarray:
+def resample(
+    variant: str,
+    log: MotorLog,
+    n_pulses: int,
+    prf_hz: float,
+    *,
+    typical_hz: float | None = None,
+    seed: int = 0,
+    cfg: SamplingConfig = SamplingConfig(),
+) -> np.ndarray:
     """Rotation rates at pulse rate for one sampling ``variant`` (paper §V.A.1).
 
     Parameters

@@ -264,8 +264,9 @@ class RotorSpeedConfig:
         if not self.pair_snr_db > 0:
             raise ValueError(f"pair_snr_db={self.pair_snr_db} must be > 0")
         if self.clutter_guard_hz < 0 or self.body_search_hz < 0:
-            raise ValueError(f"clutter_guard_hz={self.clutter_guard_hz} and body_search_hz={self.body_search_hz} "
-                             f"must be >= 0")
+            raise ValueError(
+                f"clutter_guard_hz={self.clutter_guard_hz} and body_search_hz={self.body_search_hz} must be >= 0"
+            )
         if not 0 < self.max_step_rel < 0.5:
             raise ValueError(f"max_step_rel={self.max_step_rel} must be in (0, 0.5)")
         if self.min_cpis < 1:
@@ -393,8 +394,9 @@ class RotorEstimate:
         t = self.time_s[v].astype(np.float64)
         if not cpi_means:
             rev = instants_from_cpi_means(t, rev, self.n_fft, float(self.info["prf_hz"]))
-        return MotorLog(t, (rev * 60.0).astype(np.float32),
-                        f"{self.flight_id}: radar ({self.info.get('method', METHOD)})")
+        return MotorLog(
+            t, (rev * 60.0).astype(np.float32), f"{self.flight_id}: radar ({self.info.get('method', METHOD)})"
+        )
 
     def store_attrs(self, *, per_motor: bool = True, cpi_means: bool = False) -> dict:
         """Group attributes that go with :meth:`to_motor_log` in a flight-zarr/1 store:
@@ -405,22 +407,33 @@ class RotorEstimate:
         v = self.valid
         std = self.speeds_std_rev_s[v] if per_motor else np.repeat(self.common_std_rev_s[v, None], self.n_motors, 1)
         # the I/Q fit's sigma is calibrated (95 % within 2 sigma); the lines' alone is not
-        fitted = {} if self.balance is None else {
-            "balance": [round(float(b), 3) if np.isfinite(b) else None for b in self.balance[v]]}
-        sigma = ("the CPI mean's uncertainty (on held-out emulated flights 95-96 % of errors within 2 rpm_std "
-                 "where n_pairs >= 2, 90-98 % where n_pairs = 1)" if fitted
-                 else "the CPI mean's uncertainty from the periodogram's lines")
+        fitted = (
+            {}
+            if self.balance is None
+            else {"balance": [round(float(b), 3) if np.isfinite(b) else None for b in self.balance[v]]}
+        )
+        sigma = (
+            "the CPI mean's uncertainty (on held-out emulated flights 95-96 % of errors within 2 rpm_std "
+            "where n_pairs >= 2, 90-98 % where n_pairs = 1)"
+            if fitted
+            else "the CPI mean's uncertainty from the periodogram's lines"
+        )
         return {
             "motors_source": "radar",
             "motors_radar": {
                 "method": self.info.get("method", METHOD),
                 "n_fft": int(self.n_fft),
-                "columns": "ascending speed per row (rotor ranks, not physical motors)" if per_motor
-                           else "mean rotor speed in every column",
+                "columns": "ascending speed per row (rotor ranks, not physical motors)"
+                if per_motor
+                else "mean rotor speed in every column",
                 "rpm_std": np.round(std * 60.0, 1).tolist(),
-                "rows": ("the estimates (window^2-weighted CPI means)" if cpi_means else
-                         "cubic-spline nodes whose window^2-weighted CPI means equal the estimates")
-                        + "; rpm_std is " + sigma,
+                "rows": (
+                    "the estimates (window^2-weighted CPI means)"
+                    if cpi_means
+                    else "cubic-spline nodes whose window^2-weighted CPI means equal the estimates"
+                )
+                + "; rpm_std is "
+                + sigma,
                 "n_pairs": self.n_pairs[v].astype(int).tolist(),
                 "n_lines": self.n_lines[v].astype(int).tolist(),
                 **fitted,
@@ -449,27 +462,50 @@ class RotorEstimate:
         dep = int(self.info.get("n_cpi_departing", 0))
         method = self.info.get("method", METHOD)
         remeasured = (self.info.get("order") or {}).get("remeasured", "")
-        fallback = (f" (the lines alone: the I/Q fit ran at another order and its speeds were not kept; "
-                    f"{remeasured})" if method == METHOD_LINES and remeasured.startswith("the lines'") else "")
-        return (f"{self.flight_id}: {int(v.sum())} of {len(v)} CPIs, method {method}{fallback}, mean rotor speed "
-                f"{np.nanmean(self.common_rev_s):.1f} rev/s, median {np.median(self.n_pairs[v]):.0f} pairs, "
-                f"{int(self.separated.sum())} CPIs with every rotor separated"
-                + (f"; a lone pair read as the comb: {lone}" if lone else "")
-                + (f"; {dep} CPIs depart from both neighbours by over "
-                   f"{100 * self.info.get('departure_rel', 0):.0f} % (their rpm_std includes it)" if dep else "")
-                + (f"; CPI {self.info['cpi']}" if "cpi" in self.info else ""))
+        fallback = (
+            f" (the lines alone: the I/Q fit ran at another order and its speeds were not kept; {remeasured})"
+            if method == METHOD_LINES and remeasured.startswith("the lines'")
+            else ""
+        )
+        return (
+            f"{self.flight_id}: {int(v.sum())} of {len(v)} CPIs, method {method}{fallback}, mean rotor speed "
+            f"{np.nanmean(self.common_rev_s):.1f} rev/s, median {np.median(self.n_pairs[v]):.0f} pairs, "
+            f"{int(self.separated.sum())} CPIs with every rotor separated"
+            + (f"; a lone pair read as the comb: {lone}" if lone else "")
+            + (
+                f"; {dep} CPIs depart from both neighbours by over "
+                f"{100 * self.info.get('departure_rel', 0):.0f} % (their rpm_std includes it)"
+                if dep
+                else ""
+            )
+            + (f"; CPI {self.info['cpi']}" if "cpi" in self.info else "")
+        )
 
 
 def _order_attrs(est) -> dict:
     from .order import order_attrs
+
     return order_attrs(est)
 
 
 def _no_estimate(flight_id, n_cpi, t, n_motors, n_blades, n_fft, reason, info=None) -> RotorEstimate:
     nan = np.full(n_cpi, np.nan)
-    return RotorEstimate(flight_id, t, np.full((n_cpi, n_motors), np.nan), np.full((n_cpi, n_motors), np.nan),
-                         nan.copy(), nan.copy(), np.zeros(n_cpi, int), np.zeros(n_cpi, int), nan.copy(),
-                         int(n_motors), int(n_blades), int(n_fft), reason, dict(info or {}))
+    return RotorEstimate(
+        flight_id,
+        t,
+        np.full((n_cpi, n_motors), np.nan),
+        np.full((n_cpi, n_motors), np.nan),
+        nan.copy(),
+        nan.copy(),
+        np.zeros(n_cpi, int),
+        np.zeros(n_cpi, int),
+        nan.copy(),
+        int(n_motors),
+        int(n_blades),
+        int(n_fft),
+        reason,
+        dict(info or {}),
+    )
 
 
 def _parabolic(y_m1, y0, y_p1) -> float:
@@ -496,9 +532,16 @@ class _Cpi:
     centre: float
 
 
-def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors: int | None = None,
-                          n_blades: int | None = None, config: RotorSpeedConfig | None = None,
-                          progress=None, order: bool = True) -> RotorEstimate:
+def estimate_rotor_speeds(
+    flight: Flight,
+    *,
+    n_fft: int | None = None,
+    n_motors: int | None = None,
+    n_blades: int | None = None,
+    config: RotorSpeedConfig | None = None,
+    progress=None,
+    order: bool = True,
+) -> RotorEstimate:
     """Estimate each rotor's speed over time from the flight's HERM lines.
 
     Parameters
@@ -577,8 +620,9 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
             short = estimate_rotor_speeds(flight, n_fft=N_FFT_MIN, **kw)
             if not short.ok:
                 return est
-            short.info["cpi"] = (f"{N_FFT_MIN} pulses: the default CPI of {n_fft} ({n_fft / prf:.2f} s) gave no "
-                                 f"estimate ({est.reason})")
+            short.info["cpi"] = (
+                f"{N_FFT_MIN} pulses: the default CPI of {n_fft} ({n_fft / prf:.2f} s) gave no estimate ({est.reason})"
+            )
             return short
     if n_fft < 64 or n_fft % 2:
         raise ValueError(f"n_fft={n_fft} must be an even integer >= 64")
@@ -588,9 +632,14 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
     n_pulses = len(flight.iq)
     n_cpi = 1 + (n_pulses - n_fft) // hop if n_pulses >= n_fft else 0
     t = (np.arange(n_cpi) * hop + n_fft / 2) / prf
-    info = {"settings": {k: (asdict(v) if is_dataclass(v) else v) for k, v in
-                         ((k, getattr(cfg, k)) for k in cfg.__dataclass_fields__)}, "n_cpi": int(n_cpi),
-            "prf_hz": prf}
+    info = {
+        "settings": {
+            k: (asdict(v) if is_dataclass(v) else v)
+            for k, v in ((k, getattr(cfg, k)) for k in cfg.__dataclass_fields__)
+        },
+        "n_cpi": int(n_cpi),
+        "prf_hz": prf,
+    }
     target = attrs.get("target", "drone")
     if target != "drone":
         return _no_estimate(fid, n_cpi, t, M, B or 0, n_fft, f"target is {target!r}: no rotors", info)
@@ -598,8 +647,9 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
         return _no_estimate(fid, n_cpi, t, M, 0, n_fft, "blades per rotor unknown (no n_blades attribute)", info)
     B = int(B)
     if n_cpi == 0:
-        return _no_estimate(fid, 0, t, M, B, n_fft,
-                            f"flight shorter than one CPI ({n_pulses} pulses < n_fft={n_fft})", info)
+        return _no_estimate(
+            fid, 0, t, M, B, n_fft, f"flight shorter than one CPI ({n_pulses} pulses < n_fft={n_fft})", info
+        )
 
     bin_hz = prf / n_fft
     N = cfg.n_harmonics
@@ -617,11 +667,12 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
     f_hz = None
     for i0 in range(0, n_cpi, BLOCK_CPIS):
         i1 = min(n_cpi, i0 + BLOCK_CPIS)
-        seg = np.asarray(flight.iq[i0 * hop:(i1 - 1) * hop + n_fft])
+        seg = np.asarray(flight.iq[i0 * hop : (i1 - 1) * hop + n_fft])
         sp = spectrogram(seg, prf, spec_cfg)
         f_hz = sp.doppler_hz.astype(np.float64)
-        z = sp.power_db - local_floor_db(sp.power_db, window_bins=FLOOR_WINDOW_BINS,
-                                         step_bins=FLOOR_STEP_BINS, percentile=FLOOR_PERCENTILE)
+        z = sp.power_db - local_floor_db(
+            sp.power_db, window_bins=FLOOR_WINDOW_BINS, step_bins=FLOOR_STEP_BINS, percentile=FLOOR_PERCENTILE
+        )
         masked = np.abs(f_hz) < cfg.clutter_guard_hz
         for k in range(i1 - i0):
             zk = np.where(masked, -100.0, z[k]).astype(np.float64)
@@ -650,6 +701,7 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
         common_sd[i] = np.sqrt(lines[i].mean_var(cnt) + var_alloc)
         n_pairs[i] = lines[i].n_pairs
         n_lines[i] = sum(min(len(m), int(k)) for m, k in zip(lines[i].members, cnt))
+
     def plausible():
         # a rotor speed outside the plausible range is not one
         out = ~((common >= cfg.min_rev_s) & (common <= cfg.max_rev_s))
@@ -678,8 +730,7 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
             if second_db < cfg.pair_snr_db:
                 lone_why = "level"
             elif cfg.lone_p_min > 0:
-                absence_p = second_order_absence_p(flight, B, float(np.nanmedian(first)), n_comb, n_ok,
-                                                   cfg.pair_snr_db)
+                absence_p = second_order_absence_p(flight, B, float(np.nanmedian(first)), n_comb, n_ok, cfg.pair_snr_db)
                 if absence_p is not None and absence_p >= cfg.lone_p_min:
                     lone_why = "likely"
     lone = lone_why is not None
@@ -687,52 +738,79 @@ def estimate_rotor_speeds(flight: Flight, *, n_fft: int | None = None, n_motors:
     balance = None
     if cfg.refine and n_ok > 0 and (n_comb >= cfg.min_cpis or lone):  # step 9 only where there is an estimate
         balance = np.full(n_cpi, np.nan)
-        n_refined = _refine(flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M, n_pairs,
-                            progress, balance)
+        n_refined = _refine(
+            flight, cfg, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M, n_pairs, progress, balance
+        )
         n_ok, n_comb = plausible()
         balance[~np.isfinite(common)] = np.nan
-    info.update({"method": METHOD if cfg.refine else METHOD_LINES, "n_cpi_refined": int(n_refined),
-                 "n_cpi_estimated": n_ok, "n_cpi_comb": n_comb,
-                 "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum())})
+    info.update(
+        {
+            "method": METHOD if cfg.refine else METHOD_LINES,
+            "n_cpi_refined": int(n_refined),
+            "n_cpi_estimated": n_ok,
+            "n_cpi_comb": n_comb,
+            "n_cpi_separated": int((np.isfinite(common) & (n_lines >= M)).sum()),
+        }
+    )
     if lone_why == "extent":
-        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
-                             f"orders: the blade flash's Doppler extent (blade_length_m "
-                             f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) holds one "
-                             f"blade-passing harmonic only")
+        info["lone_pair"] = (
+            f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+            f"orders: the blade flash's Doppler extent (blade_length_m "
+            f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) holds one "
+            f"blade-passing harmonic only"
+        )
     elif lone_why == "level":
-        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
-                             f"orders: the second blade-passing harmonic of a thin-wire blade (blade_length_m "
-                             f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) is expected at "
-                             f"{second_db:.1f} dB over the floor, under the pair threshold {cfg.pair_snr_db:g} dB")
+        info["lone_pair"] = (
+            f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+            f"orders: the second blade-passing harmonic of a thin-wire blade (blade_length_m "
+            f"{float(attrs['blade_length_m']):g} m at {flight.wavelength_m:.4g} m) is expected at "
+            f"{second_db:.1f} dB over the floor, under the pair threshold {cfg.pair_snr_db:g} dB"
+        )
     elif lone_why == "likely":
-        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
-                             f"orders: a thin-wire blade (blade_length_m {float(attrs['blade_length_m']):g} m at "
-                             f"{flight.wavelength_m:.4g} m) shows its second blade-passing harmonic that rarely "
-                             f"with probability {absence_p:.2f} (averaged over its extent; up to {second_db:.1f} dB "
-                             f"over the floor)")
+        info["lone_pair"] = (
+            f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+            f"orders: a thin-wire blade (blade_length_m {float(attrs['blade_length_m']):g} m at "
+            f"{flight.wavelength_m:.4g} m) shows its second blade-passing harmonic that rarely "
+            f"with probability {absence_p:.2f} (averaged over its extent; up to {second_db:.1f} dB "
+            f"over the floor)"
+        )
     elif lone_why == "folded":
-        info["lone_pair"] = (f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
-                             f"orders: the second order's pair lies beyond +-{0.49 * prf:.0f} Hz (PRF {prf:.0f} Hz) "
-                             f"and folds, so the band holds one mirror pair only")
+        info["lone_pair"] = (
+            f"{n_ok} of {n_cpi} CPIs show one sideband pair and {n_comb} two or more harmonic "
+            f"orders: the second order's pair lies beyond +-{0.49 * prf:.0f} Hz (PRF {prf:.0f} Hz) "
+            f"and folds, so the band holds one mirror pair only"
+        )
     reason = None
     if n_ok == 0:
-        reason = (f"no sideband pair above the noise: 0 of {n_cpi} CPIs show a pair (both lines >= "
-                  f"{cfg.pair_snr_db:g} dB over the local floor at rotor speeds "
-                  f"{cfg.min_rev_s:g}-{cfg.max_rev_s:g} rev/s)")
+        reason = (
+            f"no sideband pair above the noise: 0 of {n_cpi} CPIs show a pair (both lines >= "
+            f"{cfg.pair_snr_db:g} dB over the local floor at rotor speeds "
+            f"{cfg.min_rev_s:g}-{cfg.max_rev_s:g} rev/s)"
+        )
     elif n_comb < cfg.min_cpis and not lone:
-        reason = (f"no HERM comb: {n_ok} of {n_cpi} CPIs show a sideband pair but {n_comb} show two or more "
-                  f"harmonic orders (an estimate needs >= {cfg.min_cpis}; a lone mirror pair may be clutter "
-                  f"or birds)")
+        reason = (
+            f"no HERM comb: {n_ok} of {n_cpi} CPIs show a sideband pair but {n_comb} show two or more "
+            f"harmonic orders (an estimate needs >= {cfg.min_cpis}; a lone mirror pair may be clutter "
+            f"or birds)"
+        )
     if reason is not None:
         est = _no_estimate(fid, n_cpi, t, M, B, n_fft, reason, info)
         est.n_pairs = n_pairs
     else:
-        est = RotorEstimate(fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info,
-                            balance)
+        est = RotorEstimate(
+            fid, t, speeds, sds, common, common_sd, n_pairs, n_lines, body, M, B, n_fft, None, info, balance
+        )
     if order:  # which comb the lines are, with its doubt (rotors.order)
         from .order import resolve_order
-        est = resolve_order(flight, est, cfg, rerun=lambda c, n_blades=B: estimate_rotor_speeds(
-            flight, n_fft=n_fft, n_motors=M, n_blades=n_blades, config=c, progress=progress, order=False))
+
+        est = resolve_order(
+            flight,
+            est,
+            cfg,
+            rerun=lambda c, n_blades=B: estimate_rotor_speeds(
+                flight, n_fft=n_fft, n_motors=M, n_blades=n_blades, config=c, progress=progress, order=False
+            ),
+        )
         if est.ok:
             departure_sigma(est, cfg.smear_rel)
     return est
@@ -815,8 +893,9 @@ def _second_over_first(flight, n_blades: int) -> np.ndarray | None:
     return np.abs(thin_wire_harmonic(2 * B, x)) / np.maximum(np.abs(thin_wire_harmonic(B, x)), 1e-300)
 
 
-def second_order_absence_p(flight, n_blades: int, first_db: float, n_seen: int, n_cpis: int,
-                           threshold_db: float) -> float | None:
+def second_order_absence_p(
+    flight, n_blades: int, first_db: float, n_seen: int, n_cpis: int, threshold_db: float
+) -> float | None:
     """How probable it is that a thin-wire comb whose first pair stands ``first_db`` over
     the floor shows its second blade-passing pair (both lines >= ``threshold_db``) in at
     most ``n_seen`` of ``n_cpis`` CPIs: the binomial probability, each CPI's chance the
@@ -831,9 +910,9 @@ def second_order_absence_p(flight, n_blades: int, first_db: float, n_seen: int, 
     rel = _second_over_first(flight, n_blades)
     if rel is None or n_cpis < 1:
         return None
-    s = 10 ** (first_db / 10) * rel ** 2
+    s = 10 ** (first_db / 10) * rel**2
     p_line = ncx2.sf(2 * 10 ** (threshold_db / 10), 2, 2 * s)
-    return float(np.mean(binom.cdf(int(n_seen), int(n_cpis), p_line ** 2)))
+    return float(np.mean(binom.cdf(int(n_seen), int(n_cpis), p_line**2)))
 
 
 def thin_wire_harmonic(k: int, x) -> np.ndarray:
@@ -884,8 +963,9 @@ def one_order_visible(flight, n_blades: int) -> bool:
     return bool(OrderConfig().extent_range[1] * beta < 2 * int(n_blades))
 
 
-def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float,
-                        n_points: int = 64) -> np.ndarray:
+def cpi_means_of_spline(
+    t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n_fft: int, prf_hz: float, n_points: int = 64
+) -> np.ndarray:
     """Window^2-weighted mean (Blackman-Harris, ``n_fft`` pulses at ``prf_hz``) over each
     CPI centred on ``cpi_t`` of the curve through (``t_s``, ``nodes``) [n, k] that every
     sampling variant reads from a log (:func:`microdoppler.rotors.sampling.log_curve`):
@@ -897,8 +977,9 @@ def cpi_means_of_spline(t_s: np.ndarray, nodes: np.ndarray, cpi_t: np.ndarray, n
     return np.einsum("ikm,k->im", log_curve(t_s, nodes)(tt), wk)
 
 
-def instants_from_cpi_means(t_s: np.ndarray, means: np.ndarray, n_fft: int, prf_hz: float, *,
-                            iterations: int = 12, rtol: float = 1e-7) -> np.ndarray:
+def instants_from_cpi_means(
+    t_s: np.ndarray, means: np.ndarray, n_fft: int, prf_hz: float, *, iterations: int = 12, rtol: float = 1e-7
+) -> np.ndarray:
     """Speeds at the CPI centres ``t_s`` whose natural cubic spline has the CPI means
     ``means`` [n, k] (:func:`cpi_means_of_spline`): the fixed point of
     x <- x + (means - A x), A the CPI-mean operator (close to the identity: its
@@ -913,12 +994,30 @@ def instants_from_cpi_means(t_s: np.ndarray, means: np.ndarray, n_fft: int, prf_
         x = x + r
         if np.max(np.abs(r)) <= rtol * np.max(np.abs(m)):
             return x
-    return x if np.max(np.abs(m - cpi_means_of_spline(t_s, x, t_s, n_fft, prf_hz))) <= 1e-5 * np.max(np.abs(m)) \
+    return (
+        x
+        if np.max(np.abs(m - cpi_means_of_spline(t_s, x, t_s, n_fft, prf_hz))) <= 1e-5 * np.max(np.abs(m))
         else m.copy()
+    )
 
 
-def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_sd, body, t, hop, n_fft, B, M,
-            n_pairs, progress=None, balance=None) -> int:
+def _refine(
+    flight: Flight,
+    cfg: RotorSpeedConfig,
+    speeds,
+    sds,
+    common,
+    common_sd,
+    body,
+    t,
+    hop,
+    n_fft,
+    B,
+    M,
+    n_pairs,
+    progress=None,
+    balance=None,
+) -> int:
     """Step 9: each CPI with an estimate refitted on its I/Q (in place, with each fit's
     power balance into ``balance``; ``n_pairs`` [n_cpi]: the visible sideband pairs,
     which set the one-pair uncertainty); returns the number of CPIs refined. A CPI whose
@@ -934,12 +1033,21 @@ def _refine(flight: Flight, cfg: RotorSpeedConfig, speeds, sds, common, common_s
     for k, i in enumerate(valid):
         if progress is not None and k % 64 == 0 and k > 0:
             progress(k, len(valid))
-        x = np.asarray(flight.iq[i * hop:i * hop + n_fft])
+        x = np.asarray(flight.iq[i * hop : i * hop + n_fft])
         sp = speeds[i][np.isfinite(speeds[i])]
         lines = np.unique(np.round(sp, 9))
-        res = refine_cpi(x, prf, B, M, body_hz=float(body[i]), body_rate_hz_s=float(body_rate[i]),
-                         lines_rev_s=lines, rate_rev_s2=float(rate[i]), n_pairs=int(n_pairs[i]),
-                         config=cfg.fit)
+        res = refine_cpi(
+            x,
+            prf,
+            B,
+            M,
+            body_hz=float(body[i]),
+            body_rate_hz_s=float(body_rate[i]),
+            lines_rev_s=lines,
+            rate_rev_s2=float(rate[i]),
+            n_pairs=int(n_pairs[i]),
+            config=cfg.fit,
+        )
         if res is None:
             continue
         speeds[i], sds[i] = res.speeds_rev_s, res.speeds_std_rev_s
@@ -992,7 +1100,7 @@ def _centre(z: np.ndarray, zpk1: np.ndarray, f0: float, f_hz: np.ndarray, B: int
     lo = max(1, int(np.floor(i_track - s_half)))
     hi = min(n - 2, int(np.ceil(i_track + s_half)))
     if hi > lo:
-        q = lo + int(np.argmax(z[lo:hi + 1]))
+        q = lo + int(np.argmax(z[lo : hi + 1]))
         return q + _parabolic(z[q - 1], z[q], z[q + 1])
     return float(np.clip(i_track, 0, n - 1))
 
@@ -1086,7 +1194,7 @@ def _centroid(z: np.ndarray, bins: np.ndarray, centre: float, sign: int):
         return None
     off = sign * (bins - centre)
     mu = float(np.sum(w * off) / tot)
-    var = float(np.sum((off - mu) ** 2 * (2 * np.maximum(w, 0) + 1)) / tot ** 2)
+    var = float(np.sum((off - mu) ** 2 * (2 * np.maximum(w, 0) + 1)) / tot**2)
     return mu, var, float(tot)
 
 
@@ -1134,15 +1242,15 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     pk = np.sort(pk[np.argsort(q1[pk])[::-1][:M]])
     for _ in range(M + 1):
         anchors = fw[pk]
-        cut = [pk[a] + int(np.argmin(q1[pk[a]:pk[a + 1] + 1])) for a in range(len(pk) - 1)]
+        cut = [pk[a] + int(np.argmin(q1[pk[a] : pk[a + 1] + 1])) for a in range(len(pk) - 1)]
         edges = [float(fw[j]) for j in cut]
         # each cluster's extent: where its first pair stays visible, within its edges
         ext = []
         for ci, j in enumerate(pk):
             a0 = cut[ci - 1] if ci > 0 else 0
             a1 = cut[ci] if ci < len(cut) else len(fw) - 1
-            below = np.flatnonzero(q1[a0:j + 1] < T)
-            above = np.flatnonzero(q1[j:a1 + 1] < T)
+            below = np.flatnonzero(q1[a0 : j + 1] < T)
+            above = np.flatnonzero(q1[j : a1 + 1] < T)
             ext.append((fw[a0 + below[-1]] if len(below) else fw[a0], fw[j + above[0]] if len(above) else fw[a1]))
         f_lo = min(ext[0][0], anchors[0] * (1 - 0.5 * cfg.smear_rel))
         f_hi = max(ext[-1][1], anchors[-1] * (1 + 0.5 * cfg.smear_rel))
@@ -1157,8 +1265,9 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
             # counts are least clear and every harmonic's power share helps)
             if not (E[nn - 1, (fw >= f_lo) & (fw <= f_hi)] > 0).any():
                 continue
-            st = _cluster_stats(z, c.centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg,
-                                starts=(ext[0][0], ext[-1][1]))
+            st = _cluster_stats(
+                z, c.centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, starts=(ext[0][0], ext[-1][1])
+            )
             if st is not None:
                 per_n.append(st)
         if not per_n:
@@ -1168,7 +1277,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
         if not weak.any() or len(pk) == 1:
             break
         pk = np.delete(pk, int(np.argmin(frac)))  # a smear shoulder or a ghost: merge it away
-    sp_n = np.array([s[0] for s in per_n])      # [n_harm, n_clusters]
+    sp_n = np.array([s[0] for s in per_n])  # [n_harm, n_clusters]
     var_n = np.array([s[1] for s in per_n]) + (REL_FLOOR * sp_n) ** 2
     w = 1.0 / var_n
     cl_speed = (w * sp_n).sum(0) / w.sum(0)
@@ -1180,8 +1289,9 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     bounds = [fw[0]] + edges + [fw[-1]]
     members, exact = [], []
     for ci in range(len(pk)):
-        sel = ((fw >= max(bounds[ci], min(ext[ci][0], anchors[ci] * (1 - 0.5 * cfg.smear_rel))))
-               & (fw <= min(bounds[ci + 1], max(ext[ci][1], anchors[ci] * (1 + 0.5 * cfg.smear_rel)))))
+        sel = (fw >= max(bounds[ci], min(ext[ci][0], anchors[ci] * (1 - 0.5 * cfg.smear_rel)))) & (
+            fw <= min(bounds[ci + 1], max(ext[ci][1], anchors[ci] * (1 + 0.5 * cfg.smear_rel)))
+        )
         found = []
         for nn in range(n1 + 1, N + 1):
             if not examined[nn - 1, sel].all() or not (E[nn - 1, sel] > 0).any():
@@ -1201,9 +1311,10 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
             fs = fw[sel]
             qn = _pair_db(c, nn, fs, B, bin_hz)
             ip = np.searchsorted(fs, f_lines)
-            valleys = [float(fs[ip[a] + int(np.argmin(qn[ip[a]:ip[a + 1] + 1]))]) for a in range(len(ip) - 1)]
-            st = _cluster_stats(z, c.centre, nn, B, bin_hz, f_lines, valleys, f_lo, f_hi, cfg,
-                                outer=(float(fs[0]), float(fs[-1])))
+            valleys = [float(fs[ip[a] + int(np.argmin(qn[ip[a] : ip[a + 1] + 1]))]) for a in range(len(ip) - 1)]
+            st = _cluster_stats(
+                z, c.centre, nn, B, bin_hz, f_lines, valleys, f_lo, f_hi, cfg, outer=(float(fs[0]), float(fs[-1]))
+            )
             if st is not None:
                 members.append(st[0])
                 exact.append(True)
@@ -1223,8 +1334,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     # rotors sharing a cluster: placed to about a bin at the highest visible harmonic
     n_top = int(np.flatnonzero(visible).max()) + 1 if visible.any() else n1
     within = (bin_hz / (n_top * B)) ** 2
-    return _Lines(cl_speed, cl_var, frac, members, exact, within, int(visible.sum()),
-                  int(sum(len(m) for m in members)))
+    return _Lines(cl_speed, cl_var, frac, members, exact, within, int(visible.sum()), int(sum(len(m) for m in members)))
 
 
 @dataclass
@@ -1274,7 +1384,7 @@ class _Lines:
             mem = list(np.sort(mem))
             while len(mem) > max(int(count[ci]), 1):
                 j = int(np.argmin(np.diff(mem)))
-                mem[j:j + 2] = [0.5 * (mem[j] + mem[j + 1])]
+                mem[j : j + 2] = [0.5 * (mem[j] + mem[j + 1])]
             mem = np.array(mem)
             if not self.exact[ci]:  # line spacing from the speed grid, centred on the centroid
                 mem = mem - mem.mean() + self.speed[ci]
@@ -1297,7 +1407,7 @@ def _share_cost(frac: np.ndarray, count: np.ndarray, M: int) -> float:
     ``count``: a line of k rotors has share k / M with variance SPREAD_SHARE_SD^2 +
     SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2 (each pair of rotors on it interferes)."""
     k = np.asarray(count, float)
-    var = SPREAD_SHARE_SD ** 2 + SPREAD_INTERFERENCE_SD ** 2 * k * (k - 1) / 2
+    var = SPREAD_SHARE_SD**2 + SPREAD_INTERFERENCE_SD**2 * k * (k - 1) / 2
     return float(np.sum((frac - k / M) ** 2 / var + np.log(var)))
 
 
@@ -1316,20 +1426,25 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
     full = [L is not None and L.n_lines == M and len(L.members) <= M for L in lines]
     pats = [None if L is None else [_pattern(L.rotors(cnt)[0]) for cnt in opts[i]] for i, L in enumerate(lines)]
     # the relative-speed pattern of the CPIs where every rotor has its own line
-    pattern = [_pattern(L.rotors(np.array([len(m) for m in L.members]))[0]) if full[i] else None
-               for i, L in enumerate(lines)]
+    pattern = [
+        _pattern(L.rotors(np.array([len(m) for m in L.members]))[0]) if full[i] else None for i, L in enumerate(lines)
+    ]
     W = PATTERN_CPIS
     out = []
     for i, L in enumerate(lines):
         if L is None:
             out.append(None)
             continue
-        cost = np.array([float(np.sum((L.frac - cnt / M) ** 2)) / POWER_SHARE_SD ** 2
-                         + SPLIT_COST * L.missing(cnt) for cnt in opts[i]])
+        cost = np.array(
+            [
+                float(np.sum((L.frac - cnt / M) ** 2)) / POWER_SHARE_SD**2 + SPLIT_COST * L.missing(cnt)
+                for cnt in opts[i]
+            ]
+        )
         refs = [pattern[j] for j in range(max(0, i - W), min(n, i + W + 1)) if j != i and full[j]]
         if refs and len(opts[i]) > 1:
             ref = np.median(np.array(refs), axis=0)
-            cost = cost + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD ** 2
+            cost = cost + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD**2
         # MAP counts for the rotors; the mean speed averages over the counts' posterior
         # (weights exp(-cost / 2)), its spread adds to the uncertainty
         w = np.exp(-0.5 * (cost - cost.min()))
@@ -1339,7 +1454,7 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
         # the uncertainty: the posterior under the measured (count-dependent) share scatter
         cv = np.array([_share_cost(L.frac, cnt, M) + SPLIT_COST * L.missing(cnt) for cnt in opts[i]])
         if refs and len(opts[i]) > 1:
-            cv = cv + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD ** 2
+            cv = cv + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD**2
         wv = np.exp(-0.5 * (cv - cv.min()))
         wv /= wv.sum()
         out.append((opts[i][int(np.argmin(cost))], mu, float(np.sum(wv * (means - mu) ** 2))))
@@ -1370,14 +1485,14 @@ def _cluster_stats(z, centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, ou
                 a0 = edges[ci - 1] * k_hz
             else:
                 j0 = int(np.round(centre + sign * d0))
-                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0):j0 + 3])) - LINE_RANGE_DB)
+                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0) : j0 + 3])) - LINE_RANGE_DB)
                 j = _walk(z, j0, -sign, stop, int(np.ceil(cfg.smear_rel * d0)) + 4)
                 a0 = max(sign * (j - centre), lim_lo)
             if ci < K - 1:
                 a1 = edges[ci] * k_hz
             else:
                 j0 = int(np.round(centre + sign * d1))
-                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0):j0 + 3])) - LINE_RANGE_DB)
+                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0) : j0 + 3])) - LINE_RANGE_DB)
                 j = _walk(z, j0, sign, stop, int(np.ceil(cfg.smear_rel * d1)) + 4)
                 a1 = min(sign * (j - centre), lim_hi)
             r = _centroid(z, _side_bins(centre, a0, a1, sign, n), centre, sign)
@@ -1385,6 +1500,6 @@ def _cluster_stats(z, centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, ou
                 return None
             res.append(r)
         sp.append((res[0][0] + res[1][0]) * scale)
-        var.append((res[0][1] + res[1][1]) * scale ** 2)
+        var.append((res[0][1] + res[1][1]) * scale**2)
         pw.append(min(res[0][2], res[1][2]))
     return np.array(sp), np.array(var), np.array(pw)

@@ -15,8 +15,13 @@ FLOOR_STEP_BINS = 16
 FLOOR_PERCENTILE = 20.0
 
 
-def local_floor_db(power_db: np.ndarray, *, window_bins: int = FLOOR_WINDOW_BINS,
-                   step_bins: int = FLOOR_STEP_BINS, percentile: float = FLOOR_PERCENTILE) -> np.ndarray:
+def local_floor_db(
+    power_db: np.ndarray,
+    *,
+    window_bins: int = FLOOR_WINDOW_BINS,
+    step_bins: int = FLOOR_STEP_BINS,
+    percentile: float = FLOOR_PERCENTILE,
+) -> np.ndarray:
     """Mean noise power per bin [dB] of periodogram rows ``power_db`` [k, n_bins].
 
     A low percentile over ``window_bins`` (centres every ``step_bins``, linear in

@@ -19,8 +19,9 @@ def noise_floor_db(spec: Spectrogram) -> np.ndarray:
     return np.median(spec.power_db, axis=1)
 
 
-def line_snr_db(spec: Spectrogram, expected_hz: np.ndarray | float | None = None, *, search_hz: float = 10.0,
-                notch_hz: float = 20.0) -> np.ndarray:
+def line_snr_db(
+    spec: Spectrogram, expected_hz: np.ndarray | float | None = None, *, search_hz: float = 10.0, notch_hz: float = 20.0
+) -> np.ndarray:
     """Peak of the line near ``expected_hz`` over the median floor, per timestep [dB].
 
     Parameters
@@ -111,8 +112,9 @@ def record_snr_db(spec: Spectrogram, body_hz, line: str, *, highpass_hz: float, 
     return line_snr_db(spec, body_hz, search_hz=search_hz)
 
 
-def flight_line_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(),
-                       search_hz: float = 10.0) -> tuple[np.ndarray, str]:
+def flight_line_snr_db(
+    flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(), search_hz: float = 10.0
+) -> tuple[np.ndarray, str]:
     """SNR of every spectrogram timestep of a flight on the line that carries its
     signal [dB], and that line's name (:func:`snr_line`): the body line
     (:func:`flight_body_snr_db`) unless the flight is a drone whose body sits in the
@@ -126,8 +128,9 @@ def flight_line_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: Spectr
     return record_snr_db(spec, body, line, highpass_hz=spec_cfg.highpass_hz, search_hz=search_hz), line
 
 
-def flight_body_snr_db(flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(),
-                       search_hz: float = 10.0) -> np.ndarray:
+def flight_body_snr_db(
+    flight, iq: np.ndarray | None = None, *, spec_cfg: SpectrogramConfig = SpectrogramConfig(), search_hz: float = 10.0
+) -> np.ndarray:
     """Body-line SNR of every spectrogram timestep of a flight (Table III's measure) [dB].
 
     ``flight`` is a :class:`~microdoppler.io.flightzarr.Flight`; ``iq`` (default the

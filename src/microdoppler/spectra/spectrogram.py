@@ -140,7 +140,9 @@ def _number(key: str, value, *, integer: bool = False):
     if not bad and integer and float(value) != int(value):
         bad = True
     if bad or not math.isfinite(float(value)):
-        raise ConfigError("config", f"spectrogram.{key}", f"is {value!r}", "an integer" if integer else "a finite number")
+        raise ConfigError(
+            "config", f"spectrogram.{key}", f"is {value!r}", "an integer" if integer else "a finite number"
+        )
     return int(value) if integer else float(value)
 
 
@@ -191,8 +193,12 @@ class SpectrogramSettings:
     SPAN_KEYS = ("doppler_span_hz", "doppler_span_mps", "blade_tip_rev_s", "n_bins")
 
     def __post_init__(self):
-        for key, unit in (("window_s", "s"), ("doppler_span_hz", "Hz"), ("doppler_span_mps", "m/s"),
-                          ("blade_tip_rev_s", "rev/s")):
+        for key, unit in (
+            ("window_s", "s"),
+            ("doppler_span_hz", "Hz"),
+            ("doppler_span_mps", "m/s"),
+            ("blade_tip_rev_s", "rev/s"),
+        ):
             v = getattr(self, key)
             if v is not None and not _number(key, v) > 0:
                 raise ConfigError("config", f"spectrogram.{key}", f"is {v}", f"> 0 {unit}")
@@ -201,16 +207,24 @@ class SpectrogramSettings:
         if self.n_bins is not None and _number("n_bins", self.n_bins, integer=True) < 0:
             raise ConfigError("config", "spectrogram.n_bins", f"is {self.n_bins}", ">= 0 (0 keeps all bins)")
         if self.window_s is not None and self.n_fft is not None:
-            raise ConfigError("config", "spectrogram.window_s", f"is {self.window_s} and n_fft is {self.n_fft}",
-                              "one of window_s [s] or n_fft [pulses]")
+            raise ConfigError(
+                "config",
+                "spectrogram.window_s",
+                f"is {self.window_s} and n_fft is {self.n_fft}",
+                "one of window_s [s] or n_fft [pulses]",
+            )
         given = [k for k in self.SPAN_KEYS if getattr(self, k) is not None]
         if len(given) > 1:
-            raise ConfigError("config", f"spectrogram.{given[1]}", f"is given with {given[0]}",
-                              "one of " + ", ".join(self.SPAN_KEYS))
+            raise ConfigError(
+                "config", f"spectrogram.{given[1]}", f"is given with {given[0]}", "one of " + ", ".join(self.SPAN_KEYS)
+            )
         # the fixed settings: SpectrogramConfig's own checks, on its default bins
-        SpectrogramConfig(overlap=_number("overlap", self.overlap), highpass_hz=_number("highpass_hz", self.highpass_hz),
-                          highpass_order=_number("highpass_order", self.highpass_order, integer=True),
-                          tile_timesteps=_number("tile_timesteps", self.tile_timesteps, integer=True))
+        SpectrogramConfig(
+            overlap=_number("overlap", self.overlap),
+            highpass_hz=_number("highpass_hz", self.highpass_hz),
+            highpass_order=_number("highpass_order", self.highpass_order, integer=True),
+            tile_timesteps=_number("tile_timesteps", self.tile_timesteps, integer=True),
+        )
 
     @classmethod
     def from_config(cls, spectrogram: dict | None) -> "SpectrogramSettings":
@@ -222,8 +236,9 @@ class SpectrogramSettings:
                 raise ConfigError("config", f"spectrogram.{k}", "is not a setting", "one of " + ", ".join(names))
         return cls(**d)
 
-    def resolve(self, prf_hz: float, carrier_hz: float, *, blade_length_m: float | None = None,
-                body_mps: float = 0.0) -> SpectrogramConfig:
+    def resolve(
+        self, prf_hz: float, carrier_hz: float, *, blade_length_m: float | None = None, body_mps: float = 0.0
+    ) -> SpectrogramConfig:
         """The STFT settings in pulses and bins for a radar of ``prf_hz`` and ``carrier_hz``.
 
         Parameters
@@ -265,8 +280,12 @@ class SpectrogramSettings:
             window_s = PAPER_WINDOW_S if self.window_s is None else self.window_s
             n_fft = nearest_power_of_two(window_s * prf_hz)
             if n_fft < 16:
-                raise ConfigError("config", "spectrogram.window_s", f"is {window_s} s = {window_s * prf_hz:.1f} pulses "
-                                  f"at PRF {prf_hz:g} Hz", ">= 16 pulses")
+                raise ConfigError(
+                    "config",
+                    "spectrogram.window_s",
+                    f"is {window_s} s = {window_s * prf_hz:.1f} pulses at PRF {prf_hz:g} Hz",
+                    ">= 16 pulses",
+                )
         bin_hz = prf_hz / n_fft
         if self.n_bins is not None:
             n_bins = int(self.n_bins)
@@ -274,8 +293,12 @@ class SpectrogramSettings:
                 raise ConfigError("config", "spectrogram.n_bins", f"is {n_bins}", f"<= n_fft = {n_fft}")
         elif self.blade_tip_rev_s is not None:
             if blade_length_m is None or not blade_length_m > 0:
-                raise ConfigError("config", "spectrogram.blade_tip_rev_s", f"is {self.blade_tip_rev_s} with blade "
-                                  f"length {blade_length_m}", "a blade length > 0 m (the data's drones)")
+                raise ConfigError(
+                    "config",
+                    "spectrogram.blade_tip_rev_s",
+                    f"is {self.blade_tip_rev_s} with blade length {blade_length_m}",
+                    "a blade length > 0 m (the data's drones)",
+                )
             reach_hz = blade_tip_reach_hz(self.blade_tip_rev_s, blade_length_m, carrier_hz, body_mps)
             # centred bins k - n_fft/2 .. : n_bins reach from -n_bins/2 to n_bins/2 - 1 bins
             n_bins = min(2 * (math.ceil(reach_hz / bin_hz) + 1), n_fft)
@@ -288,24 +311,44 @@ class SpectrogramSettings:
                 key, span_hz = None, min(2 * PAPER_DOPPLER_SPAN_MPS / wavelength_m, prf_hz)
             if key is not None and span_hz > prf_hz * (1 + 1e-12):
                 v = getattr(self, key)
-                raise ConfigError("config", f"spectrogram.{key}", f"is {v} = {span_hz:.1f} Hz at {carrier_hz:g} Hz",
-                                  f"<= the PRF, {prf_hz:g} Hz = {prf_hz * wavelength_m / 2:.2f} m/s (Doppler beyond "
-                                  "±PRF/2 folds)")
+                raise ConfigError(
+                    "config",
+                    f"spectrogram.{key}",
+                    f"is {v} = {span_hz:.1f} Hz at {carrier_hz:g} Hz",
+                    f"<= the PRF, {prf_hz:g} Hz = {prf_hz * wavelength_m / 2:.2f} m/s (Doppler beyond ±PRF/2 folds)",
+                )
             n_bins = min(2 * math.floor(span_hz / bin_hz / 2 + 0.5), n_fft)
             if n_bins < 2:
-                raise ConfigError("config", f"spectrogram.{key or 'doppler_span_mps'}", f"gives {span_hz:.3g} Hz",
-                                  f">= two Doppler bins, {2 * bin_hz:.3g} Hz")
-        return SpectrogramConfig(n_fft=n_fft, overlap=float(self.overlap), highpass_hz=float(self.highpass_hz),
-                                 highpass_order=int(self.highpass_order), n_bins=n_bins,
-                                 tile_timesteps=int(self.tile_timesteps))
+                raise ConfigError(
+                    "config",
+                    f"spectrogram.{key or 'doppler_span_mps'}",
+                    f"gives {span_hz:.3g} Hz",
+                    f">= two Doppler bins, {2 * bin_hz:.3g} Hz",
+                )
+        return SpectrogramConfig(
+            n_fft=n_fft,
+            overlap=float(self.overlap),
+            highpass_hz=float(self.highpass_hz),
+            highpass_order=int(self.highpass_order),
+            n_bins=n_bins,
+            tile_timesteps=int(self.tile_timesteps),
+        )
 
 
 def describe(cfg: SpectrogramConfig, prf_hz: float, carrier_hz: float) -> dict:
     """The resolved settings in physical units (CPI, bin width, image span in Hz and m/s)."""
     span_hz = cfg.doppler_span_hz(prf_hz)
-    return dict(prf_hz=float(prf_hz), carrier_hz=float(carrier_hz), n_fft=cfg.n_fft, cpi_s=cfg.n_fft / prf_hz,
-                n_bins=cfg.n_bins, doppler_bin_hz=cfg.doppler_bin_hz(prf_hz), doppler_span_hz=span_hz,
-                doppler_span_mps=span_hz * C_MPS / carrier_hz / 2, tile_duration_s=cfg.tile_duration_s(prf_hz))
+    return dict(
+        prf_hz=float(prf_hz),
+        carrier_hz=float(carrier_hz),
+        n_fft=cfg.n_fft,
+        cpi_s=cfg.n_fft / prf_hz,
+        n_bins=cfg.n_bins,
+        doppler_bin_hz=cfg.doppler_bin_hz(prf_hz),
+        doppler_span_hz=span_hz,
+        doppler_span_mps=span_hz * C_MPS / carrier_hz / 2,
+        tile_duration_s=cfg.tile_duration_s(prf_hz),
+    )
 
 
 @dataclass
@@ -409,9 +452,9 @@ def spectrogram(iq: np.ndarray, prf_hz: float, cfg: SpectrogramConfig = Spectrog
     if cfg.n_bins:
         c = cfg.n_fft // 2
         lo = c - cfg.n_bins // 2
-        S = S[lo:lo + cfg.n_bins]
-        f = f[lo:lo + cfg.n_bins]
-    p = (S.real ** 2 + S.imag ** 2).T
+        S = S[lo : lo + cfg.n_bins]
+        f = f[lo : lo + cfg.n_bins]
+    p = (S.real**2 + S.imag**2).T
     t = stft.t(len(x), p0=k0, p1=k1)
     return Spectrogram(10 * np.log10(p + 1e-30).astype(np.float32), t, f)
 

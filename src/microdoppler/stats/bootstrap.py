@@ -60,8 +60,9 @@ class FlightDraws:
         return self.weights.shape[0]
 
 
-def draw_flights(flight_ids, *, strata=None, n_seeds: int | None = None, n_boot: int = N_BOOT,
-                 seed: int = 0) -> FlightDraws:
+def draw_flights(
+    flight_ids, *, strata=None, n_seeds: int | None = None, n_boot: int = N_BOOT, seed: int = 0
+) -> FlightDraws:
     """Draw flights with replacement within each stratum (and seeds, if ``n_seeds``).
 
     Parameters

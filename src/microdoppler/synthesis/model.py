@@ -133,8 +133,10 @@ class BladeModel:
         if self.blade_amplitudes is not None:
             a = np.asarray(self.blade_amplitudes, np.float64)
             if a.ndim not in (1, 2) or a.shape[-1] != self.n_blades or a.size == 0:
-                raise ValueError(f"blade_amplitudes has shape {a.shape}, expected (n_blades={self.n_blades},) "
-                                 f"or (n_motors, {self.n_blades})")
+                raise ValueError(
+                    f"blade_amplitudes has shape {a.shape}, expected (n_blades={self.n_blades},) "
+                    f"or (n_motors, {self.n_blades})"
+                )
             if not np.all(np.isfinite(a)) or np.any(a < 0):
                 raise ValueError(f"blade_amplitudes={a.tolist()} must be finite and >= 0")
             amps = tuple(map(float, a)) if a.ndim == 1 else tuple(tuple(map(float, r)) for r in a)
@@ -188,8 +190,9 @@ class BladeModel:
     def table(self, motor: int = 0) -> np.ndarray:
         """G of rotor ``motor`` over one revolution: complex64 [table_size] at angles
         2 pi i / table_size."""
-        return _rotor_table(self.n_blades, self.blade_length_m, self.wavelength_m, self.table_size,
-                            self.amplitudes(motor))
+        return _rotor_table(
+            self.n_blades, self.blade_length_m, self.wavelength_m, self.table_size, self.amplitudes(motor)
+        )
 
 
 #: blade scattering models (:func:`blade_scattering_gain`)
@@ -442,8 +445,14 @@ class _HarmonicTables:
     grows to cover the speeds seen.
     """
 
-    def __init__(self, base_table: np.ndarray, alpha_s: float, n_blades: int,
-                 size: int = ENVELOPE_TABLE_SIZE, step: float = ENVELOPE_SPEED_STEP):
+    def __init__(
+        self,
+        base_table: np.ndarray,
+        alpha_s: float,
+        n_blades: int,
+        size: int = ENVELOPE_TABLE_SIZE,
+        step: float = ENVELOPE_SPEED_STEP,
+    ):
         nb = base_table.shape[0]
         if size * n_blades > nb:
             raise ValueError(f"size={size} x n_blades={n_blades} must be <= the rotor table's {nb}")
@@ -479,9 +488,9 @@ class _HarmonicTables:
         have = (ks >= self.k0) & (ks <= self.k1)
         if have.any():
             o0, o1 = max(lo, self.k0), min(hi, self.k1)
-            new[o0 - lo: o1 - lo + 1] = self.table[o0 - self.k0: o1 - self.k0 + 1]
+            new[o0 - lo : o1 - lo + 1] = self.table[o0 - self.k0 : o1 - self.k0 + 1]
         for j0 in range(0, len(ks), 64):  # bounded temporaries
-            sel = np.flatnonzero(~have[j0:j0 + 64]) + j0
+            sel = np.flatnonzero(~have[j0 : j0 + 64]) + j0
             if len(sel):
                 new[sel] = self.rows(ks[sel])
         self.k0, self.k1, self.table = lo, hi, new
@@ -596,13 +605,24 @@ class SynthesisConfig:
             raise ValueError("Envelope(method='harmonic') does not take an envelope_gain; use 'fft' or 'auto'")
 
     @classmethod
-    def of(cls, *, prf_hz: float, wavelength_m: float, n_blades: int, blade_length_m: float,
-           scaling: Scaling = Scaling(), blade_amplitudes=None, scattering: str = "thin_wire",
-           envelope: Envelope = Envelope(), extensions: ModelExtensions = ModelExtensions(),
-           chunk_pulses: int | None = None) -> "SynthesisConfig":
+    def of(
+        cls,
+        *,
+        prf_hz: float,
+        wavelength_m: float,
+        n_blades: int,
+        blade_length_m: float,
+        scaling: Scaling = Scaling(),
+        blade_amplitudes=None,
+        scattering: str = "thin_wire",
+        envelope: Envelope = Envelope(),
+        extensions: ModelExtensions = ModelExtensions(),
+        chunk_pulses: int | None = None,
+    ) -> "SynthesisConfig":
         """The configuration from flat parameters (the ``BladeModel`` built here)."""
-        blades = BladeModel(int(n_blades), blade_length_m, wavelength_m, blade_amplitudes=blade_amplitudes,
-                            scattering=scattering)
+        blades = BladeModel(
+            int(n_blades), blade_length_m, wavelength_m, blade_amplitudes=blade_amplitudes, scattering=scattering
+        )
         return cls(prf_hz, blades, scaling, envelope, extensions, chunk_pulses)
 
     @property
@@ -612,14 +632,21 @@ class SynthesisConfig:
     @property
     def harmonic(self) -> bool:
         """True when the alpha envelope is applied by the harmonic tables."""
-        return (self.scaling.alpha_s > 0 and self.scaling.s_blade > 0 and self.extensions.envelope_gain is None
-                and self.envelope.method in ("auto", "harmonic"))
+        return (
+            self.scaling.alpha_s > 0
+            and self.scaling.s_blade > 0
+            and self.extensions.envelope_gain is None
+            and self.envelope.method in ("auto", "harmonic")
+        )
 
     @property
     def fft_filter(self) -> bool:
         """True when the envelope is applied by the FFT filter."""
-        return ((self.scaling.alpha_s > 0 or self.extensions.envelope_gain is not None)
-                and self.scaling.s_blade > 0 and not self.harmonic)
+        return (
+            (self.scaling.alpha_s > 0 or self.extensions.envelope_gain is not None)
+            and self.scaling.s_blade > 0
+            and not self.harmonic
+        )
 
 
 #: fixed-point phase: one revolution (or one carrier cycle) = 2**32, so uint32
@@ -640,8 +667,9 @@ def _fixed_phase(cycles) -> np.ndarray:
     return (np.floor(frac * PHASE_ONE).astype(np.uint64) & np.uint64(PHASE_ONE - 1)).astype(np.uint32)
 
 
-def _increments(rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarray,
-                in_range: bool = False) -> np.ndarray:
+def _increments(
+    rates: np.ndarray, scale: float, f64: np.ndarray, out: np.ndarray, in_range: bool = False
+) -> np.ndarray:
     """Per-pulse phase increments ``rates * scale`` as uint32 modulo 2**32
     (``in_range``: the caller has checked 0 <= rates * scale < 2**32)."""
     n = rates.shape[0]
@@ -667,13 +695,14 @@ def _add_row_offsets(idx: np.ndarray, start: int, q: int, koff: np.ndarray) -> N
         j += 1
     full = (n - head) // q
     if full:
-        idx[head:head + full * q].reshape(full, q)[...] += koff[j:j + full, None]
+        idx[head : head + full * q].reshape(full, q)[...] += koff[j : j + full, None]
     if head + full * q < n:
-        idx[head + full * q:] += koff[j + full]
+        idx[head + full * q :] += koff[j + full]
 
 
-def _carrier_phase(track: "Track", a: int, b: int, prf_hz: float, wavelength_m: float, half: int,
-                   out: np.ndarray) -> np.ndarray:
+def _carrier_phase(
+    track: "Track", a: int, b: int, prf_hz: float, wavelength_m: float, half: int, out: np.ndarray
+) -> np.ndarray:
     """uint32 fixed-point phase of 2 R(t) / lambda [cycles] at pulses [a, b) (+ ``half``
     for nearest-neighbour rounding in the table lookup)."""
     n = b - a
@@ -687,12 +716,20 @@ def _carrier_phase(track: "Track", a: int, b: int, prf_hz: float, wavelength_m: 
     ph = out[: n_seg * step].reshape(n_seg, step)
     np.multiply(slope[:, None], np.arange(step, dtype=np.uint32)[None, :], out=ph)
     ph += base[:, None]
-    return out[a - g0: a - g0 + n]
+    return out[a - g0 : a - g0 + n]
 
 
-def synthesize(config: SynthesisConfig, track: Track, rev_s, *, n_pulses: int | None = None,
-               initial_cycles: Sequence[float] | None = None, seed: int = 0, out: np.ndarray | None = None,
-               progress: Callable[[int, int], None] | None = None) -> np.ndarray:
+def synthesize(
+    config: SynthesisConfig,
+    track: Track,
+    rev_s,
+    *,
+    n_pulses: int | None = None,
+    initial_cycles: Sequence[float] | None = None,
+    seed: int = 0,
+    out: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> np.ndarray:
     """Synthesise the drone echo of eq. (2) without background or noise.
 
     Parameters
@@ -764,7 +801,7 @@ def synthesize(config: SynthesisConfig, track: Track, rev_s, *, n_pulses: int | 
         i1 = min(i0 + k.chunk, n_total)
         a, b = max(0, i0 - k.margin), min(n_total, i1 + k.margin)
         m = k.envelope_filter(k.blade_signal(rev_s, a, i0, i1, b), a, b)
-        k.emit(m[i0 - a:i1 - a], i0, i1, track, out)
+        k.emit(m[i0 - a : i1 - a], i0, i1, track, out)
         if progress is not None:
             progress(i1, n_total)
     return out
@@ -773,8 +810,7 @@ def synthesize(config: SynthesisConfig, track: Track, rev_s, *, n_pulses: int | 
 def _initial_cycles(initial_cycles, seed: int, n_motors: int) -> np.ndarray:
     """Rotor angles at pulse 0 [rev]: float64 [n_motors], given or drawn from ``seed``."""
     rng = np.random.default_rng(seed)
-    start = (np.asarray(initial_cycles, np.float64) if initial_cycles is not None
-             else rng.uniform(0, 1, n_motors))
+    start = np.asarray(initial_cycles, np.float64) if initial_cycles is not None else rng.uniform(0, 1, n_motors)
     if start.shape != (n_motors,):
         raise ValueError(f"initial_cycles has shape {start.shape}, expected ({n_motors},)")
     return start
@@ -871,7 +907,7 @@ class _Kernel:
         for h in {id(h): h for h in self.henvs}.values():
             h.cover(int(kf.min()), int(kf.max()))
         koff = [((kf[k] - h.k0) * h.size).astype(np.intp) for k, h in enumerate(self.henvs)]
-        return r_read[a - g0:], koff, [h.table.reshape(-1) for h in self.henvs], g0
+        return r_read[a - g0 :], koff, [h.table.reshape(-1) for h in self.henvs], g0
 
     def blade_signal(self, rev_s, a: int, i0: int, i1: int, b: int) -> np.ndarray:
         """m(t) at pulses [a, b) (output pulses [i0, i1) plus the filter margins):
@@ -893,18 +929,20 @@ class _Kernel:
         # the float32 product in _increments; out of range -> checked per sub-block)
         in_range = bool(r_all.size) and float(r_all.min()) >= 0 and float(r_all.max()) * scale < 0.999 * PHASE_ONE
         for s0 in range(a, i0, sub):
-            r = r_all[s0 - a:min(s0 + sub, i0) - a]
+            r = r_all[s0 - a : min(s0 + sub, i0) - a]
             for k in range(self.n_motors):
                 d = _increments(r[:, k], scale, self.f64, self.inc, in_range)
                 cur[k] = (cur[k] - int(d.sum(dtype=np.uint64))) & (PHASE_ONE - 1)
-        bounds = ([(s0, min(s0 + sub, i0)) for s0 in range(a, i0, sub)]
-                  + [(s0, min(s0 + sub, i1)) for s0 in range(i0, i1, sub)]
-                  + [(s0, min(s0 + sub, b)) for s0 in range(i1, b, sub)])
+        bounds = (
+            [(s0, min(s0 + sub, i0)) for s0 in range(a, i0, sub)]
+            + [(s0, min(s0 + sub, i1)) for s0 in range(i0, i1, sub)]
+            + [(s0, min(s0 + sub, b)) for s0 in range(i1, b, sub)]
+        )
         idx, tmp, ph = self.idx, self.tmp, self.ph
         for s0, s1 in bounds:
             if s0 == i1:
                 self.ph_i0 = list(cur)  # phase at the next chunk's first pulse
-            r = r_all[s0 - a:s1 - a]
+            r = r_all[s0 - a : s1 - a]
             n = s1 - s0
             for k in range(self.n_motors):
                 d = _increments(r[:, k], scale, self.f64, self.inc, in_range)
@@ -918,10 +956,10 @@ class _Kernel:
                     _add_row_offsets(idx[:n], s0 - g0, ENVELOPE_SPEED_STRIDE, koff[k])
                 # indices are in range by construction; "clip" skips numpy's bounds check
                 if k == 0:
-                    np.take(rtabs[k], idx[:n], out=m[s0 - a:s1 - a], mode="clip")
+                    np.take(rtabs[k], idx[:n], out=m[s0 - a : s1 - a], mode="clip")
                 else:
                     np.take(rtabs[k], idx[:n], out=tmp[:n], mode="clip")
-                    m[s0 - a:s1 - a] += tmp[:n]
+                    m[s0 - a : s1 - a] += tmp[:n]
         if b == i1:
             self.ph_i0 = cur
         return m
@@ -950,8 +988,11 @@ class _Kernel:
         (modified in place) scaled and hooked, the body added, times the body carrier."""
         cfg = self.config
         ext, s_body = cfg.extensions, cfg.scaling.s_body
-        tt = (np.arange(i0, i1, dtype=np.float64) / cfg.prf_hz
-              if (ext.blade_hook is not None or ext.body_hook is not None) else None)
+        tt = (
+            np.arange(i0, i1, dtype=np.float64) / cfg.prf_hz
+            if (ext.blade_hook is not None or ext.body_hook is not None)
+            else None
+        )
         if self.s_blade != 1:
             blade *= np.float32(self.s_blade)
         if ext.blade_hook is not None:
@@ -1008,7 +1049,8 @@ def reference_synthesize(config: SynthesisConfig, track: Track, rev_s, *, initia
     """Straightforward per-pulse evaluation of eq. (1)/(2) (alpha = 0, no extensions;
     per-blade amplitudes and the scattering gain included), for tests and the
     benchmark's reference. Slow on purpose: a Python loop over pulses."""
-    import math, cmath
+    import math
+    import cmath
 
     if config.scaling.alpha_s != 0 or config.extensions != ModelExtensions():
         raise ValueError("reference_synthesize evaluates alpha_s = 0 without extensions")

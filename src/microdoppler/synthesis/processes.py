@@ -31,8 +31,7 @@ class SlowGain:
     ``amplitude(t_s)`` returns 10^(x(t)/20) as float32.
     """
 
-    def __init__(self, duration_s: float, std_db: float, tau_s: float, rng: np.random.Generator,
-                 t0_s: float = 0.0):
+    def __init__(self, duration_s: float, std_db: float, tau_s: float, rng: np.random.Generator, t0_s: float = 0.0):
         n = int(np.ceil(duration_s / GAIN_DT_S)) + 3
         self.t0_s = t0_s
         self.x_db = ou_process(n, GAIN_DT_S, std_db, tau_s, rng)
