@@ -856,7 +856,10 @@ def test_report_file_follows_the_format_and_figure(tmp_path):
         assert set(c) >= {"cause", "extension", "gain", "evidence"}
         assert c["cause"] in on_disk["catalog"] and c["extension"]["name"] == c["cause"]
         assert set(c["extension"]["params"]) == {p.name for p in CAUSES[c["cause"]].params}
-        assert set(c["gain"]) == {"metric", "baseline", "extended", "held_out"}
+        assert {"metric", "baseline", "extended", "held_out", "agrees_with_evalue"} <= set(c["gain"])
+        # the gain and the e-value tell one story, or the entry says why not
+        agrees = c["gain"]["extended"] < c["gain"]["baseline"]
+        assert c["gain"]["agrees_with_evalue"] == agrees and (agrees or c["gain"]["why"])
     assert (tmp_path / "figs" / "fmt01.png").stat().st_size > 10_000
     assert not (tmp_path / "figs" / "b1.png").exists()
 

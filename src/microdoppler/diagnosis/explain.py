@@ -145,6 +145,33 @@ MODEL_BEYOND_HINT = (
 )
 
 
+def _block_means(d, fold, block, blocks):
+    """Per band of ``d`` [n_cpi, n_bands]: the mean over the blocks of CPIs of each
+    block's mean (``mu``), the blocks that hold it (``nb``), its standard error from
+    the blocks' scatter (``se``) and each fold's mean (``mf``, two arrays)."""
+    import warnings
+
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        Db = np.array([np.nanmean(d[block == k], axis=0) for k in blocks])  # [n_blocks, n_bands]
+        fb = np.array([fold[block == k][0] for k in blocks])
+        mu = np.nanmean(Db, axis=0)
+        nb = np.sum(np.isfinite(Db), axis=0)
+        se = np.nanstd(Db, axis=0, ddof=1) / np.sqrt(np.maximum(nb, 1))
+        mf = [np.nanmean(Db[fb == k], axis=0) for k in (0, 1)]
+    return mu, nb, se, mf
+
+
+def _band_test(j, mu, nb, se, mf, level: float, margin_db: float) -> tuple[bool, bool, bool]:
+    """Band ``j``: (its mean residual significant by Student's t over the blocks at
+    ``level``; of one sign in both folds; flagged: significant, at least ``margin_db``
+    and at least half of it, of that sign, in each fold)."""
+    sig = abs(mu[j]) / se[j] > student_t.isf(level, df=nb[j] - 1)
+    one_sign = all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) for m in mf)
+    same = all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= margin_db / 2 for m in mf)
+    return bool(sig), bool(one_sign), bool(abs(mu[j]) >= margin_db and sig and same)
+
+
 def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level, cfg) -> list:
     """Bands beyond the analysed region (out to half the PRF from the body) where the
     model's and the recording's mean powers differ by at least ``margin_excess_db``,
@@ -165,24 +192,11 @@ def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fo
             )
     out = []
     centres = (np.arange(2 * n_out + 1) - n_out) * bw
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        Db = np.array([np.nanmean(d[block == k], axis=0) for k in blocks])
-        fb = np.array([fold[block == k][0] for k in blocks])
-        mu = np.nanmean(Db, axis=0)
-        nb = np.sum(np.isfinite(Db), axis=0)
-        se = np.nanstd(Db, axis=0, ddof=1) / np.sqrt(np.maximum(nb, 1))
-        mf = [np.nanmean(Db[fb == k], axis=0) for k in (0, 1)]
+    mu, nb, se, mf = _block_means(d, fold, block, blocks)
     for j in range(2 * n_out + 1):
         if abs(j - n_out) <= n_side or nb[j] < 4 or not np.isfinite(mu[j]) or not se[j] > 0:
             continue
-        sig = abs(mu[j]) / se[j] > student_t.isf(level, df=nb[j] - 1)
-        same = all(
-            np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2 for m in mf
-        )
-        if abs(mu[j]) >= cfg.margin_excess_db and sig and same:
+        if _band_test(j, mu, nb, se, mf, level, cfg.margin_excess_db)[2]:
             out.append(
                 {
                     "band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
@@ -275,17 +289,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     fold = folds(len(st.t_s), cfg.block_cpis)
     block = np.arange(len(st.t_s)) // cfg.block_cpis
     blocks = np.unique(block[use])
-    with np.errstate(invalid="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            Db = np.array([np.nanmean(d[block == k], axis=0) for k in blocks])  # [n_blocks, n_bands]
-            fb = np.array([fold[block == k][0] for k in blocks])
-            mu = np.nanmean(Db, axis=0)
-            nb = np.sum(np.isfinite(Db), axis=0)
-            se = np.nanstd(Db, axis=0, ddof=1) / np.sqrt(np.maximum(nb, 1))
-            mf = [np.nanmean(Db[fb == k], axis=0) for k in (0, 1)]
+    mu, nb, se, mf = _block_means(d, fold, block, blocks)
     # the blocks' own scatter is the yardstick: Student's t with (blocks - 1) degrees
     # of freedom per band, two-sided, Bonferroni over the bands
     level = cfg.alpha / (2 * n_bands)
@@ -296,13 +300,10 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     for j in range(n_bands):
         if nb[j] < 4 or not np.isfinite(mu[j]) or not np.isfinite(se[j]) or se[j] <= 0:
             continue
-        sig = abs(mu[j]) / se[j] > student_t.isf(level, df=nb[j] - 1)
-        if sig and all(np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) for m in mf):
+        sig, one_sign, flag = _band_test(j, mu, nb, se, mf, level, cfg.margin_excess_db)
+        if sig and one_sign:
             largest_sig = max(largest_sig, float(abs(mu[j])))
-        same = all(
-            np.isfinite(m[j]) and np.sign(m[j]) == np.sign(mu[j]) and abs(m[j]) >= cfg.margin_excess_db / 2 for m in mf
-        )
-        if abs(mu[j]) >= cfg.margin_excess_db and sig and same:
+        if flag:
             flagged.append(
                 {
                     "band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
