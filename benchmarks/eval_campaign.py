@@ -164,6 +164,7 @@ def main(argv=None) -> int:
     ap.add_argument("--imbalance-db", type=float, nargs=2, default=(4.0, 8.0), metavar=("LOW", "HIGH"))
     ap.add_argument("--n-boot", type=int, default=2000)
     ap.add_argument("--cores", type=int, default=2)
+    ap.add_argument("--snakemake", default="", help="the snakemake executable (default: on PATH or beside python)")
     ap.add_argument("--workdir", required=True, help="scratch folder (must not exist)")
     ap.add_argument("--json", default="")
     ap.add_argument("--check-only", action="store_true",
@@ -183,9 +184,9 @@ def main(argv=None) -> int:
         truth = make_campaign(work / "measured", seed=a.seed, n_flights=a.n_flights, duration_s=a.duration_s,
                               radar=a.radar, imbalance_db=tuple(a.imbalance_db))
         config = write_config(work, n_boot=a.n_boot)
-        snakemake = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
+        snakemake = a.snakemake or shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
         t1 = time.perf_counter()
-        r = subprocess.run([snakemake, "--cores", str(a.cores), "-s", str(REPO / "Snakefile"), "-d", str(work),
+        r = subprocess.run([sys.executable, snakemake, "--cores", str(a.cores), "-s", str(REPO / "Snakefile"), "-d", str(work),
                             "--configfile", str(config)], cwd=work, capture_output=True, text=True,
                            env={**os.environ, "PYTHONPATH": os.environ.get("PYTHONPATH", str(REPO / "src"))})
         t2 = time.perf_counter()
