@@ -193,6 +193,7 @@ def main(argv=None) -> int:
     ap.add_argument("--imbalance-db", type=float, nargs=2, default=(4.0, 8.0), metavar=("LOW", "HIGH"))
     ap.add_argument("--n-boot", type=int, default=2000)
     ap.add_argument("--cores", type=int, default=2)
+    ap.add_argument("--snakemake", default="", help="the snakemake executable (default: on PATH or beside python)")
     ap.add_argument("--workdir", required=True, help="scratch folder (must not exist)")
     ap.add_argument("--json", default="")
     ap.add_argument(
@@ -221,10 +222,11 @@ def main(argv=None) -> int:
             imbalance_db=tuple(a.imbalance_db),
         )
         config = write_config(work, n_boot=a.n_boot)
-        snakemake = shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
+        snakemake = a.snakemake or shutil.which("snakemake") or str(Path(sys.executable).with_name("snakemake"))
         t1 = time.perf_counter()
         r = subprocess.run(
             [
+                sys.executable,
                 snakemake,
                 "--cores",
                 str(a.cores),
