@@ -138,13 +138,6 @@ def band_power(
     return np.where(c >= 3, s / np.maximum(c, 1), np.nan)
 
 
-#: what a band where the model's power stands far above the recording's says
-MODEL_BEYOND_HINT = (
-    "the model and the recording put lines in different places beyond the analysed region: "
-    "check prf_hz, carrier_hz, n_blades, blade_length_m"
-)
-
-
 def _block_means(d, fold, block, blocks):
     """Per band of ``d`` [n_cpi, n_bands]: the mean over the blocks of CPIs of each
     block's mean (``mu``), the blocks that hold it (``nb``), its standard error from
@@ -172,47 +165,6 @@ def _band_test(j, mu, nb, se, mf, level: float, margin_db: float) -> tuple[bool,
     return bool(sig), bool(one_sign), bool(abs(mu[j]) >= margin_db and sig and same)
 
 
-def _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level, cfg) -> list:
-    """Bands beyond the analysed region (out to half the PRF from the body) where the
-    model's and the recording's mean powers differ by at least ``margin_excess_db``,
-    significantly (Student's t over the blocks at ``level``) and by at least half the
-    margin, of one sign, in each fold: the model puts lines where the recording has
-    none (``excess_db`` negative), or the recording holds lines where the model,
-    calibrated on the analysed region, has none (positive: lines of another rate, as a
-    wrong PRF or carrier puts them). Returns the flagged bands."""
-    n_out = int(np.floor(prf / 2 / bw))
-    if n_out <= n_side:
-        return []
-    d = np.full((len(st.t_s), 2 * n_out + 1), np.nan)
-    for i in use:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d[i] = DB * np.log(
-                band_power(st, i, M.f_body_hz[i], bw, n_out, guard, 0.0, skirt_edge)
-                / band_power(sim, i, f_sim[i], bw, n_out, guard, 0.0, skirt_edge)
-            )
-    out = []
-    centres = (np.arange(2 * n_out + 1) - n_out) * bw
-    mu, nb, se, mf = _block_means(d, fold, block, blocks)
-    for j in range(2 * n_out + 1):
-        if abs(j - n_out) <= n_side or nb[j] < 4 or not np.isfinite(mu[j]) or not se[j] > 0:
-            continue
-        if _band_test(j, mu, nb, se, mf, level, cfg.margin_excess_db)[2]:
-            out.append(
-                {
-                    "band_hz": [round(float(centres[j] - bw / 2), 2), round(float(centres[j] + bw / 2), 2)],
-                    "excess_db": round(float(mu[j]), 2),
-                    "z": round(float(mu[j] / se[j]), 1),
-                    "side": (
-                        "the model's lines stand above the recording"
-                        if mu[j] < 0
-                        else "the recording holds lines the model lacks"
-                    )
-                    + ", beyond the analysed region",
-                }
-            )
-    return out
-
-
 def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) -> dict:
     """Held-out residual of the measured spectrogram against the model with every
     named cause's extension (:func:`simulate_flight`, with the flight's background).
@@ -230,12 +182,6 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     noise included). A band is ``excess`` when ``|residual| >= margin_excess_db``,
     ``|residual| / se`` beats Student's t (blocks - 1 degrees of freedom) at the two-sided Bonferroni level ``alpha / n_bands``, and
     each fold's mean has the same sign and at least half the margin.
-
-    The other side: beyond that region, out to half the PRF, a band where the model's
-    power stands ``margin_excess_db`` or more above the recording's (significant and
-    in both folds, as above) is flagged too (:func:`_model_beyond`): the model puts
-    lines where the recording has none, which a wrong PRF, carrier, blade count or
-    blade length does; ``model_beyond`` lists those bands with that direction.
 
     Returns a dict: ``excess`` (bool), ``excess_db`` and ``band_hz`` (the worst band,
     body-relative [Hz]), ``bands`` (every excess band), ``n_bands``, ``n_blocks``,
@@ -312,18 +258,10 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
                 }
             )
     fin = np.isfinite(mu)
-    # the other side: beyond the analysed region the model's envelope is extrapolated;
-    # where it puts power (lines, sidebands, a blade flash) far above what the recording
-    # holds there, the set-up or the model is wrong (a PRF, carrier, blade count or
-    # blade length that puts the lines elsewhere). Both spectrograms carry the flight's
-    # background, so where neither has lines the residual is ~0.
-    beyond = _model_beyond(st, sim, M, f_sim, use, bw, n_side, prf, guard, skirt_edge, fold, block, blocks, level, cfg)
-    flagged += beyond
     worst = max(flagged, key=lambda b: abs(b["excess_db"])) if flagged else None
     return {
         "excess": bool(flagged),
         "excess_db": worst["excess_db"] if worst else None,
-        "model_beyond": {"bands": beyond, "direction": MODEL_BEYOND_HINT} if beyond else None,
         "band_hz": worst["band_hz"] if worst else None,
         "bands": flagged,
         "n_bands": int(fin.sum()),

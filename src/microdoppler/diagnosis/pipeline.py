@@ -229,7 +229,7 @@ def report_row(entry: dict, *, warnings=()) -> dict:
         "excess_db": "" if gof.get("excess_db") is None else gof["excess_db"],
         "band_hz": "" if gof.get("band_hz") is None else _flat(gof["band_hz"]),
         "reason": entry.get("reason", ""),
-        "hint": skip_hint(entry.get("reason")) if skipped else (gof.get("model_beyond") or {}).get("direction", ""),
+        "hint": skip_hint(entry.get("reason")) if skipped else "",
         "plausibility_warnings": ";".join(warnings),
     }
 
