@@ -20,7 +20,7 @@ pipeline's default target runs on it in a scratch folder, then:
 From the repository root (about 13 min on 2 shared cores)::
 
     PYTHONPATH=src .venv/bin/python benchmarks/eval_campaign.py --seed 58 \\
-        --workdir /tmp/eval_campaign --json benchmarks/records/eval_campaign_58.json
+        --workdir results/eval_campaign --json benchmarks/records/eval_campaign_58.json
 
 ``--check-only`` re-reads an earlier run's folder (``run.json`` holds its truth and
 exit status) without generating or running anything.
@@ -52,6 +52,10 @@ from microdoppler.io.outputs import atomic_file  # noqa: E402
 VARIANTS = ["sub_cpi", "per_cpi", "single_motor", "fixed_speeds", "extended"]
 NOTE = "classifier left out: the campaign in measured has no bird flights"
 
+
+
+#: arguments that say where a run happened on its machine, not what it ran (left out of the record)
+MACHINE_ARGS = ("workdir", "json", "snakemake")
 
 def make_campaign(
     folder: Path, *, seed: int, n_flights: int, duration_s: float, radar: str, imbalance_db: tuple[float, float]
@@ -245,7 +249,7 @@ def main(argv=None) -> int:
         t2 = time.perf_counter()
         (work / "snakemake.log").write_text(r.stdout + r.stderr)
         run = {
-            "args": vars(a),
+            "args": {k: v for k, v in vars(a).items() if k not in MACHINE_ARGS},
             "truth": truth,
             "exit_status": r.returncode,
             "generate_s": round(t1 - t0, 1),

@@ -141,12 +141,15 @@ def write_recording(flight, d: Path):
     return d / "rec.npz", decl, fixed
 
 
-def run_import(argv) -> tuple[int, str, str | None]:
+def run_import(argv, scratch=None) -> tuple[int, str, str | None]:
+    """Run ``microdoppler import``; its return code, its error line and its n_blades
+    hint, with the scratch folder's path left out of what is recorded."""
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         rc = cli([str(a) for a in argv])
-    lines = [ln for ln in err.getvalue().splitlines() if ln.startswith("error:")]
-    hints = [ln for ln in err.getvalue().splitlines() if ln.startswith("hint: n_blades")]
+    text = err.getvalue() if scratch is None else err.getvalue().replace(f"{scratch}/", "")
+    lines = [ln for ln in text.splitlines() if ln.startswith("error:")]
+    hints = [ln for ln in text.splitlines() if ln.startswith("hint: n_blades")]
     return rc, (lines[0] if lines else ""), (hints[0] if hints else None)
 
 
@@ -198,7 +201,8 @@ def main(argv=None) -> int:
                         "--out",
                         tmp / f"{name}_plain.zarr",
                         "--overwrite",
-                    ]
+                    ],
+                    scratch=tmp,
                 )
                 rows.append({"recording": name, "note": note, "mode": "plain", "wrong": kind, "rc": rc, "message": msg})
             est_kinds = [None]
@@ -218,7 +222,8 @@ def main(argv=None) -> int:
                             "--out",
                             tmp / f"{name}_est.zarr",
                             "--overwrite",
-                        ]
+                        ],
+                        scratch=tmp,
                     )
                     rows.append(
                         {
@@ -253,7 +258,8 @@ def main(argv=None) -> int:
                         "--out",
                         tmp / "stand.zarr",
                         "--overwrite",
-                    ]
+                    ],
+                    scratch=tmp,
                 )
                 rows.append(
                     {
