@@ -53,9 +53,9 @@ VARIANTS = ["sub_cpi", "per_cpi", "single_motor", "fixed_speeds", "extended"]
 NOTE = "classifier left out: the campaign in measured has no bird flights"
 
 
-
 #: arguments that say where a run happened on its machine, not what it ran (left out of the record)
 MACHINE_ARGS = ("workdir", "json", "snakemake")
+
 
 def make_campaign(
     folder: Path, *, seed: int, n_flights: int, duration_s: float, radar: str, imbalance_db: tuple[float, float]
