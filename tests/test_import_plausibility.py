@@ -166,22 +166,9 @@ def _write(d, flight, *, log_rev_s=None, **declared):
 
 def _stand(duration_s=4.0):
     """The docs' stand recording (docs/examples/make_stand_recording.py), shorter."""
-    from any_radar import draw_case
+    from microdoppler.examples import stand_case
 
-    return draw_case(
-        7,
-        duration_s=duration_s,
-        carrier_hz=3.3e9,
-        prf_hz=5000.0,
-        n_rotors=4,
-        n_blades=2,
-        blade_length_m=0.12,
-        tip_speed_mps=2 * np.pi * 0.12 * 160.0,
-        setup="hover",
-        weak_blade_db=6.0,
-        body_snr_db=42.0,
-        radial_speed_mps=0.0,
-    )
+    return stand_case(seed=7, duration_s=duration_s)
 
 
 def test_lines_wider_than_any_plausible_tips_refuse_the_prf(tmp_path, capsys):

@@ -320,6 +320,26 @@ def rotor_line_spacing_hz(blades: np.ndarray, prf_hz: float, rev_s: float, *, fl
     return float(np.min(np.abs(f[strong]))), float(np.max(np.abs(f[strong])))
 
 
+def stand_case(*, seed: int = 7, duration_s: float = 12.0) -> Case:
+    """The parameters of ``stand_recording``'s quadcopter on a stand (3.3 GHz CW
+    radar at 5 kHz, 4 rotors of two 0.12 m blades at about 160 rev/s, one blade of
+    every rotor 6 dB weak, the body at 0 Hz), for ``make_recording``."""
+    return draw_case(
+        seed,
+        duration_s=duration_s,
+        carrier_hz=3.3e9,
+        prf_hz=5000.0,
+        n_rotors=4,
+        n_blades=2,
+        blade_length_m=0.12,
+        tip_speed_mps=2 * np.pi * 0.12 * 160.0,
+        setup="hover",
+        weak_blade_db=6.0,
+        body_snr_db=42.0,
+        radial_speed_mps=0.0,
+    )
+
+
 def stand_recording(*, seed: int = 7, duration_s: float = 12.0):
     """A quadcopter on a stand seen by a 3.3 GHz CW radar: the documentation's recording
     from outside the paper's set-up.
@@ -355,21 +375,7 @@ def stand_recording(*, seed: int = 7, duration_s: float = 12.0):
     >>> flight.prf_hz, flight.iq.shape, truth["rev_s"].shape[1]
     (5000.0, (5000,), 4)
     """
-    case = draw_case(
-        seed,
-        duration_s=duration_s,
-        carrier_hz=3.3e9,
-        prf_hz=5000.0,
-        n_rotors=4,
-        n_blades=2,
-        blade_length_m=0.12,
-        tip_speed_mps=2 * np.pi * 0.12 * 160.0,
-        setup="hover",
-        weak_blade_db=6.0,
-        body_snr_db=42.0,
-        radial_speed_mps=0.0,
-    )
-    flight, truth = make_recording(case)
+    flight, truth = make_recording(stand_case(seed=seed, duration_s=duration_s))
     sidecar = {
         "prf_hz": 5000.0,
         "carrier_hz": 3.3e9,
