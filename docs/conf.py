@@ -83,6 +83,8 @@ generate_results.write_page(
 
 # the benchmark page, from the records the benchmark scripts wrote
 generate_benchmarks.write_page(HERE.parent / "benchmarks" / "records", HERE / "benchmarks.md")
+# the campaign page's example, from the campaign benchmark's records
+generate_benchmarks.write_campaign(HERE.parent / "benchmarks" / "records", HERE / "_include" / "campaign.inc")
 # the report page's cause table, from the catalog
 generate_catalog.write_table(HERE / "_include" / "causes.inc")
 

@@ -301,6 +301,97 @@ def section_paper_profile(records: Path) -> list[str]:
     return out
 
 
+def section_campaign(records: Path) -> list[str]:
+    """A campaign of one's own, end to end (``benchmarks/eval_campaign.py``): per record,
+    which acceptance checks hold, Table VI's ``nonmultiple_db`` rows, Table V where
+    the campaign has birds, and per flight the true and the diagnosed weak blade."""
+    out = []
+    for name, d in _load(records, "eval_campaign_*.json"):
+        a = d.get("args", {})
+        n_drones = len(d.get("flights", []))
+        n_birds = int(a.get("birds", 0) or 0)
+        out += [
+            f"### Campaign: {n_drones} {a.get('mode', 'stand')} drone recordings"
+            + (f" and {n_birds} birds" if n_birds else "")
+            + f", {d['carrier_hz'] / 1e9:.2f} GHz, PRF {d['prf_hz']:.0f} Hz, {a.get('duration_s')} s each",
+            "",
+            provenance(name, d) + f"; pipeline {d.get('pipeline_s')} s, exit status {d.get('exit_status')}",
+            "",
+            table(("check", "holds"), [(k, "yes" if v else "**no**") for k, v in d.get("acceptance", {}).items()]),
+            "",
+            "Table VI, `nonmultiple_db` (distance to the measurement, dB; 95 % flight-bootstrap interval):",
+            "",
+            table(
+                ("variant", "flights", "mean [interval]", "resolved"),
+                [
+                    (
+                        v,
+                        "" if r.get("n_flights") is None else int(r["n_flights"]),
+                        ""
+                        if r.get("nonmultiple_db_mean") is None
+                        else interval(
+                            r["nonmultiple_db_mean"],
+                            r["nonmultiple_db_ci95_low"],
+                            r["nonmultiple_db_ci95_high"],
+                            scale=1.0,
+                            digits=2,
+                        ),
+                        "" if r.get("nonmultiple_db_resolved") is None else r["nonmultiple_db_resolved"],
+                    )
+                    for v, r in d.get("table_vi_nonmultiple_db", {}).items()
+                ],
+            ),
+            "",
+        ]
+        if d.get("table_v"):
+            out += [
+                "Table V, accuracy [%] over seeds (95 % interval):",
+                "",
+                table(
+                    ("training set", "seeds", "accuracy [interval]"),
+                    [
+                        (
+                            r["trainset"],
+                            r["n_seeds"],
+                            interval(r["accuracy_mean"], r["accuracy_ci95_low"], r["accuracy_ci95_high"], scale=1.0),
+                        )
+                        for r in d["table_v"]
+                    ],
+                ),
+                "",
+            ]
+        out += [
+            "Per drone flight: the true weak blade, what the diagnosis named, the split's SNR line:",
+            "",
+            table(
+                ("flight", "true imbalance [dB]", "diagnosis", "named imbalance [dB]", "SNR line"),
+                [
+                    (
+                        f["flight_id"],
+                        f"{f['imbalance_db']:.1f}" if f["imbalance_db"] else "–",
+                        f.get("diagnosis") or "",
+                        "" if f.get("named_imbalance_db") is None else f"{f['named_imbalance_db']:.1f}",
+                        f.get("split_snr_line", "body"),
+                    )
+                    for f in d.get("flights", [])
+                ],
+            ),
+            "",
+        ]
+    return (["## A campaign of one's own, end to end", ""] + out) if out else []
+
+
+def write_campaign(records: Path, path: Path) -> Path:
+    """Write :func:`section_campaign`'s tables (headings one level down) to ``path``
+    for the campaign page (only when they changed)."""
+    lines = section_campaign(Path(records))[2:]
+    text = "\n".join(("#" + ln) if ln.startswith("### ") else ln for ln in lines) or "No campaign record yet.\n"
+    path = Path(path)
+    if not path.is_file() or path.read_text() != text:
+        path.write_text(text)
+    return path
+
+
 SECTIONS = (
     section_any_radar,
     section_rotorspeed,
@@ -309,6 +400,7 @@ SECTIONS = (
     section_extended,
     section_unexplained,
     section_paper_profile,
+    section_campaign,
 )
 
 

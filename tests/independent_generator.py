@@ -5,7 +5,8 @@ imports only numpy, scipy and :mod:`microdoppler.io.flightzarr` (the container),
 shares no code with ``microdoppler.emulator``, ``microdoppler.causes.extensions`` or
 ``microdoppler.synthesis.processes``. Its constants and process shapes differ on purpose:
 
-- radars: ``gen_l`` (1.25 GHz, PRF 6500 Hz) and ``gen_s`` (2.9 GHz, PRF 9000 Hz);
+- radars: ``gen_l`` (1.25 GHz, PRF 6500 Hz), ``gen_s`` (2.9 GHz, PRF 9000 Hz) and
+  ``gen_2k`` (1.25 GHz, PRF 2000 Hz: 4096 pulses last 2 s);
 - blades: its own thin-wire sum of eq. (1) of the paper, per motor and blade,
   L exp(-j 4 pi/lambda L/2 cos phi) sinc(4 pi/lambda L/2 cos phi) with the blade
   phase the time integral of the rotation rate, then a frequency envelope
@@ -38,6 +39,11 @@ diagnosis must not call such a flight ``none``):
 - ``range_straddle``: the whole target's power drifts slowly as it crosses range
   cells: a raised cosine of ``depth_db`` over ``period_s``.
 
+Birds (:func:`make_bird`): a flapping bird of its own kind, not the emulator's: a
+body echo whose level follows the wing beat (a raised cosine of ``WING_DEPTH_DB``)
+and a wing-tip scatterer whose radial displacement is a clipped sine at the wing-beat
+rate (4-10 Hz, 6-14 cm), 6-12 dB below the body; a straight leg at 5-14 m/s.
+
 Everything random comes from the case's seed.
 """
 
@@ -51,10 +57,12 @@ from scipy.signal import lfilter
 from microdoppler.io.flightzarr import Flight
 
 C_MPS = 299792458.0
-RADARS = {"gen_l": (1.25e9, 6500.0), "gen_s": (2.9e9, 9000.0)}
+RADARS = {"gen_l": (1.25e9, 6500.0), "gen_s": (2.9e9, 9000.0), "gen_2k": (1.25e9, 2000.0)}
 N_MOTORS, N_BLADES, BLADE_M = 4, 2, 0.21
 HOVER_REV_S = 72.0
 LOG_HZ = 25.0
+#: depth of the wing beat's modulation of the bird body's echo [dB]
+WING_DEPTH_DB = 4.0
 #: critically damped correlation (1 + x) exp(-x) falls to 1/e at x = 2.1462
 CRIT_1E = 2.1462
 
@@ -211,13 +219,8 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
         drift_db = -p["depth_db"] * 0.5 * (1 - np.cos(2 * np.pi * t / p["period_s"] + rng.uniform(0, 6.3)))
         target = target * 10 ** (drift_db / 20)
 
-    # clutter: a stationary line (CNR 45 dB per pulse) with a little wind-blown spread
-    # (Gaussian spectrum, 1.5 Hz rms: no far tails)
     def clutter(rr):
-        c0 = 10 ** (45 / 20) * np.exp(1j * rr.uniform(0, 2 * np.pi))
-        sp = (rr.standard_normal(n) + 1j * rr.standard_normal(n)) * np.exp(-(fgrid**2) / (4 * 1.5**2))
-        wind = np.fft.ifft(sp)
-        return c0 + 10 ** (20 / 20) * wind / max(np.abs(wind).std(), 1e-12)
+        return _clutter(n, fgrid, rr)
 
     echo = target + clutter(rng)
     if "phase_noise" in eff:
@@ -266,3 +269,59 @@ def make_flight(case: GenCase) -> tuple[Flight, dict]:
         "realized_std_db": realized,
     }  # the std of this flight's own gain path
     return flight, truth
+
+
+def _clutter(n: int, fgrid: np.ndarray, rng) -> np.ndarray:
+    """A stationary line (CNR 45 dB per pulse) with a little wind-blown spread."""
+    c0 = 10 ** (45 / 20) * np.exp(1j * rng.uniform(0, 2 * np.pi))
+    sp = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * np.exp(-(fgrid**2) / (4 * 1.5**2))
+    wind = np.fft.ifft(sp)
+    return c0 + 10 ** (20 / 20) * wind / max(np.abs(wind).std(), 1e-12)
+
+
+def make_bird(flight_id: str, seed: int, radar: str = "gen_l", duration_s: float = 20.0, snr_db: float = 30.0):
+    """A bird flight of this generator's own kind (module docstring) and its truth.
+
+    ``snr_db``: the body line over the noise per bin of a 4096-pulse CPI (Hann gain),
+    as for the drones."""
+    rng = np.random.default_rng([seed, 7])
+    carrier, prf = RADARS[radar]
+    lam = C_MPS / carrier
+    n = int(round(duration_s * prf))
+    t = np.arange(n) / prf
+    fgrid = np.fft.fftfreq(n, 1.0 / prf)
+    v = rng.choice([-1.0, 1.0]) * rng.uniform(5.0, 14.0)
+    vr = v * (1 + 0.05 * np.sin(2 * np.pi * t / rng.uniform(5, 12) + rng.uniform(0, 6.3)))
+    r = rng.uniform(400, 1500) + np.cumsum(vr) / prf
+    fw = rng.uniform(4.0, 10.0) * (1 + 0.03 * np.sin(2 * np.pi * t / rng.uniform(2, 5)))
+    beat = 2 * np.pi * np.cumsum(fw) / prf + rng.uniform(0, 2 * np.pi)
+    tip_m = rng.uniform(0.06, 0.14) * np.clip(1.3 * np.sin(beat), -1, 1)  # a clipped sine: dwell at the ends
+    w = np.hanning(4096)
+    a_body = np.sqrt(10 ** (snr_db / 10) / ((w.sum() ** 2) / (w**2).sum()))
+    body = a_body * 10 ** (-WING_DEPTH_DB * 0.5 * (1 - np.cos(beat)) / 20)
+    wing = a_body * 10 ** (-rng.uniform(6.0, 12.0) / 20) * np.exp(-1j * 4 * np.pi * tip_m / lam)
+    target = (body + wing) * np.exp(-1j * 4 * np.pi * r / lam)
+    noise = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)
+    iq = (target + _clutter(n, fgrid, rng) + noise).astype(np.complex64)
+    bg = (_clutter(n, fgrid, rng) + (rng.standard_normal(n) + 1j * rng.standard_normal(n)) / np.sqrt(2)).astype(
+        np.complex64
+    )
+    tt = np.arange(0.0, duration_s, 0.05)
+    attrs = {
+        "schema": "flight-zarr/1",
+        "flight_id": flight_id,
+        "target": "bird",
+        "radar_id": radar,
+        "prf_hz": float(prf),
+        "carrier_hz": float(carrier),
+        "source": "tests/independent_generator.py",
+    }
+    flight = Flight(
+        attrs=attrs,
+        iq=iq,
+        track_time_s=tt,
+        track_range_m=np.interp(tt, t, r) + rng.normal(0, 0.5, len(tt)),
+        track_radial_velocity_mps=np.interp(tt, t, vr) + rng.normal(0, 0.05, len(tt)),
+        background_iq=bg,
+    )
+    return flight, {"wingbeat_hz": float(np.mean(fw)), "body_doppler_hz": float(np.median(np.abs(-2 * vr / lam)))}

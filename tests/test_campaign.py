@@ -26,7 +26,7 @@ from microdoppler.diagnosis import DiagnosisConfig
 from microdoppler.diagnosis.measure import Undiagnosable, check_diagnosable
 from microdoppler.errors import InputError
 from microdoppler.io.flightzarr import write_flight
-from microdoppler.io.inventory import missing_class_note
+from microdoppler.io.inventory import RADAR_SOURCE, missing_class_note
 from microdoppler.io.motorlog import MotorLog
 
 REPO = Path(__file__).resolve().parents[1]
@@ -83,6 +83,22 @@ def test_too_short_flight_says_the_minimum_in_seconds(duration_s, min_duration_s
     assert reason.startswith(f"flight too short: iq: has {len(flight.iq)} pulses at 2000 Hz = {duration_s:g} s")
     assert expect in reason, reason
     assert exc.value.field == "iq"
+
+
+def test_short_blades_are_diagnosed_where_the_radar_measured_their_lines():
+    """0.08 m blades at 1.3 GHz are 0.35 wavelengths: too short by the prior rule, yet
+    the rotor estimator measured their lines; a log estimated from the recording itself
+    overrides the rule (the visibility rule agrees with the rotor estimator)."""
+    case = draw_case(
+        5, duration_s=12.0, prf_hz=2000.0, carrier_hz=1.3e9, blade_length_m=0.08, setup="flying", radial_speed_mps=4.0
+    )
+    flight, truth = make_recording(case)
+    t, rpm = np.asarray(truth["time_s"], float), (np.asarray(truth["rev_s"]) * 60.0).astype(np.float32)
+    with pytest.raises(Undiagnosable) as exc:
+        check_diagnosable(flight, MotorLog(t, rpm, "a logger"), DiagnosisConfig())
+    assert "rotor lines invisible" in exc.value.reason and "0.35 wavelengths" in exc.value.reason
+    log = check_diagnosable(flight, MotorLog(t, rpm, f"{RADAR_SOURCE}measured/{flight.flight_id}"), DiagnosisConfig())
+    assert log.n_motors == rpm.shape[1]
 
 
 # ---------------------------------------------------------------- a campaign without birds

@@ -168,7 +168,10 @@ rule plot_twins:
         measured=MEASURED_DIR,
         injected=expand("results/injected/{variant}.zarr", variant=VARIANTS),
     output:
-        figures=expand("results/figures/twins_{model}.png", model=TWIN_MODELS),
+        figures=[
+            report(png, caption="../report/twins.rst", category="Twins")
+            for png in expand("results/figures/twins_{model}.png", model=TWIN_MODELS)
+        ],
     log:
         "results/logs/plot_twins.log",
     benchmark:

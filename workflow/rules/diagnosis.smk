@@ -13,7 +13,12 @@ rule diagnose_flights:
     output:
         report="results/diagnosis/report.json",
         table="results/diagnosis/report.csv",
-        figures=directory("results/diagnosis/figures"),
+        figures=report(
+            directory("results/diagnosis/figures"),
+            patterns=["{flight}.png"],
+            caption="../report/diagnosis.rst",
+            category="Diagnosis",
+        ),
     log:
         "results/logs/diagnose_flights.log",
     benchmark:

@@ -132,9 +132,18 @@ def _n_cpis(n_pulses: int, n_fft: int) -> int:
     return 0 if n_pulses < n_fft else 1 + (n_pulses - n_fft) // hop
 
 
+def log_from_radar(flight, motor_log: MotorLog | None) -> bool:
+    """True when the flight's motor log was estimated from this recording's own HERM
+    lines (the store's ``motors_source: radar``, or an ingested log so marked)."""
+    if motor_log is None:
+        return flight.attrs.get("motors_source") == "radar"
+    return str(motor_log.source).startswith(RADAR_SOURCE)
+
+
 def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) -> MotorLog:
     """The flight's motor log, checked; :class:`Undiagnosable` when the flight cannot
-    be diagnosed: not a drone, blades too short for visible rotor lines (Minis), no
+    be diagnosed: not a drone, blades too short for visible rotor lines (Minis; not
+    when the log was estimated from the recording's own lines, which were seen), no
     motor log, a log that :func:`~microdoppler.io.motorlog.check_motor_log` rejects
     (all zeros, a median speed implausible for a rotor, e.g. rev/s declared as rpm),
     a log covering less than ``min_log_coverage`` of the flight's span, or a flight
@@ -149,7 +158,10 @@ def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) 
         raise Undiagnosable(fid, "attrs.target", f"is {target!r}", "'drone' (only drones are diagnosed)", reason=reason)
     lam = flight.wavelength_m
     blade = float(a["blade_length_m"])
-    if blade < cfg.min_blade_wavelengths * lam:
+    log = flight_log(flight, motor_log)
+    # rotor speeds measured on this recording's own HERM lines: the lines are visible
+    # whatever the blade's length in wavelengths says
+    if blade < cfg.min_blade_wavelengths * lam and not (log is not None and log_from_radar(flight, motor_log)):
         size = f"{blade:g} m = {blade / lam:.2f} wavelengths at {flight.carrier_hz / 1e9:.3g} GHz"
         raise Undiagnosable(
             fid,
@@ -159,7 +171,6 @@ def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) 
             reason=f"{a.get('drone_model', 'drone')}: rotor lines invisible (attrs.blade_length_m {size}, "
             f"< {cfg.min_blade_wavelengths:g})",
         )
-    log = flight_log(flight, motor_log)
     if log is None:
         raise Undiagnosable(
             fid, "motors", "no motor log", "motors/time_s + motors/rpm or a motor log", reason="no motor log"
@@ -1291,12 +1302,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     """
     cfg = cfg if cfg is not None else DiagnosisConfig()
     log = check_diagnosable(flight, motor_log, cfg)
-    # a log estimated from this recording's own HERM lines (motors_source radar)
-    log_from_radar = (
-        flight.attrs.get("motors_source") == "radar"
-        if motor_log is None
-        else str(motor_log.source).startswith(RADAR_SOURCE)
-    )
+    from_radar = log_from_radar(flight, motor_log)
     prf = flight.prf_hz
     a = flight.attrs
     n_fft = cfg.cpi_pulses(prf)
@@ -1457,7 +1463,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         lag_s=lags,
         lag_curves=lag_curves(log, st.t_s, st.window, prf, lags),
         log=log,
-        log_from_radar=log_from_radar,
+        log_from_radar=from_radar,
         stft=st,
         bg_stft=bg,
         sim_stft=sim,
