@@ -382,10 +382,9 @@ def section_campaign(records: Path) -> list[str]:
 
 
 def write_campaign(records: Path, path: Path) -> Path:
-    """Write :func:`section_campaign`'s tables (headings one level down) to ``path``
-    for the campaign page (only when they changed)."""
-    lines = section_campaign(Path(records))[2:]
-    text = "\n".join(("#" + ln) if ln.startswith("### ") else ln for ln in lines) or "No campaign record yet.\n"
+    """Write :func:`section_campaign`'s tables, without its heading, to ``path`` for the
+    campaign page (only when they changed)."""
+    text = "\n".join(section_campaign(Path(records))[2:]) or "No campaign record yet.\n"
     path = Path(path)
     if not path.is_file() or path.read_text() != text:
         path.write_text(text)
