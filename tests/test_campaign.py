@@ -184,6 +184,19 @@ def test_campaign_without_birds_leaves_the_classifier_out(drone_only_workdir):
         assert f"rule {rule}:" not in out and f"\n{rule} " not in out
     for rule in ("diagnose_flights", "report_fidelity", "synthesize_flights"):
         assert rule in out
+    # the twins figure is drawn for the campaign's own drone model, not the emulated world's
+    models = _campaign_models(drone_only_workdir / "measured")
+    for m in models:
+        assert f"results/figures/twins_{m}.png" in out
+    assert "twins_inspire2.png" not in out and "twins_matrice300.png" not in out
+
+
+def _campaign_models(measured):
+    from microdoppler.io.inventory import drone_models
+
+    models = drone_models(measured)
+    assert models, "the campaign holds drone flights"
+    return models
 
 
 def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone_only_workdir):

@@ -91,7 +91,19 @@ def motor_logs_table():
 
 # --- datasets (rules/datasets.smk) ---
 DATASETS = ["real"] + VARIANTS
-TWIN_MODELS = ["inspire2", "matrice300"]
+TWIN_MODELS = ["inspire2", "matrice300"]  # the emulated world's (paper Fig. 9/10)
+
+
+def campaign_twin_models():
+    """A campaign of your own: its drone models that get twins (one figure each)."""
+    from microdoppler.datasets.split import twin_model
+    from microdoppler.io.inventory import drone_models
+
+    return [m for m in drone_models(MEASURED_DIR) if twin_model(m)]
+
+
+if MEASURED_SOURCE == "directory" and Path(MEASURED_DIR).is_dir():
+    TWIN_MODELS = campaign_twin_models()
 MOTOR_LOGS = "results/motors/logs.zarr"
 SPLIT = "results/splits/flights.csv"
 

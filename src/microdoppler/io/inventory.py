@@ -76,6 +76,17 @@ def flight_targets(measured_dir) -> dict[str, str]:
     return out
 
 
+def drone_models(measured_dir) -> list[str]:
+    """The ``attrs.drone_model`` of the drone flights in ``measured_dir``, each once,
+    sorted; read from the stores' attributes alone, like :func:`flight_targets`."""
+    models = set()
+    for p in sorted(Path(measured_dir).glob("*.zarr")):
+        a = dict(zarr.open_group(str(p), mode="r").attrs)
+        if a.get("target") == "drone" and a.get("drone_model"):
+            models.add(str(a["drone_model"]))
+    return sorted(models)
+
+
 #: flights of each class a flight-disjoint train/test/validation split needs (one per set)
 MIN_SPLIT_FLIGHTS = 3
 
