@@ -101,6 +101,22 @@ def test_short_blades_are_diagnosed_where_the_radar_measured_their_lines():
     assert log.n_motors == rpm.shape[1]
 
 
+def test_an_implausible_speed_the_radar_estimated_points_at_the_set_up_not_a_unit():
+    """Speeds the radar estimated have no declared unit: an implausible median points at
+    the declared blade count, PRF and carrier; a logger's log still at its unit."""
+    flight, log = _recording(12.0)
+    fast = log.rpm * 100.0  # far beyond any drone rotor
+    for source, expect, never in (
+        ("a logger", "check the declared unit (rpm)", "n_blades"),
+        (f"{RADAR_SOURCE}measured/{flight.flight_id}", "check the declared n_blades, prf_hz and carrier_hz", "unit"),
+    ):
+        with pytest.raises(Undiagnosable) as exc:
+            check_diagnosable(flight, MotorLog(log.time_s, fast, source), DiagnosisConfig())
+        reason = exc.value.reason
+        assert "\n" not in reason and "implausible for a drone rotor" in reason
+        assert expect in reason and never not in reason, reason
+
+
 # ---------------------------------------------------------------- a campaign without birds
 
 

@@ -178,7 +178,13 @@ def check_diagnosable(flight, motor_log: MotorLog | None, cfg: DiagnosisConfig) 
     t_field, s_field = "motors/time_s", "motors/rpm"
     src = fid if motor_log is None else (log.source or fid)
     try:
-        log = check_motor_log(src, log.time_s, log.rpm, unit="rpm", time_field=t_field, speed_field=s_field)
+        hint = (
+            "the speeds were estimated from the radar's HERM lines: check the declared n_blades, prf_hz and "
+            "carrier_hz (a wrong blade count reads the comb at another order)"
+            if log_from_radar(flight, motor_log)
+            else None
+        )
+        log = check_motor_log(src, log.time_s, log.rpm, unit="rpm", time_field=t_field, speed_field=s_field, hint=hint)
     except InputError as e:
         raise Undiagnosable(
             e.source,

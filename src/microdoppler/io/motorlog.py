@@ -84,11 +84,14 @@ def check_motor_log(
     time_field="time",
     speed_field="rpm",
     motor_names: list[str] | None = None,
+    hint: str | None = None,
 ) -> MotorLog:
     """Validate arrays of a motor log and return a :class:`MotorLog` in rpm.
 
     ``motor_names`` (optional, one per column) name the motor in errors about a
-    single motor (e.g. a NaN); default ``<speed_field>[motor j]``.
+    single motor (e.g. a NaN); default ``<speed_field>[motor j]``. ``hint`` replaces
+    the advice given with an implausible median speed (default: check the declared
+    unit), e.g. for speeds the radar itself estimated, where no unit was declared.
     """
     time_s = np.asarray(time_s, dtype=np.float64)
     speeds = np.asarray(rpm, dtype=np.float64)
@@ -133,7 +136,7 @@ def check_motor_log(
             source,
             speed_field,
             f"median {np.median(speeds[speeds > 0]):.4g} {unit} = {med:.3g} rev/s is implausible for a drone rotor",
-            f"a median of {lo:g}-{hi:g} rev/s; check the declared unit ({unit})",
+            f"a median of {lo:g}-{hi:g} rev/s; {hint or f'check the declared unit ({unit})'}",
         )
     return MotorLog(time_s, (rev_s * 60.0).astype(np.float32), str(source))
 
