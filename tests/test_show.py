@@ -101,6 +101,7 @@ def test_show_writes_one_figure_per_store_and_the_table_holds_the_stores_numbers
         assert r["method"] == g.attrs["motors_radar"]["method"]
         assert float(r["mean_rev_s"]) == rev[:, j].mean()
         assert float(r["sigma_rev_s"]) == np.sqrt(np.mean(std[:, j] ** 2))
+        assert float(r["mean_sigma_rev_s"]) == g.attrs["motors_radar"]["mean_rpm_std"][j] / 60
         assert float(r["scatter_rev_s"]) == np.std(rev[:, j], ddof=1)
         assert r["ambiguous"] == "yes" and order["ambiguous"]
         assert float(r["alternatives_rev_s"]) == rev[:, j].mean() * alt[0] / order["chosen_rev_s"]
@@ -110,7 +111,7 @@ def test_show_writes_one_figure_per_store_and_the_table_holds_the_stores_numbers
     for j, r in enumerate(rows[4:]):
         assert r["source"] == "log" and r["method"] == "motor log"
         assert float(r["mean_rev_s"]) == (h.motors_rpm[:, j].astype(np.float64) / 60).mean()
-        assert r["sigma_rev_s"] == "" and r["ambiguous"] == "" and r["alternatives_rev_s"] == ""
+        assert r["sigma_rev_s"] == "" and r["mean_sigma_rev_s"] == "" and r["ambiguous"] == "" and r["alternatives_rev_s"] == ""
     assert "bare1.png: no rotor speeds" in printed and "--estimate-motors" in printed
 
 

@@ -33,6 +33,7 @@ TABLE_COLUMNS = (
     "n_rows",
     "mean_rev_s",
     "sigma_rev_s",
+    "mean_sigma_rev_s",
     "scatter_rev_s",
     "ambiguous",
     "alternatives_rev_s",
@@ -49,6 +50,9 @@ COLUMN_DOC = {
     "mean_rev_s": "mean of the column over its rows [rev/s] (motors/rpm / 60)",
     "sigma_rev_s": "root mean square of the column's motors_radar.rpm_std / 60 over its rows [rev/s]: the one-sigma "
     "uncertainty the store gives a row (empty for a log)",
+    "mean_sigma_rev_s": "motors_radar.mean_rpm_std / 60 [rev/s]: the one-sigma uncertainty of the column's mean "
+    "over the recording (the CPIs' sigma with their overlap and excess scatter, and the difference between the "
+    "lines' and the I/Q fit's means; microdoppler.rotors.speed.recording_means); empty for a log",
     "scatter_rev_s": "standard deviation of the column's rows [rev/s] (the speed's change over the flight and "
     "the row-to-row noise)",
     "ambiguous": "motors_radar.rotor_order.ambiguous: another order of the HERM comb explains the lines alike "
@@ -67,7 +71,8 @@ def rotor_speeds(flight: Flight) -> dict | None:
     -------
     dict
         ``time_s`` [n_log], ``rev_s`` [n_log, n_motors] (motors/rpm / 60), ``std_rev_s``
-        [n_log, n_motors] or None (``motors_radar.rpm_std`` / 60), ``source`` ("radar"
+        [n_log, n_motors] or None (``motors_radar.rpm_std`` / 60), ``mean_std_rev_s``
+        (per column, ``motors_radar.mean_rpm_std`` / 60) or None, ``source`` ("radar"
         or "log"), ``method``, ``ambiguous`` (bool or None), ``ratios`` (alternative
         order over the chosen one, one per alternative), ``alternatives_rev_s`` and
         ``chosen_rev_s`` (the store's), and ``likelihood``.
@@ -80,6 +85,7 @@ def rotor_speeds(flight: Flight) -> dict | None:
         "time_s": np.asarray(flight.motors_time_s, np.float64),
         "rev_s": rev,
         "std_rev_s": None,
+        "mean_std_rev_s": None,
         "source": source,
         "method": "motor log",
         "ambiguous": None,
@@ -101,6 +107,16 @@ def rotor_speeds(flight: Flight) -> dict | None:
                     f"the shape of motors/rpm, {rev.shape}",
                 )
             out["std_rev_s"] = s
+        mean_std = radar.get("mean_rpm_std")
+        if mean_std is not None:
+            if len(mean_std) != rev.shape[1]:
+                raise InputError(
+                    flight.flight_id,
+                    "motors_radar.mean_rpm_std",
+                    f"has {len(mean_std)} values",
+                    f"one per column of motors/rpm, {rev.shape[1]}",
+                )
+            out["mean_std_rev_s"] = [None if v is None else float(v) / 60.0 for v in mean_std]
         order = radar.get("rotor_order") or {}
         out["ambiguous"] = bool(order["ambiguous"]) if "ambiguous" in order else None
         alts = list(radar.get("rotor_order_alternatives_rev_s") or [])
@@ -133,6 +149,7 @@ def rotor_table(flight: Flight) -> list[dict]:
                 "n_rows": int(len(col)),
                 "mean_rev_s": mean,
                 "sigma_rev_s": sigma,
+                "mean_sigma_rev_s": None if sp["mean_std_rev_s"] is None else sp["mean_std_rev_s"][j],
                 "scatter_rev_s": float(np.std(col, ddof=1)) if len(col) > 1 else 0.0,
                 "ambiguous": sp["ambiguous"],
                 "alternatives_rev_s": [mean * a / sp["chosen_rev_s"] for a in sp["alternatives_rev_s"]],
@@ -166,13 +183,24 @@ def table_csv(rows: list[dict]) -> str:
 
 def table_text(rows: list[dict]) -> str:
     """The rows as an aligned text table (speeds to 0.01 rev/s)."""
-    head = ("flight", "rotor", "mean rev/s", "sigma", "scatter", "method", "ambiguous", "alternatives rev/s")
+    head = (
+        "flight",
+        "rotor",
+        "mean rev/s",
+        "sigma",
+        "mean's sigma",
+        "scatter",
+        "method",
+        "ambiguous",
+        "alternatives rev/s",
+    )
     body = [
         (
             r["flight_id"],
             str(r["rotor"]),
             _cell(r["mean_rev_s"], 2),
             _cell(r["sigma_rev_s"], 2),
+            _cell(r["mean_sigma_rev_s"], 2),
             _cell(r["scatter_rev_s"], 2),
             r["method"],
             _cell(r["ambiguous"]),

@@ -972,6 +972,9 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         out = replace(out, n_blades=B)
     # whatever the order, a rotor far from the others is no rotor of this drone
     out, n_moved = _within_spread(out, ocfg)
+    # the difference between the methods (the lines alone against the I/Q fit, per rotor
+    # rank over the CPIs both estimated) joins the recording mean's uncertainty
+    method_diff = _method_difference(out, lines) if how == "kept" and lines is not est else None
     # the order's uncertainty: the mixture's spread about the reported speed
     v = out.valid
     mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
@@ -1009,6 +1012,8 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
     if split:
         alt_rev_s, rel_l, post = alt_rev_s + [round(as_measured, 2)], rel_l + [1.0], post + [1.0]
     info = dict(out.info)
+    if method_diff is not None:
+        info["method_diff_rev_s"] = [round(float(d), 3) for d in method_diff]
     info["order"] = {
         "method": METHOD,
         "chosen_rev_s": round(mean_now, 3),
@@ -1142,6 +1147,18 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
     out.speeds_rev_s, out.speeds_std_rev_s = lines.speeds_rev_s * ratio, lines.speeds_std_rev_s * ratio
     out.common_rev_s, out.common_std_rev_s = lines.common_rev_s * ratio, lines.common_std_rev_s * ratio
     return out, "the lines' estimate scaled (a re-measurement did not find the comb)"
+
+
+def _method_difference(fit, lines) -> np.ndarray | None:
+    """Per rotor rank: the I/Q fit's mean speed minus the lines' alone [rev/s], over the
+    CPIs where both have every rank; None where they share fewer than two CPIs."""
+    a, b = np.asarray(fit.speeds_rev_s), np.asarray(lines.speeds_rev_s)
+    if a.shape != b.shape:
+        return None
+    both = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+    if both.sum() < 2:
+        return None
+    return np.mean(a[both], axis=0) - np.mean(b[both], axis=0)
 
 
 def _within_spread(est, ocfg: OrderConfig):

@@ -427,6 +427,7 @@ class RotorEstimate:
                 if per_motor
                 else "mean rotor speed in every column",
                 "rpm_std": np.round(std * 60.0, 1).tolist(),
+                **_mean_attrs(self, per_motor),
                 "rows": (
                     "the estimates (window^2-weighted CPI means)"
                     if cpi_means
@@ -480,6 +481,27 @@ class RotorEstimate:
             )
             + (f"; CPI {self.info['cpi']}" if "cpi" in self.info else "")
         )
+
+
+def _mean_attrs(est, per_motor: bool) -> dict:
+    """``motors_radar`` attributes of the recording means (:func:`recording_means`)."""
+    mean, std = recording_means(est)
+    if not per_motor:  # every column the mean rotor speed: the ranks' mean and its sigma
+        ok = np.isfinite(mean)
+        if not ok.any():
+            return {}
+        m, s = float(np.mean(mean[ok])), float(np.sqrt(np.sum(std[ok] ** 2)) / ok.sum())
+        mean, std = np.full(len(mean), m), np.full(len(mean), s)
+    out = {
+        "mean_rpm": [None if not np.isfinite(v) else round(float(v) * 60.0, 1) for v in mean],
+        "mean_rpm_std": [None if not np.isfinite(v) else round(float(v) * 60.0, 1) for v in std],
+        "mean_rpm_std_is": "the one-sigma uncertainty of each column's mean over the recording: the CPIs' "
+        "sigma (overlap and excess scatter included) and the difference between the methods "
+        "(microdoppler.rotors.speed.recording_means)",
+    }
+    if est.info.get("method_diff_rev_s") is not None:
+        out["method_diff_rpm"] = [round(float(d) * 60.0, 1) for d in est.info["method_diff_rev_s"]]
+    return out
 
 
 def _order_attrs(est) -> dict:
@@ -814,6 +836,57 @@ def estimate_rotor_speeds(
         if est.ok:
             departure_sigma(est, cfg.smear_rel)
     return est
+
+
+#: variance of the mean of 50 %-overlapping CPIs' errors over that of independent ones
+#: (neighbours share half their pulses: correlation 0.5 with a flat window, less
+#: with Blackman-Harris; 1 + 2 x 0.5 bounds it)
+OVERLAP_VARIANCE_FACTOR = 2.0
+
+
+def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
+    """Each rotor rank's mean speed over the recording and its one-sigma uncertainty.
+
+    The uncertainty joins in quadrature (a) the CPIs' own: the root sum of squares of
+    the rank's per-CPI sigma over its n CPIs, divided by n, times
+    ``sqrt(OVERLAP_VARIANCE_FACTOR)`` (overlapping CPIs' errors are correlated) and times
+    the rank's excess scatter: where its CPIs scatter about their running median (five
+    CPIs) by more than their sigma says (rotor ranks exchanged between CPIs, a comb
+    misread), the root mean square of those ratios; (b) the difference between the
+    methods: the I/Q fit's mean minus the lines' alone over the CPIs both estimated
+    (``info["method_diff_rev_s"]``, where both ran), a bias neither sigma holds.
+
+    Parameters
+    ----------
+    est : RotorEstimate
+
+    Returns
+    -------
+    mean_rev_s, mean_std_rev_s : ndarray, float64 [n_motors]
+        Per rank [rev/s]; NaN without an estimate.
+    """
+    sp, sd = np.asarray(est.speeds_rev_s, float), np.asarray(est.speeds_std_rev_s, float)
+    M = sp.shape[1] if sp.ndim == 2 else 0
+    mean, std = np.full(M, np.nan), np.full(M, np.nan)
+    if not est.ok:
+        return mean, std
+    diff = est.info.get("method_diff_rev_s")
+    for r in range(M):
+        ok = np.isfinite(sp[:, r]) & np.isfinite(sd[:, r]) & (sd[:, r] > 0)
+        n = int(ok.sum())
+        if n == 0:
+            continue
+        x, s = sp[ok, r], sd[ok, r]
+        mean[r] = float(np.mean(x))
+        var = float(np.sum(s**2)) / n**2 * OVERLAP_VARIANCE_FACTOR
+        if n >= 5:
+            run = np.array([np.median(x[max(0, i - 2) : i + 3]) for i in range(n)])
+            chi2 = float(np.mean(((x - run) / s) ** 2))
+            var *= max(1.0, chi2)
+        if diff is not None and r < len(diff) and diff[r] is not None:
+            var += float(diff[r]) ** 2
+        std[r] = float(np.sqrt(var))
+    return mean, std
 
 
 def departure_sigma(est: RotorEstimate, rel: float) -> int:
