@@ -111,7 +111,12 @@ def test_show_writes_one_figure_per_store_and_the_table_holds_the_stores_numbers
     for j, r in enumerate(rows[4:]):
         assert r["source"] == "log" and r["method"] == "motor log"
         assert float(r["mean_rev_s"]) == (h.motors_rpm[:, j].astype(np.float64) / 60).mean()
-        assert r["sigma_rev_s"] == "" and r["mean_sigma_rev_s"] == "" and r["ambiguous"] == "" and r["alternatives_rev_s"] == ""
+        assert (
+            r["sigma_rev_s"] == ""
+            and r["mean_sigma_rev_s"] == ""
+            and r["ambiguous"] == ""
+            and r["alternatives_rev_s"] == ""
+        )
     assert "bare1.png: no rotor speeds" in printed and "--estimate-motors" in printed
 
 
