@@ -410,3 +410,53 @@ def test_a_cpi_that_departs_from_both_neighbours_carries_the_departure_in_its_si
     keep = np.isfinite(common) & (np.arange(n) != 5)
     np.testing.assert_array_equal(est.common_std_rev_s[keep], sd[keep])
     assert np.all(est.speeds_std_rev_s[5] >= 0.2 * truth[5])
+
+
+def _estimate(speeds, sds, info=None):
+    from microdoppler.rotors.speed import RotorEstimate
+
+    n, m = speeds.shape
+    t = np.arange(n) * 0.28
+    common, common_sd = speeds.mean(axis=1), sds.mean(axis=1)
+    ones = np.ones(n, int)
+    return RotorEstimate(
+        "x", t, speeds, sds, common, common_sd, 2 * ones, m * ones, 0 * t, m, 2, 4096, None, info or {}
+    )
+
+
+def test_recording_mean_sigma_is_the_cpis_with_overlap_scatter_and_the_methods_difference():
+    """recording_means: steady ranks whose CPIs scatter as their sigma says get about
+    sqrt(2) x the independent mean's sigma (overlap); the two methods' difference joins
+    in quadrature; a comb misread on one side in a third of the CPIs pulls the mean
+    from the median, and the sigma covers the truth where the naive one does not."""
+    from microdoppler.rotors.speed import OVERLAP_VARIANCE_FACTOR, recording_means
+
+    rng = np.random.default_rng(3)
+    n, sd = 40, 0.5
+    truth = np.array([70.0, 72.0, 74.0, 76.0])
+    speeds = truth + rng.normal(0.0, sd, (n, 4))
+    speeds.sort(axis=1)
+    sds = np.full((n, 4), sd)
+    mean, std = recording_means(_estimate(speeds, sds))
+    naive = sd / np.sqrt(n)
+    assert np.allclose(mean, speeds.mean(axis=0))
+    # the CPIs scatter about as their sigma says: at most a little excess
+    assert np.all(std >= np.sqrt(OVERLAP_VARIANCE_FACTOR) * naive - 1e-12)
+    assert np.all(std <= 1.5 * np.sqrt(OVERLAP_VARIANCE_FACTOR) * naive)
+    # the methods' difference joins in quadrature
+    diff = [0.3, -0.2, 0.0, 0.1]
+    _, std_d = recording_means(_estimate(speeds, sds, {"method_diff_rev_s": diff}))
+    assert np.allclose(std_d, np.sqrt(std**2 + np.square(diff)))
+    # a comb misread in a third of the CPIs (every rank 4 rev/s high there): the naive
+    # sigma excludes the truth, the recording mean's covers it
+    bad = speeds.copy()
+    bad[rng.uniform(size=n) < 0.33] += 4.0
+    mean_b, std_b = recording_means(_estimate(bad, sds))
+    err = np.abs(mean_b - truth)
+    assert np.all(err > 2 * naive)
+    assert np.all(err <= 2 * std_b)
+    # no estimate: NaN
+    from microdoppler.rotors.speed import _no_estimate
+
+    m0, s0 = recording_means(_no_estimate("x", 5, np.arange(5.0), 4, 2, 4096, "none"))
+    assert np.all(np.isnan(m0)) and np.all(np.isnan(s0))

@@ -51,8 +51,9 @@ COLUMN_DOC = {
     "sigma_rev_s": "root mean square of the column's motors_radar.rpm_std / 60 over its rows [rev/s]: the one-sigma "
     "uncertainty the store gives a row (empty for a log)",
     "mean_sigma_rev_s": "motors_radar.mean_rpm_std / 60 [rev/s]: the one-sigma uncertainty of the column's mean "
-    "over the recording (the CPIs' sigma with their overlap and excess scatter, and the difference between the "
-    "lines' and the I/Q fit's means; microdoppler.rotors.speed.recording_means); empty for a log",
+    "over the recording (the CPIs' sigma or their scatter about the local trend, with their overlap; the mean minus "
+    "the median; and the difference between the lines' and the I/Q fit's means; "
+    "microdoppler.rotors.speed.recording_means); empty for a log",
     "scatter_rev_s": "standard deviation of the column's rows [rev/s] (the speed's change over the flight and "
     "the row-to-row noise)",
     "ambiguous": "motors_radar.rotor_order.ambiguous: another order of the HERM comb explains the lines alike "

@@ -496,7 +496,7 @@ def _mean_attrs(est, per_motor: bool) -> dict:
         "mean_rpm": [None if not np.isfinite(v) else round(float(v) * 60.0, 1) for v in mean],
         "mean_rpm_std": [None if not np.isfinite(v) else round(float(v) * 60.0, 1) for v in std],
         "mean_rpm_std_is": "the one-sigma uncertainty of each column's mean over the recording: the CPIs' "
-        "sigma (overlap and excess scatter included) and the difference between the methods "
+        "sigma or scatter (overlap included), the mean minus the median, and the difference between the methods "
         "(microdoppler.rotors.speed.recording_means)",
     }
     if est.info.get("method_diff_rev_s") is not None:
@@ -847,14 +847,15 @@ OVERLAP_VARIANCE_FACTOR = 2.0
 def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
     """Each rotor rank's mean speed over the recording and its one-sigma uncertainty.
 
-    The uncertainty joins in quadrature (a) the CPIs' own: the root sum of squares of
-    the rank's per-CPI sigma over its n CPIs, divided by n, times
-    ``sqrt(OVERLAP_VARIANCE_FACTOR)`` (overlapping CPIs' errors are correlated) and times
-    the rank's excess scatter: where its CPIs scatter about their running median (five
-    CPIs) by more than their sigma says (rotor ranks exchanged between CPIs, a comb
-    misread), the root mean square of those ratios; (b) the difference between the
-    methods: the I/Q fit's mean minus the lines' alone over the CPIs both estimated
-    (``info["method_diff_rev_s"]``, where both ran), a bias neither sigma holds.
+    The variance of a rank's mean over its n CPIs joins (a) the larger of the CPIs' own
+    (the sum of their squared sigma over n squared) and their scatter about the local
+    trend (the mean square of their departures from the running median of five CPIs,
+    over n), each times ``OVERLAP_VARIANCE_FACTOR`` (overlapping CPIs' errors are
+    correlated): ranks exchanged between CPIs scatter more than their sigma says; (b)
+    the squared difference between the mean and the median of its CPIs (misread CPIs
+    on one side pull the mean, not the median); and (c) the squared difference between
+    the methods, the I/Q fit's mean minus the lines' alone over the CPIs both estimated
+    (``info["method_diff_rev_s"]``, where both ran): a bias neither sigma holds.
 
     Parameters
     ----------
@@ -878,11 +879,11 @@ def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
             continue
         x, s = sp[ok, r], sd[ok, r]
         mean[r] = float(np.mean(x))
-        var = float(np.sum(s**2)) / n**2 * OVERLAP_VARIANCE_FACTOR
+        var = float(np.sum(s**2)) / n**2
         if n >= 5:
-            run = np.array([np.median(x[max(0, i - 2) : i + 3]) for i in range(n)])
-            chi2 = float(np.mean(((x - run) / s) ** 2))
-            var *= max(1.0, chi2)
+            trend = np.array([np.median(x[max(0, i - 2) : i + 3]) for i in range(n)])
+            var = max(var, float(np.mean((x - trend) ** 2)) / n)
+        var = var * OVERLAP_VARIANCE_FACTOR + (mean[r] - float(np.median(x))) ** 2
         if diff is not None and r < len(diff) and diff[r] is not None:
             var += float(diff[r]) ** 2
         std[r] = float(np.sqrt(var))
