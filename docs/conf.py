@@ -20,6 +20,7 @@ sys.path.insert(0, str(HERE))
 import generate_benchmarks  # noqa: E402
 import generate_catalog  # noqa: E402
 import generate_results  # noqa: E402
+import generate_stand_example  # noqa: E402
 
 import microdoppler  # noqa: E402
 
@@ -124,6 +125,8 @@ generate_results.write_page(
 generate_benchmarks.write_page(HERE.parent / "benchmarks" / "records", HERE / "benchmarks.md")
 # the campaign page's example, from the campaign benchmark's records
 generate_benchmarks.write_campaign(HERE.parent / "benchmarks" / "records", HERE / "_include" / "campaign.inc")
+# the recordings page's stand example, run at build (its transcript and report numbers)
+generate_stand_example.write_includes(HERE / "_include")
 # the report page's cause table, from the catalog
 generate_catalog.write_table(HERE / "_include" / "causes.inc")
 

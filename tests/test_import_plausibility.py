@@ -292,3 +292,19 @@ def test_an_order_another_blade_count_explains_names_n_blades():
     assert "read with 3 blades 89.3 rev/s, which the order check chose" in blade_count_hint(
         SimpleNamespace(n_blades=2, info={"order": chose})
     )
+
+
+def test_fit_progress_names_each_pass_once():
+    """The importer's progress: a pass ends with its last CPI; the next pass (the order
+    check measuring again, even over more CPIs) is named, the first is not."""
+    import io
+
+    from microdoppler.commands.importer import FitProgress
+
+    out = io.StringIO()
+    p = FitProgress(out)
+    for done, total in ((64, 120), (120, 120), (27, 28), (28, 28)):
+        p(done, total)
+    lines = out.getvalue().splitlines()
+    assert [("pass 2" in ln) for ln in lines] == [False, False, True, True]
+    assert lines[1].endswith("I/Q fit, 120 of 120 CPIs") and lines[3].endswith("28 of 28 CPIs")

@@ -375,6 +375,28 @@ def attach_motor_log(flight, log, source) -> None:
     flight.attrs["motors_source"] = "log"
 
 
+class FitProgress:
+    """The I/Q fit's progress, one line per call on ``stream`` (default stderr): a pass
+    ends with its last CPI; a call after that starts the next pass, which the line
+    names (the order check measured the speeds again at another order)."""
+
+    def __init__(self, stream=None):
+        self.stream = stream
+        self.n_pass = 1
+        self._ended = False
+
+    def __call__(self, done: int, total: int) -> None:
+        if self._ended:
+            self.n_pass += 1
+        self._ended = done >= total
+        label = f" (pass {self.n_pass}: measured again at another order)" if self.n_pass > 1 else ""
+        print(
+            f"rotor speeds from the radar: I/Q fit{label}, {done} of {total} CPIs",
+            file=self.stream or sys.stderr,
+            flush=True,
+        )
+
+
 def estimate_motors(flight, warns: list):
     """The flight with rotor speeds estimated from its HERM lines as its motor log, or
     unchanged with the reason in ``warns`` when there is no estimate."""
@@ -382,15 +404,7 @@ def estimate_motors(flight, warns: list):
 
     if flight.attrs.get("target") != "drone":
         raise InputError("--estimate-motors", "target", f"is {flight.attrs.get('target')!r}", "a drone recording")
-    passes = [0, 0]  # the I/Q fit's passes (another runs where the order check measures again), last done
-
-    def progress(done, total):
-        if done <= passes[1] or passes[0] == 0:
-            passes[0] += 1
-        passes[1] = done
-        label = f" (pass {passes[0]}: measured again at another order)" if passes[0] > 1 else ""
-        print(f"rotor speeds from the radar: I/Q fit{label}, {done} of {total} CPIs", file=sys.stderr, flush=True)
-
+    progress = FitProgress()
     est = estimate_rotor_speeds(flight, progress=progress)
     if not est.ok:
         warns.append(f"no rotor-speed estimate: {est.reason}")
