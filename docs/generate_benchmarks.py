@@ -301,6 +301,100 @@ def section_paper_profile(records: Path) -> list[str]:
     return out
 
 
+def _wilson_share(count: int, n: int, ci) -> str:
+    return f"{count} of {n}" + (
+        f" ({pct(count / n)} % [{pct(ci[0])}, {pct(ci[1])}])" if n and ci[0] is not None else ""
+    )
+
+
+def section_imbalance_bounds(records: Path) -> list[str]:
+    """``eval_imbalance_bounds.py``: the share of named weak blades whose interval holds
+    the truth, and the one-sided bounds, per band of true imbalance."""
+    out = []
+    for name, d in _load(records, "eval_imbalance_bounds_*.json"):
+        h = d["held_of_named"]
+        rows = [
+            (
+                band,
+                v["n"],
+                _wilson_share(v["named"], v["n"], v["named_wilson95"]),
+                _wilson_share(v["held_of_named"], v["named"], v["held_wilson95"]),
+                _wilson_share(v["one_sided_lower"], v["named"], v["one_sided_wilson95"]),
+            )
+            for band, v in d["by_band"].items()
+        ]
+        out += [
+            f"### Seed {d['seed']}: `{name}`",
+            "",
+            provenance(name, d)
+            + f"; {d['n']} flights of {d['duration_s']:g} s; interval holds the truth on "
+            + _wilson_share(h["count"], h["n"], h["wilson95"])
+            + " of the named",
+            "",
+            table(("true imbalance", "flights", "named", "interval holds the truth", "one-sided (lower)"), rows),
+            "",
+        ]
+    return (
+        (["## Weak-blade sizes and their bounds (`eval_imbalance_bounds.py`)", "", "Wilson 95 % intervals.", ""] + out)
+        if out
+        else []
+    )
+
+
+def section_rotor_uncertainty(records: Path) -> list[str]:
+    """``eval_rotor_uncertainty.py``: recording means within 2 sigma, per method."""
+    out = []
+    for name, d in _load(records, "eval_rotor_uncertainty_*.json"):
+        rows = [
+            (
+                method,
+                v["n_recordings"],
+                v["n_ranks"],
+                _wilson_share(v["within_2_mean_sigma"]["count"], v["n_ranks"], v["within_2_mean_sigma"]["wilson95"]),
+                _wilson_share(v["within_2_naive_sigma"]["count"], v["n_ranks"], v["within_2_naive_sigma"]["wilson95"]),
+                _wilson_share(
+                    v["recordings_all_ranks_within_2_mean_sigma"]["count"],
+                    v["n_recordings"],
+                    v["recordings_all_ranks_within_2_mean_sigma"]["wilson95"],
+                ),
+            )
+            for method, v in d["summary"].items()
+        ]
+        out += [
+            f"### Seed {d['seed']}: `{name}`",
+            "",
+            provenance(name, d)
+            + f"; {d['n_recordings']} recordings of {d['duration_s']:g} s, {d['n_no_estimate']} without an estimate; "
+            f"the printed method is the stored one on {d['printed_method_is_stored']} of {d['n_recordings']}",
+            "",
+            table(
+                (
+                    "method",
+                    "recordings",
+                    "rotor ranks",
+                    "within 2 mean sigma",
+                    "within 2 naive sigma",
+                    "recordings with every rank within",
+                ),
+                rows,
+            ),
+            "",
+        ]
+    return (
+        (
+            [
+                "## A recording's mean rotor speed and its sigma (`eval_rotor_uncertainty.py`)",
+                "",
+                "Wilson 95 % intervals.",
+                "",
+            ]
+            + out
+        )
+        if out
+        else []
+    )
+
+
 def section_campaign(records: Path) -> list[str]:
     """A campaign of one's own, end to end (``benchmarks/eval_campaign.py``): per record,
     which acceptance checks hold, Table VI's ``nonmultiple_db`` rows, Table V where
@@ -399,6 +493,8 @@ SECTIONS = (
     section_extended,
     section_unexplained,
     section_paper_profile,
+    section_imbalance_bounds,
+    section_rotor_uncertainty,
     section_campaign,
 )
 
