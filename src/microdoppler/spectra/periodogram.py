@@ -125,6 +125,17 @@ def stft(
     See Also
     --------
     periodogram, window
+
+    Examples
+    --------
+    Two CPIs of 256 pulses of a tone in bin 10, centred (0 Hz in bin 128):
+
+    >>> import numpy as np
+    >>> from microdoppler.spectra import stft
+    >>> x = np.exp(2j * np.pi * 10 * np.arange(512) / 256)
+    >>> X = stft(x, 256, hop=256, shift=True)
+    >>> X.shape, X.dtype, np.abs(X).argmax(axis=1).tolist()
+    ((2, 256), dtype('complex128'), [138, 138])
     """
     x = np.asarray(x)
     if x.ndim != 1:
