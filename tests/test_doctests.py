@@ -19,6 +19,7 @@ CURATED_MODULES = [
     "microdoppler.io.flightzarr",
     "microdoppler.io.importing",
     "microdoppler.io.motorlog",
+    "microdoppler.spectra.periodogram",
     "microdoppler.spectra.spectrogram",
     "microdoppler.spectra.snr",
     "microdoppler.rotors.speed",

@@ -41,12 +41,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.fft as sfft
-from scipy.signal.windows import blackmanharris
 
 from ..errors import InputError
 from ..io.inventory import RADAR_SOURCE
 from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
+from ..spectra.periodogram import periodogram, window
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 from .config import (
     BODY_SEARCH_HZ,
@@ -251,11 +251,8 @@ def stft_power(iq: np.ndarray, prf_hz: float, n_fft: int, overlap: float = 0.5) 
     n_t = 1 + (len(iq) - n_fft) // hop
     if n_t < 1:
         raise ValueError(f"iq has {len(iq)} pulses, fewer than n_fft={n_fft}")
-    w = blackmanharris(n_fft, sym=False)
-    idx = np.arange(n_t)[:, None] * hop + np.arange(n_fft)[None, :]
-    frames = np.asarray(iq, np.complex128)[idx] * w
-    X = sfft.fftshift(sfft.fft(frames, axis=1, workers=1), axes=1)
-    p = X.real**2 + X.imag**2
+    w = window(n_fft)
+    p = periodogram(iq, n_fft, hop=hop, window=w, shift=True)
     t = (np.arange(n_t) * hop + n_fft / 2) / prf_hz
     f = sfft.fftshift(sfft.fftfreq(n_fft, 1.0 / prf_hz))
     return Stft(p, t, f, w)

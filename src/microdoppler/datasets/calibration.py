@@ -47,14 +47,13 @@ from typing import Callable
 
 import numpy as np
 import pandas as pd
-import scipy.fft as sfft
-from scipy.signal import ShortTimeFFT, butter, sosfilt, sosfilt_zi
-from scipy.signal.windows import blackmanharris
+from scipy.signal import butter, sosfilt, sosfilt_zi
 
 from ..causes.heldout import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
-from ..spectra.spectrogram import Spectrogram, SpectrogramConfig
+from ..spectra.periodogram import stft, window
+from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, cpi_grid
 from ..synthesis.model import (
     ENVELOPE_SPEED_STRIDE,
     BladeModel,
@@ -209,7 +208,8 @@ class LineTargets:
 class StftColumns:
     """The spectrogram chain of :func:`microdoppler.spectra.spectrogram.spectrogram` cut in two:
     :meth:`highpass` (linear, whole record or a segment) and :meth:`columns` (the
-    complex STFT, central bins, of chosen CPIs). ``power_db(columns)`` of the whole
+    complex STFT, central bins, of chosen CPIs: :func:`microdoppler.spectra.periodogram.stft`
+    in single precision). ``power_db(columns)`` of the whole
     high-passed record equals the spectrogram's ``power_db`` (float32 rounding), and
     since both steps are linear the columns of a sum are the sum of the columns.
 
@@ -225,14 +225,9 @@ class StftColumns:
         if n_pulses < cfg.n_fft:
             raise ValueError(f"record of {n_pulses} pulses is shorter than one CPI (n_fft={cfg.n_fft})")
         self.prf_hz, self.cfg, self.n_pulses = float(prf_hz), cfg, int(n_pulses)
-        win = blackmanharris(cfg.n_fft, sym=False)
-        stft = ShortTimeFFT(win, hop=cfg.hop, fs=prf_hz, fft_mode="centered", scale_to=None)
-        k0 = stft.lower_border_end[1]
-        k1 = stft.upper_border_begin(n_pulses)[1]
-        self.time_s = stft.t(n_pulses, p0=k0, p1=k1)
         #: first pulse of each CPI's window, int64 [n_timesteps]
-        self.frame_start = np.arange(k0, k1, dtype=np.int64) * cfg.hop - stft.m_num_mid
-        self.window = win.astype(np.float32)
+        self.frame_start, self.time_s, doppler_hz = cpi_grid(n_pulses, prf_hz, cfg)
+        self.window = window(cfg.n_fft).astype(np.float32)
         self.sos = (
             butter(cfg.highpass_order, cfg.highpass_hz, btype="highpass", fs=prf_hz, output="sos")
             if cfg.highpass_hz > 0
@@ -244,7 +239,7 @@ class StftColumns:
         n = cfg.n_fft
         lo = n // 2 - cfg.n_bins // 2
         keep = np.arange(n) if not cfg.n_bins else np.arange(lo, lo + cfg.n_bins)
-        self.doppler_hz = stft.f[keep]
+        self.doppler_hz = doppler_hz[keep]
         self.bins = (keep + n // 2) % n  # centred bin j is unshifted FFT bin (j + n/2) mod n (n even)
         if n % 2:
             self.bins = (keep + (n + 1) // 2) % n
@@ -274,7 +269,6 @@ class StftColumns:
         cpis = np.asarray(cpis, np.int64)
         out = np.empty((len(cpis), len(self.bins)), np.complex64)
         n = self.cfg.n_fft
-        ramp = np.arange(n, dtype=np.int64)
         for c0 in range(0, len(cpis), _FFT_BATCH):
             s = self.frame_start[cpis[c0 : c0 + _FFT_BATCH]] - offset
             if len(s) and (s.min() < 0 or s.max() + n > len(hp)):
@@ -282,9 +276,7 @@ class StftColumns:
                     f"CPI windows [{s.min() + offset}, {s.max() + offset + n}) are not all inside "
                     f"the segment [{offset}, {offset + len(hp)})"
                 )
-            frames = np.asarray(hp, np.complex64)[s[:, None] + ramp[None, :]]
-            frames *= self.window
-            out[c0 : c0 + len(s)] = sfft.fft(frames, axis=1, workers=1, overwrite_x=True)[:, self.bins]
+            out[c0 : c0 + len(s)] = stft(hp, n, starts=s, window=self.window, bins=self.bins, dtype=np.complex64)
         return out
 
     def spectrogram(self, x: np.ndarray, cpis: np.ndarray | None = None) -> Spectrogram:

@@ -63,7 +63,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.signal.windows import blackmanharris
 
 from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
 from .injection import INJECTED_SCHEMA
@@ -79,6 +78,7 @@ from ..io.flightzarr import read_flight
 from ..io.inventory import list_flights, read_ingested_log
 from ..io.outputs import atomic_file
 from ..spectra.snr import noise_floor_db
+from ..spectra.periodogram import window
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram
 
 #: distances of Table VI (name: unit), in column order
@@ -495,7 +495,7 @@ def flight_features(
         cfg=cfg,
         motor_rev_s=motors,
         line_power=wire,
-        window=blackmanharris(spec_cfg.n_fft, sym=False),
+        window=window(spec_cfg.n_fft),
     )
 
 

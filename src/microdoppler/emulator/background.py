@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.fft as sfft
-from scipy.signal.windows import blackmanharris
 
+from ..spectra.periodogram import window
 from .knobs import band_limited_phase
 from .radars import RadarSite
 
@@ -33,7 +33,7 @@ CELL_FADE_S = 0.2
 
 def stft_gain_db(n_fft: int = 4096) -> float:
     """dB from per-pulse SNR to the expected spectrogram line-over-median-floor SNR."""
-    w = blackmanharris(n_fft, sym=False)
+    w = window(n_fft)
     return float(10 * np.log10(w.sum() ** 2 / (w**2).sum()) + 10 * np.log10(1 / np.log(2)))
 
 

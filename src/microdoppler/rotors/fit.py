@@ -96,10 +96,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import czt
-from scipy.signal.windows import blackmanharris
 from scipy.linalg import cho_solve, cholesky
 from scipy.linalg.blas import zgemm, zgemv, zherk
 from threadpoolctl import threadpool_limits
+
+from ..spectra.periodogram import window
 
 
 # Fixed settings of the fit (module constants: search effort and calibrated terms, not
@@ -233,7 +234,7 @@ class _Model:
     def __init__(self, x: np.ndarray, prf: float, B: int, M: int, cfg: FitConfig, band_hz: float | None = None):
         n = len(x)
         tt = (np.arange(n) - n / 2) / prf
-        w = blackmanharris(n, sym=False)
+        w = window(n)
         y = np.asarray(x, np.complex128) * w
         self.out_power = 0.0
         D = int(np.ceil(prf / (2 * band_hz))) - 1 if band_hz and band_hz > 0 else 1

@@ -41,10 +41,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal.windows import blackmanharris
 
 from ..io.plausibility import SPEED_OF_LIGHT_MPS, TIP_SPEED_RANGE_MPS, _unit
 from ..spectra.floor import FLOOR_PERCENTILE
+from ..spectra.periodogram import periodogram
 from .order import SOUND_MPS, OrderConfig
 
 #: how well a track's radial velocity is trusted [m/s] (a tracker's range rate): the
@@ -89,12 +89,8 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
         if n_fft < 64:
             return None
     starts = np.unique(np.linspace(0, n - n_fft, min(MAX_SEGMENTS, max(1, 2 * n // n_fft - 1))).astype(int))
-    w = blackmanharris(n_fft, sym=False)
-    p = np.zeros(n_fft)
-    for s in starts:
-        seg = iq[s : s + n_fft].astype(np.complex128)
-        p += np.abs(np.fft.fft((seg - seg.mean()) * w)) ** 2
-    db = 10 * np.log10(p / len(starts) + 1e-30)
+    p = periodogram(iq, n_fft, starts=starts, demean=True, average=True)
+    db = 10 * np.log10(p + 1e-30)
     floor = float(np.percentile(db, FLOOR_PERCENTILE))
     f = np.fft.fftfreq(n_fft, 1.0 / prf_hz)
     guard = np.abs(f) <= ocfg.clutter_guard_hz + 4 * prf_hz / n_fft  # the window's main lobe beyond it

@@ -120,13 +120,13 @@ from dataclasses import asdict, dataclass, field, is_dataclass, replace
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 from scipy.signal import find_peaks
-from scipy.signal.windows import blackmanharris
 
 from ..io.flightzarr import Flight
 from ..io.motorlog import MotorLog
 from .fit import FitConfig, refine_cpi
 from .sampling import log_curve
 from ..spectra.floor import FLOOR_PERCENTILE, FLOOR_STEP_BINS, FLOOR_WINDOW_BINS, local_floor_db
+from ..spectra.periodogram import window
 from ..spectra.snr import body_doppler_hz
 from ..spectra.spectrogram import PAPER_WINDOW_S, SpectrogramConfig, nearest_power_of_two, spectrogram
 
@@ -1044,7 +1044,7 @@ def cpi_means_of_spline(
     CPI centred on ``cpi_t`` of the curve through (``t_s``, ``nodes``) [n, k] that every
     sampling variant reads from a log (:func:`microdoppler.rotors.sampling.log_curve`):
     float [len(cpi_t), k]."""
-    w = blackmanharris(n_fft, sym=False) ** 2
+    w = window(n_fft) ** 2
     k = np.linspace(0, n_fft - 1, n_points).astype(int)
     wk = w[k] / w[k].sum()
     tt = cpi_t[:, None] + (k[None, :] - n_fft / 2) / prf_hz

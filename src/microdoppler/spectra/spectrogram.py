@@ -20,10 +20,11 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy.signal import ShortTimeFFT, butter, sosfiltfilt
-from scipy.signal.windows import blackmanharris
+import scipy.fft as sfft
+from scipy.signal import butter, sosfiltfilt
 
 from ..errors import ConfigError
+from .periodogram import periodogram
 
 #: speed of light [m/s]
 C_MPS = 299_792_458.0
@@ -443,20 +444,48 @@ def spectrogram(iq: np.ndarray, prf_hz: float, cfg: SpectrogramConfig = Spectrog
     if iq.ndim != 1 or len(iq) < cfg.n_fft:
         raise ValueError(f"iq must be 1-D with >= n_fft={cfg.n_fft} pulses, got shape {iq.shape}")
     x = highpass(iq, prf_hz, cfg.highpass_hz, cfg.highpass_order)
-    win = blackmanharris(cfg.n_fft, sym=False)
-    stft = ShortTimeFFT(win, hop=cfg.hop, fs=prf_hz, fft_mode="centered", scale_to=None)
-    k0 = stft.lower_border_end[1]
-    k1 = stft.upper_border_begin(len(x))[1]
-    S = stft.stft(x, p0=k0, p1=k1)  # [n_freq, n_time]
-    f = stft.f
+    starts, t, f = cpi_grid(len(x), prf_hz, cfg)
+    if not len(starts):
+        raise ValueError(f"no CPI of {cfg.n_fft} pulses centred on a multiple of hop={cfg.hop} fits {len(x)} pulses")
+    keep = slice(None)
     if cfg.n_bins:
-        c = cfg.n_fft // 2
-        lo = c - cfg.n_bins // 2
-        S = S[lo : lo + cfg.n_bins]
-        f = f[lo : lo + cfg.n_bins]
-    p = (S.real**2 + S.imag**2).T
-    t = stft.t(len(x), p0=k0, p1=k1)
-    return Spectrogram(10 * np.log10(p + 1e-30).astype(np.float32), t, f)
+        lo = cfg.n_fft // 2 - cfg.n_bins // 2
+        keep = slice(lo, lo + cfg.n_bins)
+    p = periodogram(x, cfg.n_fft, starts=starts, shift=True, bins=keep)
+    return Spectrogram(10 * np.log10(p + 1e-30).astype(np.float32), t, f[keep])
+
+
+def cpi_grid(n_pulses: int, prf_hz: float, cfg: SpectrogramConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The spectrogram's CPIs in a record of ``n_pulses`` pulses and its Doppler axis.
+
+    CPI ``p`` is centred on pulse ``p * hop`` (its window's sample ``n_fft // 2``);
+    only the CPIs wholly inside the record count (no zero padding at the ends).
+
+    Parameters
+    ----------
+    n_pulses : int
+        Record length [pulses].
+    prf_hz : float
+        Pulse repetition frequency [Hz].
+    cfg : SpectrogramConfig
+        STFT settings (``n_fft``, ``hop``).
+
+    Returns
+    -------
+    starts : ndarray, int64 [n_timesteps]
+        First pulse of each CPI's window.
+    time_s : ndarray, float64 [n_timesteps]
+        Centre time of each CPI [s] (``p * hop / prf_hz``).
+    doppler_hz : ndarray, float64 [n_fft]
+        Doppler of each bin of the centred (``fftshift``-ed) spectrum [Hz].
+    """
+    n, hop, mid = int(cfg.n_fft), int(cfg.hop), int(cfg.n_fft) // 2
+    p = np.arange(-(-mid // hop), (int(n_pulses) - n + mid) // hop + 1)
+    return (
+        p.astype(np.int64) * hop - mid,
+        p * (hop * (1 / prf_hz)),
+        sfft.fftshift(sfft.fftfreq(n, 1 / prf_hz)),
+    )
 
 
 def tiles(spec: Spectrogram, timesteps: int = 20) -> np.ndarray:
