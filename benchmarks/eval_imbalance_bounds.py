@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -33,21 +32,12 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from independent_generator import GenCase, make_flight  # noqa: E402
 
+from shares import wilson, write_record  # noqa: E402
 from microdoppler.diagnosis import DiagnosisConfig  # noqa: E402
 from microdoppler.diagnosis.pipeline import diagnose_flight  # noqa: E402
 
 ONE_BLADE_DB = 300.0
 BANDS = [(0, 10), (10, 20), (20, 30), (30, 41), (41, math.inf)]
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> list:
-    if n == 0:
-        return [None, None]
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return [round(max(0.0, c - h), 4), round(min(1.0, c + h), 4)]
 
 
 def holds(iv: dict | None, truth_db: float) -> bool:
@@ -158,9 +148,7 @@ def main(argv=None) -> int:
         if args.json
         else ROOT / "benchmarks" / "records" / f"eval_imbalance_bounds_seed{args.seed}.json"
     )
-    tmp = out.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(record, indent=1, default=str) + "\n")
-    os.replace(tmp, out)
+    write_record(out, record)
     print(json.dumps({"held_of_named": record["held_of_named"], "by_band": summary}, indent=1))
     print(f"wrote {out}")
     return 0

@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -40,18 +38,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 from any_radar import draw_case, make_recording, true_cpi_means  # noqa: E402
 from independent_generator import GenCase, make_flight  # noqa: E402
 
+from shares import wilson, write_record  # noqa: E402
 from microdoppler.rotors import estimate_rotor_speeds  # noqa: E402
 from microdoppler.rotors.speed import recording_means  # noqa: E402
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> list:
-    if n == 0:
-        return [None, None]
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return [round(max(0.0, c - h), 4), round(min(1.0, c + h), 4)]
 
 
 def recordings(args):
@@ -184,9 +173,7 @@ def main(argv=None) -> int:
         if args.json
         else ROOT / "benchmarks" / "records" / f"eval_rotor_uncertainty_seed{args.seed}.json"
     )
-    tmp = out.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(record, indent=1) + "\n")
-    os.replace(tmp, out)
+    write_record(out, record)
     print(json.dumps(summary, indent=1))
     print(f"printed method = stored on {record['printed_method_is_stored']} of {len(recs)}; wrote {out}")
     return 0

@@ -32,7 +32,6 @@ import argparse
 import contextlib
 import io
 import json
-import math
 import os
 import subprocess
 import sys
@@ -48,6 +47,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from any_radar import draw_case, make_recording  # noqa: E402
 from independent_generator import GenCase, make_flight  # noqa: E402
 
+from shares import wilson  # noqa: E402
 from microdoppler.cli import main as cli  # noqa: E402
 
 #: name -> (field, how the declared value is made from the true one)
@@ -72,16 +72,6 @@ ESTIMATE_KINDS = (
     "blade_length x2",
     "blade_length x0.5",
 )
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> list:
-    if n == 0:
-        return [None, None]
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return [round(max(0.0, c - h), 4), round(min(1.0, c + h), 4)]
 
 
 def recordings(args):
