@@ -480,6 +480,7 @@ def write_campaign(records: Path, path: Path) -> Path:
     campaign page (only when they changed)."""
     text = "\n".join(section_campaign(Path(records))[2:]) or "No campaign record yet.\n"
     path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     if not path.is_file() or path.read_text() != text:
         path.write_text(text)
     return path
