@@ -95,3 +95,26 @@ def test_validate_repeats_the_stored_plausibility_warning(stores, capsys):
     cap = capsys.readouterr()
     assert rc == 0 and cap.out.startswith("ok ")
     assert "imported with --force despite an implausible set-up: prf_hz: a stored warning" in cap.err
+
+
+def test_a_store_whose_estimate_found_no_rotor_lines_points_at_its_set_up(tmp_path, stores, capsys):
+    """A store whose import tried --estimate-motors and found no lines: the skip's hint
+    says so and names the fields its plausibility warning doubts, not the
+    --estimate-motors it already ran."""
+    from microdoppler.cli import main
+    from microdoppler.io.flightzarr import read_flight
+
+    f = read_flight(stores[1])
+    failed = replace(f, attrs={**f.attrs, "flight_id": "noest1", "motors_estimate_failed": "no sideband pair"})
+    store = write_flight(tmp_path / "noest1.zarr", failed)
+    out = tmp_path / "report.json"
+    rc = main(["diagnose", str(store), "--out", str(out)])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    with open(tmp_path / "report.csv", newline="") as fh:
+        row = next(csv.DictReader(fh))
+    assert row["reason"] == "no motor log"
+    assert row["hint"].startswith("the import's rotor-speed estimate found none (no sideband pair)")
+    assert "check the declared prf_hz and import again" in row["hint"]
+    assert "--estimate-motors" not in row["hint"]
+    assert f"noest1: skipped: no motor log (hint: {row['hint']})" in cap.err

@@ -408,6 +408,7 @@ def estimate_motors(flight, warns: list):
     est = estimate_rotor_speeds(flight, progress=progress)
     if not est.ok:
         warns.append(f"no rotor-speed estimate: {est.reason}")
+        flight.attrs["motors_estimate_failed"] = str(est.reason)  # diagnose's hint says so
         return flight
     print(f"rotor speeds from the radar: {est.summary()}", file=sys.stderr)  # information, not a warning
     from ..rotors.order import ambiguity_line

@@ -185,8 +185,19 @@ def table_path(out_json) -> Path:
     return Path(out_json).with_suffix(".csv")
 
 
-def skip_hint(reason: str | None) -> str:
-    """What to do about a skip ``reason`` ("" where there is no hint)."""
+def skip_hint(reason: str | None, flight=None) -> str:
+    """What to do about a skip ``reason`` ("" where there is no hint). With the
+    ``flight``: where its import already tried to estimate the rotor speeds from the
+    radar and found none (``attrs.motors_estimate_failed``), the hint says so and
+    points at the declared set-up (at the fields its plausibility warnings name)."""
+    failed = None if flight is None else flight.attrs.get("motors_estimate_failed")
+    if str(reason or "") == "no motor log" and failed:
+        doubt = plausibility_warnings(flight)
+        fields = doubt[0].split(":", 1)[0].strip() if doubt else "prf_hz, carrier_hz, n_blades, blade_length_m"
+        return (
+            f"the import's rotor-speed estimate found none ({failed}): check the declared {fields} and import "
+            "again, or give the log with --motor-log"
+        )
     return SKIP_HINTS.get(str(reason or ""), "")
 
 
@@ -200,14 +211,15 @@ def _flat(x) -> str:
     return json.dumps(x, separators=(",", ":"), sort_keys=False)
 
 
-def report_row(entry: dict, *, warnings=()) -> dict:
+def report_row(entry: dict, *, warnings=(), hint: str | None = None) -> dict:
     """One report entry as a row of :data:`TABLE_COLUMNS`: the causes (``;``), each
     cause's parameters (compact JSON ``{cause: params}``), the intervals the data
     allow them (``{cause: {param: {low, high, bound, level, meaning}}}``, where the
     cause's test gives one) and log e-value, the causes
     not testable (``cause: reason``, ``;``), the goodness of fit (``explained`` or
     ``excess``, its worst band's level and band), the skip reason with its hint, and the
-    import's plausibility warnings (``warnings``)."""
+    import's plausibility warnings (``warnings``); ``hint`` replaces the skip reason's
+    generic hint (:func:`skip_hint` with the flight)."""
     causes = entry.get("causes") or []
     gof = (entry.get("evidence") or {}).get("goodness_of_fit") or {}
     skipped = entry.get("cause") == "skipped"
@@ -229,7 +241,7 @@ def report_row(entry: dict, *, warnings=()) -> dict:
         "excess_db": "" if gof.get("excess_db") is None else gof["excess_db"],
         "band_hz": "" if gof.get("band_hz") is None else _flat(gof["band_hz"]),
         "reason": entry.get("reason", ""),
-        "hint": skip_hint(entry.get("reason")) if skipped else "",
+        "hint": (hint if hint is not None else skip_hint(entry.get("reason"))) if skipped else "",
         "plausibility_warnings": ";".join(warnings),
     }
 
@@ -311,17 +323,18 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
             log(f"{f.flight_id}: warning: imported despite an implausible set-up: {w}")
         ml = (motor_logs or {}).get(f.flight_id)
         fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
+        hint = None
         try:
             e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
         except Undiagnosable as exc:
             e = skipped_entry(f.flight_id, exc.reason)
-            hint = skip_hint(exc.reason)
+            hint = skip_hint(exc.reason, f)
             log(f"{f.flight_id}: skipped: {exc.reason}" + (f" (hint: {hint})" if hint else ""))
         else:
             named = "; ".join(f"{c['cause']} {(c.get('extension') or c).get('params')}" for c in e["causes"]) or "none"
             log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
         entries.append(e)
-        rows.append(report_row(e, warnings=warns))
+        rows.append(report_row(e, warnings=warns, hint=hint))
     report = {"schema": REPORT_SCHEMA, "catalog": list(catalog()), "flights": entries}
     write_json(report, out_json)
     write_table(rows, table_path(out_json))
