@@ -143,6 +143,26 @@ def run_import(argv, scratch=None) -> tuple[int, str, str | None]:
     return rc, (lines[0] if lines else ""), (hints[0] if hints else None)
 
 
+def diagnose_store(store: Path, kind: str | None) -> dict:
+    """The diagnosis of an imported store: its cause(s), skip reason and hint, and
+    whether a wrong field is named there (in the reason, the hint or the store's
+    plausibility warnings)."""
+    from microdoppler.diagnosis import DiagnosisConfig
+    from microdoppler.diagnosis.measure import Undiagnosable
+    from microdoppler.diagnosis.pipeline import diagnose_flight, plausibility_warnings, skip_hint
+    from microdoppler.io.flightzarr import read_flight
+
+    f = read_flight(store)
+    try:
+        e = diagnose_flight(f, config=DiagnosisConfig())
+        out = {"cause": e["cause"], "causes": [c["cause"] for c in e.get("causes") or []], "reason": "", "hint": ""}
+    except Undiagnosable as exc:
+        out = {"cause": "skipped", "causes": [], "reason": exc.reason, "hint": skip_hint(exc.reason, f)}
+    text = " ".join([out["reason"], out["hint"], *plausibility_warnings(f)])
+    out["names_field"] = bool(kind) and WRONG[kind][0] in text
+    return out
+
+
 def declared(decl: dict, kind: str | None) -> list:
     d = dict(decl)
     if kind is not None:
@@ -165,6 +185,12 @@ def main(argv=None) -> int:
         type=int,
         default=1,
         help="wrong fields imported with --estimate-motors per recording (in turn); 0: none",
+    )
+    ap.add_argument(
+        "--diagnose",
+        action="store_true",
+        help="diagnose every store the estimate-mode import accepted (use --duration-s >= 12: the diagnosis needs "
+        "20 CPIs)",
     )
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
@@ -215,17 +241,18 @@ def main(argv=None) -> int:
                         ],
                         scratch=tmp,
                     )
-                    rows.append(
-                        {
-                            "recording": name,
-                            "note": note,
-                            "mode": "estimate",
-                            "wrong": kind,
-                            "rc": rc,
-                            "message": msg,
-                            "n_blades_hint": hint,
-                        }
-                    )
+                    row = {
+                        "recording": name,
+                        "note": note,
+                        "mode": "estimate",
+                        "wrong": kind,
+                        "rc": rc,
+                        "message": msg,
+                        "n_blades_hint": hint,
+                    }
+                    if args.diagnose and rc == 0:  # what the diagnosis makes of an accepted store
+                        row["diagnosis"] = diagnose_store(tmp / f"{name}_est.zarr", kind)
+                    rows.append(row)
             print(
                 f"{name}: {sum(r['rc'] == 2 for r in rows if r['recording'] == name and r['wrong'])} of "
                 f"{sum(1 for r in rows if r['recording'] == name and r['wrong'])} wrong refused, right: "
@@ -300,6 +327,32 @@ def main(argv=None) -> int:
                 if not (r["rc"] == 2 and WRONG[r["wrong"]][0] in r["message"])
             ],
         }
+        if mode == "estimate" and args.diagnose:  # refused at import, or what the diagnosis read
+            diag_right = [r["diagnosis"] for r in right if "diagnosis" in r]
+            outcome = {}
+            for r in wrong:
+                d = r.get("diagnosis")
+                key = (
+                    "refused naming the field"
+                    if r["rc"] == 2 and WRONG[r["wrong"]][0] in r["message"]
+                    else "refused, another field"
+                    if r["rc"] == 2
+                    else f"{d['cause']}{' naming the field' if d['names_field'] else ''}"
+                    if d
+                    else "not diagnosed"
+                )
+                outcome[key] = outcome.get(key, 0) + 1
+            n_none = sum(1 for r in wrong if (r.get("diagnosis") or {}).get("cause") == "none")
+            summary[mode]["diagnosis"] = {
+                "wrong_outcomes": outcome,
+                "wrong_read_none": n_none,
+                "wrong_read_none_wilson95": wilson(n_none, len(wrong)),
+                "right_causes": {
+                    c: sum(d["cause"] == c for d in diag_right) for c in sorted({d["cause"] for d in diag_right})
+                },
+                "right_unexplained": sum("unexplained" in d["causes"] for d in diag_right),
+                "right_diagnosed": len(diag_right),
+            }
         if mode == "estimate":  # the n_blades hint (printed, not a refusal)
             summary[mode]["n_blades_hint"] = {
                 "right": sum(bool(r.get("n_blades_hint")) for r in right),
