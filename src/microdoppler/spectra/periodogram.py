@@ -1,7 +1,7 @@
 """The one windowed periodogram (short-time Fourier transform) of slow-time samples.
 
 Every power spectrum of a radar's slow-time series in the package runs here: the
-paper's spectrogram (:func:`microdoppler.spectra.spectrogram.spectrogram`), the
+paper's spectrogram (:func:`microdoppler.spectra.spectrogram`), the
 calibration's STFT columns, the diagnosis's periodogram, the rotor estimator's and
 the plausibility check's spectra. :func:`stft` cuts a 1-D complex series into CPIs
 (coherent processing intervals) of ``n_fft`` pulses, removes each CPI's mean if
@@ -39,7 +39,7 @@ def window(n_fft: int, name: str = DEFAULT_WINDOW) -> np.ndarray:
         Window length [pulses].
     name : str
         A window name :func:`scipy.signal.get_window` knows (without parameters),
-        default :data:`DEFAULT_WINDOW` (4-term Blackman-Harris, -92 dB sidelobes).
+        default ``DEFAULT_WINDOW``, "blackmanharris" (4-term Blackman-Harris, -92 dB sidelobes).
 
     Returns
     -------
@@ -89,7 +89,7 @@ def stft(
         CPI length = FFT length [pulses].
     hop : int, optional
         Pulses between successive CPIs (default ``n_fft // 2``); the CPIs start at
-        pulse 0 and lie wholly inside ``x`` (:func:`cpi_starts`). Ignored with ``starts``.
+        pulse 0 and lie wholly inside ``x`` (``cpi_starts``). Ignored with ``starts``.
     starts : ndarray of int, optional
         First pulse of each CPI instead (each CPI must lie inside ``x``).
     window : str or ndarray
@@ -195,7 +195,7 @@ def periodogram(
 
     See Also
     --------
-    stft, window, microdoppler.spectra.spectrogram.spectrogram
+    stft, window, microdoppler.spectra.spectrogram
 
     Examples
     --------
