@@ -395,6 +395,51 @@ def section_rotor_uncertainty(records: Path) -> list[str]:
     )
 
 
+def section_wrong_setups(records: Path) -> list[str]:
+    """``eval_wrong_setups.py``: wrong declared set-ups refused at import per field, and
+    (``--diagnose``) what the diagnosis reads on the ones the import accepted."""
+    out = []
+    for name, d in _load(records, "eval_wrong_setups_*.json"):
+        out += [
+            f"### Seed {d['seed']}: `{name}`",
+            "",
+            provenance(name, d) + f"; recordings of {d['duration_s']:g} s",
+            "",
+        ]
+        for mode, m in d["summary"].items():
+            w = m["wrong"]
+            rows = [
+                (kind, _wilson_share(v["refused_naming_field"], v["n"], v["wilson95"]))
+                for kind, v in m["per_wrong_field"].items()
+            ]
+            out += [
+                f"Import `{mode}`: wrong set-ups refused naming the field "
+                + _wilson_share(w["refused_naming_field"], w["n"], w["wilson95"])
+                + f"; right set-ups refused {m['right']['false_refusals']} of {m['right']['n']}.",
+                "",
+                table(("wrong field", "refused naming it"), rows),
+                "",
+            ]
+            dg = m.get("diagnosis")
+            if dg:
+                n_wrong = sum(dg["wrong_outcomes"].values())
+                out += [
+                    "What became of the wrong set-ups (refused at import, or what the diagnosis read); "
+                    f"read `none`: {_wilson_share(dg['wrong_read_none'], n_wrong, dg['wrong_read_none_wilson95'])}. "
+                    f"The right set-ups' diagnoses: "
+                    + ", ".join(f"{c} {k}" for c, k in dg["right_causes"].items())
+                    + ".",
+                    "",
+                    table(("outcome", "wrong set-ups"), sorted(dg["wrong_outcomes"].items(), key=lambda kv: -kv[1])),
+                    "",
+                ]
+    return (
+        (["## Wrongly declared set-ups (`eval_wrong_setups.py`)", "", "Wilson 95 % intervals.", ""] + out)
+        if out
+        else []
+    )
+
+
 def section_campaign(records: Path) -> list[str]:
     """A campaign of one's own, end to end (``benchmarks/eval_campaign.py``): per record,
     which acceptance checks hold, Table VI's ``nonmultiple_db`` rows, Table V where
@@ -496,6 +541,7 @@ SECTIONS = (
     section_paper_profile,
     section_imbalance_bounds,
     section_rotor_uncertainty,
+    section_wrong_setups,
     section_campaign,
 )
 
