@@ -486,11 +486,12 @@ class RotorEstimate:
 def _mean_attrs(est, per_motor: bool) -> dict:
     """``motors_radar`` attributes of the recording means (:func:`recording_means`)."""
     mean, std = recording_means(est)
-    if not per_motor:  # every column the mean rotor speed: the ranks' mean and its sigma
+    if not per_motor:  # every column the mean rotor speed: the ranks' mean; its sigma the ranks'
+        # mean sigma (their errors share the comb's and the method's bias: not independent)
         ok = np.isfinite(mean)
         if not ok.any():
             return {}
-        m, s = float(np.mean(mean[ok])), float(np.sqrt(np.sum(std[ok] ** 2)) / ok.sum())
+        m, s = float(np.mean(mean[ok])), float(np.mean(std[ok]))
         mean, std = np.full(len(mean), m), np.full(len(mean), s)
     out = {
         "mean_rpm": [None if not np.isfinite(v) else round(float(v) * 60.0, 1) for v in mean],
