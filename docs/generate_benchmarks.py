@@ -531,7 +531,53 @@ def write_campaign(records: Path, path: Path) -> Path:
     return path
 
 
+def section_rule_times(records: Path) -> list[str]:
+    """The pipeline's per-rule times, one column per recorded run (``rule_times_*.csv``
+    written by ``benchmarks/rule_times.py --record``), oldest first, and the ratio of the
+    newest to the oldest."""
+    runs = []
+    for path in sorted(records.glob("rule_times_*.csv")):
+        meta_path = path.with_suffix(".json")
+        meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+        runs.append((path.name, meta, pd.read_csv(path).set_index("rule")))
+    if not runs:
+        return []
+    runs.sort(key=lambda r: str(r[1].get("date_utc", "")))
+    rules = list(dict.fromkeys(r for _, _, t in reversed(runs) for r in t.index if r != "all")) + ["all"]
+    first, last = runs[0][2], runs[-1][2]
+
+    def cell(t, rule):
+        if rule not in t.index:
+            return ""
+        return f"{t.loc[rule, 'total_s']:.0f} ({int(t.loc[rule, 'jobs'])})"
+
+    rows = []
+    for rule in rules:
+        ratio = ""
+        if rule in first.index and rule in last.index and first.loc[rule, "total_s"] > 0:
+            ratio = f"{last.loc[rule, 'total_s'] / first.loc[rule, 'total_s']:.2f}"
+        rows.append((f"`{rule}`", *(cell(t, rule) for _, _, t in runs), ratio))
+    walls = [m.get("wall_s") for _, m, _ in runs]
+    wall_ratio = f"{walls[-1] / walls[0]:.2f}" if walls[0] and walls[-1] else ""
+    rows.append(("**wall clock of the run**", *(f"{w:.0f}" if w else "" for w in walls), wall_ratio))
+    header = ("rule", *(f"{m.get('commit', n)} s (jobs)" for n, m, _ in runs), "newest / oldest")
+    return [
+        "## Pipeline run time per rule (`rule_times.py`)",
+        "",
+        "Snakemake's benchmark files of a `snakemake --cores 2` run of the embedded default on a quiet 2-core "
+        "machine, rolled per rule (rule `report_rule_times`): the summed wall-clock seconds of the rule's jobs "
+        "(busy time; jobs ran two at a time) and the number of jobs, per recorded run (the column names its "
+        "commit), and the wall clock from the first job's start to the last one's end. Records: "
+        + ", ".join(f"`{n}` ({m.get('date_utc', '')})" for n, m, _ in runs)
+        + ".",
+        "",
+        table(header, rows),
+        "",
+    ]
+
+
 SECTIONS = (
+    section_rule_times,
     section_any_radar,
     section_rotorspeed,
     section_timing,

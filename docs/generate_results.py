@@ -52,6 +52,16 @@ TABLES = [
         None,
         2,
     ),
+    (
+        "reports/rule_times.csv",
+        "Per-rule times",
+        "Per rule of the run: its jobs, their summed and longest wall-clock seconds, summed CPU seconds and "
+        "the largest peak memory of a job [MiB], rolled from Snakemake's benchmark files by rule "
+        "`report_rule_times`; `all` sums every job (busy time: the run's wall clock is shorter where jobs ran "
+        "side by side). `benchmarks/rule_times.py` compares it with a recorded run.",
+        None,
+        1,
+    ),
 ]
 # (glob under results/, title)
 FIGURES = [

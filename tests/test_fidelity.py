@@ -373,6 +373,62 @@ def test_fit_twin_records_its_fold(drone):
     assert (fidelity.scoring_mask(res, n_t)[0] == ~mask).all()
 
 
+def test_measured_features_stored_once_read_back_unchanged(drone, tmp_path):
+    """The measured flight's features (rule measure_flights) come back from the store
+    bit for bit, so every variant's score_twins scores against the same numbers as
+    measuring the flight itself."""
+    from microdoppler.datasets.stores import writing_store
+
+    fl, log = drone
+    f = fidelity.flight_features(fl, fl.iq, log, spec_cfg=SPEC)
+    with writing_store(tmp_path / "features.zarr", {"schema": fidelity.FEATURES_SCHEMA}) as root:
+        fidelity.write_features(root.require_group(fl.flight_id), f)
+    back = fidelity.read_measured_features(tmp_path / "features.zarr")[fl.flight_id]
+    for name, value in vars(f).items():
+        if isinstance(value, np.ndarray):
+            got = getattr(back, name)
+            assert got.dtype == value.dtype and np.array_equal(got, value, equal_nan=True), name
+        else:
+            assert getattr(back, name) == value, name
+
+
+def test_variant_scores_round_trip_exactly(tmp_path, rng):
+    """A variant's scores written by score_twins read back with the same values and
+    types (NaN, empty text, booleans), so Table VI from the files equals Table VI
+    from the frames."""
+    n = 12
+    frames = []
+    for v in ("sub_cpi", "extended"):
+        d = {k: rng.normal(size=n) * 10 ** rng.uniform(-8, 3, n) for k in fidelity.DISTANCES}
+        d["n_pairs"][:2] = np.nan
+        frames.append(
+            pd.DataFrame(
+                {
+                    "flight_id": [f"f{i:02d}" for i in range(n)],
+                    "variant": v,
+                    "drone_model": ["inspire2", ""] * (n // 2),
+                    "held_out": True,
+                    "n_cpis_scored": rng.integers(0, 40, n),
+                    "extension_source": ["", "own flight"] * (n // 2),
+                    **d,
+                    "lines_visible": rng.random(n) > 0.3,
+                    "body_in_notch": rng.random(n) > 0.7,
+                }
+            )
+        )
+    back = []
+    for df in frames:
+        fidelity.write_scores(df, tmp_path / "s.csv")
+        got = fidelity.read_scores(tmp_path / "s.csv")
+        pd.testing.assert_frame_equal(got, df[fidelity.SCORE_COLUMNS], check_dtype=False)
+        for c in fidelity.DISTANCES:
+            assert np.array_equal(got[c].to_numpy(), df[c].to_numpy(), equal_nan=True), c
+        back.append(got)
+    direct = fidelity.fidelity_table(pd.concat(frames, ignore_index=True), n_boot=200, seed=1)
+    via_files = fidelity.fidelity_table(pd.concat(back, ignore_index=True), n_boot=200, seed=1)
+    pd.testing.assert_frame_equal(direct, via_files)
+
+
 def test_rule_wires_every_variant(tmp_path):
     """``report_fidelity`` is part of the default target and reads every variant's
     injected twins, the measured flights and the motor logs (dry run)."""
@@ -391,9 +447,17 @@ def test_rule_wires_every_variant(tmp_path):
     for path in (
         "results/injected/sub_cpi.zarr",
         "results/injected/fixed_speeds.zarr",
+        "results/fidelity/sub_cpi.csv",
+        "results/fidelity/fixed_speeds.csv",
         "results/measured",
         "results/motors/logs.zarr",
         "results/reports/table_vi.csv",
         "results/reports/fig_fidelity.png",
     ):
         assert path in job, (path, job)
+    # each variant scored by its own job, against the flights measured once
+    scoring = [b for b in r.stdout.split("[") if b.lstrip().split("\n", 1)[-1].startswith("rule score_twins:")]
+    for v in ("sub_cpi", "fixed_speeds"):
+        (job,) = [b for b in scoring if f"output: results/fidelity/{v}.csv" in b]
+        assert f"results/injected/{v}.zarr" in job and "results/fidelity/measured.zarr" in job, job
+    assert r.stdout.count("rule measure_flights:") == 1

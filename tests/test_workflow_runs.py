@@ -40,8 +40,8 @@ ENV = {**os.environ, "PYTHONHASHSEED": "0", "OMP_NUM_THREADS": "1", "MKL_NUM_THR
 #: wall-clock timings written into outputs (the only values allowed to differ):
 #: CSV columns and JSON keys (also Zarr attributes) of these names
 TIMINGS = {"seconds", "fit_seconds"}
-#: compared as a file list only: logs (timestamps) and benchmarks (timings)
-LISTED_ONLY = ("results/logs/", "results/benchmarks/")
+#: compared as a file list only: logs (timestamps), benchmarks and the per-rule times (timings)
+LISTED_ONLY = ("results/logs/", "results/benchmarks/", "results/reports/rule_times.csv")
 
 
 def command(work, *args):
@@ -116,8 +116,8 @@ def run_and_kill(work, log: Path, started: str, outputs) -> int:
 
 
 def training_outputs(log: Path) -> list[str]:
-    """results/logs/train_classifier/{trainset}_seed{seed}.log -> that job's outputs."""
-    trainset, seed = log.stem.rsplit("_seed", 1)
+    """results/logs/train_classifier/{trainset}.log -> that job's first seed's outputs."""
+    trainset, seed = log.stem, TINY["classifier"]["seeds"][0]
     return [f"results/models/{trainset}/seed{seed}.pt", f"results/models/{trainset}/seed{seed}_history.csv"]
 
 
@@ -242,6 +242,25 @@ def test_cluster_generic_run_submits_every_job(reference):
     n_rules = int(re.search(r"(\d+) of (\d+) steps \(100%\) done", text).group(2))
     assert n_jobs >= n_rules - 1, (n_jobs, n_rules)  # all but the local target rule were submitted
     assert n_rules >= 15 and len(ref) > n_rules, (n_rules, len(ref))
+
+
+def test_rule_times_table_has_every_rule_that_ran(reference):
+    """results/reports/rule_times.csv: a row per rule that ran (every one has a
+    benchmark: file), its jobs counted, and the ``all`` row their sum."""
+    import pandas as pd
+
+    root, _, text = reference
+    table = pd.read_csv(root / "cluster" / "results/reports/rule_times.csv")
+    jobs = re.findall(r"(?m)^rule (\w+):", text)
+    ran = {r for r in jobs if r not in ("default", "all", "report_rule_times")}
+    assert set(table.rule) == ran | {"all"}, set(table.rule) ^ (ran | {"all"})
+    per_rule = table.set_index("rule")
+    for r in ran:
+        assert per_rule.loc[r, "jobs"] == jobs.count(r), r
+    body = per_rule.drop(index="all")
+    assert per_rule.loc["all", "jobs"] == body.jobs.sum()
+    assert per_rule.loc["all", "total_s"] == pytest.approx(body.total_s.sum(), abs=0.01 * len(body))
+    assert (body.total_s > 0).all() and (body.max_s <= body.total_s + 0.01).all()
 
 
 #: modules an edit of which once reran no rule (the rerun probe edits each in a copy)

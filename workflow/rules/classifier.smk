@@ -7,15 +7,15 @@ rule train_classifier:
     input:
         unpack(classifier_tiles),
     output:
-        model="results/models/{trainset}/seed{seed}.pt",
-        history="results/models/{trainset}/seed{seed}_history.csv",
+        # one job per training set trains its seeds in turn (the tiles read once)
+        models=expand("results/models/{{trainset}}/seed{seed}.pt", seed=SEEDS),
+        histories=expand("results/models/{{trainset}}/seed{seed}_history.csv", seed=SEEDS),
     log:
-        "results/logs/train_classifier/{trainset}_seed{seed}.log",
+        "results/logs/train_classifier/{trainset}.log",
     benchmark:
-        "results/benchmarks/train_classifier/{trainset}_seed{seed}.tsv"
+        "results/benchmarks/train_classifier/{trainset}.tsv"
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
-        seed=r"\d+",
     conda:
         "../envs/microdoppler.yaml"
     threads: CLASSIFIER.get("threads", 1)
@@ -25,6 +25,7 @@ rule train_classifier:
         gpu=CLASSIFIER_GPUS,
     params:
         classifier=CLASSIFIER,
+        seeds=SEEDS,
         code=script_code("train_classifier.py"),
     script:
         "../scripts/train_classifier.py"
@@ -32,21 +33,23 @@ rule train_classifier:
 
 rule evaluate_classifier:
     input:
-        model="results/models/{trainset}/seed{seed}.pt",
+        models=expand("results/models/{{trainset}}/seed{seed}.pt", seed=SEEDS),
         real="results/tiles/real.zarr",
     output:
-        predictions="results/eval/{trainset}/seed{seed}.csv",
+        predictions=expand("results/eval/{{trainset}}/seed{seed}.csv", seed=SEEDS),
     log:
-        "results/logs/evaluate_classifier/{trainset}_seed{seed}.log",
+        "results/logs/evaluate_classifier/{trainset}.log",
+    benchmark:
+        "results/benchmarks/evaluate_classifier/{trainset}.tsv"
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
-        seed=r"\d+",
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
     resources:
         mem_mb=1000,
     params:
+        seeds=SEEDS,
         code=script_code("evaluate_classifier.py"),
     script:
         "../scripts/evaluate_classifier.py"
@@ -82,6 +85,8 @@ rule report_metrics:
         ),
     log:
         "results/logs/report_metrics.log",
+    benchmark:
+        "results/benchmarks/report_metrics.tsv"
     conda:
         "../envs/microdoppler.yaml"
     threads: 1

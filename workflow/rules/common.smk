@@ -238,3 +238,27 @@ def all_targets():
     targets += ["results/diagnosis/report.json", "results/diagnosis/extended.yaml"]
     targets += ["results/reports/table_vi.csv", "results/reports/fig_fidelity.png"]
     return targets
+
+
+# --- per-rule times (rules/runtimes.smk) ---
+#: the values each wildcard of a benchmark file takes in this run
+BENCHMARK_WILDCARDS = {
+    "variant": VARIANTS,
+    "batch": BATCHES,
+    "dataset": DATASETS,
+    "trainset": TRAINSETS,
+}
+
+
+def rule_benchmark_files(wildcards):
+    """Every benchmark file the jobs of this run write (each rule's ``benchmark:``
+    pattern over its wildcards' values; the classifier's only where it runs)."""
+    skip = {"train_classifier", "evaluate_classifier", "report_metrics"} if CLASSIFIER_NOTE else set()
+    files = []
+    for r in workflow.rules:
+        if r.name in skip or not r.benchmark:
+            continue
+        pattern = re.sub(r"{(\w+),[^}]*}", r"{\1}", str(r.benchmark))  # constraints off
+        names = set(re.findall(r"{(\w+)}", pattern))
+        files += expand(pattern, **{n: BENCHMARK_WILDCARDS[n] for n in names})
+    return sorted(set(files))

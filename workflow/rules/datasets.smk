@@ -152,6 +152,8 @@ rule report_table_iv:
         table="results/reports/table_iv.csv",
     log:
         "results/logs/report_table_iv.log",
+    benchmark:
+        "results/benchmarks/report_table_iv.tsv"
     conda:
         "../envs/microdoppler.yaml"
     threads: 1

@@ -25,9 +25,10 @@ rule diagnose_flights:
         "results/benchmarks/diagnose_flights.tsv"
     conda:
         "../envs/microdoppler.yaml"
-    threads: 1
+    # flights diagnosed side by side (forked workers); the report is the same for any number
+    threads: 2
     resources:
-        mem_mb=3000,
+        mem_mb=4000,
     params:
         diagnosis=config["diagnosis"],
         code=script_code("diagnose_flights.py"),

@@ -23,6 +23,8 @@ rule plot_motor_speed_figures:
         ),
     log:
         "results/logs/plot_motor_speed_figures.log",
+    benchmark:
+        "results/benchmarks/plot_motor_speed_figures.tsv"
     conda:
         "../envs/microdoppler.yaml"
     threads: 1

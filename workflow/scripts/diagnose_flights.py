@@ -1,6 +1,6 @@
 """Rule diagnose_flights: diagnose the measured drone flights (of the `diagnosis.sets` split sets) that have a
 motor log; write the report JSON, its one-row-per-flight table (report.csv, beside it) and one figure per
-flight."""
+flight, diagnosing `threads` flights side by side."""
 
 from microdoppler.diagnosis.pipeline import diagnose_split
 from microdoppler.io.runlog import log_to
@@ -13,4 +13,5 @@ with log_to(snakemake.log[0]):
         snakemake.output.report,
         snakemake.output.figures,
         settings=snakemake.params.diagnosis,
+        processes=snakemake.threads,
     )

@@ -68,7 +68,7 @@ from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, 
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .split import TWIN_MODELS, twin_model
-from .stores import flight_ids, open_store
+from .stores import flight_ids, open_store, put_array, writing_store
 from ..causes.config import RAISED_FLOOR_DB
 from ..causes.blade_imbalance import non_multiple_observations
 from ..causes.heldout import folds
@@ -165,6 +165,19 @@ class FidelityConfig:
             raise ValueError(f"rotation_orders={self.rotation_orders} must be >= 1")
         if not 0 <= self.dilation_range < 1:
             raise ValueError(f"dilation_range={self.dilation_range} must be in [0, 1)")
+
+    @classmethod
+    def from_config(cls, fidelity: dict, calibration: dict, search_hz: float) -> "FidelityConfig":
+        """From the config's ``fidelity:`` and ``datasets.calibration:`` sections and
+        ``datasets.snr_search_hz`` (the calibration's visibility and harmonics, so
+        the twins are scored as they were fitted)."""
+        return cls(
+            visible_db=calibration.get("visible_db", 10.0),
+            n_harmonics=calibration.get("n_harmonics", 6),
+            search_hz=search_hz,
+            clutter_span_hz=fidelity["clutter_span_hz"],
+            max_lag_cpis=fidelity["max_lag_cpis"],
+        )
 
 
 @dataclass
@@ -584,6 +597,86 @@ def scoring_mask(calibration: dict, n_t: int) -> tuple[np.ndarray, bool]:
     return mask, bool(mask.any())
 
 
+#: schema of the measured flights' features (:func:`measure_flights`)
+FEATURES_SCHEMA = "fidelity-features/1"
+#: the per-CPI arrays of :class:`CpiFeatures` (the optional ones stored where measured)
+_FEATURE_ARRAYS = (
+    "time_s",
+    "line_hz",
+    "pair_db",
+    "n_pairs",
+    "first_pair_db",
+    "asymmetry_db",
+    "blade_db",
+    "body_db",
+    "floor_db",
+    "nonmultiple_pow",
+    "nonmultiple_ref",
+    "nonmultiple_var",
+)
+
+
+def measured_flight_ids(measured_dir, logs_zarr) -> list[str]:
+    """The flights a twin can be made of and scored against: drone flights of a
+    twinned model (:func:`.split.twin_model`) with a background recording and an
+    ingested motor log."""
+    flights = list_flights(measured_dir)
+    drones = flights[(flights.target == "drone") & flights.has_background]
+    if not Path(logs_zarr).exists():
+        return []
+    return [
+        fid
+        for fid, model in zip(drones.flight_id, drones.drone_model)
+        if twin_model(model) and read_ingested_log(logs_zarr, fid) is not None
+    ]
+
+
+def measure_flights(
+    measured_dir,
+    logs_zarr,
+    out,
+    *,
+    spec_cfg: SpectrogramConfig,
+    cfg: FidelityConfig = FidelityConfig(),
+    log=print,
+) -> list[str]:
+    """Measure once the features of every flight a twin is scored against
+    (:func:`measured_flight_ids`) and write them to the Zarr store ``out``
+    (``fidelity-features/1``: a group per flight, the :class:`CpiFeatures` arrays,
+    ``hop_s`` and ``body_in_notch`` in its attributes); every variant's
+    :func:`score_variant` reads them there instead of measuring the flight again.
+    Returns the flight ids written."""
+    fids = measured_flight_ids(measured_dir, logs_zarr)
+    with writing_store(out, {"schema": FEATURES_SCHEMA, "n_flights": len(fids)}) as root:
+        for i, fid in enumerate(fids):
+            flight = read_flight(Path(measured_dir) / f"{fid}.zarr")
+            f = flight_features(flight, flight.iq, read_ingested_log(logs_zarr, fid), spec_cfg=spec_cfg, cfg=cfg)
+            write_features(root.require_group(fid), f)
+            log(f"{fid}: measured ({len(f.time_s)} CPIs; {i + 1} of {len(fids)})")
+    return fids
+
+
+def write_features(group, f: CpiFeatures) -> None:
+    """Store ``f`` in the Zarr ``group`` (its arrays, ``hop_s`` and ``body_in_notch``
+    in the attributes); :func:`read_features` gives it back unchanged."""
+    group.attrs.update({"hop_s": float(f.hop_s), "body_in_notch": bool(f.body_in_notch)})
+    for name in _FEATURE_ARRAYS:
+        if getattr(f, name) is not None:
+            put_array(group, name, np.asarray(getattr(f, name)))
+
+
+def read_features(group) -> CpiFeatures:
+    """The :class:`CpiFeatures` :func:`write_features` stored in ``group``."""
+    arrays = {name: np.asarray(group[name][...]) if name in group else None for name in _FEATURE_ARRAYS}
+    return CpiFeatures(**arrays, hop_s=float(group.attrs["hop_s"]), body_in_notch=bool(group.attrs["body_in_notch"]))
+
+
+def read_measured_features(store) -> dict[str, CpiFeatures]:
+    """flight_id -> :class:`CpiFeatures`, from a store written by :func:`measure_flights`."""
+    root = open_store(store, FEATURES_SCHEMA)
+    return {fid: read_features(root[fid]) for fid in flight_ids(root)}
+
+
 def score_variant(
     measured_dir,
     logs_zarr,
@@ -602,7 +695,8 @@ def score_variant(
     (:func:`rotor_lines_visible`; where False, the :data:`ROTOR_LINE_DISTANCES` are
     NaN: there are no measured lines to compare with) and ``body_in_notch`` (the
     measured flight's, :class:`CpiFeatures`). ``cache`` (flight_id -> measured
-    CpiFeatures) spares recomputing the measured flights across variants."""
+    CpiFeatures, e.g. :func:`read_measured_features`) spares measuring the measured
+    flights again; a flight missing from it is measured and added."""
     cache = {} if cache is None else cache
     root = open_store(injected_zarr, INJECTED_SCHEMA)
     rows = []
@@ -638,20 +732,48 @@ def score_variant(
             f"{variant} {fid}: {int(mask.sum())} CPIs scored (held out: {held_out}) "
             + " ".join(f"{k}={v:.3g}" for k, v in d.items())
         )
-    return pd.DataFrame(
-        rows,
-        columns=[
-            "flight_id",
-            "variant",
-            "drone_model",
-            "held_out",
-            "n_cpis_scored",
-            "extension_source",
-            *DISTANCES,
-            "lines_visible",
-            "body_in_notch",
-        ],
+    return pd.DataFrame(rows, columns=SCORE_COLUMNS)
+
+
+#: columns of a variant's scores (:func:`score_variant`, :func:`write_scores`)
+SCORE_COLUMNS = [
+    "flight_id",
+    "variant",
+    "drone_model",
+    "held_out",
+    "n_cpis_scored",
+    "extension_source",
+    *DISTANCES,
+    "lines_visible",
+    "body_in_notch",
+]
+
+
+def write_scores(scores: pd.DataFrame, path) -> None:
+    """Write one variant's :func:`score_variant` table (atomically), every float at
+    full precision, so :func:`read_scores` gives back the same numbers."""
+    with atomic_file(path) as tmp:
+        scores.to_csv(tmp, index=False)
+
+
+def read_scores(path) -> pd.DataFrame:
+    """A table written by :func:`write_scores` (the same values and types)."""
+    df = pd.read_csv(
+        path,
+        float_precision="round_trip",
+        keep_default_na=False,
+        na_values={c: ["", "NaN", "nan"] for c in DISTANCES},
+        dtype={"flight_id": str, "variant": str, "drone_model": str, "extension_source": str},
     )
+    missing = [c for c in SCORE_COLUMNS if c not in df.columns]
+    if missing:
+        raise InputError(path, ",".join(missing), "missing column", ", ".join(SCORE_COLUMNS))
+    for c in ("held_out", "lines_visible", "body_in_notch"):
+        df[c] = df[c].astype(str).str.lower().eq("true")
+    df["n_cpis_scored"] = df["n_cpis_scored"].astype(int)
+    for c in DISTANCES:
+        df[c] = df[c].astype(float)
+    return df[SCORE_COLUMNS]
 
 
 #: the distances read on the body line (not measured on a body in the clutter notch)
@@ -920,18 +1042,24 @@ def write_fidelity_report(
     n_boot: int = N_BOOT,
     seed: int = 0,
     left_out_csv=None,
+    scores: dict | None = None,
     log=print,
 ) -> pd.DataFrame:
     """Score every variant's injected twins (``injected``: variant -> store), write the
     per-flight distances, Table VI and its figure; returns Table VI.
 
-    The drone flights left out (:func:`left_out_flights`) are logged one line each
-    with the reason and written to ``left_out_csv``; a Table VI without rows is
-    logged with why, and its figure is a panel that says so."""
+    ``scores`` (variant -> its :func:`score_variant` table, as the pipeline's rule
+    ``score_twins`` writes them per variant) are used as given instead of scoring
+    the variant here. The drone flights left out (:func:`left_out_flights`) are
+    logged one line each with the reason and written to ``left_out_csv``; a Table VI
+    without rows is logged with why, and its figure is a panel that says so."""
     cache: dict = {}
+    scores = dict(scores or {})
     per_flight = pd.concat(
         [
-            score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache, log=log)
+            scores[v]
+            if v in scores
+            else score_variant(measured_dir, logs_zarr, path, v, spec_cfg=spec_cfg, cfg=cfg, cache=cache, log=log)
             for v, path in injected.items()
         ],
         ignore_index=True,

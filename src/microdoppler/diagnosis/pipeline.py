@@ -260,7 +260,9 @@ def write_table(rows: list[dict], path) -> Path:
     return Path(path)
 
 
-def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None, log=print) -> dict:
+def diagnose(
+    paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None, log=print, processes: int = 1
+) -> dict:
     """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``)
     and, beside it, the one-row-per-flight table (``report.csv``: ``table_path``, ``report_row``).
 
@@ -284,6 +286,9 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
         Where to write one figure per diagnosed flight.
     log : callable
         Progress messages (one string each).
+    processes : int
+        Flights diagnosed side by side in forked worker processes (the rule's
+        ``threads``); the report is the same for any number.
 
     Returns
     -------
@@ -315,30 +320,52 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
     'bird flight: no rotors'
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
+    jobs = [(p, motor_logs or {}, cfg, figures_dir) for p in paths]
     entries, rows = [], []
-    for p in paths:
-        f = read_flight(p)
-        warns = plausibility_warnings(f)
-        for w in warns:
-            log(f"{f.flight_id}: warning: imported despite an implausible set-up: {w}")
-        ml = (motor_logs or {}).get(f.flight_id)
-        fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
-        hint = None
-        try:
-            e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
-        except Undiagnosable as exc:
-            e = skipped_entry(f.flight_id, exc.reason)
-            hint = skip_hint(exc.reason, f)
-            log(f"{f.flight_id}: skipped: {exc.reason}" + (f" (hint: {hint})" if hint else ""))
-        else:
-            named = "; ".join(f"{c['cause']} {(c.get('extension') or c).get('params')}" for c in e["causes"]) or "none"
-            log(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
+    for e, row, lines in _map(_diagnose_store, jobs, processes):
+        for line in lines:
+            log(line)
         entries.append(e)
-        rows.append(report_row(e, warnings=warns, hint=hint))
+        rows.append(row)
     report = {"schema": REPORT_SCHEMA, "catalog": list(catalog()), "flights": entries}
     write_json(report, out_json)
     write_table(rows, table_path(out_json))
     return report
+
+
+def _diagnose_store(job) -> tuple[dict, dict, list[str]]:
+    """One store of :func:`diagnose`: (report entry, table row, log lines)."""
+    path, motor_logs, cfg, figures_dir = job
+    f = read_flight(path)
+    ml = motor_logs.get(f.flight_id)
+    fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
+    warns = plausibility_warnings(f)
+    lines = [f"{f.flight_id}: warning: imported despite an implausible set-up: {w}" for w in warns]
+    hint = None
+    try:
+        e = diagnose_flight(f, motor_log=ml, config=cfg, figure_path=fig)
+    except Undiagnosable as exc:
+        e = skipped_entry(f.flight_id, exc.reason)
+        hint = skip_hint(exc.reason, f)
+        lines.append(f"{f.flight_id}: skipped: {exc.reason}" + (f" (hint: {hint})" if hint else ""))
+    else:
+        named = "; ".join(f"{c['cause']} {(c.get('extension') or c).get('params')}" for c in e["causes"]) or "none"
+        lines.append(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
+    return e, report_row(e, warnings=warns, hint=hint), lines
+
+
+def _map(func, jobs: list, processes: int):
+    """``func`` over ``jobs`` in order: in this process, or with ``processes`` > 1 in
+    that many forked worker processes (the results the same, in the jobs' order)."""
+    if processes <= 1 or len(jobs) <= 1:
+        yield from map(func, jobs)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(max_workers=min(processes, len(jobs)), mp_context=ctx) as pool:
+        yield from pool.map(func, jobs)
 
 
 # ---------------------------------------------------------------- the pipeline's rules
@@ -409,11 +436,13 @@ def _training_drones(split_csv, sets) -> pd.DataFrame:
     return df[(df["target"] == "drone") & df["set"].isin(sets)]
 
 
-def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print) -> dict:
+def diagnose_split(
+    measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print, processes: int = 1
+) -> dict:
     """Diagnose the drone flights of ``settings['sets']`` (default: every set) with
-    :func:`diagnose`, using their ingested motor logs (or the stores' own);
-    flights that cannot be diagnosed (no usable log, Minis, ...) are listed as
-    ``skipped`` with the reason."""
+    :func:`diagnose` (``processes`` flights side by side), using their ingested motor
+    logs (or the stores' own); flights that cannot be diagnosed (no usable log,
+    Minis, ...) are listed as ``skipped`` with the reason."""
     from ..io.inventory import read_ingested_log
 
     pipe, cfg = split_settings(settings)
@@ -429,6 +458,7 @@ def diagnose_split(measured_dir, logs_zarr, split_csv, out_json, figures_dir, *,
         config=cfg,
         figures_dir=figures_dir,
         log=log,
+        processes=processes,
     )
 
 
