@@ -118,3 +118,46 @@ def test_a_store_whose_estimate_found_no_rotor_lines_points_at_its_set_up(tmp_pa
     assert "check the declared prf_hz and import again" in row["hint"]
     assert "--estimate-motors" not in row["hint"]
     assert f"noest1: skipped: no motor log (hint: {row['hint']})" in cap.err
+
+
+def _no_timings(obj):
+    if isinstance(obj, dict):
+        return {k: _no_timings(v) for k, v in obj.items() if k != "seconds"}
+    if isinstance(obj, list):
+        return [_no_timings(v) for v in obj]
+    return obj
+
+
+def test_parts_gathered_give_the_report_of_one_job(tmp_path, stores):
+    """The pipeline's diagnosis jobs (every n-th flight each) gathered by
+    merge_reports: the same report, table and figures as one job over all flights;
+    a flight in two parts is refused."""
+    import pandas as pd
+
+    from microdoppler.diagnosis.pipeline import diagnose_split, merge_reports
+    from microdoppler.errors import InputError
+
+    measured = stores[0].parent
+    split = tmp_path / "flights.csv"
+    ids = [p.name.removesuffix(".zarr") for p in stores]
+    pd.DataFrame({"flight_id": ids, "set": "train", "target": "drone", "drone_model": "inspire2"}).to_csv(
+        split, index=False
+    )
+    quiet = dict(log=lambda m: None)
+    whole = diagnose_split(
+        measured, tmp_path / "none.zarr", split, tmp_path / "all.json", tmp_path / "all_fig", **quiet
+    )
+    parts = [tmp_path / f"{i}.json" for i in range(2)]
+    for i, p in enumerate(parts):
+        diagnose_split(measured, tmp_path / "none.zarr", split, p, tmp_path / f"{i}_fig", part=(i, 2), **quiet)
+    assert [len(json.loads(p.read_text())["flights"]) for p in parts] == [1, 1]
+    merged = merge_reports(
+        parts[::-1], split, tmp_path / "merged.json", [tmp_path / "0_fig", tmp_path / "1_fig"], tmp_path / "merged_fig"
+    )
+    assert _no_timings(merged) == _no_timings(whole)
+    assert (tmp_path / "merged.csv").read_text() == (tmp_path / "all.csv").read_text()
+    assert sorted(f.name for f in (tmp_path / "merged_fig").iterdir()) == sorted(
+        f.name for f in (tmp_path / "all_fig").iterdir()
+    )
+    with pytest.raises(InputError, match="in two parts"):
+        merge_reports([parts[0], parts[0]], split, tmp_path / "twice.json")

@@ -81,6 +81,22 @@ def imported_modules(source: str, *, module: str | None = None, is_package: bool
     return {n for n in names if n == PACKAGE or n.startswith(PACKAGE + ".")}
 
 
+#: (path, mtime_ns, size, module) -> the file's imports: each file is parsed once per
+#: process however many scripts import it (the workflow hashes every rule's closure)
+_IMPORTS: dict[tuple, frozenset] = {}
+
+
+def _file_imports(path: Path, module: str | None) -> frozenset:
+    """:func:`imported_modules` of the file ``path``, parsed once while it is unchanged."""
+    st = path.stat()
+    key = (path, st.st_mtime_ns, st.st_size, module)
+    if key not in _IMPORTS:
+        _IMPORTS[key] = frozenset(
+            imported_modules(path.read_text(), module=module, is_package=path.name == "__init__.py")
+        )
+    return _IMPORTS[key]
+
+
 def import_closure(script: str | Path, *, package_dir: str | Path = PACKAGE_DIR) -> list[Path]:
     """The library files a script can run: its ``microdoppler`` import closure.
 
@@ -111,7 +127,7 @@ def import_closure(script: str | Path, *, package_dir: str | Path = PACKAGE_DIR)
         path = todo.pop()
         inside = package_dir in path.parents
         module = _module_name(path, package_dir) if inside else None
-        for name in imported_modules(path.read_text(), module=module, is_package=path.name == "__init__.py"):
+        for name in _file_imports(path, module):
             parts = name.split(".")
             for k in range(1, len(parts) + 1):  # the packages on the way run too
                 f = _module_file(".".join(parts[:k]), package_dir)

@@ -19,6 +19,7 @@ rule train_classifier:
     conda:
         "../envs/microdoppler.yaml"
     threads: CLASSIFIER.get("threads", 1)
+    priority: extended_first
     resources:
         mem_mb=2000,
         # one GPU per job on a cluster for the paper's AlexNet (profiles/slurm)
@@ -46,6 +47,7 @@ rule evaluate_classifier:
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
+    priority: extended_first
     resources:
         mem_mb=1000,
     params:

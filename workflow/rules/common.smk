@@ -16,7 +16,7 @@ import microdoppler.errors
 SCHEMA = Path(workflow.current_basedir).parent / "schemas" / "config.schema.yaml"
 try:  # an unknown key (a typo) is an error, in one line naming it and its section
     microdoppler.errors.check_config_keys(config, yaml.safe_load(SCHEMA.read_text()))
-    microdoppler.diagnosis.pipeline.split_settings(config.get("diagnosis"))
+    DIAGNOSIS_PIPELINE, _ = microdoppler.diagnosis.pipeline.split_settings(config.get("diagnosis"))
 except microdoppler.errors.ConfigError as exc:
     sys.exit(f"error: {exc}")
 validate(config, schema="../schemas/config.schema.yaml")
@@ -87,6 +87,19 @@ def motor_logs_table():
     if MEASURED_SOURCE == "emulator":
         return f"{MEASURED_DIR}/motor_logs.tsv"
     return ""
+
+
+# --- diagnosis (rules/diagnosis.smk) ---
+#: the diagnosis jobs' `{part}` values (diagnosis.flight_batches)
+DIAGNOSIS_PARTS = [str(p) for p in range(DIAGNOSIS_PIPELINE["flight_batches"])]
+
+
+def extended_first(wildcards):
+    """Priority of a variant's, dataset's or training set's job: the `extended`
+    variant's first (it waits for the diagnosis, so its chain is the run's critical
+    path); only the order of jobs changes, never a result."""
+    names = {wildcards.get(k) for k in ("variant", "dataset", "trainset")}
+    return 10 if "extended" in names else 0
 
 
 # --- datasets (rules/datasets.smk) ---
@@ -243,6 +256,7 @@ def all_targets():
 # --- per-rule times (rules/runtimes.smk) ---
 #: the values each wildcard of a benchmark file takes in this run
 BENCHMARK_WILDCARDS = {
+    "part": DIAGNOSIS_PARTS,
     "variant": VARIANTS,
     "batch": BATCHES,
     "dataset": DATASETS,

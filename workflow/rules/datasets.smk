@@ -39,6 +39,7 @@ rule resample_motor_speeds:
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
+    priority: extended_first
     resources:
         mem_mb=2000,
     params:
@@ -63,6 +64,7 @@ rule synthesize_flights:
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
+    priority: extended_first
     resources:
         mem_mb=3000,
     params:
@@ -90,6 +92,7 @@ rule inject_background:
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
+    priority: extended_first
     resources:
         mem_mb=2000,
     params:
@@ -135,6 +138,7 @@ rule tile_spectrograms:
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
+    priority: extended_first
     resources:
         mem_mb=3000,
     params:

@@ -45,6 +45,7 @@ rule score_twins:
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
+    priority: extended_first
     resources:
         mem_mb=3000,
     params:

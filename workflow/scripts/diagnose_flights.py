@@ -1,6 +1,7 @@
-"""Rule diagnose_flights: diagnose the measured drone flights (of the `diagnosis.sets` split sets) that have a
-motor log; write the report JSON, its one-row-per-flight table (report.csv, beside it) and one figure per
-flight, diagnosing `threads` flights side by side."""
+"""Rule diagnose_flights: diagnose one part of the measured drone flights (of the
+`diagnosis.sets` split sets; every `diagnosis.flight_batches`-th from the part's
+index on); write its report JSON, its one-row-per-flight table and one figure per
+flight (rule report_diagnosis gathers the parts)."""
 
 from microdoppler.diagnosis.pipeline import diagnose_split
 from microdoppler.io.runlog import log_to
@@ -13,5 +14,5 @@ with log_to(snakemake.log[0]):
         snakemake.output.report,
         snakemake.output.figures,
         settings=snakemake.params.diagnosis,
-        processes=snakemake.threads,
+        part=(int(snakemake.wildcards.part), snakemake.params.parts),
     )

@@ -260,9 +260,7 @@ def write_table(rows: list[dict], path) -> Path:
     return Path(path)
 
 
-def diagnose(
-    paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None, log=print, processes: int = 1
-) -> dict:
+def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, figures_dir=None, log=print) -> dict:
     """Diagnose the flights at ``paths`` and write the report JSON (``diagnosis-report/2``)
     and, beside it, the one-row-per-flight table (``report.csv``: ``table_path``, ``report_row``).
 
@@ -286,9 +284,6 @@ def diagnose(
         Where to write one figure per diagnosed flight.
     log : callable
         Progress messages (one string each).
-    processes : int
-        Flights diagnosed side by side in forked worker processes (the rule's
-        ``threads``); the report is the same for any number.
 
     Returns
     -------
@@ -322,7 +317,7 @@ def diagnose(
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
     jobs = [(p, motor_logs or {}, cfg, figures_dir) for p in paths]
     entries, rows = [], []
-    for e, row, lines in _map(_diagnose_store, jobs, processes):
+    for e, row, lines in map(_diagnose_store, jobs):
         for line in lines:
             log(line)
         entries.append(e)
@@ -354,38 +349,25 @@ def _diagnose_store(job) -> tuple[dict, dict, list[str]]:
     return e, report_row(e, warnings=warns, hint=hint), lines
 
 
-def _map(func, jobs: list, processes: int):
-    """``func`` over ``jobs`` in order: in this process, or with ``processes`` > 1 in
-    that many forked worker processes (the results the same, in the jobs' order)."""
-    if processes <= 1 or len(jobs) <= 1:
-        yield from map(func, jobs)
-        return
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    ctx = multiprocessing.get_context("fork")
-    with ProcessPoolExecutor(max_workers=min(processes, len(jobs)), mp_context=ctx) as pool:
-        yield from pool.map(func, jobs)
-
-
 # ---------------------------------------------------------------- the pipeline's rules
 
 #: keys of the ``diagnosis:`` config section that are pipeline settings, not
 #: :class:`DiagnosisConfig` fields
-PIPELINE_KEYS = ("sets", "population_sets", "min_fraction")
+PIPELINE_KEYS = ("sets", "population_sets", "min_fraction", "flight_batches")
 #: the split's sets (``results/splits/flights.csv``)
 SETS = ("train", "validation", "test")
 
 
 def split_settings(settings: dict | None, *, source="config") -> tuple[dict, DiagnosisConfig]:
     """The ``diagnosis:`` section of a config: ``({"sets", "population_sets",
-    "min_fraction"}, DiagnosisConfig)``.
+    "min_fraction", "flight_batches"}, DiagnosisConfig)``.
 
     ``sets`` (split sets whose drone flights are diagnosed, each twin then carrying its
     own flight's causes; default every set), ``population_sets`` (sets whose diagnoses
     form the per-model population and the extensions/1 median; default ``[train]``, so
     no validation or test flight shapes a training twin; a subset of ``sets``) and
-    ``min_fraction`` (default 0.25) are the pipeline's keys; every other key is a
+    ``min_fraction`` (default 0.25) and ``flight_batches`` (jobs the diagnosed flights
+    are dealt to, side by side; default 2) are the pipeline's keys; every other key is a
     :class:`DiagnosisConfig` field. An invalid value raises :class:`ConfigError`
     ``<source>: diagnosis.<key>: <problem> (expected ...)``.
     """
@@ -411,8 +393,11 @@ def split_settings(settings: dict | None, *, source="config") -> tuple[dict, Dia
     mf = s.pop("min_fraction", 0.25)
     if isinstance(mf, bool) or not isinstance(mf, (int, float)) or not 0 <= float(mf) <= 1:
         raise ConfigError(source, "diagnosis.min_fraction", f"is {mf!r}", "a number in [0, 1]")
+    nb = s.pop("flight_batches", 2)
+    if isinstance(nb, bool) or not isinstance(nb, int) or nb < 1:
+        raise ConfigError(source, "diagnosis.flight_batches", f"is {nb!r}", "an integer >= 1")
     return (
-        {"sets": sets, "population_sets": pop, "min_fraction": float(mf)},
+        {"sets": sets, "population_sets": pop, "min_fraction": float(mf), "flight_batches": nb},
         DiagnosisConfig.from_dict(s, source=source),
     )
 
@@ -437,17 +422,22 @@ def _training_drones(split_csv, sets) -> pd.DataFrame:
 
 
 def diagnose_split(
-    measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print, processes: int = 1
+    measured_dir, logs_zarr, split_csv, out_json, figures_dir, *, settings=None, log=print, part=None
 ) -> dict:
     """Diagnose the drone flights of ``settings['sets']`` (default: every set) with
-    :func:`diagnose` (``processes`` flights side by side), using their ingested motor
-    logs (or the stores' own); flights that cannot be diagnosed (no usable log,
-    Minis, ...) are listed as ``skipped`` with the reason."""
+    :func:`diagnose`, using their ingested motor logs (or the stores' own);
+    flights that cannot be diagnosed (no usable log, Minis, ...) are listed as
+    ``skipped`` with the reason. ``part`` = (index, n): only every n-th of those
+    flights from the index-th on (the pipeline's ``diagnosis.flight_batches`` jobs;
+    :func:`merge_reports` gathers them into the report of all)."""
     from ..io.inventory import read_ingested_log
 
     pipe, cfg = split_settings(settings)
     Path(figures_dir).mkdir(parents=True, exist_ok=True)
-    fids = list(_training_drones(split_csv, pipe["sets"])["flight_id"])
+    fids = diagnosed_flights(split_csv, pipe["sets"])
+    if part is not None:
+        index, n = (int(x) for x in part)
+        fids = fids[index::n]
     logs = {}
     if Path(logs_zarr).exists():
         logs = {fid: ml for fid in fids if (ml := read_ingested_log(logs_zarr, fid)) is not None}
@@ -458,8 +448,58 @@ def diagnose_split(
         config=cfg,
         figures_dir=figures_dir,
         log=log,
-        processes=processes,
     )
+
+
+def diagnosed_flights(split_csv, sets) -> list[str]:
+    """The drone flights of the split's ``sets``, in the split table's order."""
+    return [str(f) for f in _training_drones(split_csv, sets)["flight_id"]]
+
+
+def merge_reports(reports, split_csv, out_json, figure_dirs=(), figures_out=None, *, settings=None) -> dict:
+    """Gather the reports of :func:`diagnose_split`'s parts (``reports``: their JSON
+    files, each with its table beside it) into one report of every diagnosed flight,
+    in the split table's order (the report and table one job over all flights
+    writes), and their figures (``figure_dirs``) into ``figures_out``.
+
+    Raises
+    ------
+    microdoppler.errors.InputError
+        When a part's report is not a diagnosis report, or a flight is in none or
+        in two of them.
+    """
+    import csv
+    import shutil
+
+    pipe, _ = split_settings(settings)
+    entries, rows = {}, {}
+    for path in map(Path, reports):
+        try:
+            part = json.loads(path.read_text())
+        except (OSError, ValueError) as exc:
+            raise InputError(path, "file", f"cannot be read as JSON ({type(exc).__name__})", REPORT_SCHEMA) from None
+        if part.get("schema") != REPORT_SCHEMA:
+            raise InputError(path, "schema", f"is {part.get('schema')!r}", REPORT_SCHEMA)
+        with open(table_path(path), newline="") as fh:
+            table = {r["flight_id"]: r for r in csv.DictReader(fh)}
+        for e in part["flights"]:
+            fid = e["flight_id"]
+            if fid in entries:
+                raise InputError(path, f"flights/{fid}", "is in two parts", "each flight in one part")
+            entries[fid], rows[fid] = e, table[fid]
+    fids = diagnosed_flights(split_csv, pipe["sets"])
+    missing = [f for f in fids if f not in entries]
+    if missing:
+        raise InputError(out_json, "flights", f"{', '.join(missing)} in no part", "every diagnosed flight in one part")
+    report = {"schema": REPORT_SCHEMA, "catalog": list(catalog()), "flights": [entries[f] for f in fids]}
+    write_json(report, out_json)
+    write_table([rows[f] for f in fids], table_path(out_json))
+    if figures_out is not None:
+        Path(figures_out).mkdir(parents=True, exist_ok=True)
+        for d in map(Path, figure_dirs):
+            for png in sorted(d.glob("*.png")):
+                shutil.copyfile(png, Path(figures_out) / png.name)
+    return report
 
 
 def aggregate_report(report_json, split_csv, out_yaml, *, settings=None):
