@@ -56,3 +56,34 @@ def test_report_page_cause_table_is_the_catalogs():
         assert f"`{cause.name}`" in text
         for p in cause.params:
             assert f"`{p.name}` | {p.unit} |" in text
+
+
+def test_benchmark_page_shows_the_recorded_rule_times():
+    page = _docs_module("generate_benchmarks").render(RECORDS)
+    records = sorted(RECORDS.glob("rule_times_*.csv"))
+    assert records, "no per-rule time record"
+    for path in records:
+        assert f"`{path.name}`" in page
+        table = pd.read_csv(path).set_index("rule")
+        assert f"{table.loc['all', 'total_s']:.0f} ({int(table.loc['all', 'jobs'])})" in page
+        wall = json.loads(path.with_suffix(".json").read_text())["wall_s"]
+        assert f"| {wall:.0f} |" in page or f"| {wall:.0f}" in page
+
+
+def test_results_page_shows_a_runs_rule_times(tmp_path):
+    """The docs' results page carries the run's per-rule table (rule report_rule_times)."""
+    reports = tmp_path / "results" / "reports"
+    reports.mkdir(parents=True)
+    pd.DataFrame(
+        {
+            "rule": ["train_classifier", "all"],
+            "jobs": [6, 6],
+            "total_s": [260.14, 260.14],
+            "max_s": [45.0, 45.0],
+            "cpu_s": [90.6, 90.6],
+            "peak_rss_mib": [498.2, 498.2],
+        }
+    ).to_csv(reports / "rule_times.csv", index=False)
+    page = _docs_module("generate_results").write_page(tmp_path / "results", tmp_path / "results.md", tmp_path / "s")
+    text = page.read_text()
+    assert "## Per-rule times" in text and "| train_classifier | 6 | 260.1 | 45.0 | 90.6 | 498.2 |" in text
