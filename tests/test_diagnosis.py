@@ -910,10 +910,16 @@ def test_config_direct_construction_and_split_settings():
         "sets": section["sets"],
         "population_sets": section["population_sets"],
         "min_fraction": section["min_fraction"],
+        "flight_batches": section["flight_batches"],
     }
     assert cfg.alpha == section["alpha"] and cfg.block_cpis == section["block_cpis"]
     assert split_settings(None) == (
-        {"sets": ["train", "validation", "test"], "population_sets": ["train"], "min_fraction": 0.25},
+        {
+            "sets": ["train", "validation", "test"],
+            "population_sets": ["train"],
+            "min_fraction": 0.25,
+            "flight_batches": 2,
+        },
         DiagnosisConfig(),
     )
     for bad, field in [
@@ -922,6 +928,8 @@ def test_config_direct_construction_and_split_settings():
         ({"sets": ["test"]}, "diagnosis.population_sets[0]"),
         ({"population_sets": ["val"]}, "diagnosis.population_sets[0]"),
         ({"min_fraction": 2}, "diagnosis.min_fraction"),
+        ({"flight_batches": 0}, "diagnosis.flight_batches"),
+        ({"flight_batches": 1.5}, "diagnosis.flight_batches"),
         ({"alpha": 0}, "diagnosis.alpha"),
         ({"min_frac": 0.1}, "diagnosis.min_frac"),
         ({"body_smooth_cpis": 9}, "diagnosis.body_smooth_cpis"),

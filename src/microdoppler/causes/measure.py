@@ -1213,14 +1213,28 @@ def thin_wire_line_power(blade_length_m: float, wavelength_m: float, k_max: int,
     return np.abs(ck[: k_max + 1]) ** 2
 
 
+def _bin_spans(st, centres, half) -> tuple[np.ndarray, np.ndarray]:
+    """First and last bin (int, clipped to the spectrum; empty where last < first) within
+    ``half`` [Hz] of each of ``centres`` [Hz] (pairs of equal index)."""
+    n = len(st.f_hz)
+    c, w = np.ravel(np.asarray(centres, float)), np.ravel(np.asarray(half, float))
+    k = min(len(c), len(w))
+    c, w = c[:k], w[:k]
+    lo = np.clip(np.ceil(st.at(c - w)), 0, n).astype(int)
+    hi = np.clip(np.floor(st.at(c + w)), -1, n - 1).astype(int)
+    return lo, hi
+
+
 def _bins_near(st, centres, half) -> np.ndarray:
-    """bool [n_bins]: bins within ``half`` [Hz] of any of ``centres`` [Hz]."""
-    m = np.zeros(len(st.f_hz), bool)
-    for c, w in zip(np.ravel(centres), np.ravel(half)):
-        lo, hi = int(np.ceil(st.at(c - w))), int(np.floor(st.at(c + w)))
-        if hi >= 0 and lo < len(m):
-            m[max(lo, 0) : min(hi, len(m) - 1) + 1] = True
-    return m
+    """bool [n_bins]: bins within ``half`` [Hz] of any of ``centres`` [Hz] (the pairs
+    of equal index; vectorised: the bins of every interval marked at once)."""
+    n = len(st.f_hz)
+    lo, hi = _bin_spans(st, centres, half)
+    keep = lo <= hi
+    edges = np.zeros(n + 1, int)
+    np.add.at(edges, lo[keep], 1)
+    np.add.at(edges, hi[keep] + 1, -1)
+    return np.cumsum(edges[:n]) > 0
 
 
 def rotation_line_powers(
@@ -1259,20 +1273,16 @@ def rotation_line_powers(
             for s, sg in enumerate((1.0, -1.0)):
                 cs = f_body_hz[i] + sg * k * fr
                 near_orders = [f_body_hz[i] + sg * k2 * fr for k2 in range(max(0, k - 2), k + 3) if k2 != k]
-                clear = []
-                for m in range(n_m):
-                    mine = _bins_near(st, cs[m], half[m])
-                    oth = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
-                    if (
-                        abs(cs[m]) + half[m] < nyq
-                        and abs(cs[m]) > clutter_guard_hz + half[m]
-                        and not np.any(mine & oth)
-                    ):
-                        clear.append(m)
+                others = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
+                # a rotor's line is clear when no bin of it is one of the other orders'
+                taken = np.concatenate([[0], np.cumsum(others)])
+                lo, hi = _bin_spans(st, cs, half)
+                hit = (lo <= hi) & (taken[np.maximum(hi, lo - 1) + 1] - taken[lo] > 0)
+                ok = (np.abs(cs) + half < nyq) & (np.abs(cs) > clutter_guard_hz + half) & ~hit
+                clear = np.flatnonzero(ok).tolist()
                 if not clear:
                     continue
                 mine = _bins_near(st, cs[clear], half[clear])
-                others = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
                 near = _bins_near(st, [cs.mean()], [0.5 * fr.mean()]) & ~mine & ~others & ~_bins_near(st, cs, half)
                 if near.sum() < 4:
                     continue

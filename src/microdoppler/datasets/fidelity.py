@@ -760,7 +760,6 @@ def read_scores(path) -> pd.DataFrame:
     """A table written by :func:`write_scores` (the same values and types)."""
     df = pd.read_csv(
         path,
-        float_precision="round_trip",
         keep_default_na=False,
         na_values={c: ["", "NaN", "nan"] for c in DISTANCES},
         dtype={"flight_id": str, "variant": str, "drone_model": str, "extension_source": str},
