@@ -11,14 +11,16 @@ stage shows before it lands.
 
 Usage (after ``snakemake --cores 2`` on a quiet machine)::
 
-    python benchmarks/rule_times.py --reference default            # compare
-    python benchmarks/rule_times.py --reference default --fail     # exit 1 on a regression
-    python benchmarks/rule_times.py --record default_<commit>      # keep this run as a record
+    python benchmarks/rule_times.py                      # compare with the newest record
+    python benchmarks/rule_times.py --fail               # exit 1 on a regression
+    python benchmarks/rule_times.py --reference default_a97806a   # with another record
+    python benchmarks/rule_times.py --record default_<commit>     # keep this run as a record
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import subprocess
@@ -57,6 +59,16 @@ def wall_clock_s(workdir: Path) -> tuple[float | None, str | None]:
     return None, None
 
 
+def newest_record() -> str | None:
+    """The name of the newest record (by its date), or None."""
+    dated = []
+    for csv_path in RECORDS.glob("rule_times_*.csv"):
+        meta = csv_path.with_suffix(".json")
+        date = json.loads(meta.read_text()).get("date_utc", "") if meta.exists() else ""
+        dated.append((date, csv_path.stem.removeprefix("rule_times_")))
+    return max(dated)[1] if dated else None
+
+
 def current_table(results: Path) -> pd.DataFrame:
     table = results / "reports" / "rule_times.csv"
     if table.exists():
@@ -67,7 +79,11 @@ def current_table(results: Path) -> pd.DataFrame:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--results", type=Path, default=Path("results"), help="the run's results/ folder")
-    ap.add_argument("--reference", help="record name to compare with (records/rule_times_<name>.csv)")
+    ap.add_argument(
+        "--reference",
+        default="newest",
+        help="record to compare with (records/rule_times_<name>.csv; default the newest)",
+    )
     ap.add_argument("--record", help="keep this run as records/rule_times_<name>.csv and .json")
     ap.add_argument("--warn", type=float, default=1.25, help="flag a rule slower than this ratio")
     ap.add_argument("--min-s", type=float, default=10.0, help="flag only rules of at least this many seconds")
@@ -77,8 +93,11 @@ def main(argv=None) -> int:
     table = current_table(args.results)
     wall, log_name = wall_clock_s(args.results.resolve().parent)
     flagged = []
+    if args.reference == "newest":
+        args.reference = newest_record()
     if args.reference:
         ref_csv = RECORDS / f"rule_times_{args.reference}.csv"
+        print(f"against record rule_times_{args.reference}")
         ref = read_rule_times(ref_csv)
         ref_meta = (
             pd.read_json(ref_csv.with_suffix(".json"), typ="series") if ref_csv.with_suffix(".json").exists() else {}
