@@ -567,7 +567,8 @@ def section_rule_times(records: Path) -> list[str]:
         "Snakemake's benchmark files of a `snakemake --cores 2` run of the embedded default on a quiet 2-core "
         "machine, rolled per rule (rule `report_rule_times`): the summed wall-clock seconds of the rule's jobs "
         "(busy time; jobs ran two at a time) and the number of jobs, per recorded run (the column names its "
-        "commit), and the wall clock from the first job's start to the last one's end. Records: "
+        "commit; a blank cell: the rule did not exist or wrote no benchmark file in that run), and the wall "
+        "clock from the first job's start to the last one's end. Records: "
         + ", ".join(f"`{n}` ({m.get('date_utc', '')})" for n, m, _ in runs)
         + ".",
         "",
