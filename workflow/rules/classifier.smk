@@ -9,17 +9,19 @@ rule train_classifier:
     output:
         # one job per training set trains its seeds in turn (the tiles read once)
         models=expand("results/models/{{trainset}}/seed{seed}.pt", seed=SEEDS),
-        histories=expand("results/models/{{trainset}}/seed{seed}_history.csv", seed=SEEDS),
+        histories=expand(
+            "results/models/{{trainset}}/seed{seed}_history.csv", seed=SEEDS
+        ),
     log:
         "results/logs/train_classifier/{trainset}.log",
     benchmark:
         "results/benchmarks/train_classifier/{trainset}.tsv"
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: CLASSIFIER.get("threads", 1)
-    priority: extended_first
     resources:
         mem_mb=2000,
         # one GPU per job on a cluster for the paper's AlexNet (profiles/slurm)
@@ -44,10 +46,10 @@ rule evaluate_classifier:
         "results/benchmarks/evaluate_classifier/{trainset}.tsv"
     wildcard_constraints:
         trainset="|".join(TRAINSETS),
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: extended_first
     resources:
         mem_mb=1000,
     params:

@@ -16,7 +16,9 @@ import microdoppler.errors
 SCHEMA = Path(workflow.current_basedir).parent / "schemas" / "config.schema.yaml"
 try:  # an unknown key (a typo) is an error, in one line naming it and its section
     microdoppler.errors.check_config_keys(config, yaml.safe_load(SCHEMA.read_text()))
-    DIAGNOSIS_PIPELINE, _ = microdoppler.diagnosis.pipeline.split_settings(config.get("diagnosis"))
+    DIAGNOSIS_PIPELINE, _ = microdoppler.diagnosis.pipeline.split_settings(
+        config.get("diagnosis")
+    )
 except microdoppler.errors.ConfigError as exc:
     sys.exit(f"error: {exc}")
 validate(config, schema="../schemas/config.schema.yaml")
@@ -276,7 +278,11 @@ BENCHMARK_WILDCARDS = {
 def rule_benchmark_files(wildcards):
     """Every benchmark file the jobs of this run write (each rule's ``benchmark:``
     pattern over its wildcards' values; the classifier's only where it runs)."""
-    skip = {"train_classifier", "evaluate_classifier", "report_metrics"} if CLASSIFIER_NOTE else set()
+    skip = (
+        {"train_classifier", "evaluate_classifier", "report_metrics"}
+        if CLASSIFIER_NOTE
+        else set()
+    )
     files = []
     for r in workflow.rules:
         if r.name in skip or not r.benchmark:

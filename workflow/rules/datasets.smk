@@ -36,10 +36,10 @@ rule resample_motor_speeds:
         "results/logs/resample_motor_speeds/{variant}.log",
     benchmark:
         "results/benchmarks/resample_motor_speeds/{variant}.tsv"
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: extended_first
     resources:
         mem_mb=2000,
     params:
@@ -61,10 +61,10 @@ rule synthesize_flights:
         f"results/logs/synthesize_flights/{VARIANT_BATCH}.log",
     benchmark:
         f"results/benchmarks/synthesize_flights/{VARIANT_BATCH}.tsv"
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: extended_first
     resources:
         mem_mb=3000,
     params:
@@ -89,10 +89,10 @@ rule inject_background:
         f"results/logs/inject_background/{VARIANT_BATCH}.log",
     benchmark:
         f"results/benchmarks/inject_background/{VARIANT_BATCH}.tsv"
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: extended_first
     resources:
         mem_mb=2000,
     params:
@@ -135,10 +135,10 @@ rule tile_spectrograms:
         "results/logs/tile_spectrograms/{dataset}.log",
     benchmark:
         "results/benchmarks/tile_spectrograms/{dataset}.tsv"
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: extended_first
     resources:
         mem_mb=3000,
     params:

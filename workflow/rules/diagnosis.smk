@@ -23,10 +23,10 @@ rule diagnose_flights:
         "results/benchmarks/diagnose_flights/{part}.tsv"
     wildcard_constraints:
         part=r"\d+",
+    priority: 20
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: 20
     resources:
         mem_mb=3000,
     params:
@@ -56,10 +56,10 @@ rule report_diagnosis:
         "results/logs/report_diagnosis.log",
     benchmark:
         "results/benchmarks/report_diagnosis.tsv"
+    priority: 20
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: 20
     resources:
         mem_mb=1000,
     params:
@@ -79,10 +79,10 @@ rule aggregate_extensions:
         "results/logs/aggregate_extensions.log",
     benchmark:
         "results/benchmarks/aggregate_extensions.tsv"
+    priority: 20
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: 20
     resources:
         mem_mb=500,
     params:

@@ -42,10 +42,10 @@ rule score_twins:
         "results/logs/score_twins/{variant}.log",
     benchmark:
         "results/benchmarks/score_twins/{variant}.tsv"
+    priority: extended_first
     conda:
         "../envs/microdoppler.yaml"
     threads: 1
-    priority: extended_first
     resources:
         mem_mb=3000,
     params:
