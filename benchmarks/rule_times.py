@@ -60,9 +60,9 @@ def wall_clock_s(workdir: Path) -> tuple[float | None, str | None]:
 
 
 def newest_record() -> str | None:
-    """The name of the newest record (by its date), or None."""
+    """The name of the newest record of the embedded default (by its date), or None."""
     dated = []
-    for csv_path in RECORDS.glob("rule_times_*.csv"):
+    for csv_path in RECORDS.glob("rule_times_default_*.csv"):
         meta = csv_path.with_suffix(".json")
         date = json.loads(meta.read_text()).get("date_utc", "") if meta.exists() else ""
         dated.append((date, csv_path.stem.removeprefix("rule_times_")))

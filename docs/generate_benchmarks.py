@@ -536,7 +536,7 @@ def section_rule_times(records: Path) -> list[str]:
     written by ``benchmarks/rule_times.py --record``), oldest first, and the ratio of the
     newest to the oldest."""
     runs = []
-    for path in sorted(records.glob("rule_times_*.csv")):
+    for path in sorted(records.glob("rule_times_default_*.csv")):
         meta_path = path.with_suffix(".json")
         meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
         runs.append((path.name, meta, pd.read_csv(path).set_index("rule")))
@@ -577,8 +577,33 @@ def section_rule_times(records: Path) -> list[str]:
     ]
 
 
+def section_rule_times_paper(records: Path) -> list[str]:
+    """Per-rule times of (possibly partial) paper-profile runs (``rule_times_paper_*``)."""
+    out = []
+    for path in sorted(records.glob("rule_times_paper_*.csv")):
+        meta_path = path.with_suffix(".json")
+        meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+        t = pd.read_csv(path)
+        rows = [
+            (f"`{r.rule}`", int(r.jobs), f"{r.total_s:.0f}", f"{r.max_s:.0f}", f"{r.peak_rss_mib:.0f}")
+            for r in t.itertuples()
+        ]
+        out += [
+            f"### Paper profile, code {meta.get('commit', '?')} (record `{path.name}`)",
+            "",
+            "`snakemake --cores 2 --configfile config/paper.yaml` from an empty `results/`"
+            + (f"; {meta['partial']}" if meta.get("partial") else "")
+            + ".",
+            "",
+            table(("rule", "jobs", "total s", "longest job s", "peak memory MiB"), rows),
+            "",
+        ]
+    return out
+
+
 SECTIONS = (
     section_rule_times,
+    section_rule_times_paper,
     section_any_radar,
     section_rotorspeed,
     section_timing,
