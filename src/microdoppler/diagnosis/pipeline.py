@@ -315,9 +315,9 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
     'bird flight: no rotors'
     """
     cfg = config if isinstance(config, DiagnosisConfig) else DiagnosisConfig.from_dict(config)
-    jobs = [(p, motor_logs or {}, cfg, figures_dir) for p in paths]
     entries, rows = [], []
-    for e, row, lines in map(_diagnose_store, jobs):
+    for p in paths:
+        e, row, lines = _diagnose_store(p, motor_logs or {}, cfg, figures_dir)
         for line in lines:
             log(line)
         entries.append(e)
@@ -328,9 +328,8 @@ def diagnose(paths, out_json, *, motor_logs: dict | None = None, config=None, fi
     return report
 
 
-def _diagnose_store(job) -> tuple[dict, dict, list[str]]:
+def _diagnose_store(path, motor_logs: dict, cfg, figures_dir) -> tuple[dict, dict, list[str]]:
     """One store of :func:`diagnose`: (report entry, table row, log lines)."""
-    path, motor_logs, cfg, figures_dir = job
     f = read_flight(path)
     ml = motor_logs.get(f.flight_id)
     fig = Path(figures_dir) / f"{f.flight_id}.png" if figures_dir else None
