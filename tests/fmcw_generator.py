@@ -2,7 +2,7 @@
 
 It tests ``microdoppler import`` on FMCW cubes that the project did not shape: it
 imports only numpy and shares no code with ``microdoppler`` (not the emulator, the
-synthesis, nor :mod:`microdoppler.io.fmcw`). Its physics, written out per scatterer:
+synthesis, nor :mod:`microdoppler.importing.fmcw`). Its physics, written out per scatterer:
 
 - A sawtooth FMCW radar: chirp ``m`` starts at ``t_m = m / chirp_rate_hz``; its sampled
   part sweeps ``bandwidth_hz`` linearly over ``n_samples`` samples at

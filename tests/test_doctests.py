@@ -17,7 +17,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 CURATED_MODULES = [
     "microdoppler.errors",
     "microdoppler.io.flightzarr",
-    "microdoppler.io.importing",
+    "microdoppler.importing.flight",
     "microdoppler.io.motorlog",
     "microdoppler.spectra.periodogram",
     "microdoppler.spectra.spectrogram",

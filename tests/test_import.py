@@ -20,9 +20,10 @@ from sigmf import SigMFFile
 
 from conftest import one_line, run_cli
 from microdoppler.emulator.world import FlightSpec, emulate_flight
+from microdoppler.importing.iqbalance import iq_sanity
 from microdoppler.io.flightzarr import read_flight
 from microdoppler.io.inventory import list_flights
-from microdoppler.io.recordings import iq_sanity, read_recording
+from microdoppler.io.recordings import read_recording
 
 GEOMETRY = ("drone_model", "n_motors", "n_blades", "blade_length_m")
 REQUIRED_ATTRS = ("schema", "flight_id", "target", "radar_id", "prf_hz", "carrier_hz", *GEOMETRY)

@@ -20,7 +20,7 @@ import yaml
 
 from conftest import one_line, run_cli
 from fmcw_generator import FmcwScene, generate
-from microdoppler.io.fmcw import FmcwParameters, process_fmcw
+from microdoppler.importing.fmcw import FmcwParameters, process_fmcw
 from microdoppler.io.flightzarr import read_flight
 
 DRONE = {

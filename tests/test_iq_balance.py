@@ -22,8 +22,8 @@ import pandas as pd
 import pytest
 
 from conftest import one_line, run_cli
+from microdoppler.importing.iqbalance import IMAGE_REJECTION_WARN_DB, mirror_balance
 from microdoppler.io.flightzarr import read_flight
-from microdoppler.io.iqbalance import IMAGE_REJECTION_WARN_DB, mirror_balance
 
 C_MPS = 299792458.0
 PRF_HZ, CARRIER_HZ, DURATION_S = 5000.0, 3.3e9, 8.0

@@ -152,11 +152,7 @@ WINDOW_ALLOWED = {
     # the docs' independent recording generator: it must not share the code it checks
     "examples.py",
     # a Hann window across fast time (the FMCW range FFT), not a Doppler periodogram
-    "io/fmcw.py",
-    # the I/Q-balance estimator's mirror-bin spectra: a periodogram, but io/ sits below
-    # spectra/ in the layers and may not import it; it joins the kernel when the
-    # estimator leaves the readers
-    "io/iqbalance.py",
+    "importing/fmcw.py",
 }
 
 

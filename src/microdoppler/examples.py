@@ -365,7 +365,7 @@ def stand_recording(*, seed: int = 7, duration_s: float = 12.0):
         ``"time_s"`` [s] and ``"rev_s"`` [rev/s, float (n_times, 4)]: the rotors' true
         speeds; ``"case"``: the generator's parameters (see ``make_recording``).
     sidecar : dict
-        The radar and drone description :func:`microdoppler.io.import_recording` needs
+        The radar and drone description :func:`microdoppler.importing.import_recording` needs
         with a bare I/Q array (``prf_hz``, ``carrier_hz``, ``n_motors``, ...).
 
     Examples

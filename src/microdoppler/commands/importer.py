@@ -30,7 +30,7 @@ file's variables, a sidecar or these options): range profiles per chirp, the
 static part of each range bin removed per CPI (``--cpi-chirps``), the target's bin
 followed from CPI to CPI (the most moving-target power, at most 2 bins per CPI; or
 ``--range-bin``), and that bin's slow time written at the chirp rate, with the track
-from the bin's range (see :mod:`microdoppler.io.fmcw`).
+from the bin's range (see :mod:`microdoppler.importing.fmcw`).
 
 ``--batch TABLE.csv --out FOLDER`` converts a campaign: one row per recording,
 column ``file`` (relative to the table) plus optional columns named like the sidecar
@@ -54,11 +54,12 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import InputError
+from ..importing import import_recording
 from ..io.flightzarr import write_flight
 from ..io.motorlog import UNIT_TO_RPM, read_motor_log
 from ..io.outputs import atomic_dir, check_output, commit_folder, is_tool_store
-from ..io.fmcw import BEAT_SIGNS
 from ..io.recordings import (
+    BEAT_SIGNS,
     EXTRA_KEYS,
     LAYOUTS,
     OPTION,
@@ -69,7 +70,6 @@ from ..io.recordings import (
     parse_noise_segment,
     read_sidecar,
 )
-from ..io.importing import import_recording
 from . import add_overwrite, positive, positive_int
 
 #: parameters that have a command-line option (n_samples is a sidecar/table key only)
@@ -323,7 +323,7 @@ def check_recording(flight, source, warns: list, *, force: bool = False, rotors:
     contradiction raises :class:`InputError`, or with ``force`` is added to ``warns``
     and the flight's ``plausibility_warnings``. Returns the flight. ``rotors=False``
     checks the spectrum alone and stores nothing (the check with the rotors follows)."""
-    from ..io.plausibility import mark, settle
+    from ..importing.plausibility import mark, settle
     from ..rotors.plausibility import recording_problems, spectrum_problems
 
     if not rotors:
@@ -345,7 +345,7 @@ def load_motor_log(path, unit: str = "rpm"):
 def complete_flight(flight, warns: list, *, log=None, log_path=None, estimate: bool = False):
     """Attach what the recording itself does not hold: the motor log (or rotor speeds
     estimated from the radar when ``estimate`` and there is no log). (The background
-    recording is read with the recording: :func:`~microdoppler.io.importing.import_recording`.)"""
+    recording is read with the recording: :func:`~microdoppler.importing.import_recording`.)"""
     if log is not None:
         if estimate:
             raise InputError(

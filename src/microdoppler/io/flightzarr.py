@@ -270,7 +270,7 @@ def read_flight(path, *, load_iq: bool = True, content: bool = True) -> Flight:
 
     See Also
     --------
-    write_flight, validate_store, import_recording
+    write_flight, validate_store, microdoppler.importing.import_recording
 
     Examples
     --------

@@ -1,41 +1,46 @@
-"""FMCW files -> flight-zarr/1: the file glue of ``microdoppler import`` for raw FMCW
-cubes (:mod:`microdoppler.io.fmcw` does the signal processing; the parameter and
-track helpers are those of slow-time recordings, :mod:`microdoppler.io.recordings`).
+"""FMCW files: the raw FMCW cube of an ``.npy``, ``.npz`` or ``.mat`` file, and the
+chirp parameters and track it states (the signal processing that turns a cube into
+slow time is :mod:`microdoppler.importing.fmcw`; the parameter and track helpers are
+those of slow-time recordings, :mod:`microdoppler.io.recordings`).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from .fmcw import (
-    CUBE_EXPECTED,
-    FMCW_ALIASES,
-    FMCW_REQUIRED,
-    FmcwParameters,
-    background_slow_time,
-    cube_array,
-    process_fmcw,
+from .recordings import PARAM_TYPES, TRACK_VARS, _real_vector, convert
+
+#: variable names (lower case) of an FMCW .mat / .npz read as its parameters
+FMCW_ALIASES = {
+    "chirp_rate_hz": ("chirp_rate_hz", "chirp_rate", "chirps_per_s", "prf_hz", "prf"),
+    "bandwidth_hz": ("bandwidth_hz", "bandwidth", "bw", "sweep_bandwidth_hz"),
+    "sample_rate_hz": ("sample_rate_hz", "sample_rate", "fs", "adc_rate_hz", "adc_sample_rate_hz"),
+    "carrier_hz": (
+        "carrier_hz",
+        "fc",
+        "carrier_frequency",
+        "carrier_frequency_hz",
+        "center_frequency",
+        "centre_frequency_hz",
+    ),
+}
+#: file variables that mark a .mat / .npz as FMCW (the others are shared with slow-time files)
+FMCW_MARKERS = (
+    "chirp_rate_hz",
+    "chirp_rate",
+    "chirps_per_s",
+    "bandwidth_hz",
+    "bandwidth",
+    "bw",
+    "sweep_bandwidth_hz",
+    "adc_rate_hz",
+    "adc_sample_rate_hz",
 )
-from .recordings import (
-    OPTION,
-    PARAM_TYPES,
-    TRACK_VARS,
-    Recording,
-    _real_vector,
-    build_flight,
-    check_required,
-    constant_track,
-    convert,
-    explicit_track,
-    read_arrays,
-    resolve_parameters,
-    set_flight_id,
-)
+CUBE_EXPECTED = "an FMCW cube [n_chirps, n_samples] or [n_chirps, n_samples, n_channels], real or complex"
 
 
 @dataclass
@@ -61,6 +66,54 @@ class FmcwFile:
     fields: dict = field(default_factory=dict)
     track: dict | None = None
     variable: str = "array"
+
+
+def cube_array(a, source, where: str) -> np.ndarray:
+    """Check one array as an FMCW cube; returns it as [n_chirps, n_samples, n_channels].
+
+    Raises
+    ------
+    InputError
+        Not numeric, not 2-D or 3-D, too few samples per chirp, or NaN/inf (naming
+        the first bad chirp, sample and channel).
+    """
+    a = np.asarray(a)
+    if a.dtype.names and set(a.dtype.names) >= {"real", "imag"}:
+        a = a["real"] + 1j * a["imag"].astype(np.float64)
+    if a.dtype.kind not in "iufc":
+        raise InputError(source, where, f"has dtype {a.dtype}", "numeric beat samples (" + CUBE_EXPECTED + ")")
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3:
+        raise InputError(source, where, f"has shape {a.shape}", CUBE_EXPECTED)
+    n_chirps, n_samples, n_ch = a.shape
+    if n_samples < 8:
+        raise InputError(
+            source,
+            where,
+            f"has shape {a.shape[:2] if n_ch == 1 else a.shape}: {n_samples} samples per chirp",
+            "at least 8 fast-time samples per chirp (axis 1; " + CUBE_EXPECTED + ")",
+        )
+    if n_chirps < 32:
+        raise InputError(source, where, f"has {n_chirps} chirps (axis 0)", "at least 32 chirps")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        c, s, ch = (int(x) for x in np.argwhere(bad)[0])
+        raise InputError(
+            source,
+            where,
+            f"contains NaN or infinite values (first at chirp {c}, sample {s}, channel {ch})",
+            "finite beat samples",
+        )
+    return a
+
+
+def looks_fmcw(arrays: dict) -> bool:
+    """Whether named arrays (a .mat / .npz) state FMCW parameters (a variable of
+    :data:`FMCW_MARKERS`). A cube-shaped array alone is not taken for FMCW: without
+    the chirp parameters it could not be read anyway, and the slow-time reader's error
+    says what to add."""
+    return any(n.lower() in FMCW_MARKERS for n in arrays)
 
 
 def fmcw_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None = None) -> FmcwFile:
@@ -127,105 +180,3 @@ def fmcw_from_arrays(path: Path, fmt: str, arrays: dict, *, variable: str | None
             "source": "file arrays track_*",
         }
     return FmcwFile(path=path, format=fmt, cube=cube, metadata=md, fields=fields, track=trk, variable=chosen)
-
-
-# ---- import -------------------------------------------------------------------------
-
-
-def import_fmcw(
-    path,
-    fmt: str,
-    arrays: dict,
-    *,
-    options: dict,
-    sidecar: dict,
-    variable: str | None = None,
-    default_flight_id: str | None = None,
-    background=None,
-    noise_s=None,
-):
-    """An FMCW recording -> ``(flight, warnings)`` (what
-    :func:`~microdoppler.io.importing.import_recording` does for a cube).
-
-    Parameters come as for a slow-time recording (option > sidecar > file), plus
-    ``chirp_rate_hz`` (or ``prf_hz``: the chirp rate becomes the store's ``prf_hz``),
-    ``bandwidth_hz``, ``sample_rate_hz`` and optionally ``range_bin``, ``cpi_chirps``
-    and ``beat_sign``. The track is the one the range bins give, unless the options,
-    the sidecar or the file give one (which then wins, with a warning).
-    ``background`` names a target-free FMCW recording of the same shape, taken
-    through the same bins and channel weights.
-    """
-    path = Path(path)
-    ff = fmcw_from_arrays(path, fmt, arrays, variable=variable)
-    params, sources, warns = resolve_parameters(ff, options, sidecar)
-    chirp, prf = params.get("chirp_rate_hz"), params.get("prf_hz")
-    if chirp is not None and prf is not None and not math.isclose(chirp, prf, rel_tol=1e-9):
-        raise InputError(
-            path,
-            "prf_hz",
-            f"is {prf:g} ({sources['prf_hz']}) but chirp_rate_hz is {chirp:g} ({sources['chirp_rate_hz']})",
-            "one chirp rate: an FMCW recording's prf_hz is its chirp rate",
-        )
-    if chirp is None and prf is not None:
-        params["chirp_rate_hz"], sources["chirp_rate_hz"] = prf, sources["prf_hz"]
-    for key in FMCW_REQUIRED:
-        if key not in params:
-            raise InputError(
-                path,
-                key,
-                f"missing: an FMCW cube of shape {ff.cube.shape} needs it, and it is not in "
-                "the file, a sidecar or the options",
-                f"{OPTION[key]} or the sidecar key {key}",
-            )
-    params["prf_hz"], sources["prf_hz"] = params["chirp_rate_hz"], sources["chirp_rate_hz"]
-    set_flight_id(ff, params, sources, default_flight_id)
-    check_required(ff, params)
-    p = FmcwParameters(
-        chirp_rate_hz=params["chirp_rate_hz"],
-        bandwidth_hz=params["bandwidth_hz"],
-        sample_rate_hz=params["sample_rate_hz"],
-        carrier_hz=params["carrier_hz"],
-        n_samples=ff.cube.shape[1],
-    )
-    beat = params.get("beat_sign", "positive")
-    res = process_fmcw(
-        ff.cube, p, cpi_chirps=params.get("cpi_chirps"), range_bin=params.get("range_bin"), beat_sign=beat, source=path
-    )
-    duration = ff.cube.shape[0] / p.chirp_rate_hz
-    derived = {
-        "time_s": res.track["time_s"],
-        "range_m": res.track["range_m"],
-        "radial_velocity_mps": res.track["radial_velocity_mps"],
-        "source": f"FMCW range bins {res.info['bins_min']}-{res.info['bins_max']}",
-    }
-    track = explicit_track(options, sidecar, duration)
-    if track is None and ff.track is not None:
-        track = dict(ff.track)
-    if track is None and "range_m" in ff.metadata:
-        track = constant_track(ff.metadata["range_m"], duration, f"constant range file {ff.fields['range_m']}")
-    if track is not None:
-        warns.append(f"{track['source']} replaces the track from the FMCW range bins")
-    else:
-        track = derived
-    sources.pop("range_m", None)
-    bg = None
-    if background:
-        bpath = Path(background)
-        bfmt, barrays = read_arrays(bpath)
-        bff = fmcw_from_arrays(bpath, bfmt, barrays, variable=variable)
-        for key in FMCW_REQUIRED:
-            v, want = bff.metadata.get(key), getattr(p, key)
-            if v is not None and not math.isclose(v, want, rel_tol=1e-9):
-                raise InputError(bpath, bff.fields[key], f"is {v:g}", f"{want:g} as the recording's {key}")
-        bg = background_slow_time(bff.cube, p, res, beat_sign=beat, source=bpath)
-    info = {"variable": ff.variable, "fmcw": {**res.info, "carrier_hz": p.carrier_hz}}
-    rec = Recording(
-        path=path,
-        format=ff.format,
-        layout=f"fmcw-{res.info['input']}",
-        iq=res.iq,
-        metadata=ff.metadata,
-        fields=ff.fields,
-        info=info,
-    )
-    return build_flight(rec, params, track, sources=sources, warnings_=warns, background=bg, noise_s=noise_s)

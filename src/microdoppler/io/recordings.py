@@ -1,4 +1,4 @@
-"""Recordings in other formats -> flight-zarr/1 (``microdoppler import``).
+"""Recordings in other formats: the readers of ``microdoppler import``.
 
 Readers (:func:`read_sigmf`, :func:`read_mat`, :func:`read_npy`, :func:`read_npz`,
 or :func:`read_recording` by suffix) return a :class:`Recording`: the slow-time I/Q
@@ -6,11 +6,11 @@ as complex64 plus a metadata dict of the radar parameters the file itself states
 (``prf_hz``, ``carrier_hz``, ...), each with the field it came from.
 :func:`resolve_parameters` merges them with a YAML sidecar and command-line options
 (option > sidecar > file; an option or sidecar value that contradicts the file's
-own metadata wins with a warning), :func:`~microdoppler.io.iqbalance.iq_sanity`
-measures the receiver's I/Q balance, and :func:`build_flight` returns a validated
-:class:`~microdoppler.io.flightzarr.Flight`. Raw FMCW cubes (``.npy``/``.npz``/``.mat``
-with chirp parameters) go through :mod:`microdoppler.io.fmcw` first
-(:func:`microdoppler.io.importing.import_recording` decides which).
+own metadata wins with a warning). Turning a recording into a validated
+:class:`~microdoppler.io.flightzarr.Flight` (the receiver's I/Q balance, the FMCW
+range processing of raw cubes, read by :mod:`microdoppler.io.fmcw_files`, the
+plausibility checks) is :mod:`microdoppler.importing`
+(:func:`microdoppler.importing.import_recording`).
 
 What each format contributes
 ----------------------------
@@ -50,14 +50,21 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .fmcw import BEAT_SIGNS, FMCW_PARAM_TYPES, looks_fmcw
-from .flightzarr import FLIGHT_ID_RE, SCHEMA, TARGETS, Flight
-from .iqbalance import DOPPLER_SIGN_WARN_DB, IMAGE_REJECTION_WARN_DB, iq_sanity, sanity_warnings  # noqa: F401
+from .flightzarr import FLIGHT_ID_RE, TARGETS
 
 FORMATS = ("sigmf", "mat", "npy", "npz")
 LAYOUTS = ("complex", "iq-columns")
-SPEED_OF_LIGHT_MPS = 299_792_458.0
-
+#: the beat's sign of an FMCW recording (see :mod:`microdoppler.importing.fmcw`)
+BEAT_SIGNS = ("positive", "negative")
+#: parameters of an FMCW recording (besides the slow-time ones), and their types
+FMCW_PARAM_TYPES = {
+    "chirp_rate_hz": float,
+    "bandwidth_hz": float,
+    "sample_rate_hz": float,
+    "range_bin": int,
+    "cpi_chirps": int,
+    "beat_sign": str,
+}
 #: parameters a file, a sidecar, a batch row or an option may give, and their types
 PARAM_TYPES = {
     "prf_hz": float,
@@ -855,107 +862,6 @@ def finish_track(trk: dict, source) -> dict:
     return {"time_s": t, "range_m": r, "radial_velocity_mps": v, "source": trk.get("source", str(source))}
 
 
-# ---- the flight ---------------------------------------------------------------------------
-
-
-def build_flight(
-    rec: Recording,
-    params: dict,
-    track: dict,
-    *,
-    sources: dict | None = None,
-    warnings_: list[str] | None = None,
-    background: np.ndarray | None = None,
-    noise_s: tuple[float, float] | None = None,
-) -> tuple[Flight, list[str]]:
-    """A validated :class:`Flight` from a recording, its parameters and its track.
-
-    Checks the required parameters, ``n_samples`` against the data, and the
-    receiver's I/Q balance (:func:`~microdoppler.io.iqbalance.iq_sanity`: from
-    ``background`` (stored as ``background/iq``), else from the recording's
-    ``noise_s`` = ``(start, end)`` [s] stretch, else from the body line when it lies
-    well away from 0 Hz, else not measurable); returns the flight and the list of
-    warnings (also in ``attrs["import"]["warnings"]``).
-    """
-    from .flightzarr import _check_attrs, _check_consistency
-
-    warns = list(warnings_ or [])
-    check_required(rec, params)
-    n = len(rec.iq)
-    if "n_samples" in params and params["n_samples"] != n:
-        where = (sources or {}).get("n_samples", "metadata")
-        raise InputError(
-            rec.path,
-            "n_samples",
-            f"the data holds {n} samples but {where} says {params['n_samples']}",
-            f"{params['n_samples']} samples",
-        )
-    prf, carrier = float(params["prf_hz"]), float(params["carrier_hz"])
-    duration = n / prf
-    if noise_s is not None and noise_s[1] > duration + 1e-9:
-        raise InputError(
-            rec.path,
-            "noise_segment_s",
-            f"is {noise_s[0]:g}:{noise_s[1]:g} s, beyond the recording's {duration:.3f} s",
-            "a stretch within the recording",
-        )
-    track = finish_track(track, track.get("source", rec.path))
-    t = track["time_s"]
-    if t[0] > 1.0 or t[-1] < duration - 1.0:
-        warns.append(
-            f"the track ({track['source']}) covers {t[0]:.2f}-{t[-1]:.2f} s of the recording's 0-{duration:.2f} s"
-        )
-    target = params["target"]
-    if target != "drone":
-        for k in DRONE_REQUIRED:
-            if k in params and not str((sources or {}).get(k, "file")).startswith("file"):
-                warns.append(f"{sources[k]} = {params[k]!r} is ignored: the target is {target}, not a drone")
-    sanity = iq_sanity(
-        rec.iq,
-        prf,
-        SPEED_OF_LIGHT_MPS / carrier,
-        track if target != "none" and np.any(track["radial_velocity_mps"] != 0) else None,
-        background=background,
-        noise_s=noise_s,
-    )
-    warns += sanity_warnings(sanity)
-    attrs = {
-        "schema": SCHEMA,
-        "flight_id": params["flight_id"],
-        "target": target,
-        "radar_id": params["radar_id"],
-        "prf_hz": prf,
-        "carrier_hz": carrier,
-    }
-    if target == "drone":
-        attrs.update({k: params[k] for k in DRONE_REQUIRED})
-    attrs["import"] = {
-        "source_file": str(rec.path),
-        "format": rec.format,
-        "layout": rec.layout,
-        **rec.info,
-        "n_samples": n,
-        **sanity,
-        "track": track["source"],
-        "parameter_sources": dict(sorted((sources or {}).items())),
-        "warnings": warns,
-    }
-    if noise_s is not None:
-        attrs["import"]["noise_segment_s"] = [float(noise_s[0]), float(noise_s[1])]
-    json.dumps(attrs)  # zarr attributes are JSON
-    _check_attrs(rec.path, attrs)
-    flight = Flight(
-        attrs=attrs,
-        iq=rec.iq,
-        track_time_s=track["time_s"],
-        track_range_m=track["range_m"],
-        track_radial_velocity_mps=track["radial_velocity_mps"],
-        background_iq=background,
-    )
-    _check_consistency(rec.path, attrs, flight.arrays())
-    return flight, warns
-
-
 def _level_value(options: dict, sidecar: dict, key: str):
     """The option's value of ``key``, else the sidecar's, else None."""
     for lv in (options, sidecar):
@@ -1000,79 +906,6 @@ def read_arrays(path: Path) -> tuple[str, dict]:
         raise InputError(
             path, "file", f"cannot be read as a NumPy .npy file ({_brief(exc)})", "an .npy written by numpy.save"
         ) from None
-
-
-def wants_fmcw(path, options: dict, sidecar: dict, variable: str | None = None) -> tuple[bool, tuple | None]:
-    """Whether ``path`` is to be read as an FMCW cube: an FMCW parameter among the
-    options or the sidecar, or a file that looks like one (:func:`~microdoppler.io.fmcw.looks_fmcw`).
-    Returns ``(fmcw, (format, arrays) or None)`` (the arrays read, for a .npy/.npz/.mat)."""
-    path = Path(path)
-    given = any(_level_value(options, sidecar, k) is not None for k in FMCW_PARAM_TYPES)
-    if detect_format(path) == "sigmf":
-        if given:
-            raise InputError(
-                path,
-                "file",
-                "is SigMF, but FMCW parameters were given",
-                "an FMCW cube as .npy, .npz or .mat (SigMF holds slow-time I/Q)",
-            )
-        return False, None
-    fmt, arrays = read_arrays(path)
-    return given or looks_fmcw(arrays), (fmt, arrays)
-
-
-def import_slow_time(
-    path,
-    read,
-    *,
-    options: dict,
-    sidecar: dict,
-    layout: str | None,
-    variable: str | None,
-    default_flight_id: str | None,
-    background,
-    noise_s,
-) -> tuple[Flight, list[str]]:
-    """A slow-time recording -> ``(flight, warnings)``; ``read`` is ``(format, arrays)``
-    when :func:`wants_fmcw` already read the file, else None. Called by
-    :func:`microdoppler.io.importing.import_recording`, which documents the arguments."""
-    path = Path(path)
-    if read is None:
-        rec = read_recording(path, variable=variable, layout=layout)
-    else:
-        rec = recording_from_arrays(path, *read, variable=variable, layout=layout)
-    params, sources, warns = resolve_parameters(rec, options, sidecar)
-    set_flight_id(rec, params, sources, default_flight_id)
-    no_track = not explicit_track_given(options, sidecar) and rec.track is None and "range_m" not in rec.metadata
-    check_required(rec, params, track_missing=no_track)
-    duration = len(rec.iq) / float(params["prf_hz"])
-    track = explicit_track(options, sidecar, duration)
-    if track is not None and rec.track is not None:
-        warns.append(f"{track['source']} replaces the file's own track arrays")
-    if track is None:
-        if rec.track is not None:
-            track = dict(rec.track)
-        elif "range_m" in rec.metadata:
-            track = constant_track(rec.metadata["range_m"], duration, f"constant range file {rec.fields['range_m']}")
-        else:
-            raise InputError(
-                rec.path,
-                "track",
-                "missing: no track in the file, a sidecar or the options",
-                "--track CSV (time_s, range_m) or --range-m for a staring recording",
-            )
-    sources.pop("range_m", None)
-    bg = None
-    if background:
-        bg = read_recording(background, variable=variable, layout=layout).iq
-        if len(bg) != len(rec.iq):
-            raise InputError(
-                background,
-                "samples",
-                f"has {len(bg)}",
-                f"{len(rec.iq)} samples, as the recording (background/iq pairs pulse by pulse)",
-            )
-    return build_flight(rec, params, track, sources=sources, warnings_=warns, background=bg, noise_s=noise_s)
 
 
 def set_flight_id(rec, params: dict, sources: dict, default_flight_id: str | None) -> None:

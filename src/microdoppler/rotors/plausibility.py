@@ -1,6 +1,6 @@
 """Does a drone recording agree with its declared set-up? The checks of ``microdoppler
 import`` that read the recording itself (the range checks that need only the declared
-numbers: :mod:`microdoppler.io.plausibility`).
+numbers: :mod:`microdoppler.importing.plausibility`).
 
 A drone's blade tips turn at a tip speed v = 2 pi f L (rotation rate f [rev/s], blade
 length L [m]) and return Doppler up to 2 v / lambda about the body's. Every limit
@@ -23,7 +23,7 @@ not a new setting:
   (the sign aside: a swapped I/Q is warned about separately). A body line at another
   Doppler means the PRF (the frequency axis) or the carrier (the wavelength) is off;
 - with rotor speeds (estimated from the radar, ``--estimate-motors``, or logged): the
-  tips' speed 2 pi f L must lie in :data:`~microdoppler.io.plausibility.TIP_SPEED_RANGE_MPS`
+  tips' speed 2 pi f L must lie in :data:`~microdoppler.importing.plausibility.TIP_SPEED_RANGE_MPS`
   (at most ``max_tip_mach``) and the spectrum's lines must not pass the tips' Doppler
   at that rate (``extent_range[1]`` beta f plus the tail); an estimate's order
   alternatives count as well (a set-up is refused only where no rate the lines allow
@@ -31,7 +31,7 @@ not a new setting:
   (the rate) or ``carrier_hz`` (the tips' Doppler).
 
 Each check returns ``(field, what the recording shows, expected)`` tuples, as
-:func:`microdoppler.io.plausibility.setup_problems`; empty where nothing contradicts.
+:func:`microdoppler.importing.plausibility.setup_problems`; empty where nothing contradicts.
 A recording without visible lines (only noise or a clutter line) has no extent and
 passes: the checks refuse what the recording contradicts, not what it cannot show.
 """
@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from ..io.plausibility import SPEED_OF_LIGHT_MPS, TIP_SPEED_RANGE_MPS, _unit
+from ..importing.plausibility import SPEED_OF_LIGHT_MPS, TIP_SPEED_RANGE_MPS, _unit
 from ..spectra.floor import FLOOR_PERCENTILE
 from ..spectra.periodogram import periodogram
 from .order import SOUND_MPS, OrderConfig

@@ -42,6 +42,8 @@ import math
 
 import numpy as np
 
+from ..spectra.periodogram import stft
+
 #: warn when the receiver's image-rejection ratio is below this [dB]; 1 dB of gain
 #: error alone reads 24.8 dB, 5 deg of phase error alone 27.2 dB
 IMAGE_REJECTION_WARN_DB = 30.0
@@ -78,22 +80,19 @@ KEYS = (
 
 
 def _segments(iq: np.ndarray, nfft: int, max_segments: int = 1024) -> tuple[np.ndarray, np.ndarray]:
-    """Blackman-Harris windowed FFTs of up to ``max_segments`` half-overlapping
-    segments spread over ``iq`` (complex [n]), each less its mean, shape [n_seg, nfft],
-    and their centre sample indices. (Removing the mean and the window's low
+    """Blackman-Harris windowed FFTs (the one kernel,
+    :func:`microdoppler.spectra.periodogram.stft`) of up to ``max_segments``
+    half-overlapping segments spread over ``iq`` (complex [n]), each less its mean,
+    shape [n_seg, nfft], and their centre sample indices. (Removing the mean and the window's low
     sidelobes keep a strong clutter line, whose leakage at +-f is mirror-symmetric,
     out of the bins beside the notch; the overlap recovers what the window's tails
     discard.)"""
-    from scipy.signal import get_window
-
     hop = nfft // 2
     starts = np.arange(0, len(iq) - nfft + 1, hop)
     idx = np.unique(np.linspace(0, len(starts) - 1, min(len(starts), max_segments)).round().astype(int))
     starts = starts[idx]
-    seg = np.stack([iq[a : a + nfft] for a in starts]).astype(np.complex128)
-    seg -= seg.mean(axis=1, keepdims=True)  # the static clutter line, before its sidelobes reach every bin
-    seg *= get_window("blackmanharris", nfft)
-    return np.fft.fft(seg, axis=1), starts + nfft / 2
+    # demean: the static clutter line removed before its sidelobes reach every bin
+    return stft(iq, nfft, starts=starts, demean=True), starts + nfft / 2
 
 
 def _nfft_for(n: int, nfft: int) -> int:

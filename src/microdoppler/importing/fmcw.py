@@ -4,7 +4,8 @@ An FMCW radar records, per chirp, ``n_samples`` fast-time samples of the beat si
 (the received sweep mixed with the transmitted one), in a cube
 ``[n_chirps, n_samples]`` or ``[n_chirps, n_samples, n_channels]``, real (a real
 mixer) or complex (an I/Q mixer). This module turns it into what flight-zarr/1
-holds: one range cell's slow-time I/Q at the chirp rate and the target's track.
+holds: one range cell's slow-time I/Q at the chirp rate and the target's track
+(the cube and its parameters are read by :mod:`microdoppler.io.fmcw_files`).
 
 Conventions
 -----------
@@ -58,51 +59,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..io.fmcw_files import cube_array
+from ..io.recordings import BEAT_SIGNS
 
 SPEED_OF_LIGHT_MPS = 299_792_458.0
-BEAT_SIGNS = ("positive", "negative")
-#: parameters of an FMCW recording (besides the slow-time ones), and their types
-FMCW_PARAM_TYPES = {
-    "chirp_rate_hz": float,
-    "bandwidth_hz": float,
-    "sample_rate_hz": float,
-    "range_bin": int,
-    "cpi_chirps": int,
-    "beat_sign": str,
-}
 #: what must be known to form range profiles
 FMCW_REQUIRED = ("chirp_rate_hz", "bandwidth_hz", "sample_rate_hz", "carrier_hz")
-#: variable names (lower case) of an FMCW .mat / .npz read as its parameters
-FMCW_ALIASES = {
-    "chirp_rate_hz": ("chirp_rate_hz", "chirp_rate", "chirps_per_s", "prf_hz", "prf"),
-    "bandwidth_hz": ("bandwidth_hz", "bandwidth", "bw", "sweep_bandwidth_hz"),
-    "sample_rate_hz": ("sample_rate_hz", "sample_rate", "fs", "adc_rate_hz", "adc_sample_rate_hz"),
-    "carrier_hz": (
-        "carrier_hz",
-        "fc",
-        "carrier_frequency",
-        "carrier_frequency_hz",
-        "center_frequency",
-        "centre_frequency_hz",
-    ),
-}
-#: file variables that mark a .mat / .npz as FMCW (the others are shared with slow-time files)
-FMCW_MARKERS = (
-    "chirp_rate_hz",
-    "chirp_rate",
-    "chirps_per_s",
-    "bandwidth_hz",
-    "bandwidth",
-    "bw",
-    "sweep_bandwidth_hz",
-    "adc_rate_hz",
-    "adc_sample_rate_hz",
-)
 #: the CPI defaults to the largest power of two of chirps within this time [s] (at least 16 chirps)
 DEFAULT_CPI_S = 0.05
 #: the range rate is a straight-line fit over this time [s] (at least 5 CPIs)
 VELOCITY_FIT_S = 0.5
-CUBE_EXPECTED = "an FMCW cube [n_chirps, n_samples] or [n_chirps, n_samples, n_channels], real or complex"
 
 
 @dataclass(frozen=True)
@@ -175,46 +141,6 @@ class FmcwParameters:
 def default_cpi_chirps(chirp_rate_hz: float) -> int:
     """The largest power of two of chirps within :data:`DEFAULT_CPI_S` (>= 16)."""
     return max(16, 2 ** int(math.floor(math.log2(max(chirp_rate_hz * DEFAULT_CPI_S, 1.0)))))
-
-
-def cube_array(a, source, where: str) -> np.ndarray:
-    """Check one array as an FMCW cube; returns it as [n_chirps, n_samples, n_channels].
-
-    Raises
-    ------
-    InputError
-        Not numeric, not 2-D or 3-D, too few samples per chirp, or NaN/inf (naming
-        the first bad chirp, sample and channel).
-    """
-    a = np.asarray(a)
-    if a.dtype.names and set(a.dtype.names) >= {"real", "imag"}:
-        a = a["real"] + 1j * a["imag"].astype(np.float64)
-    if a.dtype.kind not in "iufc":
-        raise InputError(source, where, f"has dtype {a.dtype}", "numeric beat samples (" + CUBE_EXPECTED + ")")
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3:
-        raise InputError(source, where, f"has shape {a.shape}", CUBE_EXPECTED)
-    n_chirps, n_samples, n_ch = a.shape
-    if n_samples < 8:
-        raise InputError(
-            source,
-            where,
-            f"has shape {a.shape[:2] if n_ch == 1 else a.shape}: {n_samples} samples per chirp",
-            "at least 8 fast-time samples per chirp (axis 1; " + CUBE_EXPECTED + ")",
-        )
-    if n_chirps < 32:
-        raise InputError(source, where, f"has {n_chirps} chirps (axis 0)", "at least 32 chirps")
-    bad = ~np.isfinite(a)
-    if bad.any():
-        c, s, ch = (int(x) for x in np.argwhere(bad)[0])
-        raise InputError(
-            source,
-            where,
-            f"contains NaN or infinite values (first at chirp {c}, sample {s}, channel {ch})",
-            "finite beat samples",
-        )
-    return a
 
 
 def check_timing(params: FmcwParameters, source) -> None:
@@ -697,14 +623,3 @@ def background_slow_time(
         weights=result.weights,
     )
     return iq
-
-
-# ---- reading -------------------------------------------------------------------------
-
-
-def looks_fmcw(arrays: dict) -> bool:
-    """Whether named arrays (a .mat / .npz) state FMCW parameters (a variable of
-    :data:`FMCW_MARKERS`). A cube-shaped array alone is not taken for FMCW: without
-    the chirp parameters it could not be read anyway, and the slow-time reader's error
-    says what to add."""
-    return any(n.lower() in FMCW_MARKERS for n in arrays)
