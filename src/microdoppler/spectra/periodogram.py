@@ -2,8 +2,8 @@
 
 Every power spectrum of a radar's slow-time series in the package runs here: the
 paper's spectrogram (:func:`microdoppler.spectra.spectrogram`), the
-calibration's STFT columns, the diagnosis's periodogram, the rotor estimator's and
-the plausibility check's spectra. :func:`stft` cuts a 1-D complex series into CPIs
+calibration's STFT columns, the diagnosis's periodogram, the rotor estimator's,
+the plausibility check's and the import's I/Q-balance spectra. :func:`stft` cuts a 1-D complex series into CPIs
 (coherent processing intervals) of ``n_fft`` pulses, removes each CPI's mean if
 asked, multiplies by the analysis window and takes the FFT; :func:`periodogram`
 squares it into power, optionally scaled by the window's energy and averaged over
