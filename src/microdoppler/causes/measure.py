@@ -46,6 +46,7 @@ from ..errors import InputError
 from ..io.inventory import RADAR_SOURCE
 from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
+from ..spectra.lines import band_power, band_spans, bins_near, herm_line_hz, local_floor
 from ..spectra.periodogram import periodogram, window
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 from .config import (
@@ -312,31 +313,6 @@ def refine_peak(st: Stft, f0: np.ndarray, search_hz: float) -> np.ndarray:
     return out
 
 
-def band_power(p_row: np.ndarray, st: Stft, f_c: float, half_hz: float) -> tuple[float, int]:
-    """Sum of the periodogram within ``half_hz`` of ``f_c`` and the number of bins."""
-    lo = int(np.ceil(st.at(f_c - half_hz)))
-    hi = int(np.floor(st.at(f_c + half_hz)))
-    lo, hi = max(lo, 0), min(hi, len(st.f_hz) - 1)
-    if hi < lo:
-        return 0.0, 0
-    return float(p_row[lo : hi + 1].sum()), hi - lo + 1
-
-
-def local_floor(p_row: np.ndarray, st: Stft, f_c: float, excl_hz: float, span_hz: float) -> float:
-    """Mean noise level per bin near ``f_c`` (median / ln 2 of the bins within
-    ``span_hz`` but farther than ``excl_hz``)."""
-    lo = max(int(np.ceil(st.at(f_c - span_hz))), 0)
-    hi = min(int(np.floor(st.at(f_c + span_hz))), len(st.f_hz) - 1)
-    if hi <= lo:
-        return np.nan
-    seg = p_row[lo : hi + 1]
-    f = st.f_hz[lo : hi + 1]
-    seg = seg[np.abs(f - f_c) > excl_hz]
-    if len(seg) < 4:
-        return np.nan
-    return float(np.median(seg) / np.log(2.0))
-
-
 def simulate_blades(
     log: MotorLog,
     n_pulses: int,
@@ -547,7 +523,7 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
         if np.isfinite(sp) and sp > 0:
             for n in range(1, 16):
                 for sg in (1, -1):
-                    keep &= np.abs(f - (fb + sg * n * sp)) > LINE_GUARD_FRAC * sp
+                    keep &= np.abs(f - herm_line_hz(fb, sp, n, sg)) > LINE_GUARD_FRAC * sp
         dist = np.abs(np.abs(f) - abs(fb))
         for width in (3 * half, 6 * half):
             sel = keep & (dist <= width)
@@ -699,7 +675,7 @@ def sideband_power_fine(
     for k, n in enumerate(np.asarray(harm, float)):
         w = np.minimum(n * h * 2.5 * spread + 3 * df, 0.45 * h)
         for key, sg in (("up", 1.0), ("lo", -1.0)):
-            fc = fb + sg * n * h
+            fc = herm_line_hz(fb, h, n, sg)
             a = np.ceil(st.at(fc - w)).astype(int)
             b = np.floor(st.at(fc + w)).astype(int)
             ins = (a >= 0) & (b <= nf - 1) & (b >= a)
@@ -855,7 +831,7 @@ def floor_ordinates(
         spacing = M.f_log_hz[i] * (M.dil[i] if np.isfinite(M.dil[i]) else 1.0) * int(M.info.get("n_blades", 2))
         for n in range(1, 16):
             for sg in (1, -1):
-                keep &= np.abs(ff - (fb + sg * n * spacing)) > LINE_GUARD_FRAC * spacing
+                keep &= np.abs(ff - herm_line_hz(fb, spacing, n, sg)) > LINE_GUARD_FRAC * spacing
         n_b = int(M.info.get("n_blades", 2))
         if M.info.get("non_multiple_lines_visible"):
             # a weak or strong blade's lines between the HERM lines (guard as theirs,
@@ -864,7 +840,7 @@ def floor_ordinates(
             for k in range(1, 16 * n_b):
                 if k % n_b:
                     for sg in (1, -1):
-                        keep &= np.abs(ff - (fb + sg * k * f_rot)) > LINE_GUARD_FRAC * f_rot
+                        keep &= np.abs(ff - herm_line_hz(fb, f_rot, k, sg)) > LINE_GUARD_FRAC * f_rot
         if M.sim_stft is not None and calib is not None:
             # off the blade power the calibrated model predicts there (smeared lines too)
             d = ff - fb
@@ -1213,30 +1189,6 @@ def thin_wire_line_power(blade_length_m: float, wavelength_m: float, k_max: int,
     return np.abs(ck[: k_max + 1]) ** 2
 
 
-def _bin_spans(st, centres, half) -> tuple[np.ndarray, np.ndarray]:
-    """First and last bin (int, clipped to the spectrum; empty where last < first) within
-    ``half`` [Hz] of each of ``centres`` [Hz] (pairs of equal index)."""
-    n = len(st.f_hz)
-    c, w = np.ravel(np.asarray(centres, float)), np.ravel(np.asarray(half, float))
-    k = min(len(c), len(w))
-    c, w = c[:k], w[:k]
-    lo = np.clip(np.ceil(st.at(c - w)), 0, n).astype(int)
-    hi = np.clip(np.floor(st.at(c + w)), -1, n - 1).astype(int)
-    return lo, hi
-
-
-def _bins_near(st, centres, half) -> np.ndarray:
-    """bool [n_bins]: bins within ``half`` [Hz] of any of ``centres`` [Hz] (the pairs
-    of equal index; vectorised: the bins of every interval marked at once)."""
-    n = len(st.f_hz)
-    lo, hi = _bin_spans(st, centres, half)
-    keep = lo <= hi
-    edges = np.zeros(n + 1, int)
-    np.add.at(edges, lo[keep], 1)
-    np.add.at(edges, hi[keep] + 1, -1)
-    return np.cumsum(edges[:n]) > 0
-
-
 def rotation_line_powers(
     st,
     f_body_hz,
@@ -1271,19 +1223,19 @@ def rotation_line_powers(
         for k in range(1, k_max + 1):
             half = k * fr * ROTOR_WANDER_REL + 1.5 * df
             for s, sg in enumerate((1.0, -1.0)):
-                cs = f_body_hz[i] + sg * k * fr
-                near_orders = [f_body_hz[i] + sg * k2 * fr for k2 in range(max(0, k - 2), k + 3) if k2 != k]
-                others = _bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
+                cs = herm_line_hz(f_body_hz[i], fr, k, sg)
+                near_orders = [herm_line_hz(f_body_hz[i], fr, k2, sg) for k2 in range(max(0, k - 2), k + 3) if k2 != k]
+                others = bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
                 # a rotor's line is clear when no bin of it is one of the other orders'
                 taken = np.concatenate([[0], np.cumsum(others)])
-                lo, hi = _bin_spans(st, cs, half)
+                lo, hi = band_spans(st, cs, half)
                 hit = (lo <= hi) & (taken[np.maximum(hi, lo - 1) + 1] - taken[lo] > 0)
                 ok = (np.abs(cs) + half < nyq) & (np.abs(cs) > clutter_guard_hz + half) & ~hit
                 clear = np.flatnonzero(ok).tolist()
                 if not clear:
                     continue
-                mine = _bins_near(st, cs[clear], half[clear])
-                near = _bins_near(st, [cs.mean()], [0.5 * fr.mean()]) & ~mine & ~others & ~_bins_near(st, cs, half)
+                mine = bins_near(st, cs[clear], half[clear])
+                near = bins_near(st, [cs.mean()], [0.5 * fr.mean()]) & ~mine & ~others & ~bins_near(st, cs, half)
                 if near.sum() < 4:
                     continue
                 fl = float(np.median(st.p[i, near]) / np.log(2.0))
@@ -1387,7 +1339,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
             w = min(w, 0.4 * h)
             sides = []
             for sgn in (1, -1):
-                fc = f_body[i] + sgn * n * h
+                fc = herm_line_hz(f_body[i], h, n, sgn)
                 if abs(fc) + w > nyq:
                     sides.append(None)
                     continue
@@ -1395,7 +1347,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
                 fl = local_floor(st.p[i], st, fc, w, 0.5 * h)
                 sides.append((s, nb, fl, fc))
             # model
-            ms = [band_power(sim.p[i], sim, sg * n * hs, w)[0] for sg in (1, -1)]
+            ms = [band_power(sim.p[i], sim, herm_line_hz(0.0, hs, n, sg), w)[0] for sg in (1, -1)]
             model_h[i, k] = 0.5 * (ms[0] + ms[1])
             if any(x is None for x in sides):
                 continue

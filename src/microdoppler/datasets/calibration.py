@@ -52,6 +52,7 @@ from scipy.signal import butter, sosfilt, sosfilt_zi
 from ..causes.heldout import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
+from ..spectra.lines import herm_windows
 from ..spectra.periodogram import stft, window
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, cpi_grid
 from ..synthesis.model import (
@@ -293,8 +294,8 @@ def power_db(columns: np.ndarray) -> np.ndarray:
 
 
 class LineWindows:
-    """:func:`~microdoppler.datasets.lines.measure_lines` with its search windows laid
-    out once: the same windows, the same peak-over-median-floor SNR, for any number
+    """:func:`~microdoppler.datasets.lines.measure_lines` with its search windows
+    (:func:`microdoppler.spectra.lines.herm_windows`) laid out once: the same windows, the same peak-over-median-floor SNR, for any number
     of spectrograms on the same CPIs (vectorised over timesteps).
 
     Parameters
@@ -326,15 +327,18 @@ class LineWindows:
         self.n_harmonics = 0
         if rotor_rev_s is not None:
             self.n_harmonics = n_harmonics
-            herm = n_blades * np.asarray(rotor_rev_s, float)
-            spacing = float(np.median(herm)) if herm.size else 0.0
-            for k in range(1, n_harmonics + 1):
-                hw = min(search_hz + k * n_blades * rotor_half_spread_rev_s, 0.45 * spacing)
-                for sign in (1, -1):
-                    c = body + sign * k * herm
-                    centres.append(c)
-                    widths.append(hw)
-                    inside.append((c - hw >= f[0]) & (c + hw <= f[-1]))
+            windows = herm_windows(
+                body,
+                rotor_rev_s,
+                n_blades=n_blades,
+                rotor_half_spread_rev_s=rotor_half_spread_rev_s,
+                n_harmonics=n_harmonics,
+                search_hz=search_hz,
+            )
+            for _, _, c, hw in windows:  # upper then lower, k = 1..n_harmonics
+                centres.append(c)
+                widths.append(hw)
+                inside.append((c - hw >= f[0]) & (c + hw <= f[-1]))
         c = np.stack(centres)  # [n_windows, n_t]
         w = np.asarray(widths, np.float64)[:, None, None]
         #: bool [n_windows, n_t, n_bins]: the bins each window searches at each timestep

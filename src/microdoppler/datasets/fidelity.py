@@ -77,6 +77,7 @@ from ..errors import InputError
 from ..io.flightzarr import read_flight
 from ..io.inventory import list_flights, read_ingested_log
 from ..io.outputs import atomic_file
+from ..spectra.lines import herm_line_hz
 from ..spectra.snr import noise_floor_db
 from ..spectra.periodogram import window
 from ..spectra.spectrogram import Spectrogram, SpectrogramConfig, spectrogram
@@ -291,7 +292,7 @@ def cpi_features(
     line_hz = np.full(pair.shape, np.nan)
     for k in range(1, cfg.n_harmonics + 1):
         sign = np.where(lines.upper_db[k - 1] >= lines.lower_db[k - 1], 1.0, -1.0)
-        centre = f_body + sign * k * h_hz
+        centre = herm_line_hz(f_body, h_hz, k, sign)
         w = (np.abs(spec.doppler_hz[None, :] - centre[:, None]) <= 0.45 * h_hz[:, None]) & (snr_db >= cfg.visible_db)
         p = np.where(w, st.p, 0.0)
         with np.errstate(invalid="ignore"):
@@ -303,7 +304,7 @@ def cpi_features(
     near = near & (np.abs(f - body_hz[:, None]) > cfg.search_hz)  # [n_t, n_bins]
     for k in range(1, cfg.n_harmonics + 1):
         for sign in (1, -1):
-            near &= np.abs(f - (body_hz + sign * k * h_hz)[:, None]) > cfg.search_hz
+            near &= np.abs(f - herm_line_hz(body_hz, h_hz, k, sign)[:, None]) > cfg.search_hz
     floor = np.full(len(spec.time_s), np.nan)
     has = near.any(axis=1)
     floor[has] = np.nanmedian(np.where(near, spec.power_db, np.nan)[has], axis=1)

@@ -9,7 +9,8 @@ Doppler:
 - the k-th HERM sideband pair at body +/- k B f_rot, f_rot the mean rotor rate of
   the motors [rev/s], B blades per rotor; the search half-width grows with k and
   with the spread of the motors' rates (the four rotors make a cluster of lines),
-  capped so that a sideband window never reaches the body or the next harmonic.
+  capped so that a sideband window never reaches the body or the next harmonic
+  (the one reader of the HERM lines, :func:`microdoppler.spectra.lines.herm_line_snr_db`).
 
 A sideband pair's SNR per timestep is the stronger of its two sides (measured
 spectra are often asymmetric). Timesteps whose window falls outside the
@@ -22,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..spectra.snr import body_doppler_hz, line_snr_db  # noqa: F401 (body_doppler_hz re-exported)
+from ..spectra.lines import herm_line_snr_db
+from ..spectra.snr import body_doppler_hz  # noqa: F401 (re-exported)
 from ..spectra.spectrogram import Spectrogram
 
 
@@ -128,21 +130,13 @@ def measure_lines(
     search_hz : float
         Search half-width of the body line and base half-width of the sidebands [Hz].
     """
-    body_db = line_snr_db(spec, body_hz, search_hz=search_hz)
-    n_t = len(body_db)
-    if rotor_rev_s is None:
-        empty = np.full((0, n_t), -np.inf)
-        return LineSNR(body_db, empty, empty)
-    herm = n_blades * np.asarray(rotor_rev_s, float)
-    f_lo, f_hi = spec.doppler_hz[0], spec.doppler_hz[-1]
-    up = np.full((n_harmonics, n_t), -np.inf)
-    lo = np.full((n_harmonics, n_t), -np.inf)
-    spacing = float(np.median(herm)) if herm.size else 0.0
-    for k in range(1, n_harmonics + 1):
-        hw = min(search_hz + k * n_blades * rotor_half_spread_rev_s, 0.45 * spacing)
-        for sign, dst in ((1, up), (-1, lo)):
-            centre = body_hz + sign * k * herm
-            inside = (centre - hw >= f_lo) & (centre + hw <= f_hi)
-            s = line_snr_db(spec, centre, search_hz=hw)
-            dst[k - 1] = np.where(inside, s, -np.inf)
+    body_db, up, lo = herm_line_snr_db(
+        spec,
+        body_hz,
+        rotor_rev_s,
+        n_blades=n_blades,
+        rotor_half_spread_rev_s=rotor_half_spread_rev_s,
+        n_harmonics=n_harmonics,
+        search_hz=search_hz,
+    )
     return LineSNR(body_db, up, lo)
