@@ -24,6 +24,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from ..errors import ConfigError, InputError
+from ..configfields import knob
 
 ARCHITECTURES = ("compact", "alexnet")
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -52,9 +53,9 @@ class Normalisation:
         Divisor [dB]; > 0.
     """
 
-    low_db: float = -10.0
-    high_db: float = 50.0
-    scale_db: float = 20.0
+    low_db: float = knob(-10.0, "Lower clip relative to the median [dB].")
+    high_db: float = knob(50.0, "Upper clip relative to the median [dB].")
+    scale_db: float = knob(20.0, "Divisor [dB].", exclusive_minimum=0)
 
     def __post_init__(self):
         if not self.low_db < self.high_db:
