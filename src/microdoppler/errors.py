@@ -66,9 +66,9 @@ def check_config_keys(config: dict, schema: dict, source="config") -> None:
 
     Every mapping of ``config`` whose schema lists ``properties`` may hold only those
     keys: a typo such as ``classifier.lerning_rate`` is an error instead of a silently
-    ignored setting. A section whose schema gives ``additionalProperties`` a schema of
-    its own (a mapping keyed by variant) or sets it to ``true`` (a section whose
-    library class checks its own keys, such as ``diagnosis``) is left to that.
+    ignored setting. A mapping whose schema gives ``additionalProperties`` a schema of
+    its own, or sets it to ``true``, is left to that (the pipeline's schema, generated
+    by :mod:`microdoppler.settings`, has none).
 
     Parameters
     ----------

@@ -331,23 +331,30 @@ def check_config(config: dict, source="config") -> None:
 
 
 def _cell(value) -> str:
-    return str(value).replace("|", "\\|").replace("\n", " ")
+    return str(value).replace("|", "\\|").replace("\n", " ").replace("<", "&lt;").replace(">", "&gt;")
 
 
 def _default_text(value) -> str:
+    if value is _NOT_GIVEN:
+        return "–"
     if value == "":
         return '`""`'
     return "`" + yaml.safe_dump(value, default_flow_style=True, width=10**6).strip().removesuffix("...").strip() + "`"
 
 
+_NOT_GIVEN = object()
+
+
 def config_table() -> str:
-    """The docs' table of every key: section, key (dotted below nested mappings),
-    default and meaning."""
+    """The docs' table of every key (Markdown): key (dotted below nested mappings),
+    default (–: none, a variant's settings that are not given) and meaning, under a
+    row per section."""
     rows = ["| key | default | meaning |", "|---|---|---|"]
 
     def walk(props, prefix):
         for k, e in props.items():
-            rows.append(f"| `{prefix}{k}` | {_cell(_default_text(e.get('default')))} | {_cell(e['description'])} |")
+            default = _default_text(e.get("default", _NOT_GIVEN))
+            rows.append(f"| `{prefix}{k}` | {_cell(default)} | {_cell(e['description'])} |")
             if "properties" in e:
                 walk(e["properties"], f"{prefix}{k}.")
 
