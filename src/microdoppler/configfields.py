@@ -214,6 +214,57 @@ def fields_schema(cls, defaults: dict | None = None) -> dict:
     return props
 
 
+def range_text(f: dataclasses.Field) -> str:
+    """The range of field ``f``'s knob as text (``> 0``, ``in [0, 1)``), or ''."""
+    m = f.metadata.get(META, {})
+    lo, lo_open = (
+        (m["exclusive_minimum"], True) if m.get("exclusive_minimum") is not None else (m.get("minimum"), False)
+    )
+    hi, hi_open = (
+        (m["exclusive_maximum"], True) if m.get("exclusive_maximum") is not None else (m.get("maximum"), False)
+    )
+    if lo is not None and hi is not None:
+        return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {lo:g}"
+    if hi is not None:
+        return f"{'<' if hi_open else '<='} {hi:g}"
+    return ""
+
+
+def check_ranges(obj, source) -> None:
+    """Raise :class:`~microdoppler.errors.ConfigError` for the first number of
+    dataclass ``obj`` outside its knob's range (``<source>: <name>: <name>=<value>
+    must be <range>``): a class's ``__post_init__`` checks what its schema says.
+
+    Examples
+    --------
+    >>> from dataclasses import dataclass
+    >>> @dataclass(frozen=True)
+    ... class Demo:
+    ...     rate_hz: float = knob(10.0, "Rate [Hz].", exclusive_minimum=0)
+    ...     def __post_init__(self):
+    ...         check_ranges(self, "demo")
+    >>> Demo(rate_hz=0.0)
+    Traceback (most recent call last):
+    ...
+    microdoppler.errors.ConfigError: demo: rate_hz: rate_hz=0.0 must be > 0
+    """
+    for f in config_fields(type(obj)):
+        m = f.metadata.get(META, {})
+        v = getattr(obj, f.name)
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            continue
+        ok = (
+            (m.get("minimum") is None or v >= m["minimum"])
+            and (m.get("exclusive_minimum") is None or v > m["exclusive_minimum"])
+            and (m.get("maximum") is None or v <= m["maximum"])
+            and (m.get("exclusive_maximum") is None or v < m["exclusive_maximum"])
+        )
+        if not ok:
+            raise ConfigError(source, f.name, f"{f.name}={v} must be {range_text(f)}")
+
+
 def check_keys(mapping, known, section: str, source="config") -> dict:
     """``mapping`` (None: empty) when every key of it is in ``known``; else the
     :class:`~microdoppler.errors.ConfigError` of :func:`unknown_key` for the first

@@ -20,8 +20,8 @@ import pandas as pd
 import torch
 from torch.nn import functional as F
 
-from ..configfields import check_keys, config_names, knob
-from ..errors import ConfigError, InputError
+from ..configfields import check_keys, check_ranges, config_names, knob
+from ..errors import InputError
 from .augment import Augmentation
 from .data import TileSet
 from .models import Normalisation, build_model
@@ -238,20 +238,7 @@ class TrainConfig:
     )
 
     def __post_init__(self):
-        checks = [
-            ("learning_rate", self.learning_rate > 0, "> 0"),
-            ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
-            ("weight_decay", self.weight_decay >= 0, ">= 0"),
-            ("batch_size", self.batch_size >= 1, ">= 1"),
-            ("lr_step_epochs", self.lr_step_epochs >= 1, ">= 1"),
-            ("lr_gamma", 0 < self.lr_gamma <= 1, "in (0, 1]"),
-            ("max_epochs", self.max_epochs >= 1, ">= 1"),
-            ("exceed_limit", self.exceed_limit >= 1, ">= 1"),
-            ("average_last_epochs", self.average_last_epochs >= 0, ">= 0"),
-        ]
-        for name, ok, want in checks:
-            if not ok:
-                raise ConfigError("classifier", name, f"{name}={getattr(self, name)} must be {want}")
+        check_ranges(self, "classifier")  # the knobs' ranges, as the schema has them
 
     @classmethod
     def from_config(cls, cfg: dict | None, source="config") -> "TrainConfig":
