@@ -189,3 +189,15 @@ def test_generator_command_checks_the_schema_file(tmp_path):
     assert settings.main(["schema", "--out", str(out), "--check"]) == 0
     out.write_text(out.read_text() + "# edited by hand\n")
     assert settings.main(["schema", "--out", str(out), "--check"]) == 1
+
+
+def test_compact_settings_are_the_networks_own_defaults():
+    import inspect
+
+    from microdoppler.classifier.models import CompactCNN, CompactSettings
+
+    params = inspect.signature(CompactCNN).parameters
+    for key in config_names(CompactSettings):
+        want = params[key].default
+        got = getattr(CompactSettings(), key)
+        assert (list(want) if isinstance(want, tuple) else want) == got, key

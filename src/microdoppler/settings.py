@@ -30,6 +30,7 @@ from pathlib import Path
 import yaml
 
 from .causes.config import DiagnosisConfig
+from .classifier.models import CompactSettings
 from .classifier.training import ClassifierRuns, TrainConfig
 from .configfields import check_keys, config_names, fields_schema, knob
 from .datasets.calibration import CalibrationConfig
@@ -257,11 +258,9 @@ SECTIONS = {
             "cores; the paper's values (pretrained AlexNet, FC layers only) are learning_rate 1.5e-4, momentum 0.98, "
             "weight_decay 2e-4, batch_size 16, lr_step_epochs 10, lr_gamma 0.1, exceed_limit 10 with no epoch cap.",
             (ClassifierRuns, TrainConfig),
-            # the pipeline's defaults; TrainConfig's own are the paper's best epoch and CompactCNN's defaults
-            defaults={
-                "average_last_epochs": 4,
-                "compact": {"channels": [6, 12, 24], "doppler_pool": 8, "dropout": 0.2},
-            },
+            # the pipeline's defaults where TrainConfig's differ: its own keep the paper's best
+            # epoch, and its empty compact mapping means CompactCNN's defaults, written out here
+            defaults={"average_last_epochs": 4, "compact": CompactSettings()},
         ),
         Section(
             "diagnosis",

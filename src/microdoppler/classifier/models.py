@@ -23,8 +23,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from ..errors import ConfigError, InputError
 from ..configfields import knob
+from ..errors import ConfigError, InputError
 
 ARCHITECTURES = ("compact", "alexnet")
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -77,6 +77,21 @@ class Normalisation:
         return np.clip((x - med) / self.scale_db, self.low_db / self.scale_db, self.high_db / self.scale_db).astype(
             np.float32
         )
+
+
+@dataclass(frozen=True)
+class CompactSettings:
+    """The keys of the config's ``classifier.compact`` (:class:`CompactCNN`'s keyword
+    arguments; the defaults are its own)."""
+
+    channels: list[int] = knob(
+        description="Output channels per conv block.",
+        default_factory=lambda: [6, 12, 24],
+        items={"type": "integer", "minimum": 1},
+        min_items=1,
+    )
+    doppler_pool: int = knob(8, "Doppler pooling after the first block.", minimum=1)
+    dropout: float = knob(0.2, "Dropout before the linear layer.", minimum=0, maximum=1)
 
 
 class CompactCNN(nn.Module):

@@ -20,11 +20,11 @@ import pandas as pd
 import torch
 from torch.nn import functional as F
 
-from ..configfields import check_keys, check_ranges, config_names, knob
+from ..configfields import check_keys, check_ranges, config_names, fields_schema, knob
 from ..errors import InputError
 from .augment import Augmentation
 from .data import TileSet
-from .models import Normalisation, build_model
+from .models import CompactSettings, Normalisation, build_model
 
 log = logging.getLogger(__name__)
 
@@ -55,7 +55,7 @@ class ClassifierRuns:
 #: keys of the config's ``classifier:`` section that the workflow reads, not training
 WORKFLOW_KEYS = frozenset(config_names(ClassifierRuns))
 #: the keys of ``classifier.compact`` (``CompactCNN``'s keyword arguments)
-COMPACT_KEYS = ("channels", "doppler_pool", "dropout")
+COMPACT_KEYS = tuple(config_names(CompactSettings))
 
 
 @dataclass(frozen=True)
@@ -128,31 +128,7 @@ class TrainConfig:
         description="Compact CNN: channels of the conv blocks, doppler_pool (pooling factor along Doppler after the "
         "first block), dropout before the last layer.",
         default_factory=dict,
-        schema={
-            "properties": {
-                "channels": {
-                    "description": "Output channels per conv block.",
-                    "type": "array",
-                    "items": {"type": "integer", "minimum": 1},
-                    "minItems": 1,
-                    "default": [6, 12, 24],
-                },
-                "doppler_pool": {
-                    "description": "Doppler pooling after the first block.",
-                    "type": "integer",
-                    "minimum": 1,
-                    "default": 8,
-                },
-                "dropout": {
-                    "description": "Dropout before the linear layer.",
-                    "type": "number",
-                    "minimum": 0,
-                    "maximum": 1,
-                    "default": 0.2,
-                },
-            },
-            "additionalProperties": False,
-        },
+        schema={"properties": fields_schema(CompactSettings), "additionalProperties": False},
     )
     alexnet_weights: str = knob(
         "",
