@@ -1,8 +1,9 @@
 """Sphinx configuration: MyST pages, an API reference from the numpydoc docstrings, a
 gallery of scripts run at build (sphinx-gallery, ``docs/examples/plot_*.py``), and pages
 generated at build: the results of a pipeline run (``docs/generate_results.py``), the
-benchmarks' records (``docs/generate_benchmarks.py``) and the diagnosis's cause table
-(``docs/generate_catalog.py``).
+benchmarks' records (``docs/generate_benchmarks.py``), the diagnosis's cause table
+(``docs/generate_catalog.py``) and the table of configuration keys
+(``docs/generate_config.py``).
 
 Build: ``sphinx-build -n -W -b html docs docs/_build/html`` (CI does: nitpicky, warnings
 as errors, so every reference to the project's own functions must resolve).
@@ -19,6 +20,7 @@ sys.path.insert(0, str(HERE))
 
 import generate_benchmarks  # noqa: E402
 import generate_catalog  # noqa: E402
+import generate_config  # noqa: E402
 import generate_results  # noqa: E402
 import generate_stand_example  # noqa: E402
 
@@ -129,6 +131,8 @@ generate_benchmarks.write_campaign(HERE.parent / "benchmarks" / "records", HERE 
 generate_stand_example.write_includes(HERE / "_include")
 # the report page's cause table, from the catalog
 generate_catalog.write_table(HERE / "_include" / "causes.inc")
+# the pipeline page's table of configuration keys, from the settings classes
+generate_config.write_table(HERE / "_include" / "config.inc")
 
 
 def _escape_bars(app, what, name, obj, options, lines):

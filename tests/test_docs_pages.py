@@ -90,3 +90,17 @@ def test_results_page_shows_a_runs_rule_times(tmp_path):
     page = _docs_module("generate_results").write_page(tmp_path / "results", tmp_path / "results.md", tmp_path / "s")
     text = page.read_text()
     assert "## Per-rule times" in text and "| train_classifier | 6 | 260.1 | 45.0 | 90.6 | 498.2 |" in text
+
+
+def test_pipeline_page_config_table_is_the_settings_classes():
+    from microdoppler.settings import SECTIONS, config_table
+
+    text = _docs_module("generate_config").config_table()
+    assert text == config_table()
+    for name, section in SECTIONS.items():
+        assert f"| **{name}** |" in text
+        for key in section.keys():
+            assert f"| `{key}` |" in text, f"{name}.{key}"
+    page = (ROOT / "docs" / "pipeline.md").read_text()
+    assert "```{include} _include/config.inc\n```" in page
+    assert "| key | meaning |" not in page  # no table typed by hand beside it

@@ -15,6 +15,7 @@ from microdoppler.codeversion import PACKAGE_DIR, _module_name, imported_modules
 #: and from those before it only
 LAYERS = (
     "errors",
+    "configfields",
     "codeversion",
     "io",
     "examples",
@@ -32,6 +33,7 @@ LAYERS = (
     "classifier",
     "commands",
     "cli",
+    "settings",
 )
 
 #: (importer, imported) pairs that still point up, each with the reason it is left

@@ -45,14 +45,30 @@ class ConfigError(InputError):
     """A configuration value is invalid."""
 
 
+def unknown_key(source, section: str, key, known, note: str = "") -> ConfigError:
+    """The one-line error of an unknown key ``key`` of section ``section`` (a dotted
+    path such as ``datasets.calibration``; empty: the top level), with ``note`` (why
+    the key is gone, say) after the keys it accepts.
+
+    Examples
+    --------
+    >>> print(unknown_key("my.yaml", "classifier", "epoch", ["max_epochs", "batch_size"]))
+    my.yaml: classifier.epoch: unknown key in section classifier (expected one of: batch_size, max_epochs)
+    """
+    where = f"{section}.{key}" if section else str(key)
+    place = f"section {section}" if section else "the top level"
+    expected = f"one of: {', '.join(sorted(map(str, known)))}" + (f"; {note}" if note else "")
+    return ConfigError(source, where, f"unknown key in {place}", expected)
+
+
 def check_config_keys(config: dict, schema: dict, source="config") -> None:
     """Reject a configuration key that its schema does not define.
 
     Every mapping of ``config`` whose schema lists ``properties`` may hold only those
     keys: a typo such as ``classifier.lerning_rate`` is an error instead of a silently
-    ignored setting. A section whose schema gives ``additionalProperties`` a schema of
-    its own (a mapping keyed by variant) or sets it to ``true`` (a section whose
-    library class checks its own keys, such as ``diagnosis``) is left to that.
+    ignored setting. A mapping whose schema gives ``additionalProperties`` a schema of
+    its own, or sets it to ``true``, is left to that (the pipeline's schema, generated
+    by :mod:`microdoppler.settings`, has none).
 
     Parameters
     ----------
@@ -88,8 +104,7 @@ def check_config_keys(config: dict, schema: dict, source="config") -> None:
         for key, value in cfg.items():
             where = f"{path}.{key}" if path else str(key)
             if key not in props:
-                section = f"section {path}" if path else "the top level"
-                raise ConfigError(source, where, f"unknown key in {section}", f"one of: {', '.join(sorted(props))}")
+                raise unknown_key(source, path, key, props)
             walk(value, props[key], where)
 
     walk(config, schema, "")

@@ -14,11 +14,14 @@ import microdoppler.diagnosis.pipeline
 import microdoppler.errors
 
 SCHEMA = Path(workflow.current_basedir).parent / "schemas" / "config.schema.yaml"
-try:  # an unknown key (a typo) is an error, in one line naming it and its section
-    microdoppler.errors.check_config_keys(config, yaml.safe_load(SCHEMA.read_text()))
+# The schema is generated from the settings classes (python -m microdoppler.settings
+# schema). An unknown key (a typo) is an error, in one line naming it and its section;
+# the diagnosis section first, whose check names what replaced a removed setting.
+try:
     DIAGNOSIS_PIPELINE, _ = microdoppler.diagnosis.pipeline.split_settings(
         config.get("diagnosis")
     )
+    microdoppler.errors.check_config_keys(config, yaml.safe_load(SCHEMA.read_text()))
 except microdoppler.errors.ConfigError as exc:
     sys.exit(f"error: {exc}")
 validate(config, schema="../schemas/config.schema.yaml")

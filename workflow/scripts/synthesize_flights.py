@@ -16,7 +16,7 @@ with log_to(snakemake.log[0]):
         snakemake.output.table,
         variant=snakemake.wildcards.variant,
         spec_cfg=spectrogram_for_flights(snakemake.params.spectrogram, snakemake.input.measured),
-        cfg=CalibrationConfig(search_hz=snakemake.params.search_hz, **snakemake.params.calibration),
+        cfg=CalibrationConfig.from_config(snakemake.params.calibration, snakemake.params.search_hz),
         seed=snakemake.params.seed,
         extensions=load_extensions(snakemake.input.get("extensions")),
         batch=None if batch is None else (int(batch), snakemake.params.flight_batches),

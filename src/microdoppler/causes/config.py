@@ -16,8 +16,9 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, unknown_key
 from ..spectra.spectrogram import nearest_power_of_two
+from ..configfields import knob
 
 # ---------------------------------------------------------------- fixed settings
 # Measurement (measure.py)
@@ -168,12 +169,12 @@ REMOVED_FIELDS = {
 def unknown_key_error(source, key: str, names) -> ConfigError:
     """The :class:`ConfigError` of an unknown ``diagnosis.<key>``; a key that was a
     field before the fixed settings became constants names what replaced it."""
-    expected = f"one of {', '.join(names)}"
+    note = ""
     if key in REMOVED_FIELDS:
         now = REMOVED_FIELDS[key]
         now = now if now.startswith("the field") else f"the constant microdoppler.diagnosis.config.{now}"
-        expected += f"; {key} is no longer a setting: {now}"
-    return ConfigError(source, f"diagnosis.{key}", "unknown key", expected)
+        note = f"{key} is no longer a setting: {now}"
+    return unknown_key(source, "diagnosis", key, names, note)
 
 
 # ---------------------------------------------------------------- the config
@@ -220,32 +221,6 @@ def _check_value(source, key: str, v, kind: str, lo=None, hi=None, lo_open=False
     if not in_range(x):
         raise ConfigError(source, field, f"is {x:g}", expected)
     return x
-
-
-#: type and allowed range of every DiagnosisConfig field: (kind, lo, hi, lo_open, hi_open)
-_RULES = {
-    "cpi_s": ("float", 0, None, True, False),
-    "n_fft": ("int_or_null", 64, None, False, False),
-    "min_duration_s": ("float", 0, None, False, False),
-    "seed": ("int", 0, None, False, False),
-    "alpha": ("float", 0, 1, True, True),
-    "block_cpis": ("int", 1, None, False, False),
-    "figures": ("bool", None, None, False, False),
-    "clutter_guard_hz": ("float", 0, None, False, False),
-    "body_half_hz": ("float", 0, None, True, False),
-    "model_floor_db": ("float", 0, None, False, False),
-    "max_lag_s": ("float", LAG_STEP_S, None, False, False),
-    "margin_asymmetry_db": ("float", 0, None, False, False),
-    "margin_std_db": ("float", 0, None, False, False),
-    "margin_lag_s": ("float", 0, None, False, False),
-    "margin_scale": ("float", 0, None, False, False),
-    "margin_imbalance_db": ("float", 0, None, False, False),
-    "margin_excess_db": ("float", 0, None, False, False),
-    "margin_common_gain_db": ("float", 0, None, False, False),
-    "margin_floor_rise_db": ("float", 0, None, False, False),
-    "min_blade_wavelengths": ("float", 0, None, False, False),
-    "min_log_coverage": ("float", 0, 1, True, False),
-}
 
 
 @dataclass(frozen=True)
@@ -360,27 +335,45 @@ class DiagnosisConfig:
     microdoppler.errors.ConfigError: config: diagnosis.alpah: ...
     """
 
-    cpi_s: float = 0.56
-    n_fft: int | None = None
-    min_duration_s: float = 0.0
-    seed: int = 0
-    alpha: float = 0.01
-    block_cpis: int = 8
-    figures: bool = True
-    clutter_guard_hz: float = 15.0
-    body_half_hz: float = 9.0
-    model_floor_db: float = 0.5
-    max_lag_s: float = 2.0
-    margin_asymmetry_db: float = 1.5
-    margin_std_db: float = 2.0
-    margin_lag_s: float = 0.15
-    margin_scale: float = 0.025
-    margin_floor_rise_db: float = 3.0
-    margin_imbalance_db: float = 1.5
-    margin_excess_db: float = 7.0
-    margin_common_gain_db: float = 1.0
-    min_blade_wavelengths: float = 0.5
-    min_log_coverage: float = 0.5
+    cpi_s: float = knob(
+        0.56,
+        "CPI of the diagnosis's STFT [s]: at a flight's PRF, the power of two of pulses nearest cpi_s x PRF (0.56 "
+        "s: 4096 pulses at 7.3 kHz, 1024 at 2 kHz), as spectrogram.window_s.",
+        exclusive_minimum=0,
+    )
+    n_fft: int | None = knob(None, minimum=64)
+    min_duration_s: float = knob(
+        0.0,
+        "Shortest flight diagnosed [s]; a flight also needs the CPIs of two held-out folds of block_cpis plus four "
+        "(5.9 s at 7.3 kHz with 0.56 s CPIs). 0: that need alone. A shorter flight is skipped with the minimum in "
+        "seconds.",
+        minimum=0,
+    )
+    seed: int = knob(0, minimum=0)
+    alpha: float = knob(
+        0.01,
+        "Family-wise false-alarm level of the held-out likelihood-ratio tests (Bonferroni over the causes).",
+        exclusive_minimum=0,
+        exclusive_maximum=1,
+    )
+    block_cpis: int = knob(
+        8, "CPIs per block of the two alternating held-out folds (fit on one, score on the other).", minimum=1
+    )
+    figures: bool = knob(True, "Write one figure per diagnosed flight (measured, baseline, extended, residual).")
+    clutter_guard_hz: float = knob(15.0, minimum=0)
+    body_half_hz: float = knob(9.0, exclusive_minimum=0)
+    model_floor_db: float = knob(0.5, minimum=0)
+    max_lag_s: float = knob(2.0, minimum=LAG_STEP_S)
+    margin_asymmetry_db: float = knob(1.5, minimum=0)
+    margin_std_db: float = knob(2.0, minimum=0)
+    margin_lag_s: float = knob(0.15, minimum=0)
+    margin_scale: float = knob(0.025, minimum=0)
+    margin_floor_rise_db: float = knob(3.0, minimum=0)
+    margin_imbalance_db: float = knob(1.5, minimum=0)
+    margin_excess_db: float = knob(7.0, minimum=0)
+    margin_common_gain_db: float = knob(1.0, minimum=0)
+    min_blade_wavelengths: float = knob(0.5, minimum=0)
+    min_log_coverage: float = knob(0.5, exclusive_minimum=0, maximum=1)
 
     @classmethod
     def from_dict(cls, d: dict | None, source="config") -> "DiagnosisConfig":
@@ -420,7 +413,26 @@ class DiagnosisConfig:
         _check_config({f.name: getattr(self, f.name) for f in fields(self)}, "DiagnosisConfig")
 
 
+def _rules(cls) -> dict:
+    """field -> (kind, lo, hi, lo_open, hi_open): the type and range of each field of
+    ``cls``, from its annotation and its :func:`~microdoppler.configfields.knob` (the
+    schema's ranges are the same)."""
+    kinds = {"float": "float", "int": "int", "bool": "bool", "int | None": "int_or_null"}
+    out = {}
+    for f in fields(cls):
+        m = f.metadata["config"]
+        lo = m["exclusive_minimum"] if m["exclusive_minimum"] is not None else m["minimum"]
+        hi = m["exclusive_maximum"] if m["exclusive_maximum"] is not None else m["maximum"]
+        t = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+        out[f.name] = (kinds[t], lo, hi, m["exclusive_minimum"] is not None, m["exclusive_maximum"] is not None)
+    return out
+
+
 def _check_config(values: dict, source) -> dict:
     """Every field of ``values`` checked and normalised (ints, floats); raises
     :class:`ConfigError`."""
     return {k: _check_value(source, k, v, *_RULES[k]) for k, v in values.items()}
+
+
+#: type and allowed range of every DiagnosisConfig field: (kind, lo, hi, lo_open, hi_open)
+_RULES = _rules(DiagnosisConfig)

@@ -33,6 +33,7 @@ import torch
 from torch.nn import functional as F
 
 from ..errors import ConfigError
+from ..configfields import knob
 
 
 @dataclass(frozen=True)
@@ -51,10 +52,19 @@ class Augmentation:
         Share of training tiles augmented (per tile, per epoch), in [0, 1].
     """
 
-    doppler_blur_bins: float = 0.0
-    doppler_stretch: float = 0.0
-    doppler_wander: float = 0.0
-    probability: float = 0.5
+    doppler_blur_bins: float = knob(
+        0.0, "Largest blur standard deviation [Doppler bins]; 0: no blur.", minimum=0, maximum=50
+    )
+    doppler_stretch: float = knob(
+        0.0, "Largest relative rescaling of the Doppler axis; 0: none.", minimum=0, exclusive_maximum=0.5
+    )
+    doppler_wander: float = knob(
+        0.0,
+        "Largest amplitude of a rescaling that varies along time (0 to 2 cycles per tile, phase drawn); 0: none.",
+        minimum=0,
+        exclusive_maximum=0.5,
+    )
+    probability: float = knob(0.5, "Share of training tiles augmented, per tile and epoch.", minimum=0, maximum=1)
 
     def __post_init__(self):
         checks = [

@@ -23,6 +23,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from ..configfields import knob
 from ..errors import ConfigError, InputError
 
 ARCHITECTURES = ("compact", "alexnet")
@@ -52,9 +53,9 @@ class Normalisation:
         Divisor [dB]; > 0.
     """
 
-    low_db: float = -10.0
-    high_db: float = 50.0
-    scale_db: float = 20.0
+    low_db: float = knob(-10.0, "Lower clip relative to the median [dB].")
+    high_db: float = knob(50.0, "Upper clip relative to the median [dB].")
+    scale_db: float = knob(20.0, "Divisor [dB].", exclusive_minimum=0)
 
     def __post_init__(self):
         if not self.low_db < self.high_db:
@@ -76,6 +77,21 @@ class Normalisation:
         return np.clip((x - med) / self.scale_db, self.low_db / self.scale_db, self.high_db / self.scale_db).astype(
             np.float32
         )
+
+
+@dataclass(frozen=True)
+class CompactSettings:
+    """The keys of the config's ``classifier.compact`` (:class:`CompactCNN`'s keyword
+    arguments; the defaults are its own)."""
+
+    channels: list[int] = knob(
+        description="Output channels per conv block.",
+        default_factory=lambda: [6, 12, 24],
+        items={"type": "integer", "minimum": 1},
+        min_items=1,
+    )
+    doppler_pool: int = knob(8, "Doppler pooling after the first block.", minimum=1)
+    dropout: float = knob(0.2, "Dropout before the linear layer.", minimum=0, maximum=1)
 
 
 class CompactCNN(nn.Module):

@@ -13,23 +13,49 @@ from __future__ import annotations
 import copy
 import logging
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import pandas as pd
 import torch
 from torch.nn import functional as F
 
-from ..errors import ConfigError, InputError
+from ..configfields import check_keys, check_ranges, config_names, fields_schema, knob
+from ..errors import InputError
 from .augment import Augmentation
 from .data import TileSet
-from .models import Normalisation, build_model
+from .models import CompactSettings, Normalisation, build_model
 
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
+class ClassifierRuns:
+    """The classifier keys the workflow reads (which runs); the rest are
+    :class:`~microdoppler.classifier.training.TrainConfig`'s."""
+
+    trainsets: list[str] = knob(
+        description="Training sets: 'real' and/or variant names. Empty: real plus every variant of sampling.variants "
+        "(including 'extended' when built).",
+        default_factory=list,
+    )
+    seeds: list[int] = knob(
+        description="Random seeds; one training run per training set and seed (paper: 9). A seed fixes "
+        "initialisation, dropout and shuffling: the same seed gives identical metrics.",
+        default_factory=lambda: [1, 2, 3, 4, 5, 6, 7, 8, 9],
+    )
+    threads: int = knob(
+        1,
+        "torch threads per training job (results are reproducible for a given value). 1 lets 2 jobs run side by "
+        "side on 2 cores.",
+        minimum=1,
+    )
+
+
 #: keys of the config's ``classifier:`` section that the workflow reads, not training
-WORKFLOW_KEYS = frozenset({"trainsets", "seeds", "threads"})
+WORKFLOW_KEYS = frozenset(config_names(ClassifierRuns))
+#: the keys of ``classifier.compact`` (``CompactCNN``'s keyword arguments)
+COMPACT_KEYS = tuple(config_names(CompactSettings))
 
 
 @dataclass(frozen=True)
@@ -91,57 +117,121 @@ class TrainConfig:
     ('compact', 3, 8)
     """
 
-    architecture: str = "compact"
-    compact: dict = field(default_factory=dict)
-    alexnet_weights: str = ""
-    colormap: str = "jet"
-    learning_rate: float = 0.01
-    momentum: float = 0.9
-    weight_decay: float = 2e-4
-    batch_size: int = 16
-    lr_step_epochs: int = 10
-    lr_gamma: float = 0.1
-    max_epochs: int = 12
-    exceed_limit: int = 10
-    reevaluate_train: bool = False
-    average_last_epochs: int = 0
-    normalisation: Normalisation = Normalisation()
-    augment: Augmentation = Augmentation()
+    architecture: str = knob(
+        "compact",
+        "'compact': small CNN for 20x480 dB tiles, trained from scratch (default; ~3.5k parameters, hundreds of "
+        "images/s on one core). 'alexnet': the paper's AlexNet on 224x224 colour-mapped tiles (about 30 images/s on "
+        "2 cores from scratch: for GPUs or with pretrained weights).",
+        enum=["compact", "alexnet"],
+    )
+    compact: dict = knob(
+        description="Compact CNN: channels of the conv blocks, doppler_pool (pooling factor along Doppler after the "
+        "first block), dropout before the last layer.",
+        default_factory=dict,
+        schema={"properties": fields_schema(CompactSettings), "additionalProperties": False},
+    )
+    alexnet_weights: str = knob(
+        "",
+        "Local path of a torchvision AlexNet ImageNet state_dict (e.g. alexnet-owt-7be5be79.pth). When set "
+        "(architecture alexnet), the conv layers are loaded and frozen and only the fully connected layers are "
+        "trained, as in the paper. Empty: AlexNet is trained from scratch.",
+    )
+    colormap: str = knob(
+        "jet",
+        "Matplotlib colour map turning a normalised tile into the RGB image AlexNet takes (the paper used an RGB "
+        "false-colour map).",
+    )
+    learning_rate: float = knob(
+        0.01,
+        "Initial SGD learning rate. Paper 1.5e-4 (fine-tuning pretrained AlexNet FC layers); a from-scratch compact "
+        "CNN at that rate barely learns within the epoch cap (toy tiles: 64 % train accuracy after 15 epochs, "
+        "against 100 % by epoch 10 at 5e-3 to 1e-2), so the default is 1e-2.",
+        exclusive_minimum=0,
+    )
+    momentum: float = knob(
+        0.9,
+        "SGD momentum. Paper 0.98 (with lr 1.5e-4). With a from-scratch learning rate, 0.98 (effective step "
+        "lr/(1-m) = 50 lr) gave divergence spikes (toy tiles, lr 5e-3: training loss 0.17 -> 1.23 in one epoch, "
+        "accuracy back to chance), so the default is 0.9.",
+        minimum=0,
+        exclusive_maximum=1,
+    )
+    weight_decay: float = knob(2e-4, "L2 regularisation (SGD weight decay), as in the paper.", minimum=0)
+    batch_size: int = knob(16, "Mini-batch size, as in the paper; reshuffled every epoch with the seed.", minimum=1)
+    lr_step_epochs: int = knob(
+        10,
+        "Epochs between learning-rate decays (paper: 10). Default 10 with max_epochs 12; config/paper.yaml uses 6 "
+        'with max_epochs 9 (docs/experiments.md, "Classifier training").',
+        minimum=1,
+    )
+    lr_gamma: float = knob(0.1, "Learning-rate decay factor, as in the paper.", exclusive_minimum=0, maximum=1)
+    max_epochs: int = knob(
+        12,
+        "Epoch cap (the paper has none: it stops on exceed_limit alone, which a from-scratch model with a cap "
+        "rarely reaches). Default 12. config/paper.yaml uses 9 (with lr_step_epochs 6, average_last_epochs 4) so "
+        "that the paper profile's 54 runs fit about an hour on 2 cores (docs/experiments.md, \"Classifier "
+        'training"); on the default world (~420 training tiles) fewer epochs undertrain, so the default stays 12.',
+        minimum=1,
+    )
+    exceed_limit: int = knob(
+        10,
+        "Stop after the validation loss has exceeded the training loss this many epochs (paper: 10). The kept model "
+        "is the epoch with the largest training + validation accuracy.",
+        minimum=1,
+    )
+    reevaluate_train: bool = knob(
+        False,
+        "true: evaluate each epoch's model on the whole training set, as the paper did. false (default): use the "
+        "epoch's running mini-batch loss and accuracy (what MATLAB prints as mini-batch accuracy), which saves "
+        "about a third of each epoch and keeps 45 runs of the default profile within ~7 minutes on 2 cores; the "
+        "validation set is always evaluated at the end of every epoch.",
+    )
+    average_last_epochs: int = knob(
+        0,
+        "0 (paper): keep the epoch with the largest training + validation accuracy. K > 0 (default 4 of 12 epochs; "
+        "config/paper.yaml 4 of 9): keep the average of the weights after each of the last K epochs of the run "
+        "(stochastic weight averaging within one seed's run; nothing is averaged across seeds). On the default "
+        "world it halves the seed-to-seed std of the real-trained accuracy (12.5 -> 6.1 points, "
+        "docs/experiments.md), because the kept model no longer depends on a small validation set's noisy accuracy.",
+        minimum=0,
+    )
+    normalisation: Normalisation = knob(
+        Normalisation(),
+        "Per-image normalisation: subtract the tile's median (its noise/clutter floor: tiles are uncalibrated dB "
+        "whose level moves with range and radar gain), divide by scale_db, clip to [low_db, high_db] relative to "
+        "the median (values far below the floor are noise; the upper limit bounds the dynamic range like a colour "
+        "map's limits).",
+    )
+    augment: Augmentation = knob(
+        Augmentation(),
+        "Doppler-axis augmentation of training tiles (microdoppler.classifier.augment; never of validation or test "
+        "tiles). Each training tile is, with `probability` per epoch, rescaled about zero Doppler by a factor drawn "
+        "in [1 - doppler_stretch, 1 + doppler_stretch] (every line moves as with rotors and body that much faster "
+        "or slower) blurred along Doppler by a Gaussian of standard deviation drawn in [0, doppler_blur_bins] bins "
+        "(lines smeared as by rotor speeds changing within a CPI), rescaled by a factor that varies sinusoidally "
+        "over the tile's timesteps with amplitude drawn in [0, doppler_wander] (lines that wander as measured rotor "
+        "lines do). Draws come from the run's seed. Default: off (the paper used none).",
+    )
 
     def __post_init__(self):
-        checks = [
-            ("learning_rate", self.learning_rate > 0, "> 0"),
-            ("momentum", 0 <= self.momentum < 1, "in [0, 1)"),
-            ("weight_decay", self.weight_decay >= 0, ">= 0"),
-            ("batch_size", self.batch_size >= 1, ">= 1"),
-            ("lr_step_epochs", self.lr_step_epochs >= 1, ">= 1"),
-            ("lr_gamma", 0 < self.lr_gamma <= 1, "in (0, 1]"),
-            ("max_epochs", self.max_epochs >= 1, ">= 1"),
-            ("exceed_limit", self.exceed_limit >= 1, ">= 1"),
-            ("average_last_epochs", self.average_last_epochs >= 0, ">= 0"),
-        ]
-        for name, ok, want in checks:
-            if not ok:
-                raise ConfigError("classifier", name, f"{name}={getattr(self, name)} must be {want}")
+        check_ranges(self, "classifier")  # the knobs' ranges, as the schema has them
 
     @classmethod
-    def from_config(cls, cfg: dict) -> "TrainConfig":
+    def from_config(cls, cfg: dict | None, source="config") -> "TrainConfig":
         """From the config's ``classifier:`` mapping; the workflow's own keys
-        (``WORKFLOW_KEYS``) are left to it, any other unknown key is a
-        ``microdoppler.errors.ConfigError`` naming it."""
-        cfg = {k: v for k, v in dict(cfg or {}).items() if k not in WORKFLOW_KEYS}
-        names = {f for f in cls.__dataclass_fields__}
-        for key in cfg:
-            if key not in names:
-                raise ConfigError(
-                    "classifier",
-                    f"classifier.{key}",
-                    "unknown key in section classifier",
-                    f"one of: {', '.join(sorted(names | WORKFLOW_KEYS))}",
-                )
-        norm = Normalisation(**cfg.pop("normalisation", {}) or {})
-        aug = Augmentation(**cfg.pop("augment", {}) or {})
-        return cls(normalisation=norm, augment=aug, **cfg)
+        (:class:`ClassifierRuns`) are left to it. A key that is neither, here or in
+        ``compact``, ``normalisation`` or ``augment``, is a one-line
+        :class:`~microdoppler.errors.ConfigError` naming it and its section
+        (``<source>: classifier.<key>: unknown key in section classifier (expected
+        one of: ...)``)."""
+        cfg = check_keys(cfg, [*config_names(ClassifierRuns), *config_names(cls)], "classifier", source)
+        cfg = {k: v for k, v in cfg.items() if k not in WORKFLOW_KEYS}
+        compact = check_keys(cfg.pop("compact", None), COMPACT_KEYS, "classifier.compact", source)
+        norm = check_keys(
+            cfg.pop("normalisation", None), config_names(Normalisation), "classifier.normalisation", source
+        )
+        aug = check_keys(cfg.pop("augment", None), config_names(Augmentation), "classifier.augment", source)
+        return cls(compact=compact, normalisation=Normalisation(**norm), augment=Augmentation(**aug), **cfg)
 
     def to_dict(self) -> dict:
         d = asdict(self)

@@ -52,7 +52,7 @@ def _settings(path):
         raise InputError(path, "yaml", f"is not valid YAML ({type(exc).__name__})", "a YAML mapping") from None
     if not isinstance(d, dict):
         raise InputError(path, "yaml", f"is a {type(d).__name__}", "a mapping with a spectrogram: section")
-    return SpectrogramSettings.from_config(d.get("spectrogram"))
+    return SpectrogramSettings.from_config(d.get("spectrogram"), source=path)
 
 
 def _is_own(entry: Path) -> bool:

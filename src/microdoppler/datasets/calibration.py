@@ -49,6 +49,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
+from ..configfields import check_keys, config_names, knob
 from ..causes.heldout import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
@@ -130,17 +131,36 @@ class CalibrationConfig:
         0 searches on every fold-A CPI.
     """
 
-    tolerance_db: float = 2.0
-    visible_db: float = 10.0
-    search_hz: float = 10.0
-    n_harmonics: int = 6
-    alpha_min_s: float = 1e-4
-    alpha_max_s: float = 0.05
-    n_alpha: int = 12
-    max_iter: int = 8
-    remove_blade_mean: bool = True
-    holdout_block_cpis: int = 8
-    max_fit_cpis: int = 64
+    tolerance_db: float = knob(
+        2.0,
+        "Allowed |twin - measured| flight-mean SNR of body and first sideband [dB]; a flight beyond it is flagged "
+        "'missed'.",
+        exclusive_minimum=0,
+    )
+    visible_db: float = knob(10.0, "Median SNR over timesteps above which a sideband pair counts as visible [dB].")
+    search_hz: float = knob(10.0, config=False)
+    n_harmonics: int = knob(6, "Sideband pairs measured.", minimum=1)
+    alpha_min_s: float = knob(1e-4, "Smallest non-zero alpha tried [s] (H(f) = exp(-alpha |f|)).", exclusive_minimum=0)
+    alpha_max_s: float = knob(0.05, "Largest alpha tried [s].", exclusive_minimum=0)
+    n_alpha: int = knob(12, "Log-spaced alphas tried (plus alpha = 0).", minimum=1)
+    max_iter: int = knob(8, "Fixed-point updates of S_body and S_blade in the final fit.", minimum=1)
+    remove_blade_mean: bool = knob(True, config=False)
+    holdout_block_cpis: int = knob(
+        8,
+        "The calibration sees only fold A of the measured flight's CPIs (alternating blocks of this many CPIs, as "
+        "diagnosis.block_cpis); fold B is held out for the fidelity report (Table VI). 0 fits on every CPI (the "
+        "twins then have no held-out CPIs).",
+        minimum=0,
+    )
+    max_fit_cpis: int = knob(
+        64,
+        "Most fold-A CPIs the alpha and scale search reads (runs of 4 consecutive CPIs spread evenly over the "
+        "flight; the body and blade are synthesised only around them), so the search costs the same for any flight "
+        "duration; its best 3 alphas are ranked again, and the final scale fit and the twin's check run, on every "
+        "fold-A CPI. 0 searches on every fold-A CPI. 64: the same alphas and held-out fidelity as the search on all "
+        "of fold A at a fraction of its time (docs/experiments.md, 'Calibration cost').",
+        minimum=0,
+    )
 
     def __post_init__(self):
         if not self.tolerance_db > 0:
@@ -159,6 +179,14 @@ class CalibrationConfig:
             raise ValueError(f"holdout_block_cpis={self.holdout_block_cpis} must be >= 0")
         if self.max_fit_cpis < 0:
             raise ValueError(f"max_fit_cpis={self.max_fit_cpis} must be >= 0 (0: every fit CPI)")
+
+    @classmethod
+    def from_config(cls, calibration: dict | None, search_hz: float, source="config") -> "CalibrationConfig":
+        """From the config's ``datasets.calibration:`` section and
+        ``datasets.snr_search_hz``; an unknown key is a one-line
+        :class:`~microdoppler.errors.ConfigError` naming it and the section."""
+        d = check_keys(calibration, config_names(cls), "datasets.calibration", source)
+        return cls(search_hz=search_hz, **d)
 
     def fit_mask(self, n_timesteps: int) -> np.ndarray:
         """CPIs the calibration sees: bool [n_timesteps] (fold A; all when holdout is off)."""

@@ -64,7 +64,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..configfields import check_keys, config_names, knob
 from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
+from .calibration import CalibrationConfig
 from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .split import TWIN_MODELS, twin_model
@@ -109,6 +111,15 @@ def pairs(variants) -> list[tuple[str, str]]:
 
 
 @dataclass(frozen=True)
+class FidelityReport:
+    """The fidelity report's bootstrap (config ``fidelity:``, beside
+    :class:`~microdoppler.datasets.fidelity.FidelityConfig`'s keys)."""
+
+    n_boot: int = knob(2000, "Bootstrap replicates (flights drawn with replacement) of the 95 % intervals.", minimum=1)
+    seed: int = knob(0, "Seed of the bootstrap draws.")
+
+
+@dataclass(frozen=True)
 class FidelityConfig:
     """Settings of the feature measurement.
 
@@ -142,16 +153,26 @@ class FidelityConfig:
         scored CPIs (else NaN: not measured).
     """
 
-    visible_db: float = 10.0
-    search_hz: float = 10.0
-    n_harmonics: int = 6
-    clutter_span_hz: float = 30.0
-    max_lag_cpis: int = 16
-    rotation_orders: int = 8
-    nonmultiple_floor_db: float = -30.0
-    dilation_range: float = 0.15
-    nonmultiple_z: float = 3.0
-    nonmultiple_min_cpis: int = 10
+    visible_db: float = knob(10.0, config=False)
+    search_hz: float = knob(10.0, config=False)
+    n_harmonics: int = knob(6, config=False)
+    clutter_span_hz: float = knob(
+        30.0,
+        "Width of the band next to the clutter line, beyond the spectrogram's high-pass edge, whose floor is "
+        "compared [Hz].",
+        exclusive_minimum=0,
+    )
+    max_lag_cpis: int = knob(
+        16,
+        "Longest lag of the blade-power autocorrelation [CPIs]; a fading timescale beyond it is reported as this "
+        "lag (censored).",
+        minimum=1,
+    )
+    rotation_orders: int = knob(8, config=False)
+    nonmultiple_floor_db: float = knob(-30.0, config=False)
+    dilation_range: float = knob(0.15, config=False)
+    nonmultiple_z: float = knob(3.0, config=False)
+    nonmultiple_min_cpis: int = knob(10, config=False)
 
     def __post_init__(self):
         if not self.search_hz > 0:
@@ -168,10 +189,13 @@ class FidelityConfig:
             raise ValueError(f"dilation_range={self.dilation_range} must be in [0, 1)")
 
     @classmethod
-    def from_config(cls, fidelity: dict, calibration: dict, search_hz: float) -> "FidelityConfig":
+    def from_config(cls, fidelity: dict, calibration: dict, search_hz: float, source="config") -> "FidelityConfig":
         """From the config's ``fidelity:`` and ``datasets.calibration:`` sections and
         ``datasets.snr_search_hz`` (the calibration's visibility and harmonics, so
-        the twins are scored as they were fitted)."""
+        the twins are scored as they were fitted). An unknown key of either section
+        is a one-line :class:`~microdoppler.errors.ConfigError` naming it."""
+        fidelity = check_keys(fidelity, [*config_names(cls), *config_names(FidelityReport)], "fidelity", source)
+        calibration = check_keys(calibration, config_names(CalibrationConfig), "datasets.calibration", source)
         return cls(
             visible_db=calibration.get("visible_db", 10.0),
             n_harmonics=calibration.get("n_harmonics", 6),

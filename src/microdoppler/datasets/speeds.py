@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..configfields import knob
 from ..rotors import sampling as sampling
 from ..errors import ConfigError, InputError
 from ..io.inventory import list_flights, read_ingested_log
@@ -56,6 +57,28 @@ BASE_SAMPLING = {
     "fixed_speeds": "fixed_speeds",
     "extended": "sub_cpi",
 }
+
+
+@dataclass(frozen=True)
+class SubCpiSampling:
+    """Settings of the ``sub_cpi`` and ``single_motor`` variants (config
+    ``sampling.per_variant.<variant>``; ``extended`` takes ``sub_cpi``'s unless it
+    has its own)."""
+
+    per_cpi: int = knob(8, "Decimated motor-speed samples per CPI.", minimum=1)
+    window_pulses_min: int = knob(
+        2500, "Shortest rolling-average window drawn per flight [pulses] (paper 1500).", minimum=1
+    )
+    window_pulses_max: int = knob(
+        2500, "Longest rolling-average window drawn per flight [pulses] (paper 3000).", minimum=1
+    )
+
+
+@dataclass(frozen=True)
+class FixedSpeedsSampling:
+    """Settings of the ``fixed_speeds`` variant (config ``sampling.per_variant.fixed_speeds``)."""
+
+    spread: float = knob(0.1, "Relative half-width around the drone model's typical speed of the speed drawn.")
 
 
 def draw_window(settings: dict, seed: int) -> int:

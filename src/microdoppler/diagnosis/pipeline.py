@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import pandas as pd
 
+from ..configfields import config_names, knob
 from ..errors import ConfigError, InputError
 from ..io.flightzarr import read_flight
 from ..io.motorlog import MotorLog
@@ -350,11 +351,48 @@ def _diagnose_store(path, motor_logs: dict, cfg, figures_dir) -> tuple[dict, dic
 
 # ---------------------------------------------------------------- the pipeline's rules
 
-#: keys of the ``diagnosis:`` config section that are pipeline settings, not
-#: :class:`DiagnosisConfig` fields
-PIPELINE_KEYS = ("sets", "population_sets", "min_fraction", "flight_batches")
 #: the split's sets (``results/splits/flights.csv``)
 SETS = ("train", "validation", "test")
+
+
+@dataclass(frozen=True)
+class DiagnosisRuns:
+    """The diagnosis keys the workflow reads (which flights, how many jobs); the rest
+    are :class:`DiagnosisConfig`'s (:func:`split_settings` checks them all)."""
+
+    sets: list[str] = knob(
+        description="Split sets whose measured drone flights are diagnosed; in results/diagnosis/extended.yaml each "
+        "of their twins carries its own flight's causes (per_flight mode). Twins of flights outside these sets draw "
+        "causes from the population.",
+        default_factory=lambda: list(SETS),
+        items={"type": "string", "enum": list(SETS)},
+    )
+    population_sets: list[str] = knob(
+        description="Split sets (a subset of sets) whose diagnoses form the per-model population of extended.yaml "
+        "and the extensions/1 median aggregate. Default train only: no validation or test flight shapes a training "
+        "twin.",
+        default_factory=lambda: ["train"],
+        items={"type": "string", "enum": list(SETS)},
+    )
+    min_fraction: float = knob(
+        0.25,
+        "For the extensions/1 median aggregate only (microdoppler.diagnosis.aggregate.aggregate): a cause is kept "
+        "when named for at least this fraction of the diagnosed flights. The pipeline's extended.yaml "
+        "(extensions/2) keeps every flight's own causes and does not use it.",
+        minimum=0,
+        maximum=1,
+    )
+    flight_batches: int = knob(
+        2,
+        "Jobs the diagnosed flights are dealt to in turn (rule diagnose_flights, one job per batch, side by side; "
+        "rule report_diagnosis gathers them into one report). 2 keeps both cores of a laptop busy; more on a "
+        "cluster. The report is the same for any number.",
+        minimum=1,
+    )
+
+
+#: the keys of the ``diagnosis:`` section that are not DiagnosisConfig fields
+PIPELINE_KEYS = tuple(config_names(DiagnosisRuns))
 
 
 def split_settings(settings: dict | None, *, source="config") -> tuple[dict, DiagnosisConfig]:

@@ -17,7 +17,7 @@ Two levels of settings:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft as sfft
@@ -25,6 +25,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ..errors import ConfigError
 from .periodogram import periodogram
+from ..configfields import check_keys, config_names, knob
 
 #: speed of light [m/s]
 C_MPS = 299_792_458.0
@@ -179,16 +180,46 @@ class SpectrogramSettings:
         As :class:`SpectrogramConfig`.
     """
 
-    window_s: float | None = None
-    n_fft: int | None = None
-    doppler_span_hz: float | None = None
-    doppler_span_mps: float | None = None
-    blade_tip_rev_s: float | None = None
-    n_bins: int | None = None
-    overlap: float = 0.5
-    highpass_hz: float = 15.0
-    highpass_order: int = 4
-    tile_timesteps: int = 20
+    window_s: float | None = knob(
+        None,
+        "Target CPI [s]: the STFT length is the power of two nearest window_s x PRF pulses. null: 0.56 s (the "
+        "paper's 4096 pulses at 7.3 kHz).",
+        exclusive_minimum=0,
+    )
+    n_fft: int | None = knob(
+        None,
+        "STFT length [pulses], an explicit override of window_s that ignores the PRF. null: from window_s.",
+        minimum=16,
+    )
+    doppler_span_hz: float | None = knob(
+        None,
+        "Full Doppler width of the images, centred on 0 Hz [Hz], at most the PRF; rounded to the nearest even "
+        "number of bins. null: see doppler_span_mps.",
+        exclusive_minimum=0,
+    )
+    doppler_span_mps: float | None = knob(
+        None,
+        "Full width of the images in radial velocity [m/s] (Hz = 2 v / wavelength), at most PRF x wavelength / 2. "
+        "null with no other span: 95 m/s (the paper's 480 bins at 1.35 GHz, clipped to the PRF).",
+        exclusive_minimum=0,
+    )
+    blade_tip_rev_s: float | None = knob(
+        None,
+        "Cover the blade tips at this rotation rate [rev/s]: the images span ±(4 pi rate L / wavelength + rate + 2 "
+        "|v| / wavelength) (the tips' micro-Doppler, Carson's one-rate margin, the body Doppler) for the longest "
+        "blade_length_m and fastest track radial speed v of the drone flights, clipped to ±PRF/2. null: off.",
+        exclusive_minimum=0,
+    )
+    n_bins: int | None = knob(
+        None,
+        "Central Doppler bins kept (0: all), an explicit override of the spans that ignores the PRF and carrier. "
+        "null: from the span.",
+        minimum=0,
+    )
+    overlap: float = knob(0.5, "Overlap of successive CPIs.", minimum=0, exclusive_maximum=1)
+    highpass_hz: float = knob(15.0, "High-pass cut-off removing slow clutter [Hz].", minimum=0)
+    highpass_order: int = knob(4, "Order of the Butterworth high-pass (applied forwards and backwards).", minimum=1)
+    tile_timesteps: int = knob(20, "Timesteps (CPIs) per image.", minimum=1)
 
     #: the settings that give the image's Doppler width (at most one)
     SPAN_KEYS = ("doppler_span_hz", "doppler_span_mps", "blade_tip_rev_s", "n_bins")
@@ -228,14 +259,10 @@ class SpectrogramSettings:
         )
 
     @classmethod
-    def from_config(cls, spectrogram: dict | None) -> "SpectrogramSettings":
-        """Settings from the config's ``spectrogram`` mapping; unknown keys are errors."""
-        d = dict(spectrogram or {})
-        names = [f.name for f in fields(cls)]
-        for k in d:
-            if k not in names:
-                raise ConfigError("config", f"spectrogram.{k}", "is not a setting", "one of " + ", ".join(names))
-        return cls(**d)
+    def from_config(cls, spectrogram: dict | None, source="config") -> "SpectrogramSettings":
+        """Settings from the config's ``spectrogram`` mapping; an unknown key is a
+        one-line :class:`~microdoppler.errors.ConfigError` naming it and the section."""
+        return cls(**check_keys(spectrogram, config_names(cls), "spectrogram", source))
 
     def resolve(
         self, prf_hz: float, carrier_hz: float, *, blade_length_m: float | None = None, body_mps: float = 0.0
