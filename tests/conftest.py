@@ -5,7 +5,9 @@ fast loop's parameter split (:func:`fast_loop`); how runs use the cores.
   loop the tests marked ``slow``: whole-workflow runs, and the statistical tests whose
   evidence is many seeded flights.
 - The fast loop, ``python -m pytest -q -m "not slow"``: every module of
-  src/microdoppler imported and exercised.
+  src/microdoppler imported and exercised, each test under about a second (a test
+  that takes longer on a quiet 2-core machine is marked ``slow``; 731 tests in 97 s
+  with other work on the cores, 2026-11-29).
 - Both spread their tests over the machine's cores (pytest-xdist, ``-n auto`` in
   pyproject.toml); a run that names files or tests (``python -m pytest tests/test_x.py``)
   stays in one process (:func:`pytest_xdist_auto_num_workers`), and ``-n 0`` keeps any

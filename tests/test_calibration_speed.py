@@ -84,6 +84,7 @@ def _garble_fold_b(fl, block: int, seed: int):
     return out
 
 
+@pytest.mark.slow
 def test_capped_fit_never_reads_fold_b(drone):
     """Garbling the measured flight and background far inside fold B leaves the fit as
     it is; without a hold-out the same garbling changes it (the check can fail)."""

@@ -187,6 +187,7 @@ def drone_only_workdir(tmp_path_factory):
     return work
 
 
+@pytest.mark.slow
 def test_campaign_without_birds_leaves_the_classifier_out(drone_only_workdir):
     r = _snakemake_dry(drone_only_workdir)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -215,6 +216,7 @@ def _campaign_models(measured):
     return models
 
 
+@pytest.mark.slow
 def test_classifier_target_on_a_campaign_without_birds_fails_with_the_note(drone_only_workdir):
     r = _snakemake_dry(drone_only_workdir, "results/reports/table_v.csv")
     assert r.returncode != 0
@@ -275,6 +277,7 @@ def test_a_drone_model_of_ones_own_gets_twin_speeds(tmp_path):
     assert abs(root["c0"].attrs["fixed_rev_s"] / typical - 1) <= 0.1
 
 
+@pytest.mark.slow
 def test_fidelity_table_not_formed_names_the_flights_and_why(tmp_path):
     """Drone flights without twins (no background recording; no motor log; a model no
     twin is made of): Table VI has no rows, the log and fidelity_left_out.csv name each
@@ -376,6 +379,7 @@ def test_snr_of_a_drone_on_a_stand_is_read_on_its_rotor_lines(tmp_path):
     assert "snr_line" not in split.columns and "snr_line" not in table.columns
 
 
+@pytest.mark.slow
 def test_a_flight_without_visible_rotor_lines_is_named_in_the_fidelity_table(tmp_path):
     """A drone flight whose rotor lines stay below the visibility threshold: Table VI
     scores it on the body and floor features only, and fidelity_left_out.csv and the

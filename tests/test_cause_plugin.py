@@ -228,6 +228,7 @@ def _docstrings(tree) -> set:
     return out
 
 
+@pytest.mark.slow
 def test_no_source_file_outside_the_causes_names_a_cause():
     """A string literal equal to a registered cause's name (docstrings aside) appears
     only in ``causes/`` and the allowed configuration files. ``none`` and

@@ -136,6 +136,7 @@ def test_compact_cnn_shapes():
     assert m(torch.zeros(1, 20, 128)).shape == (1, 2)
 
 
+@pytest.mark.slow
 def test_alexnet_layers_and_pretrained_loading(tmp_path):
     torch.manual_seed(0)
     ref = AlexNet(n_classes=1000)
@@ -172,6 +173,7 @@ def tiny_tiles():
     return parts
 
 
+@pytest.mark.slow
 def test_tiny_training_run_and_reproducibility(tiny_tiles, tmp_path):
     tr, va, te = tiny_tiles
     runs = [train(tr, va, TINY, seed=11, threads=1) for _ in range(2)]
@@ -219,6 +221,7 @@ def test_weight_averaging_keeps_the_mean_of_the_last_epochs(tiny_tiles):
         TrainConfig(average_last_epochs=-1)
 
 
+@pytest.mark.slow
 def test_evaluation_in_forward_chunks_gives_the_same_loss_and_accuracy():
     """_evaluate runs the forward pass in chunks of EVAL_FORWARD_BATCH images: the
     logits, hence the loss summed per block and the accuracy, equal one forward pass

@@ -147,6 +147,7 @@ def test_simulate_bad_track(tmp_path, capsys):
     assert rc == 2 and str(track) in err and "range_m" in err
 
 
+@pytest.mark.slow
 def test_figures_write_pngs(tmp_path, rng, ulog_path):
     import matplotlib.pyplot as plt
 

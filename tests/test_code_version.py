@@ -83,6 +83,7 @@ def loaded_modules():
     return {Path(k).name: {Path(f).resolve() for f in v} for k, v in json.loads(out.stdout).items()}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("script", sorted(p.name for p in SCRIPTS.glob("*.py")))
 def test_the_closure_holds_every_module_an_import_loads(script, loaded_modules):
     closure = set(import_closure(SCRIPTS / script))
@@ -142,6 +143,7 @@ def test_hash_changes_with_a_module_of_the_closure_only(toy):
     assert code_version(script, package_dir=pkg, version="2") != after
 
 
+@pytest.mark.slow
 def test_the_modules_that_once_reran_nothing_are_hashed():
     """Modules an edit of which once reran no rule: each is in some rule's closure."""
     hashed = set().union(*(import_closure(p) for p in SCRIPTS.glob("*.py")))

@@ -118,6 +118,7 @@ def paper_like_flights(rng):
     return pd.DataFrame(rows)
 
 
+@pytest.mark.slow
 def test_split_is_flight_disjoint_and_balanced_by_class(rng):
     flights = paper_like_flights(rng)
     s = split_flights(flights, seed=1, n_trials=200)
@@ -140,6 +141,7 @@ def test_split_is_seeded(rng):
     assert not a.set.equals(c.set)
 
 
+@pytest.mark.slow
 def test_split_of_measured_world(built):
     s = built["split"]
     assert not s.flight_id.duplicated().any()
@@ -336,6 +338,7 @@ class StubExtensions:
         return (iq * np.complex64(np.exp(0.3j))).astype(np.complex64)
 
 
+@pytest.mark.slow
 def test_extended_variant_uses_the_extensions(built):
     ext = StubExtensions()
     root = built["root"]

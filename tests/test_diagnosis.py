@@ -185,6 +185,7 @@ def _case_id(c: Case) -> str:
     return f"{c.cause}-{c.radar_id}-{'+-0'[[1, -1, 0].index(c.sign)]}-{c.seed}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "case",
     [
@@ -460,6 +461,7 @@ def test_body_size_and_timescale_away_from_the_default(timescale_s, seed, durati
     assert 0.5 <= p["timescale_s"] / timescale_s <= 2.0, p
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "radar_id, drone_model, seed",
     fast_loop([("radar1", "matrice300", 4711), ("radar2", "inspire2", 4712)], lambda v: v[0] == "radar1"),
@@ -499,6 +501,7 @@ def test_steep_sideband_falloff_clean_flight_names_no_cause(radar_id, drone_mode
     assert tests["sideband_fading"]["log_evalue"] < entry["evidence"]["log_evalue_threshold"]
 
 
+@pytest.mark.slow
 def test_gain_is_scored_on_held_out_folds():
     """The reported gain of a named cause is the held-out NLL: recomputed here from
     the test's per-CPI statistic, fitting on one fold and scoring on the other; the
@@ -824,6 +827,7 @@ def test_weak_blades_make_sideband_causes_untestable_with_a_reason():
 # ---------------------------------------------------------------- the report file
 
 
+@pytest.mark.slow
 def test_report_file_follows_the_format_and_figure(tmp_path):
     spec = FlightSpec(
         "fmt01",

@@ -59,6 +59,7 @@ def test_imbalance_extension_keeps_the_blade_passing_level():
     assert ExtensionSet({}).blade_amplitudes(2) is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("radar,seed,imb", [("gen_l", 401, IMBALANCES_DB[0]), ("gen_s", 402, IMBALANCES_DB[1])])
 def test_imbalance_named_and_measured(radar, seed, imb):
     entry, _ = _diagnose("imb", seed, radar, {"blade_imbalance": {"imbalance_db": imb}})
@@ -79,6 +80,7 @@ def test_imbalance_not_fooled_by_sideband_causes():
         assert entry["evidence"]["tests"]["blade_imbalance"]["params"]["imbalance_db"] < 1.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "oddity", [{"second_scatterer": {"offset_hz": 41.0, "level_db": -12.0, "wander_hz": 2.0}}, {"true_n_blades": 3}]
 )
@@ -92,6 +94,7 @@ def test_out_of_catalog_is_unexplained_never_none(oddity):
     assert lo < hi
 
 
+@pytest.mark.slow
 def test_clean_flight_fits_and_lists_what_it_could_not_test():
     entry, _ = _diagnose("clean", 406, "gen_l")
     assert entry["cause"] == "none", entry["causes"]
@@ -99,6 +102,7 @@ def test_clean_flight_fits_and_lists_what_it_could_not_test():
     assert isinstance(entry["not_testable"], dict)
 
 
+@pytest.mark.slow
 def test_hovering_target_is_diagnosed_on_its_rotor_lines():
     """Body at 0 Hz (hovering, on a stand): not skipped; the body-line tests report
     not testable with the reason, the sideband tests run."""
@@ -117,6 +121,7 @@ _STRADDLE_DRAW = np.random.default_rng(34_2028)
 STRADDLE = {"depth_db": float(_STRADDLE_DRAW.uniform(3.5, 4.5)), "period_s": float(_STRADDLE_DRAW.uniform(8.0, 12.0))}
 
 
+@pytest.mark.slow
 def test_shallow_range_straddle_is_unexplained():
     """A slow gain on the whole target (body and blades together) is no catalog cause:
     ``unexplained`` from a 1 dB std (``margin_common_gain_db``); with the fading's 2 dB

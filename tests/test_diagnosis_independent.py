@@ -182,6 +182,7 @@ def test_one_cause_is_named_with_its_parameters(case):
     _check_case(case)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", fast_loop(TWO, lambda c: c.flight_id == "as_fd"), ids=lambda c: c.flight_id)
 def test_two_causes_are_both_named_and_nothing_else(case):
     _check_case(case)
@@ -221,6 +222,7 @@ def _flicker_case() -> tuple[GenCase, float]:
     ), level
 
 
+@pytest.mark.slow
 def test_phase_noise_skirt_shape_is_measured_and_fits():
     """The phase-noise extension carries the skirt as measured (issue 34): a 1/f-like
     skirt reaches ~400 Hz, far beyond the catalog's flat 100 Hz band and the goodness
@@ -260,6 +262,7 @@ PN_BY_CLUTTER = GenCase(
 )
 
 
+@pytest.mark.slow
 def test_phase_noise_is_named_with_the_body_next_to_the_clutter_line():
     """With the body 52 Hz from the clutter line, the phase-noise test's 35-95 Hz
     ordinates lie on one side only, where the body-spread column takes up the skirt:

@@ -37,6 +37,7 @@ def stores(tmp_path_factory):
     return [write_flight(d / f"{f.flight_id}.zarr", f) for f in (flight, nolog)]
 
 
+@pytest.mark.slow
 def test_diagnose_writes_a_table_whose_rows_are_the_reports_flights(tmp_path, stores, capsys):
     from microdoppler.cli import main
 
@@ -128,6 +129,7 @@ def _no_timings(obj):
     return obj
 
 
+@pytest.mark.slow
 def test_parts_gathered_give_the_report_of_one_job(tmp_path, stores):
     """The pipeline's diagnosis jobs (every n-th flight each) gathered by
     merge_reports: the same report, table and figures as one job over all flights;

@@ -83,6 +83,7 @@ def test_every_curated_entry_has_an_example():
     assert missing == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("page", "min_blocks"), [("python.md", 6), ("format.md", 1)])
 def test_user_guide_page_runs(page, min_blocks):
     """A page's ``pycon`` blocks (``docs/python.md``, ``docs/format.md``), in order, as one session."""

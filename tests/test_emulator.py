@@ -107,6 +107,7 @@ def test_steep_falloff_ends_sidebands_after_one_or_two_pairs(rng):
     assert s[0] - s[1] > 8.0, s
 
 
+@pytest.mark.slow
 def test_world_draws_falloff_over_table_iv_range():
     """The paper profile's large drones span gentle (text: 3-8 dB) to steep fall-offs."""
     from microdoppler.emulator.world import FALLOFF_DB
@@ -480,6 +481,7 @@ def test_record_parts_are_the_same_realisation_and_sum_to_the_recording():
         rec(frozenset({"wind"}))
 
 
+@pytest.mark.slow
 def test_world_test_profile(tmp_path):
     out = tmp_path / "world"
     key = tmp_path / "key.json"
@@ -716,6 +718,7 @@ def _nonmultiple_db(flight, line_power=None):
     return nonmultiple_db(f, np.ones(len(sp.time_s), bool), cfg)
 
 
+@pytest.mark.slow
 def test_imbalanced_airframes_make_odd_rotation_lines(rng):
     """An imbalanced airframe of the default world (one blade of every rotor
     10^(-x/20) of the other): the odd rotation-rate lines stand ((1 - a) / (1 + a))^2
@@ -802,6 +805,7 @@ def _line_power_std(flight, offset_k: int):
     return float(np.std(line_snr_db(sp, fb + offset_k * spacing, search_hz=w)))
 
 
+@pytest.mark.slow
 def test_fading_and_body_fluctuation_knobs(rng):
     # a straight leg keeps the body out of the clutter notch, whose passages would
     # otherwise dominate the body line's spread
@@ -817,6 +821,7 @@ def test_fading_and_body_fluctuation_knobs(rng):
     assert _line_power_std(fb, 0) > _line_power_std(f0, 0) + 1.5
 
 
+@pytest.mark.slow
 def test_radar2_has_occasional_artifacts(rng):
     n = {"radar1": 0, "radar2": 0}
     for rid in n:

@@ -289,6 +289,7 @@ def test_twin_without_cause_equals_sub_cpi_twin(tmp_path):
     assert iq["extended"]["ins2"][1]["extensions"]["source"] == "population"
 
 
+@pytest.mark.slow
 def test_extended_twin_carries_the_flights_blade_imbalance(tmp_path):
     """An emulated flight whose airframe has a 7 dB weak blade: its ``extended`` twin
     (own cause blade_imbalance) shows the odd rotation-rate lines at the measured

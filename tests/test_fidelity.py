@@ -186,6 +186,7 @@ def test_asymmetry_sign_and_size(rng):
     assert np.allclose(f.first_pair_db, 3.0, atol=0.3)  # the stronger (lower) side is 3 dB above the body
 
 
+@pytest.mark.slow
 def test_fading_std_and_timescale(rng):
     """Sidebands faded by an OU process of 3 dB std and 5 s timescale: the blade
     SNR's std over CPIs and its 1/e time come back; the body does not fade."""
@@ -429,6 +430,7 @@ def test_variant_scores_round_trip_exactly(tmp_path, rng):
     pd.testing.assert_frame_equal(direct, via_files)
 
 
+@pytest.mark.slow
 def test_rule_wires_every_variant(tmp_path):
     """``report_fidelity`` is part of the default target and reads every variant's
     injected twins, the measured flights and the motor logs (dry run)."""

@@ -26,6 +26,7 @@ from microdoppler.errors import InputError
 REPO = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_flight_batch_is_stable_and_balanced():
     ids = [f"flight_{i:04d}" for i in range(600)]
     got = [flight_batch(f, 4) for f in ids]
@@ -156,6 +157,7 @@ def _dry_run(tmp_path, n_batches):
     return out, jobs
 
 
+@pytest.mark.slow
 def test_three_flight_batches_run_three_twin_and_injection_jobs_per_variant(tmp_path):
     out, jobs = _dry_run(tmp_path, 3)
     variants = ["sub_cpi", "fixed_speeds"]  # config/test.yaml
@@ -167,6 +169,7 @@ def test_three_flight_batches_run_three_twin_and_injection_jobs_per_variant(tmp_
     assert "results/synthetic/sub_cpi/batch0.zarr" in out and "results/injected/fixed_speeds/batch2.zarr" in out
 
 
+@pytest.mark.slow
 def test_one_flight_batch_keeps_one_job_per_variant(tmp_path):
     out, jobs = _dry_run(tmp_path, 1)
     for rule in ("synthesize_flights", "inject_background"):

@@ -131,6 +131,7 @@ def check_round_trip(out, sc, truth, *, rb=1.0, doppler_bins=2.0):
     return g, r_err, d_err, lines
 
 
+@pytest.mark.slow
 def test_complex_npz_round_trip_range_doppler_and_blade_lines(capsys, tmp_path, approaching):
     sc, cube, truth = approaching
     path = tmp_path / "fmcw1.npz"
@@ -152,6 +153,7 @@ def test_complex_npz_round_trip_range_doppler_and_blade_lines(capsys, tmp_path, 
     assert run_cli(capsys, ["validate", out])[0] == 0
 
 
+@pytest.mark.slow
 def test_real_npy_with_sidecar_receding_three_channels(capsys, tmp_path, receding):
     sc, cube, truth = receding
     assert cube.dtype == np.float32 and cube.shape == (sc.n_chirps, sc.n_samples, 3)
@@ -220,6 +222,7 @@ def test_negative_beat_sign_gives_the_same_slow_time(capsys, tmp_path, approachi
     check_round_trip(tmp_path / "neg.zarr", sc, truth)
 
 
+@pytest.mark.slow
 def test_hovering_target_and_background_cube(capsys, tmp_path):
     """A drone hovering at 16.6 m: its body sits in the static part, so the bin is found
     from the blades' moving power; radial velocity ~0; a target-free cube of the same

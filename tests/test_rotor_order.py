@@ -131,6 +131,7 @@ def test_generator_visibility_reads_the_first_pair_alone(seed):
 # ------------------------------------------------------------------ the issue's cases
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed, weak_db, n_blades", [(11, 6.0, 2), (13, 8.0, 3)])
 def test_unequal_blades_give_the_rotation_rate(seed, weak_db, n_blades):
     """A rotor with one weak blade returns lines at every multiple of its rotation rate;
@@ -161,6 +162,7 @@ def test_unequal_blades_give_the_rotation_rate(seed, weak_db, n_blades):
     assert est.info["order"]["ratio_to_lines"] == pytest.approx(n_blades, rel=1e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "geometry",
     [
@@ -214,6 +216,7 @@ def test_default_cpi_is_the_papers_in_time_at_a_high_prf(geometry):
     assert np.mean(np.abs(est.common_rev_s[v] - tm[v]) <= 2 * est.common_std_rev_s[v]) >= 0.8
 
 
+@pytest.mark.slow
 def test_default_cpi_falls_back_to_4096_pulses_where_the_lines_smear():
     """1.3 GHz, 19 kHz PRF, a flying quadcopter of three-blade rotors whose speeds wobble:
     over the default CPI (8192 pulses, 0.43 s) each line smears into ripples without a
@@ -268,6 +271,7 @@ def test_default_cpi_lasts_the_papers_cpi_and_at_least_4096_pulses():
         assert estimate_rotor_speeds(fl).n_fft == n
 
 
+@pytest.mark.slow
 def test_equal_blades_on_a_stand():
     """The issue's stand: 3.3 GHz CW sampled at 5 kHz, four equal two-blade rotors near
     160 rev/s on a stand (body at 0 Hz), the signature reaching +-1.7 kHz."""
@@ -291,6 +295,7 @@ def test_equal_blades_on_a_stand():
     assert_honest(estimate_rotor_speeds(flight), truth, flight)
 
 
+@pytest.mark.slow
 def test_lone_pair_is_the_comb_where_the_blades_allow_no_other():
     """A small three-blade drone in L band (0.06 m blades, ~160 rev/s at 1.3 GHz): the
     blade flash's Doppler extent (beta = 4 pi L / lambda ~3.3 rotation rates) holds the
@@ -324,6 +329,7 @@ def test_lone_pair_is_the_comb_where_the_blades_allow_no_other():
     assert not est.ok and est.reason.startswith("no HERM comb"), est.reason
 
 
+@pytest.mark.slow
 def test_a_lone_pair_must_persist():
     """A lone pair is read as the comb only where it stands in half the CPIs at least: a
     rotor's first pair shows in most CPIs, an intermittent pair (an emulated Mini's, 14
@@ -394,6 +400,7 @@ def test_thin_wire_harmonics_are_a_simulated_blades():
 ANY13021 = {k: v for k, v in asdict(draw_case(13021, duration_s=6.0)).items() if k not in ("name", "seed")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [13021, 71])
 def test_lone_pair_is_the_comb_where_the_second_order_is_too_weak(seed):
     """any13021 showed its first blade-passing pair in 6 of 6 CPIs and no second order:
@@ -413,6 +420,7 @@ def test_lone_pair_is_the_comb_where_the_second_order_is_too_weak(seed):
     assert not old.ok and old.reason.startswith("no HERM comb"), old.reason
 
 
+@pytest.mark.slow
 def test_second_order_absence_is_the_lines_chance_over_the_extent():
     """``second_order_absence_p`` against a count of simulated CPIs: per CPI the second
     pair's two lines, each its thin-wire level (kappa drawn from the 11 points of
@@ -465,6 +473,7 @@ def test_second_order_absence_is_the_lines_chance_over_the_extent():
 ANY15028 = {k: v for k, v in asdict(draw_case(15028, duration_s=6.0)).items() if k not in ("name", "seed")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [7019, 15028, 72])
 def test_lone_pair_is_the_comb_where_its_second_order_would_rarely_show(seed):
     """any7019 (a pair in 12 of 12 CPIs) and any15028 (7 of 7) showed no second order
@@ -485,6 +494,7 @@ def test_lone_pair_is_the_comb_where_its_second_order_would_rarely_show(seed):
     assert not old.ok and old.reason.startswith("no HERM comb"), old.reason
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [43, 44, 45])
 def test_lone_pair_is_the_comb_where_the_second_order_folds(seed):
     """A small six-rotor drone at 5.8 GHz seen at 2.95 kHz PRF, flying (body ~+440 Hz):
@@ -517,6 +527,7 @@ def test_lone_pair_is_the_comb_where_the_second_order_folds(seed):
     assert_honest(est, truth, flight)
 
 
+@pytest.mark.slow
 def test_scaled_lines_put_no_rotor_on_another_orders_line():
     """5.8 GHz, a hovering six-rotor drone of three equal blades whose first pair is
     not visible: the lines read the comb of every second order (twice the speed), the
@@ -557,6 +568,7 @@ def test_scaled_lines_put_no_rotor_on_another_orders_line():
 ANY5054 = {k: v for k, v in asdict(draw_case(5054, duration_s=6.0)).items() if k not in ("name", "seed")}
 
 
+@pytest.mark.slow
 def test_a_rotor_on_another_familys_line_goes_to_the_median():
     """The order is right (the lines' comb), but in most CPIs one or two rotors sat on
     the others' rotation-rate line k = 3 (an unequal blade's), read as the first
@@ -572,6 +584,7 @@ def test_a_rotor_on_another_familys_line_goes_to_the_median():
     assert_within_and_covered(est, truth, flight)
 
 
+@pytest.mark.slow
 def test_a_peak_no_line_explains_may_lie_anywhere_in_the_analysed_band():
     """any5054 itself: the lines read the right comb (+4 %), and the order check chose
     0.5x (equal blades at half the speed put lines at the same places) with the true
@@ -612,6 +625,7 @@ def test_tail_fall_follows_the_tips_bessel_lines():
 ANY11007 = {k: v for k, v in asdict(draw_case(11007, duration_s=6.0)).items() if k not in ("name", "seed")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [11007, 67])
 def test_a_tail_window_without_a_line_costs_what_the_tip_allows(seed):
     """any11007: the lines read the rotation-rate line (an unequal blade's) as the
@@ -635,6 +649,7 @@ def test_a_tail_window_without_a_line_costs_what_the_tip_allows(seed):
 ANY7014 = {k: v for k, v in asdict(draw_case(7014, duration_s=6.0)).items() if k not in ("name", "seed")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [7014, 72])
 def test_rotation_rate_lines_alone_set_their_level(seed):
     """any7014: every peak of the analysed band is a rotation-rate line (k = 1, 2) of the
@@ -694,6 +709,7 @@ def _order_under(seed):
     return flight, truth, lambda ocfg: resolve_order(flight, lines, cfg, rerun=rerun, config=ocfg)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [11007, 9006])
 def test_tip_prior_decides_between_orders_the_lines_explain_alike(seed):
     """any11007 (1.3 GHz, 0.052 m blades at 186 rev/s, one blade 6.8 dB weak) and any9006
@@ -717,6 +733,7 @@ def test_tip_prior_decides_between_orders_the_lines_explain_alike(seed):
     assert abs(err0) > 0.10 and flat.info["order"]["ambiguous"] and flat.info["order"]["tip_prior"] is None
 
 
+@pytest.mark.slow
 def test_an_order_plausible_by_its_tip_speed_is_named():
     """any19055 (an eighth hold-out's recording: 1.3 GHz, 2.1 kHz, a hovering six-rotor
     drone of 0.050 m two-blade rotors at 220 rev/s, one blade 3.5 dB weak): the lines
@@ -758,6 +775,7 @@ def test_tail_reach_inverts_the_tips_fall_off():
     assert _tail_reach_m(10.0) < _tail_reach_m(20.0) < _tail_reach_m(30.0)
 
 
+@pytest.mark.slow
 def test_lines_past_a_subharmonics_tips_at_their_level_rule_it_out():
     """any9061 (5.8 GHz, 12 kHz, six 0.079 m two-blade rotors at 193 rev/s, one blade 7.3
     dB weak, flying; not visible by the generator's rule): half the rate explains the
@@ -777,6 +795,7 @@ def test_lines_past_a_subharmonics_tips_at_their_level_rule_it_out():
     assert abs(err0 + 0.5) < 0.05 and not old.info["order"]["ambiguous"]
 
 
+@pytest.mark.slow
 def test_rotors_split_between_two_rates_are_scaled_to_the_chosen_one_and_marked():
     """any21027 (the ninth hold-out: not visible by the generator's rule): the screen's
     rate 74 rev/s explains the lines best (the truth 73), but no re-measurement finds
@@ -805,6 +824,7 @@ def test_rotors_split_between_two_rates_are_scaled_to_the_chosen_one_and_marked(
     assert abs(named[-1] / float(np.median(old.common_rev_s[old.valid])) - 1) < 0.001
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [2, 30, 58])
 def test_drawn_recordings(seed):
     """Recordings drawn from the generator's seeds (carrier, PRF, rotors, blades, set-up,
@@ -853,6 +873,7 @@ def test_ambiguity_reaches_the_store_and_the_line():
     assert "likelihood ratio 40; with the tip speed's prior 5;" in line
 
 
+@pytest.mark.slow
 def test_store_carries_the_order(tmp_path):
     """The estimate written into a flight-zarr/1 store keeps the order's attributes and
     its rpm_std includes the order's uncertainty."""

@@ -119,6 +119,7 @@ def test_a_rotor_the_lines_missed_is_found_by_the_fit():
         assert np.min(np.abs(fit.speeds_rev_s - true[3])) < 0.5 * b, (far / b, fit.start)
 
 
+@pytest.mark.slow
 def test_a_comb_on_lines_the_model_does_not_hold_is_not_a_missed_rotor():
     """Unequal blades (one blade of every rotor 4-9 dB weaker, drawn from this test's
     seed) return lines at every multiple of the rotation rate; the fit's model holds

@@ -26,6 +26,7 @@ from microdoppler.rotors.speed import (
 from rotor_flights import CARRIER, LAM, N_FFT, PRF, cpi_truth, rel_errors, synthetic_flight
 
 
+@pytest.mark.slow
 def test_constant_speeds_of_fig2b_give_each_rotor_and_the_herm_spacing():
     """Four rotors at 85, 90, 95, 100 rev/s (Fig. 2b): four separate lines, each rotor to
     better than 0.05 %, and a line spacing of B times the rotation rate (a steady signal:
@@ -126,6 +127,7 @@ def test_ambiguous_rotor_counts_report_an_honest_uncertainty():
         FitConfig(min_power=1.5)
 
 
+@pytest.mark.slow
 def test_cpis_without_a_pair_are_nan_and_left_out_of_the_log():
     """Blades visible for 3 s of 6 s: estimates there, NaN after (never a guess), and the
     motor log holds only the CPIs with an estimate."""
@@ -187,6 +189,7 @@ def test_emulated_flights_within_one_percent_where_two_pairs_show(model, seed):
     assert 0.1 < np.median(z) < 1.8
 
 
+@pytest.mark.slow
 def test_mini_gives_no_estimate_with_a_reason():
     """The Mini's 0.06 m blades show no sideband pair at L-band: no estimate, never a guess."""
     fl, _ = emulate_flight(
@@ -202,6 +205,7 @@ def test_mini_gives_no_estimate_with_a_reason():
         est.to_motor_log()
 
 
+@pytest.mark.slow
 def test_noise_and_birds_give_no_estimate(rng):
     # white noise labelled as a drone
     n = int(10 * PRF)
@@ -248,6 +252,7 @@ def test_short_flight_and_bad_arguments():
 # ---------------------------------------------------------------- storage
 
 
+@pytest.mark.slow
 def test_motor_log_and_flight_store_round_trip(tmp_path):
     t = np.arange(int(3 * PRF)) / PRF
     rev = np.outer(70.0 + 5.0 * t / t[-1], [0.94, 0.98, 1.02, 1.06])

@@ -74,6 +74,7 @@ def _read_table(path):
         return list(csv.DictReader(fh))
 
 
+@pytest.mark.slow
 def test_show_writes_one_figure_per_store_and_the_table_holds_the_stores_numbers(tmp_path, stores, capsys):
     from microdoppler.cli import main
     from microdoppler.io.flightzarr import read_flight

@@ -116,6 +116,7 @@ def store_bytes(path):
 # --- tests -------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", list(speeds.BASE_SAMPLING))
 def test_stored_speeds_give_the_speeds1_phase_over_200_s(tmp_path, flight200, variant):
     log, _ = flight200

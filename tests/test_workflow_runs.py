@@ -244,6 +244,7 @@ def test_cluster_generic_run_submits_every_job(reference):
     assert n_rules >= 15 and len(ref) > n_rules, (n_rules, len(ref))
 
 
+@pytest.mark.slow
 def test_rule_times_table_has_every_rule_that_ran(reference):
     """results/reports/rule_times.csv: a row per rule that ran (every one has a
     benchmark: file), its jobs counted, and the ``all`` row their sum."""
