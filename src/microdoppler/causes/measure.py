@@ -46,7 +46,7 @@ from ..errors import InputError
 from ..io.inventory import RADAR_SOURCE
 from ..io.motorlog import MotorLog, check_motor_log
 from ..rotors import sampling as sampling
-from ..spectra.lines import band_power, band_spans, bins_near, herm_line_hz, local_floor
+from ..spectra.lines import band_power, band_spans, herm_line_hz, local_floor
 from ..spectra.periodogram import periodogram, window
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
 from .config import (
@@ -1216,36 +1216,53 @@ def rotation_line_powers(
     V = np.full((n_t, k_max, 2), np.nan)
     W = np.full((n_t, k_max, 2), np.nan)
     R = np.zeros((n_t, k_max, 2), int)
+    ks = np.arange(1, k_max + 1)
+    sides = np.array([1.0, -1.0])
+    # the orders k-2..k+2 (not k, not below 0) whose lines may cover order k's
+    k2 = ks[:, None] + np.array([-2, -1, 1, 2])  # [K, 4]
+    k2_ok = k2 >= 0
     for i in np.flatnonzero(valid):
         fr = motor_rev_s[i]
         if not np.all(np.isfinite(fr)) or np.any(fr <= 0):
             continue
-        for k in range(1, k_max + 1):
-            half = k * fr * ROTOR_WANDER_REL + 1.5 * df
-            for s, sg in enumerate((1.0, -1.0)):
-                cs = herm_line_hz(f_body_hz[i], fr, k, sg)
-                near_orders = [herm_line_hz(f_body_hz[i], fr, k2, sg) for k2 in range(max(0, k - 2), k + 3) if k2 != k]
-                others = bins_near(st, np.concatenate(near_orders), np.tile(half, len(near_orders)))
-                # a rotor's line is clear when no bin of it is one of the other orders'
-                taken = np.concatenate([[0], np.cumsum(others)])
-                lo, hi = band_spans(st, cs, half)
-                hit = (lo <= hi) & (taken[np.maximum(hi, lo - 1) + 1] - taken[lo] > 0)
-                ok = (np.abs(cs) + half < nyq) & (np.abs(cs) > clutter_guard_hz + half) & ~hit
-                clear = np.flatnonzero(ok).tolist()
-                if not clear:
-                    continue
-                mine = bins_near(st, cs[clear], half[clear])
-                near = bins_near(st, [cs.mean()], [0.5 * fr.mean()]) & ~mine & ~others & ~bins_near(st, cs, half)
-                if near.sum() < 4:
-                    continue
-                fl = float(np.median(st.p[i, near]) / np.log(2.0))
-                if DB * np.log(fl / floor[i]) > raised_floor_db:
-                    continue
-                nb = int(mine.sum())
-                P[i, k - 1, s] = float(st.p[i, mine].sum()) - nb * fl
-                V[i, k - 1, s] = kappa * nb * fl**2
-                W[i, k - 1, s] = 2 * kappa * fl
-                R[i, k - 1, s] = len(clear)
+        p_row = st.p[i]
+        # every order, side and rotor at once: [K, 2, n_m] (the others: [K, 2, 4, n_m])
+        half = ks[:, None] * fr * ROTOR_WANDER_REL + 1.5 * df  # [K, n_m]
+        cs = herm_line_hz(f_body_hz[i], fr, ks[:, None, None], sides[None, :, None])
+        lo, hi = (a.reshape(cs.shape) for a in band_spans(st, cs, np.broadcast_to(half[:, None, :], cs.shape)))
+        co = herm_line_hz(f_body_hz[i], fr, k2[:, None, :, None], sides[None, :, None, None])
+        olo, ohi = (a.reshape(co.shape) for a in band_spans(st, co, np.broadcast_to(half[:, None, None, :], co.shape)))
+        o_on = (olo <= ohi) & k2_ok[:, None, :, None]
+        # a rotor's line is clear when no bin of it is one of the other orders'
+        over = (olo[:, :, None] <= hi[..., None, None]) & (ohi[:, :, None] >= lo[..., None, None])
+        hit = (lo <= hi) & np.any(over & o_on[:, :, None], axis=(3, 4))
+        ok = (np.abs(cs) + half[:, None, :] < nyq) & (np.abs(cs) > clutter_guard_hz + half[:, None, :]) & ~hit
+        # the floor: the bins within half a rotation rate of the lines' mean, none of
+        # them a line of any rotor or order
+        wlo, whi = (
+            a.reshape(cs.shape[:2]) for a in band_spans(st, cs.mean(axis=-1), np.full(cs.shape[:2], 0.5 * fr.mean()))
+        )
+        for k, s in zip(*np.nonzero(ok.any(axis=-1) & (whi - wlo + 1 >= 4))):
+            b = np.arange(wlo[k, s], whi[k, s] + 1)
+            on = o_on[k, s].ravel()
+            r_on = lo[k, s] <= hi[k, s]
+            a_lo = np.r_[olo[k, s].ravel()[on], lo[k, s][r_on]]
+            a_hi = np.r_[ohi[k, s].ravel()[on], hi[k, s][r_on]]
+            near = b[~np.any((a_lo <= b[:, None]) & (b[:, None] <= a_hi), axis=1)]
+            if len(near) < 4:
+                continue
+            fl = float(np.median(p_row[near]) / np.log(2.0))
+            if DB * np.log(fl / floor[i]) > raised_floor_db:
+                continue
+            clear = ok[k, s]
+            c_lo, c_hi = lo[k, s][clear], hi[k, s][clear]
+            span = np.arange(c_lo.min(), c_hi.max() + 1)
+            mine = span[np.any((c_lo <= span[:, None]) & (span[:, None] <= c_hi), axis=1)]
+            nb = len(mine)
+            P[i, k, s] = float(p_row[mine].sum()) - nb * fl
+            V[i, k, s] = kappa * nb * fl**2
+            W[i, k, s] = 2 * kappa * fl
+            R[i, k, s] = int(clear.sum())
     return P, V, W, R
 
 
