@@ -1246,8 +1246,8 @@ def rotation_line_powers(
             b = np.arange(wlo[k, s], whi[k, s] + 1)
             on = o_on[k, s].ravel()
             r_on = lo[k, s] <= hi[k, s]
-            a_lo = np.r_[olo[k, s].ravel()[on], lo[k, s][r_on]]
-            a_hi = np.r_[ohi[k, s].ravel()[on], hi[k, s][r_on]]
+            a_lo = np.concatenate((olo[k, s].ravel()[on], lo[k, s][r_on]))
+            a_hi = np.concatenate((ohi[k, s].ravel()[on], hi[k, s][r_on]))
             near = b[~np.any((a_lo <= b[:, None]) & (b[:, None] <= a_hi), axis=1)]
             if len(near) < 4:
                 continue
