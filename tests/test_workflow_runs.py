@@ -264,6 +264,38 @@ def test_rule_times_table_has_every_rule_that_ran(reference):
     assert (body.total_s > 0).all() and (body.max_s <= body.total_s + 0.01).all()
 
 
+@pytest.mark.slow
+def test_classifier_reports_and_the_snakemake_report(reference):
+    """The classifier's rules on the run's tiles (real and the one variant, one seed):
+    metrics and Table V with its difference row and intervals, a prediction per test
+    tile, the figures, a training set per job with the weights averaged (config
+    ``average_last_epochs``); and ``snakemake --report`` of the whole run."""
+    import pandas as pd
+
+    from microdoppler.classifier.data import read_tiles
+
+    root, _, _ = reference
+    work = root / "cluster"
+    rep = work / "results/reports"
+    metrics = pd.read_csv(rep / "metrics.csv")
+    assert len(metrics) == 2 and set(metrics.trainset) == {"real", "sub_cpi"}
+    assert metrics[["accuracy", "drone_recall", "bird_recall"]].apply(lambda c: c.between(0, 1)).all().all()
+    tv = pd.read_csv(rep / "table_v.csv")
+    assert list(tv.trainset) == ["real", "sub_cpi", "sub_cpi - real"] and (tv.n_seeds == 1).all()
+    assert tv[["accuracy_ci95_low", "accuracy_ci95_high"]].notna().all().all()
+    pred = pd.read_csv(work / "results/eval/real/seed1.csv", keep_default_na=False)
+    tiles = read_tiles(work / "results/tiles/real.zarr")
+    assert len(pred) == int((tiles.labels.set == "test").sum()) > 0
+    for name in ("fig12_boxplot.png", "confusion_real.png", "confusion_sub_cpi.csv"):
+        assert (rep / name).stat().st_size > 0
+    log = (work / "results/logs/train_classifier/real.log").read_text()  # a training set per job
+    assert "epoch   1" in log and "kept the average of the weights of epochs" in log
+    assert run(work, *CONFIG, "--report", "report.html", log=root / "report.log") == 0, (
+        root / "report.log"
+    ).read_text()[-3000:]
+    assert (work / "report.html").stat().st_size > 0
+
+
 #: modules an edit of which once reran no rule (the rerun probe edits each in a copy)
 PROBED = (
     "synthesis/radar.py",
