@@ -219,9 +219,9 @@ class TrainConfig:
     @classmethod
     def from_config(cls, cfg: dict | None, source="config") -> "TrainConfig":
         """From the config's ``classifier:`` mapping; the workflow's own keys
-        (:class:`ClassifierRuns`) are left to it. A key that is neither, here or in
+        (``ClassifierRuns``) are left to it. A key that is neither, here or in
         ``compact``, ``normalisation`` or ``augment``, is a one-line
-        :class:`~microdoppler.errors.ConfigError` naming it and its section
+        ``microdoppler.errors.ConfigError`` naming it and its section
         (``<source>: classifier.<key>: unknown key in section classifier (expected
         one of: ...)``)."""
         cfg = check_keys(cfg, [*config_names(ClassifierRuns), *config_names(cls)], "classifier", source)
