@@ -21,7 +21,8 @@ out (the speeds and orders alone). Two versions of the code that print the same 
 resolve these recordings' orders alike, bit for bit.
 
 Usage: ``OMP_NUM_THREADS=1 PYTHONPATH=src python benchmarks/order_fingerprint.py``
-(a few minutes on one core; ``--only NAME ...`` for some recordings).
+(a few minutes on one core; ``--only NAME ...`` for some recordings; ``--dump FILE``
+writes what is hashed, to compare two versions recording by recording).
 """
 
 from __future__ import annotations
@@ -231,8 +232,9 @@ def digest(obj) -> str:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="recording names (default all)")
+    ap.add_argument("--dump", help="also write what is hashed, per recording, to this JSON file")
     args = ap.parse_args(argv)
-    hashes, bare = {}, {}
+    hashes, bare, dumped = {}, {}, {}
     t_all = time.process_time()
     for name, flight, tm, note in recordings(args.only):
         t0 = time.process_time()
@@ -241,7 +243,8 @@ def main(argv=None):
         est = rec.resolve()
         t2 = time.process_time()
         s = summary(rec, est)
-        hashes[name] = digest(payload(est))
+        dumped[name] = payload(est)
+        hashes[name] = digest(dumped[name])
         bare[name] = digest(payload(est, settings=False))
         err = f"{100 * s['error']:+6.1f} %" if s["ok"] else "   -   "
         print(
@@ -252,6 +255,8 @@ def main(argv=None):
     print(f"cpu {time.process_time() - t_all:.0f} s")
     print(f"sha256 {digest(hashes)}")
     print(f"sha256 without settings {digest(bare)}")
+    if args.dump:
+        Path(args.dump).write_text(json.dumps(dumped, sort_keys=True, indent=1) + "\n")
 
 
 if __name__ == "__main__":
