@@ -6,7 +6,8 @@ Runs :func:`~microdoppler.rotors.order.resolve_order` on the recordings of
 and 3 blades, a weak blade, a wrong blade count, carriers 1.25-24 GHz, PRFs 2-14.5 kHz;
 the rescue, the split and the tip speed's prior among them) under the defaults and with
 one setting perturbed at a time: numbers x0.5 and x2 (integers rounded; fractions that
-x2 would put at or beyond 1 to the midpoint), booleans flipped, ``extent_range``
+x2 would put at or beyond 1 to the midpoint; ``rerun_margin``, a factor, its excess
+over 1), booleans flipped, ``extent_range``
 narrowed and widened by 0.1 at each end. Per perturbation it counts the recordings
 whose outcome changes against the defaults':
 
@@ -64,6 +65,8 @@ def variants(name: str, value) -> list:
     if isinstance(value, tuple):
         lo, hi = value
         return [(round(lo + 0.1, 3), round(hi - 0.1, 3)), (round(lo - 0.1, 3), round(hi + 0.1, 3))]
+    if name == "rerun_margin":  # a factor >= 1: its excess over 1 x0.5 and x2
+        return [1 + 0.5 * (value - 1), 1 + 2 * (value - 1)]
     if isinstance(value, int):
         return [max(1, int(round(value * 0.5))), value * 2]
     out = [value * 0.5, value * 2]
@@ -114,7 +117,11 @@ def changes(base: dict, new: dict) -> dict:
     if not base["ok"]:
         return {"order": False, "ambiguous": False, "speed": False, "error": False}
     return {
-        "order": abs(math.log(new["ratio"] / base["ratio"])) > ORDER_REL,
+        "order": (
+            new["ratio"] != base["ratio"]  # an estimate without an order check (no candidate)
+            if new["ratio"] is None or base["ratio"] is None
+            else abs(math.log(new["ratio"] / base["ratio"])) > ORDER_REL
+        ),
         "ambiguous": new["ambiguous"] != base["ambiguous"],
         "speed": abs(new["mean_rev_s"] / base["mean_rev_s"] - 1) > SPEED_REL,
         "error": abs(new["error"] - base["error"]) > SPEED_REL,
@@ -142,35 +149,58 @@ def code_version() -> str:
     return git("log", "-1", "--format=%h", "--", path) + ("+" if git("status", "--porcelain", "--", path) else "")
 
 
+def _default(rows: list, fname: str):
+    """A setting's default as its rows record it (a JSON list back to a tuple)."""
+    d = rows[0]["default"]
+    return tuple(d) if isinstance(d, list) else d
+
+
 def summarise(rows: list, names: list) -> tuple[dict, list]:
     """Per setting: the most recordings any perturbation changed, per outcome, and which;
-    and the settings inert on the set."""
+    and the settings inert on the set (every perturbation run, none changing an order, a
+    mark or a speed)."""
     knobs = {}
     for fname in names:
         rs = [r for r in rows if r["field"] == fname and "invalid" not in r]
         k = {o: max((r[o] for r in rs), default=0) for o in ("order", "ambiguous", "speed", "error")}
         k["recordings_changed"] = sorted({n for r in rs for n in r["changed"]})
-        k["inert"] = not any(k[o] for o in ("order", "ambiguous", "speed"))
+        n_var = len(variants(fname, _default(rs, fname))) if rs else 0
+        k["variants_run"] = f"{len(rs)} of {n_var}"
+        k["inert"] = bool(rs) and len(rs) == n_var and not any(k[o] for o in ("order", "ambiguous", "speed"))
         knobs[fname] = k
     return knobs, [k for k, v in knobs.items() if v["inert"]]
 
 
 def join(paths: list, out: str) -> None:
-    """One record from records of the same recordings over different settings."""
+    """One record from records of the same recordings over different settings (a
+    perturbation run twice counts once; one this version would not make is left out)."""
     recs = [json.loads(Path(p).read_text()) for p in paths]
-    if len({r["fingerprint"] for r in recs}) != 1:
-        raise SystemExit("the records' defaults differ (fingerprints): not joinable")
-    order = [f.name for f in fields(OrderConfig)]
-    rows = sorted((row for r in recs for row in r["rows"]), key=lambda row: order.index(row["field"]))
-    names = [n for n in order if any(row["field"] == n for row in rows)]
+    # the defaults' outcomes must agree (the fingerprints differ where a setting left
+    # OrderConfig between the runs: info["order"]["settings"] lists it no more)
+    if any(r["recordings"] != recs[0]["recordings"] for r in recs):
+        raise SystemExit("the records' defaults differ: not joinable")
+    seen, rows = set(), []
+    for row in (row for r in recs for row in r["rows"]):
+        allowed = {json.dumps(fp._plain(v)) for v in variants(row["field"], _default([row], row["field"]))}
+        key = (row["field"], json.dumps(row["value"]))
+        if key[1] in allowed and key not in seen:
+            seen.add(key)
+            rows.append(row)
+    current = [f.name for f in fields(OrderConfig)]
+    names = list(dict.fromkeys([n for n in current if any(r["field"] == n for r in rows)] + [r["field"] for r in rows]))
+    rows.sort(key=lambda row: names.index(row["field"]))
     knobs, inert = summarise(rows, names)
     record = {
         **recs[0],
-        "code": recs[0].get("code") or code_version(),
+        "code": sorted({r.get("code") or "?" for r in recs}),
+        "fingerprint": sorted({r["fingerprint"] for r in recs}),
         "command": " & ".join(r["command"] for r in recs) + "; then --join of their records",
         "cpu_s": round(sum(r["cpu_s"] for r in recs) - sum(r["cpu_s_defaults"] for r in recs[1:]), 1),
         "wall_s": max(r["wall_s"] for r in recs),
         "screen_memo_hits": sum(r["screen_memo_hits"] for r in recs),
+        "complete": all(
+            v["variants_run"].split(" of ")[0] == v["variants_run"].split(" of ")[1] for v in knobs.values()
+        ),
         "knobs": knobs,
         "inert": inert,
         "rows": rows,
