@@ -24,7 +24,7 @@ rates remain plausible says so.
    lines within 15 % of it, widened by the spread of the peaks around the comb's
    first three blade-passing harmonics and by ``spread_margin``.
 2. Candidates: the comb's rate times 1/3, 1/2, 2/3, 1, 3/2, 2, 3 (and 1/B, B), plus
-   the ``screen_keep`` best local maxima of a coarse likelihood (``screen_cpis`` CPIs)
+   the ``screen_keep`` best local maxima of a coarse likelihood (:data:`SCREEN_CPIS` CPIs)
    over ``min_rev_s``-``max_rev_s`` in steps of ``screen_step``, away from the
    ratios (``snap_rel``), each with the lines' time profile and rotor spread.
 3. Physics excludes a candidate whose blade tips would pass ``max_tip_mach`` (2 pi f L
@@ -79,7 +79,7 @@ rates remain plausible says so.
    listed at relative likelihood 1 (ambiguous) and ``info["order"]["tip_prior"]`` says so.
 6. The speeds: where the chosen rate is the comb's, the estimate stands; else it is
    measured again with the search confined to the chosen rate's range (``rerun``,
-   widened by ``rerun_margin``) and, where that does not find it within 3 %, the
+   widened by :data:`RERUN_MARGIN`) and, where that does not find it within 3 %, the
    lines' estimate is scaled. Whatever the order, a rotor more than
    ``rotor_spread_max`` from the median rotor (of the CPI and its neighbours) sat on a
    line of another order or family; it goes to the median, the change into its sigma
@@ -94,7 +94,7 @@ rates remain plausible says so.
 Where another candidate's relative likelihood, or its posterior odds against the chosen
 one (the relative likelihood times the ratio of their tip speeds' priors), is
 ``ambiguous_at`` or more, the flight's order is ambiguous: ``RotorEstimate.info["order"]``
-lists the alternatives (down to ``report_at``, and those plausible by their posterior
+lists the alternatives (down to :data:`REPORT_AT`, and those plausible by their posterior
 odds; ``posterior_odds`` beside their relative likelihoods), the store's
 ``motors_radar`` attributes ``rotor_order_alternatives_rev_s`` and
 ``rotor_order_relative_likelihood`` carry them (:func:`order_attrs`), ``import`` prints
@@ -127,10 +127,42 @@ C_MPS = 299_792_458.0
 #: the standard ratios to the estimate's rate that are always examined
 RATIOS = (1 / 3, 1 / 2, 2 / 3, 1.0, 3 / 2, 2.0, 3.0)
 
+# Settings that left OrderConfig (``order/7``'s values): perturbed x0.5 and x2 one at a
+# time on the 20 recordings of ``benchmarks/order_fingerprint.py``, none changed a
+# recording's chosen order, ambiguity mark or mean speed
+# (``benchmarks/records/ablate_order_config.json``). ``info["order"]["settings"]`` lists
+# them beside OrderConfig's fields (:data:`FIXED_SETTINGS`).
+#: CPIs used (evenly spread, preferring non-overlapping ones) for the likelihood (a
+#: bound on the cost; the ablation's recordings have 4-34 CPIs, so x0.5 bound one only)
+MAX_CPIS = 64
+#: CPIs of the screen (step 2; evenly spread, preferring non-overlapping ones)
+SCREEN_CPIS = 24
+#: alternatives below this relative likelihood (and below ``ambiguous_at`` in posterior
+#: odds) are not listed; they make no order ambiguous and widen no uncertainty
+REPORT_AT = 0.01
+#: a re-measurement at another order searches the chosen rate's range widened by this
+#: factor (step 6, :func:`_remeasure`)
+RERUN_MARGIN = 1.2
+#: where the lines found no comb, how many of the screen's likeliest rates are measured
+#: again (:func:`_rescue`)
+RESCUE_TRIES = 3
+#: the fixed settings by the names they had in OrderConfig
+FIXED_SETTINGS = {
+    "max_cpis": MAX_CPIS,
+    "screen_cpis": SCREEN_CPIS,
+    "report_at": REPORT_AT,
+    "rerun_margin": RERUN_MARGIN,
+    "rescue_tries": RESCUE_TRIES,
+}
+
 
 @dataclass(frozen=True)
 class OrderConfig:
     """Settings of :func:`resolve_order` (see the module docstring).
+
+    Those a change of which changed no recording's order, ambiguity mark or speed
+    (``benchmarks/ablate_order_config.py``) are module constants
+    (:data:`FIXED_SETTINGS`).
 
     Parameters
     ----------
@@ -154,22 +186,12 @@ class OrderConfig:
         their heights above ``line_db``.
     clutter_guard_hz, body_guard_hz : float
         Masked bands around 0 Hz and the body [Hz].
-    max_cpis, screen_cpis : int
-        CPIs used (evenly spread, preferring non-overlapping ones) for the likelihood
-        and for the screen.
     screen_step, screen_keep, min_separation : float, int, float
         Screen grid (relative step), local maxima kept, and their least separation.
     temperature : float
         The log-likelihood is divided by this before candidates are weighed.
     ambiguous_at : float
         Alternatives with this relative likelihood or more make the order ambiguous.
-    report_at : float
-        Alternatives below this relative likelihood are not listed (their weight still
-        enters the uncertainty).
-    same_rel : float
-        Candidates within this relative distance are one.
-    rerun_margin : float
-        The re-measurement searches the chosen rate's range widened by this factor.
     spread_margin : float
         A line window covers the estimate's rotor spread widened by this (relative)
         on either side, for the rotors the lines did not separate.
@@ -177,9 +199,9 @@ class OrderConfig:
         Lines may reach this many times beta^(1/3) rotation harmonics beyond kappa
         f_max (beta = 4 pi L / lambda: the Bessel lines of the tip fall off over
         ~beta^(1/3) harmonics beyond k = beta).
-    rescue_spread, rescue_rel, rescue_tries : float, float, int
-        Where the lines found no comb: the rotors' assumed spread for the screen, the
-        relative half-width of each confined search, and how many rates are tried.
+    rescue_spread, rescue_rel : float
+        Where the lines found no comb: the rotors' assumed spread for the screen, and the
+        relative half-width of each confined search (of :data:`RESCUE_TRIES` rates).
     coverage_free, min_evidence : float
         Where two combs' windows cover more than ``coverage_free`` of the spectrum
         (folded, dense lines), the evidence between them is scaled by
@@ -261,21 +283,15 @@ class OrderConfig:
     spurious_range_db: float = 50.0
     clutter_guard_hz: float = 20.0
     body_guard_hz: float = 20.0
-    max_cpis: int = 64
-    screen_cpis: int = 24
     screen_step: float = 0.004
     screen_keep: int = 6
     min_separation: float = 0.03
     temperature: float = 2.0
     ambiguous_at: float = 0.05
-    report_at: float = 0.01
-    same_rel: float = 0.02
-    rerun_margin: float = 1.2
     spread_margin: float = 0.01
     tail_harmonics: float = 2.0
     rescue_spread: float = 0.05
     rescue_rel: float = 0.15
-    rescue_tries: int = 3
     coverage_free: float = 0.5
     min_evidence: float = 0.05
     prior_lines: float = 4.0
@@ -302,23 +318,19 @@ class OrderConfig:
             "spurious_range_db",
             "temperature",
             "screen_step",
-            "rerun_margin",
         ):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}={getattr(self, name)} must be > 0")
         if not 0 <= self.fade < 1:
             raise ValueError(f"fade={self.fade} must be in [0, 1)")
-        if not 0 < self.report_at <= self.ambiguous_at <= 1:
-            raise ValueError(
-                f"report_at={self.report_at} and ambiguous_at={self.ambiguous_at} must satisfy "
-                "0 < report_at <= ambiguous_at <= 1"
-            )
+        if not REPORT_AT <= self.ambiguous_at <= 1:
+            raise ValueError(f"ambiguous_at={self.ambiguous_at} must be in [{REPORT_AT} (REPORT_AT), 1]")
         if not self.tip_speed_mps > 0 or not self.tip_speed_log_sd >= 0:
             raise ValueError(
                 f"tip_speed_mps={self.tip_speed_mps} must be > 0 and tip_speed_log_sd={self.tip_speed_log_sd} >= 0"
             )
-        if self.max_cpis < 1 or self.screen_cpis < 1 or self.screen_keep < 0:
-            raise ValueError("max_cpis and screen_cpis must be >= 1, screen_keep >= 0")
+        if self.screen_keep < 0:
+            raise ValueError(f"screen_keep={self.screen_keep} must be >= 0")
 
 
 def rho_max(n_blades: int, weak_db: float) -> float:
@@ -841,6 +853,332 @@ def _relative(best: Candidate, c: Candidate, ocfg: OrderConfig) -> float:
     return float(np.exp(-total))
 
 
+@dataclass
+class _Comb:
+    """The lines' comb (step 1) and what every candidate rate is judged against."""
+
+    B: int  # blades per rotor (the estimate's)
+    L: float | None  # blade length [m]; None where unknown
+    lam: float  # wavelength [m]
+    ref: float  # the comb's rate: the median rotor [rev/s]
+    cpis: np.ndarray  # the CPIs used
+    data: _Data
+    p_top: float  # the fastest rotor's rate over the comb's, the largest over CPIs
+    p_mid_hi: float  # the same, the median over CPIs
+    beta: float | None  # 4 pi L / lambda
+    tail_h: float  # the tail beyond kappa f_max [rotation harmonics] (step 3)
+    rmax_db: float  # the rotation-rate family's largest level [dB] (step 4)
+    grid_full: tuple  # the line model's grid: kappas, rmax_db, rho modes, decay factors, level offsets
+
+
+@dataclass
+class _Choice:
+    """The candidates weighed (step 5): the chosen one first."""
+
+    cands: list  # [Candidate], the chosen one first
+    log_prior: np.ndarray  # the tip speed's log prior of each
+    chosen: Candidate
+    likeliest: Candidate  # the largest relative likelihood (without the prior)
+    rate: float  # the chosen rate [rev/s] (refined on a finer grid where the screen found it)
+
+
+@dataclass
+class _Speeds:
+    """The speeds at the chosen order (step 6)."""
+
+    est: object  # RotorEstimate
+    how: str  # kept, measured again, or the lines' estimate scaled
+    n_moved: int  # rotor-CPIs moved to the median
+    method_diff: np.ndarray | None
+    mean_rev_s: float  # the speeds' median over CPIs (the chosen rate where split)
+    as_measured: float  # the same before the split's scaling
+    depart: float  # log of as_measured over the chosen rate
+    split: bool
+
+
+@dataclass
+class _Doubt:
+    """The order's doubt: the plausible alternatives and what is listed."""
+
+    var_rel: float  # relative variance of the mixture about the reported speed
+    ambiguous: bool
+    alternatives_rev_s: list
+    relative_likelihood: list
+    posterior_odds: list
+
+
+def _blade_length(flight) -> float | None:
+    L = flight.attrs.get("blade_length_m")
+    return float(L) if L is not None and float(L) > 0 else None
+
+
+def _screen_grid(ocfg: OrderConfig) -> np.ndarray:
+    """The screen's rates: ``min_rev_s``-``max_rev_s`` in log steps of ``screen_step``."""
+    return np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
+
+
+def _screen_scores(data: _Data, grid, B, L, lam, ocfg: OrderConfig, rmax_db, kappas, rows=None) -> np.ndarray:
+    """The coarse model's log-likelihood of each rate of ``grid`` (kappa over ``kappas``,
+    the rotation-rate family fitted, no decay or level variations) on the CPIs ``rows``."""
+    sc = np.full(len(grid), -np.inf)
+    for gi, f in enumerate(grid):
+        g = _geometry(data, f, B, L, lam, ocfg, rows)
+        sc[gi] = _loglik(g, ocfg, kappas, rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
+    return sc
+
+
+def _lines_to_judge(est, speed_config, rerun):
+    """Step 1: the lines alone (steps 1-8 of the estimator) measure the comb's spacing; an
+    I/Q fit made at a wrong order is biased, so the order is judged on the lines."""
+    if getattr(speed_config, "refine", False) and rerun is not None:
+        lines = rerun(replace(speed_config, refine=False))
+        if lines.ok and lines.valid.any():
+            return lines
+    return est
+
+
+def _comb(flight, lines, B: int, ocfg: OrderConfig, speed_config) -> _Comb:
+    """Step 1: the comb's rate (the median rotor: robust to a rotor put on another
+    order's line), the CPIs' peaks and rotor spread (:func:`_prepare`), and the tail's
+    reach beyond the tips' Doppler (step 3)."""
+    L = _blade_length(flight)
+    lam = C_MPS / float(flight.carrier_hz)
+    ref = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[lines.valid], axis=1)))
+    cpis = _choose_cpis(lines.valid, MAX_CPIS)
+    data = _prepare(flight, lines, cpis, ref, ocfg, speed_config)
+    beta = 4 * np.pi * L / lam if L is not None else None
+    tail_h = ocfg.tail_harmonics * beta ** (1 / 3) if L is not None else 0.0
+    if L is not None and ocfg.tail_level:
+        tail_h = min(tail_h, _tail_reach_m(data.top_db - ocfg.line_db - 3.0 + ocfg.line_sd_db) * (beta / 2) ** (1 / 3))
+    rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
+    kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None else (1.0,)
+    return _Comb(
+        B,
+        L,
+        lam,
+        ref,
+        cpis,
+        data,
+        float(np.max(data.p_hi)),
+        float(np.median(data.p_hi)),
+        beta,
+        tail_h,
+        rmax_db,
+        (kappas, rmax_db, (None, "fit"), (0.6, 1.0, 1.5), (-4.0, 0.0)),
+    )
+
+
+def _physical(f: float, comb: _Comb, ocfg: OrderConfig) -> bool:
+    """Step 3: a rate in range, blade tips below ``max_tip_mach``, and a blade-tip Doppler
+    that the lines do not pass (lines beyond it are impossible)."""
+    if not ocfg.min_rev_s <= f <= ocfg.max_rev_s:
+        return False
+    if comb.L is None:
+        return True
+    reach = (ocfg.extent_range[1] * comb.beta + comb.tail_h) * f * comb.p_mid_hi
+    return 2 * np.pi * f * comb.p_top * comb.L / SOUND_MPS <= ocfg.max_tip_mach and comb.data.extent_hz <= reach
+
+
+def _screen(comb: _Comb, ocfg: OrderConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Step 2's screen: a coarse model on :data:`SCREEN_CPIS` CPIs over the physical rates of
+    the whole range. Returns (rates, log-likelihoods)."""
+    n = len(comb.cpis)
+    rows = np.unique(np.round(np.linspace(0, n - 1, min(SCREEN_CPIS, n))).astype(int))
+    grid = _screen_grid(ocfg)
+    grid = grid[[_physical(f, comb, ocfg) for f in grid]]
+    kappas = (min(1.0, ocfg.extent_range[1]),) if comb.L is not None else (1.0,)
+    return grid, _screen_scores(comb.data, grid, comb.B, comb.L, comb.lam, ocfg, comb.rmax_db, kappas, rows)
+
+
+def _candidates(comb: _Comb, ocfg: OrderConfig) -> list[tuple[float, str]]:
+    """Step 2: the comb's rate times the simple ratios (and 1/B, B), then the screen's
+    ``screen_keep`` best local maxima away from them; physical ones only (step 3).
+    Returns [(rate [rev/s], origin)]."""
+    ratios = sorted(set(RATIOS) | {1.0 / comb.B, float(comb.B)}, key=lambda r: abs(np.log(r)))
+    cand = [(r * comb.ref, f"x{r:.3g}") for r in ratios if _physical(r * comb.ref, comb, ocfg)]
+    grid, sc = _screen(comb, ocfg)
+    n_screen = 0
+    for gi in np.argsort(sc)[::-1]:
+        if n_screen >= ocfg.screen_keep or not np.isfinite(sc[gi]):
+            break
+        if sc[gi] < max(sc[gi - 1] if gi > 0 else -np.inf, sc[gi + 1] if gi + 1 < len(sc) else -np.inf):
+            continue  # not a local maximum
+        f = float(grid[gi])
+        # near a simple ratio of the lines' comb it is that ratio (measured by the lines),
+        # and a screen maximum near a kept one is the same
+        if any(abs(np.log(f / c)) <= (ocfg.snap_rel if how != "screen" else ocfg.min_separation) for c, how in cand):
+            continue
+        cand.append((f, "screen"))
+        n_screen += 1
+    return cand
+
+
+def _scored(comb: _Comb, f: float, origin: str, ocfg: OrderConfig) -> Candidate:
+    """Step 4: the full line model on every CPI used (:func:`_score`)."""
+    return _score(comb.data, f, comb.B, comb.L, comb.lam, ocfg, comb.grid_full, comb.ref, comb.p_top, origin)
+
+
+def _choose(cands: list, comb: _Comb, ocfg: OrderConfig) -> _Choice:
+    """Step 5: the comb the lines were read as keeps ``prior_lines``; each candidate's
+    likelihood relative to the likeliest, tempered (:func:`_relative`); the order is the
+    largest relative likelihood times the tip speed's prior (the relative likelihoods are
+    then taken against it). A rate the screen found is refined on a finer grid."""
+    for c in cands:
+        c.loglik += ocfg.prior_lines if c.origin == "x1" else 0.0
+    cands.sort(key=lambda c: -c.loglik)
+    chosen = cands[0]
+    for c in cands:
+        c.relative_likelihood = _relative(chosen, c, ocfg)
+    lp = tip_log_prior(np.array([c.rev_s for c in cands]), comb.L, ocfg)
+    pick = int(np.argmax(np.log(np.maximum([c.relative_likelihood for c in cands], 1e-300)) + lp))
+    likeliest = chosen
+    if pick:
+        chosen = cands[pick]
+        first = [pick] + [i for i in range(len(cands)) if i != pick]
+        cands, lp = [cands[i] for i in first], lp[first]
+        for c in cands:
+            c.relative_likelihood = _relative(chosen, c, ocfg)
+    rate = chosen.rev_s
+    if chosen.origin == "screen":  # refined on a finer grid
+        fine = [
+            _scored(comb, f, chosen.origin, ocfg)
+            for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)
+        ]
+        rate = max(fine, key=lambda c: c.loglik).rev_s
+    return _Choice(cands, lp, chosen, likeliest, rate)
+
+
+def _speeds(flight, est, lines, choice: _Choice, comb: _Comb, speed_config, rerun, ocfg: OrderConfig) -> _Speeds:
+    """Step 6: the estimate stands where the chosen rate is the comb's, else it is measured
+    again (:func:`_remeasure`); rotors far from the others go to the median
+    (:func:`_within_spread`); speeds whose median departs from the chosen rate by more
+    than ``depart_max`` are scaled to it (split)."""
+    out, how = est, "kept"
+    if choice.chosen.origin != "x1" or int(lines.n_blades) != comb.B:
+        out, how = _remeasure(flight, est, lines, choice.rate / comb.ref, speed_config, rerun, ocfg)
+        out = replace(out, n_blades=comb.B)
+    # whatever the order, a rotor far from the others is no rotor of this drone
+    out, n_moved = _within_spread(out, ocfg)
+    # the difference between the methods (the lines alone against the I/Q fit, per rotor
+    # rank over the CPIs both estimated) joins the recording mean's uncertainty
+    method_diff = _method_difference(out, lines) if how == "kept" and lines is not est else None
+    rate = choice.rate
+    v = out.valid
+    mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
+    # the speeds against the chosen rate (``depart_max``): rotors split between two rates'
+    # lines keep the order's rate as plausible as theirs
+    depart = float(np.log(mean_now / rate)) if mean_now > 0 and rate > 0 else 0.0
+    split = bool(abs(depart) > ocfg.depart_max)
+    as_measured = mean_now
+    if split:  # the speeds scaled to the chosen rate (their median over CPIs)
+        k = rate / mean_now
+        out = replace(out)
+        out.speeds_rev_s, out.speeds_std_rev_s = out.speeds_rev_s * k, out.speeds_std_rev_s * k
+        out.common_rev_s, out.common_std_rev_s = out.common_rev_s * k, out.common_std_rev_s * k
+        mean_now = rate
+    return _Speeds(out, how, n_moved, method_diff, mean_now, as_measured, depart, split)
+
+
+def _doubt(choice: _Choice, sp: _Speeds, ocfg: OrderConfig) -> _Doubt:
+    """The order's doubt (module docstring): an alternative is plausible by its relative
+    likelihood or by its posterior odds (the likelihood times the tip speed's prior,
+    against the chosen one's: a rate the lines like less but whose tips turn at a typical
+    speed stays named) at ``ambiguous_at`` or more (under it an alternative lies outside
+    the mixture's 95 % interval and would only widen sigma for nothing); the plausible
+    ones make the mixture's variance; those down to :data:`REPORT_AT` are listed."""
+    kept, chosen, lp = choice.cands, choice.chosen, choice.log_prior
+    odds = [c.relative_likelihood * float(np.exp(min(lp[i] - lp[0], 50.0))) for i, c in enumerate(kept)]
+    plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
+    wsum = sum(c.relative_likelihood for c in plaus)
+    var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
+    if sp.split:  # the equal mixture of the chosen rate and the speeds as measured
+        var_rel += 0.5 * (sp.as_measured / choice.rate - 1) ** 2
+    listed = [
+        (c, o) for c, o in zip(kept[1:], odds[1:]) if c.relative_likelihood >= REPORT_AT or o >= ocfg.ambiguous_at
+    ]
+    alts = [c for c, _ in listed]
+    ambiguous = sp.split or any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
+    alt_rev_s = [round(sp.mean_rev_s * c.rev_s / chosen.rev_s, 2) for c in alts]
+    rel_l, post = [float(f"{c.relative_likelihood:.3g}") for c in alts], [float(f"{o:.3g}") for _, o in listed]
+    if sp.split:
+        alt_rev_s, rel_l, post = alt_rev_s + [round(sp.as_measured, 2)], rel_l + [1.0], post + [1.0]
+    return _Doubt(var_rel, bool(ambiguous), alt_rev_s, rel_l, post)
+
+
+def _widen(out, var_rel: float) -> None:
+    """Every CPI's uncertainty includes the order's (in place): the mixture's spread about
+    the reported speed."""
+    out.common_std_rev_s = np.sqrt(out.common_std_rev_s**2 + var_rel * out.common_rev_s**2)
+    out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s**2 + var_rel * out.speeds_rev_s**2)
+
+
+def _order_info(comb: _Comb, choice: _Choice, sp: _Speeds, doubt: _Doubt, ocfg: OrderConfig) -> dict:
+    """``info["order"]``: the chosen rate, the alternatives and their doubt, the
+    candidates, the settings."""
+    chosen, likeliest, rate, L = choice.chosen, choice.likeliest, choice.rate, comb.L
+    data, beta, mean_now, as_measured = comb.data, comb.beta, sp.mean_rev_s, sp.as_measured
+    return {
+        "method": METHOD,
+        "chosen_rev_s": round(mean_now, 3),
+        "lines_rev_s": round(comb.ref, 3),
+        "ratio_to_lines": round(rate / comb.ref, 4),
+        "remeasured": sp.how,
+        "ambiguous": doubt.ambiguous,
+        "alternatives_rev_s": doubt.alternatives_rev_s,
+        "coverage": round(chosen.coverage, 3),
+        "extent_hz": round(data.extent_hz, 1),
+        "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * comb.p_mid_hi), 3) if beta else None,
+        "top_db": round(data.top_db, 1) if np.isfinite(data.top_db) else None,
+        "tail_harmonics": round(comb.tail_h, 2) if L is not None else None,
+        "relative_likelihood": doubt.relative_likelihood,
+        "posterior_odds": doubt.posterior_odds,
+        "departs": round(sp.depart, 4),
+        "split": (
+            f"the speeds as measured ({as_measured:.2f} rev/s) departed from the chosen rate {rate:.2f} "
+            f"rev/s by {100 * (as_measured / rate - 1):+.1f} %: the rotors split between two rates' lines "
+            f"({sp.n_moved} rotor-CPIs moved to the median); scaled to the chosen rate"
+            if sp.split
+            else None
+        ),
+        "tip_prior": (
+            None
+            if likeliest is chosen
+            else f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
+            f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
+            f"{2 * np.pi * chosen.rev_s * L:.0f} m/s is the more probable"
+        ),
+        "order_rel_std": float(np.sqrt(doubt.var_rel)),
+        "n_rotors_to_median": int(sp.n_moved),
+        "n_cpis": int(len(comb.cpis)),
+        "candidates": [
+            {
+                **{
+                    k: (round(v, 4) if isinstance(v, float) else v)
+                    for k, v in asdict(c).items()
+                    if k not in ("params", "per_cpi")
+                },
+                **c.params,
+            }
+            for c in choice.cands
+        ],
+        "settings": {**asdict(ocfg), **FIXED_SETTINGS},
+    }
+
+
+def _report(comb: _Comb, choice: _Choice, sp: _Speeds, ocfg: OrderConfig):
+    """The estimate at the chosen order with the order's doubt (:func:`_doubt`) in every
+    CPI's uncertainty and ``info["order"]`` (:func:`_order_info`)."""
+    doubt = _doubt(choice, sp, ocfg)
+    out = sp.est
+    _widen(out, doubt.var_rel)
+    info = dict(out.info)
+    if sp.method_diff is not None:
+        info["method_diff_rev_s"] = [round(float(d), 3) for d in sp.method_diff]
+    info["order"] = _order_info(comb, choice, sp, doubt, ocfg)
+    out.info = info
+    return out
+
+
 def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | None = None):
     """Choose the rotation rate's harmonic order for an estimate (module docstring).
 
@@ -868,7 +1206,6 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         include the order's; ``est`` itself where neither comb gives an estimate.
     """
     ocfg = config or OrderConfig()
-    B = int(est.n_blades)
     if not est.ok or not est.valid.any():
         # the lines found no comb; they may have followed a sub-harmonic path (unequal
         # blades, a first pair in the clutter band): screen the whole range and measure
@@ -876,194 +1213,14 @@ def resolve_order(flight, est, speed_config, rerun=None, config: OrderConfig | N
         if rerun is None or est.reason is None or not est.reason.startswith(("no sideband", "no HERM")):
             return est
         return _rescue(flight, est, speed_config, rerun, ocfg)
-    else:
-        # the lines alone (steps 1-8) measure the comb's spacing; an I/Q fit made at a
-        # wrong order is biased, so the order is judged on the lines
-        lines = est
-        if getattr(speed_config, "refine", False) and rerun is not None:
-            lines = rerun(replace(speed_config, refine=False))
-            if not lines.ok or not lines.valid.any():
-                lines = est
-    valid = lines.valid
-    L = flight.attrs.get("blade_length_m")
-    L = float(L) if L is not None and float(L) > 0 else None
-    lam = C_MPS / float(flight.carrier_hz)
-    # the comb's rate: the median rotor (robust to a rotor put on another order's line)
-    ref = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[valid], axis=1)))
-    cpis = _choose_cpis(valid, ocfg.max_cpis)
-    data = _prepare(flight, lines, cpis, ref, ocfg, speed_config)
-    p_top = float(np.max(data.p_hi))
-
-    beta = 4 * np.pi * L / lam if L is not None else None
-    p_mid_hi = float(np.median(data.p_hi))
-
-    tail_h = ocfg.tail_harmonics * beta ** (1 / 3) if L is not None else 0.0
-    if L is not None and ocfg.tail_level:
-        tail_h = min(tail_h, _tail_reach_m(data.top_db - ocfg.line_db - 3.0 + ocfg.line_sd_db) * (beta / 2) ** (1 / 3))
-
-    def physical(f):
-        """Rates in range, blade tips below ``max_tip_mach``, and a blade-tip Doppler
-        that the lines do not pass (lines beyond it are impossible)."""
-        if not ocfg.min_rev_s <= f <= ocfg.max_rev_s:
-            return False
-        if L is None:
-            return True
-        reach = (ocfg.extent_range[1] * beta + tail_h) * f * p_mid_hi
-        return 2 * np.pi * f * p_top * L / SOUND_MPS <= ocfg.max_tip_mach and data.extent_hz <= reach
-
-    rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
-    kappas = np.round(np.arange(ocfg.extent_range[0], ocfg.extent_range[1] + 1e-9, 0.1), 3) if L is not None else (1.0,)
-    grid_full = (kappas, rmax_db, (None, "fit"), (0.6, 1.0, 1.5), (-4.0, 0.0))
-    # screen: a coarse model on a few CPIs over the whole range
-    srows = np.unique(np.round(np.linspace(0, len(cpis) - 1, min(ocfg.screen_cpis, len(cpis)))).astype(int))
-    grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
-    grid = grid[[physical(f) for f in grid]]
-    sk = (min(1.0, ocfg.extent_range[1]),) if L is not None else (1.0,)
-    sc = np.full(len(grid), -np.inf)
-    for gi, f in enumerate(grid):
-        g = _geometry(data, f, B, L, lam, ocfg, srows)
-        sc[gi] = _loglik(g, ocfg, sk, rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
-    ratios = sorted(set(RATIOS) | {1.0 / B, float(B)}, key=lambda r: abs(np.log(r)))
-    cand = [(r * ref, f"x{r:.3g}") for r in ratios if physical(r * ref)]
-    n_screen = 0
-    for gi in np.argsort(sc)[::-1]:
-        if n_screen >= ocfg.screen_keep or not np.isfinite(sc[gi]):
-            break
-        if sc[gi] < max(sc[gi - 1] if gi > 0 else -np.inf, sc[gi + 1] if gi + 1 < len(sc) else -np.inf):
-            continue  # not a local maximum
-        f = float(grid[gi])
-        # near a simple ratio of the lines' comb it is that ratio (measured by the lines),
-        # and a screen maximum near a kept one is the same
-        if any(abs(np.log(f / c)) <= (ocfg.snap_rel if how != "screen" else ocfg.min_separation) for c, how in cand):
-            continue
-        cand.append((f, "screen"))
-        n_screen += 1
-    # the full model on every CPI used
-    cands = [_score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, how) for f, how in cand]
+    lines = _lines_to_judge(est, speed_config, rerun)  # 1. the lines
+    comb = _comb(flight, lines, int(est.n_blades), ocfg, speed_config)
+    cands = _candidates(comb, ocfg)  # 2. candidates, 3. physical ones
     if not cands:
         return est
-    for c in cands:  # the comb the lines were read as keeps a small prior advantage
-        c.loglik += ocfg.prior_lines if c.origin == "x1" else 0.0
-    cands.sort(key=lambda c: -c.loglik)
-    chosen = cands[0]
-    # each alternative's likelihood relative to the likeliest, tempered (module doc);
-    # the order: the largest relative likelihood times the tip speed's prior
-    for c in cands:
-        c.relative_likelihood = _relative(chosen, c, ocfg)
-    lp = tip_log_prior(np.array([c.rev_s for c in cands]), L, ocfg)
-    pick = int(np.argmax(np.log(np.maximum([c.relative_likelihood for c in cands], 1e-300)) + lp))
-    likeliest = chosen
-    if pick:
-        chosen = cands[pick]
-        first = [pick] + [i for i in range(len(cands)) if i != pick]
-        cands, lp = [cands[i] for i in first], lp[first]
-        for c in cands:
-            c.relative_likelihood = _relative(chosen, c, ocfg)
-    rate = chosen.rev_s
-    if chosen.origin == "screen":  # refined on a finer grid
-        fine = [
-            _score(data, f, B, L, lam, ocfg, grid_full, ref, p_top, chosen.origin)
-            for f in chosen.rev_s * np.exp(np.linspace(-1, 1, 7) * ocfg.screen_step)
-        ]
-        rate = max(fine, key=lambda c: c.loglik).rev_s
-    kept = cands
-    out = est
-    how = "kept"
-    if chosen.origin != "x1" or int(lines.n_blades) != B:
-        out, how = _remeasure(flight, est, lines, rate / ref, speed_config, rerun, ocfg)
-        out = replace(out, n_blades=B)
-    # whatever the order, a rotor far from the others is no rotor of this drone
-    out, n_moved = _within_spread(out, ocfg)
-    # the difference between the methods (the lines alone against the I/Q fit, per rotor
-    # rank over the CPIs both estimated) joins the recording mean's uncertainty
-    method_diff = _method_difference(out, lines) if how == "kept" and lines is not est else None
-    # the order's uncertainty: the mixture's spread about the reported speed
-    v = out.valid
-    mean_now = float(np.nanmedian(out.common_rev_s[v])) if v.any() else rate
-    # the speeds against the chosen rate (``depart_max``): rotors split between two rates'
-    # lines keep the order's rate as plausible as theirs
-    depart = float(np.log(mean_now / rate)) if mean_now > 0 and rate > 0 else 0.0
-    split = bool(abs(depart) > ocfg.depart_max)
-    as_measured = mean_now
-    if split:  # the speeds scaled to the chosen rate (their median over CPIs)
-        k = rate / mean_now
-        out = replace(out)
-        out.speeds_rev_s, out.speeds_std_rev_s = out.speeds_rev_s * k, out.speeds_std_rev_s * k
-        out.common_rev_s, out.common_std_rev_s = out.common_rev_s * k, out.common_std_rev_s * k
-        mean_now = rate
-    # (the candidates that make the order ambiguous: under ``ambiguous_at`` an alternative
-    # lies outside the mixture's 95 % interval and would only widen sigma for nothing)
-    # an alternative is plausible by its relative likelihood or by its posterior odds (the
-    # likelihood times the tip speed's prior, against the chosen one's): a rate the lines
-    # like less but whose tips turn at a typical speed stays named
-    odds = [c.relative_likelihood * float(np.exp(min(lp[i] - lp[0], 50.0))) for i, c in enumerate(kept)]
-    plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
-    wsum = sum(c.relative_likelihood for c in plaus)
-    var_rel = sum(c.relative_likelihood / wsum * (c.rev_s / chosen.rev_s - 1) ** 2 for c in plaus)
-    if split:  # the equal mixture of the chosen rate and the speeds as measured
-        var_rel += 0.5 * (as_measured / rate - 1) ** 2
-    out.common_std_rev_s = np.sqrt(out.common_std_rev_s**2 + var_rel * out.common_rev_s**2)
-    out.speeds_std_rev_s = np.sqrt(out.speeds_std_rev_s**2 + var_rel * out.speeds_rev_s**2)
-    listed = [
-        (c, o) for c, o in zip(kept[1:], odds[1:]) if c.relative_likelihood >= ocfg.report_at or o >= ocfg.ambiguous_at
-    ]
-    alts = [c for c, _ in listed]
-    ambiguous = split or any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
-    alt_rev_s = [round(mean_now * c.rev_s / chosen.rev_s, 2) for c in alts]
-    rel_l, post = [float(f"{c.relative_likelihood:.3g}") for c in alts], [float(f"{o:.3g}") for _, o in listed]
-    if split:
-        alt_rev_s, rel_l, post = alt_rev_s + [round(as_measured, 2)], rel_l + [1.0], post + [1.0]
-    info = dict(out.info)
-    if method_diff is not None:
-        info["method_diff_rev_s"] = [round(float(d), 3) for d in method_diff]
-    info["order"] = {
-        "method": METHOD,
-        "chosen_rev_s": round(mean_now, 3),
-        "lines_rev_s": round(ref, 3),
-        "ratio_to_lines": round(rate / ref, 4),
-        "remeasured": how,
-        "ambiguous": bool(ambiguous),
-        "alternatives_rev_s": alt_rev_s,
-        "coverage": round(chosen.coverage, 3),
-        "extent_hz": round(data.extent_hz, 1),
-        "extent_over_tip_doppler": round(data.extent_hz / (beta * rate * p_mid_hi), 3) if beta else None,
-        "top_db": round(data.top_db, 1) if np.isfinite(data.top_db) else None,
-        "tail_harmonics": round(tail_h, 2) if L is not None else None,
-        "relative_likelihood": rel_l,
-        "posterior_odds": post,
-        "departs": round(depart, 4),
-        "split": (
-            f"the speeds as measured ({as_measured:.2f} rev/s) departed from the chosen rate {rate:.2f} "
-            f"rev/s by {100 * (as_measured / rate - 1):+.1f} %: the rotors split between two rates' lines "
-            f"({n_moved} rotor-CPIs moved to the median); scaled to the chosen rate"
-            if split
-            else None
-        ),
-        "tip_prior": (
-            None
-            if likeliest is chosen
-            else f"the likeliest rate {mean_now * likeliest.rev_s / chosen.rev_s:.2f} rev/s (tip "
-            f"{2 * np.pi * likeliest.rev_s * L:.0f} m/s) weighed against the tip speed's prior: "
-            f"{2 * np.pi * chosen.rev_s * L:.0f} m/s is the more probable"
-        ),
-        "order_rel_std": float(np.sqrt(var_rel)),
-        "n_rotors_to_median": int(n_moved),
-        "n_cpis": int(len(cpis)),
-        "candidates": [
-            {
-                **{
-                    k: (round(v, 4) if isinstance(v, float) else v)
-                    for k, v in asdict(c).items()
-                    if k not in ("params", "per_cpi")
-                },
-                **c.params,
-            }
-            for c in kept
-        ],
-        "settings": asdict(ocfg),
-    }
-    out.info = info
-    return out
+    choice = _choose([_scored(comb, f, how, ocfg) for f, how in cands], comb, ocfg)  # 4. line model, 5. weighing
+    sp = _speeds(flight, est, lines, choice, comb, speed_config, rerun, ocfg)  # 6. the speeds
+    return _report(comb, choice, sp, ocfg)  # the order's doubt, info["order"]
 
 
 def tip_log_prior(rev_s: np.ndarray, L, ocfg: OrderConfig) -> np.ndarray:
@@ -1077,45 +1234,47 @@ def tip_log_prior(rev_s: np.ndarray, L, ocfg: OrderConfig) -> np.ndarray:
     return -0.5 * z**2
 
 
-def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
-    """Where the lines found no comb over the whole range: the screen's likeliest rates
-    (the body from the track, rotors within +-``rescue_spread``), each measured again
-    with the search confined to it (``rescue_rel``); the first that finds a comb is
-    judged as any estimate (:func:`resolve_order`). ``est`` where none does."""
+def _rescue_rates(flight, est, scfg, ocfg: OrderConfig):
+    """The screen's likeliest rates where the lines found no comb (the body from the
+    track, rotors within +-``rescue_spread``, every CPI of :data:`SCREEN_CPIS`), up to
+    :data:`RESCUE_TRIES` of them at least ``rescue_rel`` apart, likeliest first."""
     from types import SimpleNamespace
 
     from ..spectra.snr import body_doppler_hz
 
-    if len(est.time_s) == 0:
-        return est
     B = int(est.n_blades)
-    L = flight.attrs.get("blade_length_m")
-    L = float(L) if L is not None and float(L) > 0 else None
+    L = _blade_length(flight)
     lam = C_MPS / float(flight.carrier_hz)
     body = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, est.time_s)
     n = len(est.time_s)
     sp = np.tile(1 + np.linspace(-ocfg.rescue_spread, ocfg.rescue_spread, max(int(est.n_motors), 2)), (n, 1))
     pseudo = SimpleNamespace(n_fft=est.n_fft, body_hz=body, speeds_rev_s=sp, n_blades=B, n_motors=est.n_motors)
-    cpis = _choose_cpis(np.ones(n, bool), ocfg.screen_cpis)
+    cpis = _choose_cpis(np.ones(n, bool), SCREEN_CPIS)
     data = _prepare(flight, pseudo, cpis, 1.0, ocfg, scfg)
     rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
-    grid = np.exp(np.arange(np.log(ocfg.min_rev_s), np.log(ocfg.max_rev_s), ocfg.screen_step))
+    grid = _screen_grid(ocfg)
     if L is not None:
         grid = grid[2 * np.pi * grid * (1 + ocfg.rescue_spread) * L / SOUND_MPS <= ocfg.max_tip_mach]
-    sc = np.array(
-        [
-            _loglik(_geometry(data, f, B, L, lam, ocfg), ocfg, (1.0,), rmax_db, (None, "fit"), (1.0,), (-3.0,))[0]
-            for f in grid
-        ]
-    )
+    sc = _screen_scores(data, grid, B, L, lam, ocfg, rmax_db, (1.0,))
     tried = []
     for gi in np.argsort(sc)[::-1]:
-        if len(tried) >= ocfg.rescue_tries or not np.isfinite(sc[gi]):
-            break
+        if len(tried) >= RESCUE_TRIES or not np.isfinite(sc[gi]):
+            return
         f = float(grid[gi])
         if any(abs(np.log(f / t)) <= ocfg.rescue_rel for t in tried):
             continue
         tried.append(f)
+        yield f
+
+
+def _rescue(flight, est, scfg, rerun, ocfg: OrderConfig):
+    """Where the lines found no comb over the whole range: the screen's likeliest rates
+    (:func:`_rescue_rates`), each measured again with the search confined to it
+    (``rescue_rel``); the first that finds a comb is judged as any estimate
+    (:func:`resolve_order`). ``est`` where none does."""
+    if len(est.time_s) == 0:
+        return est
+    for f in _rescue_rates(flight, est, scfg, ocfg):
         # a lone pair's likely comb (lone_p_min) holds over the whole range only: in a
         # window the screen chose, a chance pair of a smeared line is one
         narrow = replace(scfg, min_rev_s=f / (1 + ocfg.rescue_rel), max_rev_s=f * (1 + ocfg.rescue_rel), lone_p_min=0.0)
@@ -1138,8 +1297,8 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
     it) where that finds it, else the lines' estimate scaled. Returns (estimate, how)."""
     v = lines.valid
     want = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[v], axis=1))) * ratio
-    lo = float(np.nanmin(lines.common_rev_s[v])) * ratio / ocfg.rerun_margin
-    hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * ocfg.rerun_margin
+    lo = float(np.nanmin(lines.common_rev_s[v])) * ratio / RERUN_MARGIN
+    hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * RERUN_MARGIN
     lo, hi = max(lo, 0.5 * ocfg.min_rev_s), min(hi, 1.5 * ocfg.max_rev_s)
     if rerun is not None and lo < hi:
         new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi, lone_p_min=0.0), n_blades=int(est.n_blades))
