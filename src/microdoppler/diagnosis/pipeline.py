@@ -120,6 +120,8 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
                 "cause": UNEXPLAINED,
                 "params": {"excess_db": gof["excess_db"], "band_hz": gof["band_hz"]},
                 "evidence": {k: v for k, v in gof.items() if not k.startswith("_")},
+                # a line where the other has none: the direction and the fields to check
+                **({"reason": gof["missing_reason"]} if gof.get("missing_reason") else {}),
             }
         )
     elif common:
