@@ -20,11 +20,9 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from ..causes import registry
-from ..causes.config import LINE_HALF_BINS
 from ..causes.extensions import ExtensionSet
 from ..causes.measure import thin_wire_line_power
 from ..spectra.lines import band_power as _band_power_row
-from ..spectra.lines import local_floor as _local_floor_row
 from ..synthesis.model import ModelExtensions, Track, add_noise
 
 from .config import BODY_SEARCH_HZ, DiagnosisConfig
@@ -146,21 +144,22 @@ def band_power(
 #: the two-sided check's false-alarm probability per flight: a line's presence and
 #: its power bounds are read at this level, Bonferroni over the lines read
 LINE_FALSE_ALARM = 0.01
+#: a model line "clearly above the noise": its band's median power at least this far
+#: over the noise power in the band [dB]. Below it, the thin-wire blade's tip edge
+#: (which tapered real blades lack) is not taken for a line the recording should show.
+MODEL_CLEAR_SNR_DB = 10.0
 #: the median of n draws has about sqrt(pi / 2) times the standard error of their mean
 _MEDIAN_EFF = float(np.sqrt(np.pi / 2))
 
 
-def line_snr(spec, i: int, f_c: float, spacing_hz: float, half_hz: float) -> tuple[float, float]:
-    """One line of CPI ``i`` of ``spec`` (an STFT power) at ``f_c`` [Hz]: its power
-    over the noise power in its band (``half_hz`` either side), the noise read as the
-    local floor between the lines (within half the ``spacing_hz`` but off the line),
-    and the same excess in units of the noise's standard deviation (``z``: about
-    N(0, 1) where there is no line). NaN where the floor cannot be read."""
-    s, nb = _band_power_row(spec.p[i], spec, f_c, half_hz)
-    fl = _local_floor_row(spec.p[i], spec, f_c, half_hz, 0.5 * spacing_hz)
-    if nb < 1 or not np.isfinite(fl) or fl <= 0:
-        return np.nan, np.nan
-    return (s - nb * fl) / (nb * fl), (s - nb * fl) / (np.sqrt(nb) * fl)
+def line_band_snr(spec, i: int, f_c: float, spacing_hz: float, floor: float) -> float:
+    """The power of CPI ``i`` of ``spec`` (an STFT power) within half a line spacing
+    ``spacing_hz`` of ``f_c`` [Hz] (the line, its skirt and whatever folds there) over
+    the noise power ``floor`` [per bin] in that band; NaN without bins."""
+    s, nb = _band_power_row(spec.p[i], spec, f_c, 0.5 * spacing_hz)
+    if nb < 1 or not floor > 0:
+        return np.nan
+    return (s - nb * floor) / (nb * floor)
 
 
 def model_spacing_hz(M: Measurements, ext: ExtensionSet | None) -> np.ndarray:
@@ -224,11 +223,9 @@ def line_presence(
     ``direction``) and ``z`` (the bounds' quantile)."""
     st = M.stft
     B = int(M.info["n_blades"])
-    spread = float(M.info.get("spread", 0.0))
     dil = np.where(np.isfinite(M.dil), M.dil, np.nanmedian(M.dil) if np.isfinite(M.dil).any() else 1.0)
     h_meas = B * M.f_log_hz * dil
     nyq = float(st.f_hz[-1])
-    df = st.bin_hz
     use = np.flatnonzero(M.valid)
     h_med = float(np.median(h_meas[use])) if len(use) else np.nan
     empty = {"lines": [], "missing": [], "z": None}
@@ -243,11 +240,10 @@ def line_presence(
                 for k, (spec, fb, h) in enumerate(
                     ((st, M.f_body_hz[i], h_meas[i]), (sim, f_sim_hz[i], spacing_sim_hz[i]))
                 ):
-                    w = min(max(LINE_HALF_BINS * df, n * h * 2.5 * spread + 2 * df), 0.4 * h)
                     fc = fb + side * n * h
-                    if abs(fc) + w > nyq or abs(fc) < guard + w or n * h < body_half + w:
+                    if abs(fc) + h / 2 > nyq or abs(fc) < guard + h / 2 or (n - 0.5) * h < body_half:
                         continue
-                    snr[k, j] = line_snr(spec, i, fc, h, w)[0]
+                    snr[k, j] = line_band_snr(spec, i, fc, h, M.floor[i])
             ok = np.isfinite(snr).all(axis=0)
             if ok.sum() >= 6:
                 rows.append((n, side, snr[:, ok]))
@@ -261,6 +257,7 @@ def line_presence(
     lo, hi = med - z * se, med + z * se
     present = lo > 0
     gain = 10 ** (margin_db / 10)
+    clear = 10 ** (MODEL_CLEAR_SNR_DB / 10)
     # what thin-wire blades of the declared length could put at each order: the
     # recording's own lines scaled by one blade's rotation-harmonic powers (no envelope)
     bound = np.full(len(rows), np.inf)
@@ -286,7 +283,7 @@ def line_presence(
             "model": "present" if present[j, 1] else "absent",
         }
         lines.append(row)
-        if present[j, 1] and not present[j, 0] and med[j, 1] >= gain * max(hi[j, 0], 0.0):
+        if present[j, 1] and not present[j, 0] and med[j, 1] >= max(clear, gain * max(hi[j, 0], 0.0)):
             missing.append({**row, "direction": "model_only"})
         elif present[j, 0] and not present[j, 1] and med[j, 0] >= gain * max(hi[j, 1], bound[j]):
             missing.append({**row, "direction": "recording_only"})
@@ -530,17 +527,20 @@ def plot_diagnosis(
     for band in (gof or {}).get("bands", []):
         for edge in band["band_hz"]:
             ax[3].axhline(fc + edge, color="k", lw=0.8, ls="--")
-    # the two-sided check's lines: dotted, on the measured, the extended and the residual
+    # the two-sided check's lines: shaded on the residual, bracketed on the measured and
+    # the extended (magenta: the model's lines where the recording has none; orange:
+    # the recording's lines the model lacks)
     for band in missing:
         colour = "m" if band["direction"] == "model_only" else "orange"
-        for a_ in (ax[0], ax[2], ax[3]):
+        ax[3].axhspan(fc + band["band_hz"][0], fc + band["band_hz"][1], color=colour, alpha=0.35, lw=0)
+        for a_ in (ax[0], ax[2]):
             for edge in band["band_hz"]:
-                a_.axhline(fc + edge, color=colour, lw=0.9, ls=":")
+                a_.axhline(fc + edge, color=colour, lw=1.2, ls=":")
     if gof and gof.get("excess"):
         how = (
             f"{gof['excess_db']:+.1f} dB in {gof['band_hz'][0]:+.0f}..{gof['band_hz'][1]:+.0f} Hz (dashed)"
             if gof.get("bands")
-            else f"{len(missing)} line(s) on one side only (dotted)"
+            else f"{len(missing)} line band(s) on one side only (shaded)"
         )
         why = f"\n{gof['missing_reason']}" if gof.get("missing_reason") else ""
         ax[3].set_title(f"residual: measured - extended [dB]\nunexplained: {how}{why}", fontsize=8)
