@@ -4,7 +4,10 @@
 model extended by every named cause, band by band relative to the body Doppler: a
 band whose residual exceeds what the flight's own scatter allows (significant,
 replicated in both folds, at least ``margin_excess_db``) makes the flight
-``unexplained``, so that ``none`` always means that the model fits.
+``unexplained``; so does a HERM line anywhere in the Doppler band that one of the two
+holds and the other lacks (:func:`line_presence`: the model's lines where the
+recording has none, or the recording's beyond the declared tips), so that ``none``
+means that the model explains the recording both ways.
 :func:`plot_diagnosis` shows the measured spectrogram, the baseline, the model with
 every named cause's extension, its residual with the unexplained band marked, and the
 statistic that named the first cause (or the strongest test when none was named)."""
@@ -197,20 +200,25 @@ def line_presence(
     Nyquist band reaches) is read the same way in the measured spectrogram (its body
     ``M.f_body_hz``, its own measured spacing) and in the model's (``sim``, its body
     ``f_sim_hz`` and spacing ``spacing_sim_hz`` [Hz, per CPI]), on the valid CPIs: per
-    CPI the line's power over the noise power in its band (:func:`line_snr`); over the
-    CPIs its median and that median's confidence bounds (the CPIs' robust scatter, at
+    CPI the power within half a spacing of the line over the noise power there (the
+    flight's far floor ``M.floor``, at which the model's noise is drawn;
+    :func:`line_band_snr`: a line, its skirt and whatever folds there); over the CPIs
+    its median and that median's confidence bounds (the CPIs' robust scatter, at
     :data:`LINE_FALSE_ALARM` two-sided, Bonferroni over the lines). A line is
     *present* where its lower bound is above zero, *absent* where it is not.
 
-    - ``model_only``: the model's line is present, the recording's absent, and the
-      model's lower bound stands ``margin_db`` above the recording's upper bound (the
-      model puts a line where the recording has none).
+    - ``model_only`` (where the calibration fitted the lines' fall-off, on at least
+      two usable harmonics): the model's line is present, the recording's absent, and the
+      model's median stands at least :data:`MODEL_CLEAR_SNR_DB` over the noise and
+      ``margin_db`` above the recording's upper bound (the model puts a line where
+      the recording has none).
     - ``recording_only``: the recording's line is present, the model's absent, and the
-      recording's lower bound stands ``margin_db`` above what thin-wire blades of the
-      declared length could put there (``wire_power``: one blade's power per rotation
-      harmonic, :func:`~microdoppler.causes.measure.thin_wire_line_power`, scaled to
-      the recording's own lines of lower order, without the alpha envelope, which
-      only lowers it): a line beyond the tips' Doppler extent.
+      recording's median stands ``margin_db`` above the model's upper bound and above
+      what thin-wire blades of the declared length could put there (``wire_power``:
+      one blade's power per rotation harmonic,
+      :func:`~microdoppler.causes.measure.thin_wire_line_power`, scaled to the
+      recording's own lines within the tips' extent, without the alpha envelope,
+      which only lowers it): a line beyond the declared tips' Doppler extent.
 
     The model's lines reach the tips' Doppler extent of the declared carrier, blade
     length, blade count and rotation rate and no further, so a wrong set-up moves its
@@ -258,6 +266,10 @@ def line_presence(
     present = lo > 0
     gain = 10 ** (margin_db / 10)
     clear = 10 ** (MODEL_CLEAR_SNR_DB / 10)
+    # the model's lines are a prediction only where the calibration fitted their fall-off
+    # (the alpha envelope, on two usable harmonics or more); on one, alpha is taken as
+    # 0 and every line out to the tips is an extrapolation, not a prediction
+    fitted = M.calib is not None and M.calib.n_usable_harmonics >= 2
     # what thin-wire blades of the declared length could put at each order: the
     # recording's own lines scaled by one blade's rotation-harmonic powers (no envelope)
     bound = np.full(len(rows), np.inf)
@@ -283,7 +295,7 @@ def line_presence(
             "model": "present" if present[j, 1] else "absent",
         }
         lines.append(row)
-        if present[j, 1] and not present[j, 0] and med[j, 1] >= max(clear, gain * max(hi[j, 0], 0.0)):
+        if fitted and present[j, 1] and not present[j, 0] and med[j, 1] >= max(clear, gain * max(hi[j, 0], 0.0)):
             missing.append({**row, "direction": "model_only"})
         elif present[j, 0] and not present[j, 1] and med[j, 0] >= gain * max(hi[j, 1], bound[j]):
             missing.append({**row, "direction": "recording_only"})
@@ -349,8 +361,17 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     ``|residual| / se`` beats Student's t (blocks - 1 degrees of freedom) at the two-sided Bonferroni level ``alpha / n_bands``, and
     each fold's mean has the same sign and at least half the margin.
 
-    Returns a dict: ``excess`` (bool), ``excess_db`` and ``band_hz`` (the worst band,
-    body-relative [Hz]), ``bands`` (every excess band), ``n_bands``, ``n_blocks``,
+    Two-sided over the whole Doppler band (:func:`line_presence`): a HERM line the
+    model puts clearly above the noise where the recording has none, or one the
+    recording holds beyond the declared tips' extent where the model has none, makes
+    the flight ``unexplained`` too, with the direction and the declared fields to
+    check (:func:`missing_reason`).
+
+    Returns a dict: ``excess`` (bool: a band or a line misfits), ``excess_db`` and
+    ``band_hz`` (the worst band, body-relative [Hz]; without an excess band, the line's
+    level difference, measured minus model [dB], and its band), ``bands`` (every excess
+    band), ``missing`` (every line on one side only), ``missing_reason`` (its direction
+    and the fields to check, "" when none), ``lines_read``, ``lines_z``, ``n_bands``, ``n_blocks``,
     ``max_abs_residual_db`` (the largest band residual, excess or not),
     ``largest_significant_db`` (the largest that is significant and of one sign in
     both folds, whatever its size: what a smaller margin would have flagged) and
