@@ -210,8 +210,9 @@ def line_presence(
     - ``model_only`` (where the calibration fitted the lines' fall-off, on at least
       two usable harmonics): the model's line is present, the recording's absent, and the
       model's median stands at least :data:`MODEL_CLEAR_SNR_DB` over the noise and
-      ``margin_db`` above the recording's upper bound (the model puts a line where
-      the recording has none).
+      ``margin_db`` above the recording's upper bound, and the model's level holds
+      (within ``margin_db``) at one of the two nearest lines on that side that both
+      hold (the model puts a line where the recording has none).
     - ``recording_only``: the recording's line is present, the model's absent, and the
       recording's median stands ``margin_db`` above the model's upper bound and above
       what thin-wire blades of the declared length could put there (``wire_power``:
@@ -283,6 +284,18 @@ def line_presence(
         seen = np.where(anchor, np.maximum(med[:, 0], 0.0), 0.0)
         for j in range(len(rows)):
             bound[j] = float(np.max(seen * wp[j] / wp)) if anchor.any() else np.inf
+    both = present[:, 0] & present[:, 1]
+
+    def anchored(j: int) -> bool:
+        """The model's level holds next to line ``j``: within ``margin_db`` of the
+        recording's at one of the two nearest lines (same side) that both hold. Where
+        it misses the lines the recording holds (an envelope that falls faster than the
+        calibrated one), its lines beyond are that misfit of level, not lines where
+        the recording has none."""
+        near = [m for m in range(len(rows)) if both[m] and rows[m][1] == rows[j][1]]
+        near = sorted(near, key=lambda m: abs(rows[m][0] - rows[j][0]))[:2]
+        return any(abs(DB * np.log(med[m, 1] / med[m, 0])) <= margin_db for m in near)
+
     lines, missing = [], []
     for j, (n, side, _) in enumerate(rows):
         row = {
@@ -295,7 +308,13 @@ def line_presence(
             "model": "present" if present[j, 1] else "absent",
         }
         lines.append(row)
-        if fitted and present[j, 1] and not present[j, 0] and med[j, 1] >= max(clear, gain * max(hi[j, 0], 0.0)):
+        if (
+            fitted
+            and present[j, 1]
+            and not present[j, 0]
+            and med[j, 1] >= max(clear, gain * max(hi[j, 0], 0.0))
+            and anchored(j)
+        ):
             missing.append({**row, "direction": "model_only"})
         elif present[j, 0] and not present[j, 1] and med[j, 0] >= gain * max(hi[j, 1], bound[j]):
             missing.append({**row, "direction": "recording_only"})
