@@ -31,7 +31,7 @@ def diagnose(flight) -> tuple[list, dict, str | None]:
 
 
 #: the goodness of fit's numbers a benchmark row keeps
-GOF_KEYS = ("largest_significant_db", "max_abs_residual_db", "excess_db", "band_hz", "margin_db")
+GOF_KEYS = ("largest_significant_db", "max_abs_residual_db", "excess_db", "band_hz", "margin_db", "missing_reason")
 
 
 def diagnose_with_fit(flight) -> tuple[list, dict, str | None, dict]:

@@ -440,6 +440,32 @@ def section_wrong_setups(records: Path) -> list[str]:
     )
 
 
+def section_two_sided(records: Path) -> list[str]:
+    """``eval_two_sided.py``: the wrong set-ups the import accepted that read ``none``,
+    and the right set-ups of the same recordings, diagnosed by one version of the code."""
+    out = []
+    for name, d in _load(records, "eval_two_sided_*.json"):
+        s = d["summary"]
+        rows = [
+            (k[: -len("_wrong")], "; ".join(v["causes"]) or "none", v.get("reason") or "")
+            for k, v in d["stores"].items()
+            if k.endswith("_wrong")
+        ]
+        out += [
+            f"### `{name}`",
+            "",
+            provenance(name, d) + f"; recordings of {d['duration_s']:g} s: {d['recordings']}",
+            "",
+            f"Wrong set-ups reading `none`: {s['wrong_read_none']} of {s['wrong']}; right set-ups `unexplained`: "
+            f"{s['right_unexplained']} of {s['right_diagnosed']} diagnosed, by the two-sided check "
+            f"{s['right_two_sided']}.",
+            "",
+            table(("recording", "diagnosis of the wrong set-up", "two-sided reason"), rows),
+            "",
+        ]
+    return (["## The goodness of fit both ways (`eval_two_sided.py`)", ""] + out) if out else []
+
+
 def section_campaign(records: Path) -> list[str]:
     """A campaign of one's own, end to end (``benchmarks/eval_campaign.py``): per record,
     which acceptance checks hold, Table VI's ``nonmultiple_db`` rows, Table V where
@@ -614,6 +640,7 @@ SECTIONS = (
     section_imbalance_bounds,
     section_rotor_uncertainty,
     section_wrong_setups,
+    section_two_sided,
     section_campaign,
 )
 

@@ -45,6 +45,7 @@ def test_benchmark_page_names_every_json_record_it_reads():
     # the any-radar runs without a table (joined or re-run subsets) and their CSV twins are not shown
     assert {p.name for p in RECORDS.glob("*_paired_*.json")} <= named
     assert {p.name for p in RECORDS.glob("eval_diagnosis_*.json")} <= named
+    assert {p.name for p in RECORDS.glob("eval_two_sided_*.json")} <= named
     assert "eval_any_radar_seed1000.json" not in skipped
 
 

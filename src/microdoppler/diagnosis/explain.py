@@ -4,7 +4,10 @@
 model extended by every named cause, band by band relative to the body Doppler: a
 band whose residual exceeds what the flight's own scatter allows (significant,
 replicated in both folds, at least ``margin_excess_db``) makes the flight
-``unexplained``, so that ``none`` always means that the model fits.
+``unexplained``; so does a HERM line anywhere in the Doppler band that one of the two
+holds and the other lacks (:func:`line_presence`: the model's lines where the
+recording has none, or the recording's beyond the declared tips), so that ``none``
+means that the model explains the recording both ways.
 :func:`plot_diagnosis` shows the measured spectrogram, the baseline, the model with
 every named cause's extension, its residual with the unexplained band marked, and the
 statistic that named the first cause (or the strongest test when none was named)."""
@@ -16,16 +19,19 @@ from pathlib import Path
 
 import numpy as np
 import scipy.fft as sfft
+from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from ..causes import registry
 from ..causes.extensions import ExtensionSet
+from ..causes.measure import thin_wire_line_power
+from ..spectra.lines import band_power as _band_power_row
 from ..synthesis.model import ModelExtensions, Track, add_noise
 
 from .config import BODY_SEARCH_HZ, DiagnosisConfig
 from .decide import Decision
 from .hypotheses import folds
-from .measure import DB, Measurements, body_doppler, refine_peak, simulate_blades, stft_power
+from .measure import DB, Measurements, body_doppler, cpi_average, refine_peak, simulate_blades, stft_power
 
 
 def simulate_flight(flight, M: Measurements, ext: ExtensionSet | None, seed: int, n_fft: int) -> np.ndarray:
@@ -138,6 +144,197 @@ def band_power(
     return np.where(c >= 3, s / np.maximum(c, 1), np.nan)
 
 
+#: the two-sided check's false-alarm probability per flight: a line's presence and
+#: its power bounds are read at this level, Bonferroni over the lines read
+LINE_FALSE_ALARM = 0.01
+#: a model line "clearly above the noise": its band's median power at least this far
+#: over the noise power in the band [dB]. Below it, the thin-wire blade's tip edge
+#: (which tapered real blades lack) is not taken for a line the recording should show.
+MODEL_CLEAR_SNR_DB = 10.0
+#: the median of n draws has about sqrt(pi / 2) times the standard error of their mean
+_MEDIAN_EFF = float(np.sqrt(np.pi / 2))
+
+
+def line_band_snr(spec, i: int, f_c: float, spacing_hz: float, floor: float) -> float:
+    """The power of CPI ``i`` of ``spec`` (an STFT power) within half a line spacing
+    ``spacing_hz`` of ``f_c`` [Hz] (the line, its skirt and whatever folds there) over
+    the noise power ``floor`` [per bin] in that band; NaN without bins."""
+    s, nb = _band_power_row(spec.p[i], spec, f_c, 0.5 * spacing_hz)
+    if nb < 1 or not floor > 0:
+        return np.nan
+    return (s - nb * floor) / (nb * floor)
+
+
+def model_spacing_hz(M: Measurements, ext: ExtensionSet | None) -> np.ndarray:
+    """The HERM line spacing of the model of :func:`simulate_flight` per CPI [Hz]:
+    the blade count times the log's speed, as the named causes' lag and scale move
+    it (``ext.transform_log``)."""
+    B = int(M.info["n_blades"])
+    if ext is None:
+        return B * M.f_log_hz
+    st, prf = M.stft, float(M.info["prf_hz"])
+    lg = ext.transform_log(M.log)
+
+    def cpi(log):
+        return cpi_average(np.asarray(log.time_s, float), log.rpm.mean(axis=1) / 60.0, st.t_s, st.window, prf)
+
+    ratio = cpi(lg) / np.maximum(cpi(M.log), 1e-9)
+    return B * M.f_log_hz * ratio
+
+
+def line_presence(
+    M: Measurements,
+    sim,
+    f_sim_hz: np.ndarray,
+    spacing_sim_hz: np.ndarray,
+    *,
+    guard: float,
+    body_half: float,
+    margin_db: float,
+    wire_power: np.ndarray | None = None,
+) -> dict:
+    """The two-sided check: where does the model put a line the recording lacks, or
+    the recording hold a line the model lacks, anywhere in the Doppler band?
+
+    Every HERM line (order n = 1, 2, ... either side of the body, as far as the
+    Nyquist band reaches) is read the same way in the measured spectrogram (its body
+    ``M.f_body_hz``, its own measured spacing) and in the model's (``sim``, its body
+    ``f_sim_hz`` and spacing ``spacing_sim_hz`` [Hz, per CPI]), on the valid CPIs: per
+    CPI the power within half a spacing of the line over the noise power there (the
+    flight's far floor ``M.floor``, at which the model's noise is drawn;
+    :func:`line_band_snr`: a line, its skirt and whatever folds there); over the CPIs
+    its median and that median's confidence bounds (the CPIs' robust scatter, at
+    :data:`LINE_FALSE_ALARM` two-sided, Bonferroni over the lines). A line is
+    *present* where its lower bound is above zero, *absent* where it is not.
+
+    - ``model_only`` (where the calibration fitted the lines' fall-off, on at least
+      two usable harmonics): the model's line is present, the recording's absent, and the
+      model's median stands at least :data:`MODEL_CLEAR_SNR_DB` over the noise and
+      ``margin_db`` above the recording's upper bound, and the model's level holds
+      (within ``margin_db``) at one of the two nearest lines on that side that both
+      hold (the model puts a line where the recording has none).
+    - ``recording_only``: the recording's line is present, the model's absent, and the
+      recording's median stands ``margin_db`` above the model's upper bound and above
+      what thin-wire blades of the declared length could put there (``wire_power``:
+      one blade's power per rotation harmonic,
+      :func:`~microdoppler.causes.measure.thin_wire_line_power`, scaled to the
+      recording's own lines within the tips' extent, without the alpha envelope,
+      which only lowers it): a line beyond the declared tips' Doppler extent.
+
+    The model's lines reach the tips' Doppler extent of the declared carrier, blade
+    length, blade count and rotation rate and no further, so a wrong set-up moves its
+    lines away from the recording's. Lines within the clutter guard, on the body's
+    band or at the Nyquist edge are not read.
+
+    Returns a dict: ``lines`` (every line read: ``order``, ``side``, ``band_hz``
+    body-relative, ``measured_snr_db`` and ``model_snr_db`` (medians), ``measured`` and
+    ``model`` (``present``/``absent``)), ``missing`` (the misfits, each with its
+    ``direction``) and ``z`` (the bounds' quantile)."""
+    st = M.stft
+    B = int(M.info["n_blades"])
+    dil = np.where(np.isfinite(M.dil), M.dil, np.nanmedian(M.dil) if np.isfinite(M.dil).any() else 1.0)
+    h_meas = B * M.f_log_hz * dil
+    nyq = float(st.f_hz[-1])
+    use = np.flatnonzero(M.valid)
+    h_med = float(np.median(h_meas[use])) if len(use) else np.nan
+    empty = {"lines": [], "missing": [], "z": None}
+    if not len(use) or not np.isfinite(h_med) or h_med <= 0:
+        return empty
+    n_max = int(np.floor(2 * nyq / h_med)) + 1
+    rows = []
+    for n in range(1, n_max + 1):
+        for side in (1, -1):
+            snr = np.full((2, len(use)), np.nan)
+            for j, i in enumerate(use):
+                for k, (spec, fb, h) in enumerate(
+                    ((st, M.f_body_hz[i], h_meas[i]), (sim, f_sim_hz[i], spacing_sim_hz[i]))
+                ):
+                    fc = fb + side * n * h
+                    if abs(fc) + h / 2 > nyq or abs(fc) < guard + h / 2 or (n - 0.5) * h < body_half:
+                        continue
+                    snr[k, j] = line_band_snr(spec, i, fc, h, M.floor[i])
+            ok = np.isfinite(snr).all(axis=0)
+            if ok.sum() >= 6:
+                rows.append((n, side, snr[:, ok]))
+    if not rows:
+        return empty
+    z = float(norm.isf(LINE_FALSE_ALARM / (2 * 2 * len(rows))))
+    med = np.array([np.median(r[2], axis=1) for r in rows])  # [n_rows, 2]: measured, model
+    mad = np.array([np.median(np.abs(r[2] - np.median(r[2], axis=1, keepdims=True)), axis=1) for r in rows])
+    n_c = np.array([r[2].shape[1] for r in rows])
+    se = _MEDIAN_EFF * 1.4826 * mad / np.sqrt(n_c)[:, None]
+    lo, hi = med - z * se, med + z * se
+    present = lo > 0
+    gain = 10 ** (margin_db / 10)
+    clear = 10 ** (MODEL_CLEAR_SNR_DB / 10)
+    # the model's lines are a prediction only where the calibration fitted their fall-off
+    # (the alpha envelope, on two usable harmonics or more); on one, alpha is taken as
+    # 0 and every line out to the tips is an extrapolation, not a prediction
+    fitted = M.calib is not None and M.calib.n_usable_harmonics >= 2
+    # what thin-wire blades of the declared length could put at each order: the
+    # recording's own lines scaled by one blade's rotation-harmonic powers (no envelope)
+    bound = np.full(len(rows), np.inf)
+    if wire_power is not None:
+        orders = np.array([r[0] for r in rows])
+        k = np.minimum(orders * B, len(wire_power) - 1)
+        wp = np.maximum(wire_power[k], 1e-300)
+        # anchored on the recording's lines within the tips' extent (one blade's power
+        # within 20 dB of its strongest harmonic there)
+        anchor = present[:, 0] & (wp >= 1e-2 * float(np.max(wire_power[B::B] if len(wire_power) > B else wp)))
+        seen = np.where(anchor, np.maximum(med[:, 0], 0.0), 0.0)
+        for j in range(len(rows)):
+            bound[j] = float(np.max(seen * wp[j] / wp)) if anchor.any() else np.inf
+    both = present[:, 0] & present[:, 1]
+
+    def anchored(j: int) -> bool:
+        """The model's level holds next to line ``j``: within ``margin_db`` of the
+        recording's at one of the two nearest lines (same side) that both hold. Where
+        it misses the lines the recording holds (an envelope that falls faster than the
+        calibrated one), its lines beyond are that misfit of level, not lines where
+        the recording has none."""
+        near = [m for m in range(len(rows)) if both[m] and rows[m][1] == rows[j][1]]
+        near = sorted(near, key=lambda m: abs(rows[m][0] - rows[j][0]))[:2]
+        return any(abs(DB * np.log(med[m, 1] / med[m, 0])) <= margin_db for m in near)
+
+    lines, missing = [], []
+    for j, (n, side, _) in enumerate(rows):
+        row = {
+            "order": int(n),
+            "side": "upper" if side > 0 else "lower",
+            "band_hz": sorted([round(side * (n - 0.5) * h_med, 1), round(side * (n + 0.5) * h_med, 1)]),
+            "measured_snr_db": round(float(DB * np.log(max(med[j, 0], 1e-3))), 1),
+            "model_snr_db": round(float(DB * np.log(max(med[j, 1], 1e-3))), 1),
+            "measured": "present" if present[j, 0] else "absent",
+            "model": "present" if present[j, 1] else "absent",
+        }
+        lines.append(row)
+        if (
+            fitted
+            and present[j, 1]
+            and not present[j, 0]
+            and med[j, 1] >= max(clear, gain * max(hi[j, 0], 0.0))
+            and anchored(j)
+        ):
+            missing.append({**row, "direction": "model_only"})
+        elif present[j, 0] and not present[j, 1] and med[j, 0] >= gain * max(hi[j, 1], bound[j]):
+            missing.append({**row, "direction": "recording_only"})
+    return {"lines": lines, "missing": missing, "z": round(z, 2)}
+
+
+#: the declared fields a misfit of the lines' extent or comb points at
+SUSPECT_FIELDS = "prf_hz, carrier_hz, n_blades, blade_length_m"
+
+
+def missing_reason(missing: list) -> str:
+    """The direction of the two-sided check's misfits, in words ("" when none)."""
+    out = []
+    if any(b["direction"] == "model_only" for b in missing):
+        out.append("the model puts lines where the recording has none")
+    if any(b["direction"] == "recording_only" for b in missing):
+        out.append("the recording holds lines the model lacks")
+    return f"{'; '.join(out)}: check {SUSPECT_FIELDS}" if out else ""
+
+
 def _block_means(d, fold, block, blocks):
     """Per band of ``d`` [n_cpi, n_bands]: the mean over the blocks of CPIs of each
     block's mean (``mu``), the blocks that hold it (``nb``), its standard error from
@@ -183,8 +380,17 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     ``|residual| / se`` beats Student's t (blocks - 1 degrees of freedom) at the two-sided Bonferroni level ``alpha / n_bands``, and
     each fold's mean has the same sign and at least half the margin.
 
-    Returns a dict: ``excess`` (bool), ``excess_db`` and ``band_hz`` (the worst band,
-    body-relative [Hz]), ``bands`` (every excess band), ``n_bands``, ``n_blocks``,
+    Two-sided over the whole Doppler band (:func:`line_presence`): a HERM line the
+    model puts clearly above the noise where the recording has none, or one the
+    recording holds beyond the declared tips' extent where the model has none, makes
+    the flight ``unexplained`` too, with the direction and the declared fields to
+    check (:func:`missing_reason`).
+
+    Returns a dict: ``excess`` (bool: a band or a line misfits), ``excess_db`` and
+    ``band_hz`` (the worst band, body-relative [Hz]; without an excess band, the line's
+    level difference, measured minus model [dB], and its band), ``bands`` (every excess
+    band), ``missing`` (every line on one side only), ``missing_reason`` (its direction
+    and the fields to check, "" when none), ``lines_read``, ``lines_z``, ``n_bands``, ``n_blocks``,
     ``max_abs_residual_db`` (the largest band residual, excess or not),
     ``largest_significant_db`` (the largest that is significant and of one sign in
     both folds, whatever its size: what a smaller margin would have flagged) and
@@ -259,11 +465,33 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
             )
     fin = np.isfinite(mu)
     worst = max(flagged, key=lambda b: abs(b["excess_db"])) if flagged else None
+    # the other way round too, over the whole Doppler band: a line the model puts where
+    # the recording has none, or one the recording holds that the model lacks
+    presence = line_presence(
+        M,
+        sim,
+        f_sim,
+        model_spacing_hz(M, ext),
+        guard=guard,
+        body_half=body_half,
+        margin_db=cfg.margin_excess_db,
+        wire_power=thin_wire_line_power(
+            float(flight.attrs["blade_length_m"]), flight.wavelength_m, int(prf / max(f_rot, 1e-6)) + 2 * B
+        ),
+    )
+    missing = presence["missing"]
+    if worst is None and missing:
+        first = max(missing, key=lambda b: abs(b["measured_snr_db"] - b["model_snr_db"]))
+        worst = {"excess_db": round(first["measured_snr_db"] - first["model_snr_db"], 2), "band_hz": first["band_hz"]}
     return {
-        "excess": bool(flagged),
+        "excess": bool(flagged) or bool(missing),
         "excess_db": worst["excess_db"] if worst else None,
         "band_hz": worst["band_hz"] if worst else None,
         "bands": flagged,
+        "missing": missing,
+        "missing_reason": missing_reason(missing),
+        "lines_read": len(presence["lines"]),
+        "lines_z": presence["z"],
         "n_bands": int(fin.sum()),
         "n_blocks": int(len(blocks)),
         "z_threshold": round(z_crit, 2),
@@ -307,7 +535,10 @@ def plot_diagnosis(
     se = stft_power(ext_iq, flight.prf_hz, n_fft) if ext else sb
     h = float(np.median(M.f_log_hz)) * int(flight.attrs["n_blades"])
     fc = float(np.median(M.f_body_hz))
-    sel = np.abs(st.f_hz - fc) <= 4.5 * h
+    missing = (gof or {}).get("missing") or []
+    # wide enough to show every line the two-sided check found on one side only
+    reach = max([4.5 * h, *(max(abs(e) for e in b["band_hz"]) + 0.5 * h for b in missing)])
+    sel = np.abs(st.f_hz - fc) <= reach
     f = st.f_hz[sel]
     ext_t = [st.t_s[0], st.t_s[-1], f[0], f[-1]]
     ref = DB * np.log(np.median(M.floor))
@@ -336,12 +567,23 @@ def plot_diagnosis(
     for band in (gof or {}).get("bands", []):
         for edge in band["band_hz"]:
             ax[3].axhline(fc + edge, color="k", lw=0.8, ls="--")
+    # the two-sided check's lines: shaded on the residual, bracketed on the measured and
+    # the extended (magenta: the model's lines where the recording has none; orange:
+    # the recording's lines the model lacks)
+    for band in missing:
+        colour = "m" if band["direction"] == "model_only" else "orange"
+        ax[3].axhspan(fc + band["band_hz"][0], fc + band["band_hz"][1], color=colour, alpha=0.35, lw=0)
+        for a_ in (ax[0], ax[2]):
+            for edge in band["band_hz"]:
+                a_.axhline(fc + edge, color=colour, lw=1.2, ls=":")
     if gof and gof.get("excess"):
-        ax[3].set_title(
-            f"residual: measured - extended [dB]\nunexplained: {gof['excess_db']:+.1f} dB in "
-            f"{gof['band_hz'][0]:+.0f}..{gof['band_hz'][1]:+.0f} Hz (dashed)",
-            fontsize=9,
+        how = (
+            f"{gof['excess_db']:+.1f} dB in {gof['band_hz'][0]:+.0f}..{gof['band_hz'][1]:+.0f} Hz (dashed)"
+            if gof.get("bands")
+            else f"{len(missing)} line band(s) on one side only (shaded)"
         )
+        why = f"\n{gof['missing_reason']}" if gof.get("missing_reason") else ""
+        ax[3].set_title(f"residual: measured - extended [dB]\nunexplained: {how}{why}", fontsize=8)
     ax[3].set_xlabel("time [s]")
     fig.colorbar(im2, ax=ax[3])
     show = (

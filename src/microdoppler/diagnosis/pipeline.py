@@ -121,6 +121,8 @@ def explained_entry(entry: dict, gof: dict, T) -> dict:
                 "cause": UNEXPLAINED,
                 "params": {"excess_db": gof["excess_db"], "band_hz": gof["band_hz"]},
                 "evidence": {k: v for k, v in gof.items() if not k.startswith("_")},
+                # a line where the other has none: the direction and the fields to check
+                **({"reason": gof["missing_reason"]} if gof.get("missing_reason") else {}),
             }
         )
     elif common:
@@ -344,7 +346,14 @@ def _diagnose_store(path, motor_logs: dict, cfg, figures_dir) -> tuple[dict, dic
         hint = skip_hint(exc.reason, f)
         lines.append(f"{f.flight_id}: skipped: {exc.reason}" + (f" (hint: {hint})" if hint else ""))
     else:
-        named = "; ".join(f"{c['cause']} {(c.get('extension') or c).get('params')}" for c in e["causes"]) or "none"
+        named = (
+            "; ".join(
+                f"{c['cause']} {(c.get('extension') or c).get('params')}"
+                + (f" ({c['reason']})" if c.get("reason") else "")
+                for c in e["causes"]
+            )
+            or "none"
+        )
         lines.append(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
     return e, report_row(e, warnings=warns, hint=hint), lines
 
