@@ -10,8 +10,11 @@ stores are made once) and compare the two JSON files: each store's causes, and t
 two-sided check's lines (``missing``) and reason. ``--names`` restricts the recordings.
 About 1-2 minutes per recording for the imports (estimate mode), seconds per diagnosis.
 
-    PYTHONPATH=src python benchmarks/eval_two_sided.py --stores /tmp/two_sided --json after.json
-    PYTHONPATH=../main/src python benchmarks/eval_two_sided.py --stores /tmp/two_sided --json before.json
+    git worktree add ../before <older commit>     # the code to compare with, beside this checkout
+    PYTHONPATH=src python benchmarks/eval_two_sided.py --stores two_sided_stores --json after.json
+    PYTHONPATH=../before/src python benchmarks/eval_two_sided.py --stores two_sided_stores --json before.json
+
+(run from the repository root; ``two_sided_stores/`` is made on the first run and reused.)
 """
 
 from __future__ import annotations
