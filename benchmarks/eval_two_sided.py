@@ -7,7 +7,9 @@ set-ups that read ``none`` in ``records/eval_wrong_setups_seed41000_diagnose.jso
 once with that wrong field, keeps the stores in ``--stores`` and diagnoses them with
 this code. Run it once per code version (``PYTHONPATH``) with the same ``--stores`` (the
 stores are made once) and compare the two JSON files: each store's causes, and the
-two-sided check's lines (``missing``) and reason. ``--names`` restricts the recordings.
+two-sided check's lines (``missing``) and reason, and the declared fields the
+recording cannot test (``setup_not_testable``: a wrong set-up reading ``none`` should
+name its wrong field there). ``--names`` restricts the recordings.
 About 1-2 minutes per recording for the imports (estimate mode), seconds per diagnosis.
 
     git worktree add ../before <older commit>     # the code to compare with, beside this checkout
@@ -89,6 +91,7 @@ def diagnose_stores(stores: Path) -> dict:
             "causes": [c["cause"] for c in e["causes"]],
             "missing": [[m["order"], m["side"], m["direction"]] for m in g.get("missing", [])],
             "reason": g.get("missing_reason", ""),
+            "setup_not_testable": sorted(e.get("setup_not_testable") or {}),
         }
         print(p.stem, out[p.stem], file=sys.stderr, flush=True)
     return out
@@ -105,8 +108,19 @@ def main(argv=None) -> int:
     res = diagnose_stores(a.stores)
     wrong = {k: v for k, v in res.items() if k.endswith("_wrong")}
     right = {k: v for k, v in res.items() if k.endswith("_right") and v["causes"] != ["skipped"]}
+    field = {"prf": "prf_hz", "carrier": "carrier_hz", "blade_length": "blade_length_m", "n_blades": "n_blades"}
+
+    def flagged(k: str, v: dict) -> bool:
+        """A wrong set-up reading none that names its wrong field as not testable."""
+        wrong_field = field[NONE_BEFORE[k.removesuffix("_wrong")].split()[0]]
+        return v["causes"] == [] and wrong_field in v.get("setup_not_testable", [])
+
     summary = {
         "wrong_read_none": sum(v["causes"] == [] for v in wrong.values()),
+        "wrong_read_none_naming_the_field_not_testable": sum(flagged(k, v) for k, v in wrong.items()),
+        "right_fields_not_testable": {
+            f: sum(f in v.get("setup_not_testable", []) for v in right.values()) for f in field.values()
+        },
         "wrong": len(wrong),
         "right_unexplained": sum("unexplained" in v["causes"] for v in right.values()),
         "right_two_sided": sum(bool(v.get("missing")) for v in right.values()),

@@ -18,6 +18,7 @@ import time
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ..configfields import config_names, knob
@@ -25,6 +26,7 @@ from ..errors import ConfigError, InputError
 from ..io.flightzarr import read_flight
 from ..io.motorlog import MotorLog
 from ..io.outputs import atomic_file
+from ..rotors.plausibility import setup_testability
 from ..causes.catalog import UNEXPLAINED, catalog
 from ..causes.extensions import save_extensions
 from .aggregate import aggregate, aggregate_twins
@@ -95,6 +97,10 @@ def diagnose_flight(flight, *, motor_log: MotorLog | None = None, config=None, f
     D = decide_flight(M, T, cfg, started=started)
     gof = goodness_of_fit(flight, M, D, cfg)
     entry = explained_entry(D.entry, gof, T)
+    # the declared set-up's fields no check on this recording could see off by a typo
+    entry["setup_not_testable"] = setup_testability(
+        flight, float(np.median(M.f_log_hz)), log_independent=not M.log_from_radar
+    )
     if figure_path is not None and cfg.figures:
         plot_diagnosis(flight, M, D, figure_path, cfg, gof=gof)
     return entry
@@ -168,6 +174,7 @@ TABLE_COLUMNS = (
     "intervals",
     "log_evalues",
     "not_testable",
+    "setup_not_testable",
     "goodness_of_fit",
     "excess_db",
     "band_hz",
@@ -240,6 +247,7 @@ def report_row(entry: dict, *, warnings=(), hint: str | None = None) -> dict:
             f"{c['cause']}={c['evidence']['log_evalue']}" for c in causes if "log_evalue" in (c.get("evidence") or {})
         ),
         "not_testable": ";".join(f"{k}: {v}" for k, v in (entry.get("not_testable") or {}).items()),
+        "setup_not_testable": ";".join(f"{k}: {v}" for k, v in (entry.get("setup_not_testable") or {}).items()),
         "goodness_of_fit": "" if skipped or not gof else ("excess" if gof.get("excess") else "explained"),
         "excess_db": "" if gof.get("excess_db") is None else gof["excess_db"],
         "band_hz": "" if gof.get("band_hz") is None else _flat(gof["band_hz"]),
@@ -354,7 +362,11 @@ def _diagnose_store(path, motor_logs: dict, cfg, figures_dir) -> tuple[dict, dic
             )
             or "none"
         )
-        lines.append(f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)")
+        untested = e.get("setup_not_testable") or {}
+        lines.append(
+            f"{f.flight_id}: {named} ({e['evidence']['seconds']:.1f} s)"
+            + (f"; not testable from this recording: {', '.join(untested)} (setup_not_testable)" if untested else "")
+        )
     return e, report_row(e, warnings=warns, hint=hint), lines
 
 

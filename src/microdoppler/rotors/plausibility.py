@@ -334,6 +334,112 @@ def flight_rates(flight) -> tuple[list[float], str | None]:
     )
 
 
+#: the declared-set-up errors :func:`setup_testability` asks the recording about: a
+#: factor of 2 on a frequency or a length (a typo's size: x0.5, x2), and 2 <-> 3 blades
+#: per rotor (the rotation rate then changes by 2/3 or 3/2)
+TYPO_FACTOR = 2.0
+BLADE_FACTOR = 1.5
+
+
+def setup_testability(
+    flight, rev_s: float | None, *, log_independent: bool, ocfg: OrderConfig | None = None
+) -> dict[str, str]:
+    """The declared fields this recording cannot test: ``{field: reason}`` (empty where
+    every field is tested).
+
+    A declared field is tested where some check this recording allows would see it
+    off by a typo's size (:data:`TYPO_FACTOR`; for ``n_blades`` 2 <-> 3 blades,
+    :data:`BLADE_FACTOR` on the rotation rate):
+
+    - ``prf_hz`` (the frequency axis): by the body line against the track's Doppler
+      -2 v / lambda where the track moves by more than the check's tolerance times
+      :data:`TYPO_FACTOR` (:func:`body_problems`), or by a motor log that does not come
+      from this recording (the lines must sit at n_blades times its rate). A hovering
+      target whose rotor speeds come from its own lines scales the lines, the speeds
+      and the tips' Doppler alike under a wrong PRF: nothing in the recording shows it.
+    - ``carrier_hz`` (the wavelength): by the body against the track (as above), or by
+      the tips: the lines' extent (:func:`doppler_extent`) against the tips' reach
+      (:func:`tip_reach_hz`) at the rotor rate ``rev_s``. The extent bounds the tips
+      from below only (lines need not reach them); the tips test a wavelength
+      :data:`TYPO_FACTOR` off only where the lines reach past 1 / TYPO_FACTOR of the
+      declared tips' reach.
+    - ``n_blades``: by an independent motor log (the lines' spacing is n_blades times
+      the rate), or by the tips where the lines reach past 1 / :data:`BLADE_FACTOR` of
+      their reach (the rate, hence the tips, scales by 2/3 with 3 blades declared for 2).
+    - ``blade_length_m``: by the tips only, as ``carrier_hz``'s.
+
+    Parameters
+    ----------
+    flight : Flight
+        A drone recording (anything else: ``{}``).
+    rev_s : float or None
+        The rotors' mean rotation rate [rev/s] the diagnosis uses (the motor log's,
+        estimated from the radar or logged); None where there is none.
+    log_independent : bool
+        The rate comes from a motor log that is not this recording's own estimate.
+    """
+    a = flight.attrs
+    L = a.get("blade_length_m")
+    if a.get("target") != "drone" or not L:
+        return {}
+    ocfg = ocfg or OrderConfig()
+    prf, carrier, L = float(a["prf_hz"]), float(a["carrier_hz"]), float(L)
+    lam = SPEED_OF_LIGHT_MPS / carrier
+    ext = doppler_extent(flight.iq, prf, ocfg=ocfg)
+    # the body against the track: how far the track's mean Doppler lies from 0 Hz, in
+    # units of the check's tolerance (as body_problems reads it)
+    moving, body_note = False, "no track"
+    tt, v = np.asarray(flight.track_time_s, float), np.asarray(flight.track_radial_velocity_mps, float)
+    if len(tt) and np.all(np.isfinite(v)):
+        t = np.linspace(0.0, len(flight.iq) / prf, 64)
+        pred = -2 * np.interp(t, tt, v) / lam
+        n_fft = ext["n_fft"] if ext is not None else 4096
+        tol = 3 * prf / n_fft + (pred.max() - pred.min()) / 2 + 2 * TRACK_SPEED_TOL_MPS / lam
+        mean = abs(float(pred.mean()))
+        moving = mean * (1 - 1 / TYPO_FACTOR) > tol
+        body_note = (
+            f"a frequency axis or wavelength {TYPO_FACTOR:g}x off moves the body line by "
+            f"{mean * (1 - 1 / TYPO_FACTOR):.0f} Hz from the track's Doppler ({mean:.0f} Hz), within the {tol:.0f} Hz "
+            "its check allows"
+        )
+    # the lines' extent against the tips' reach at the rate: the tips are seen down to
+    # reach_share of their declared reach (lines need not reach the tips: from below only)
+    reach_share = None
+    if rev_s is not None and np.isfinite(rev_s) and rev_s > 0 and ext is not None and not ext["filled"]:
+        reach_share = ext["extent_hz"] / tip_reach_hz(float(rev_s), L, carrier, ocfg)
+
+    def tips_see(k: float) -> bool:
+        """The tips would show their Doppler ``k`` x smaller (the lines past it)."""
+        return reach_share is not None and reach_share > 1 / k
+
+    if reach_share is None:
+        tips_note = "no rotor rate or no lines to compare with the tips' Doppler"
+    else:
+        tips_note = (
+            f"the lines end at ±{ext['extent_hz']:.0f} Hz, {reach_share:.0%} of the reach of the declared tips "
+            f"({2 * math.pi * rev_s * L:.0f} m/s at {rev_s:.1f} rev/s)"
+        )
+    out = {}
+    if not moving and not log_independent:
+        out["prf_hz"] = (
+            f"{body_note} and the rotor speeds come from this recording's own lines: a PRF "
+            f"{TYPO_FACTOR:g}x off scales the lines, the speeds and the tips' Doppler alike"
+        )
+    if not moving and not tips_see(TYPO_FACTOR):
+        out["carrier_hz"] = f"{body_note}, and {tips_note}: a carrier {TYPO_FACTOR:g}x off explains them alike"
+    if not log_independent and not tips_see(BLADE_FACTOR):
+        out["n_blades"] = (
+            f"the rotor rate is the lines' spacing over n_blades (this recording's own comb), and {tips_note}: "
+            "2 and 3 blades explain them alike"
+        )
+    if not tips_see(TYPO_FACTOR):
+        out["blade_length_m"] = (
+            f"{tips_note}: blades {TYPO_FACTOR:g}x shorter explain them alike (and longer ones always do: the "
+            "lines bound the tips from below only)"
+        )
+    return out
+
+
 def recording_problems(flight, *, rotors: bool = True, ocfg: OrderConfig | None = None) -> list[tuple[str, str, str]]:
     """Every check of this module on ``flight``: the spectrum's extent, and with
     ``rotors`` the tips at the rates of its motor log (where it has one)."""
