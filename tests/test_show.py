@@ -119,6 +119,12 @@ def test_show_writes_one_figure_per_store_and_the_table_holds_the_stores_numbers
             and r["alternatives_rev_s"] == ""
         )
     assert "bare1.png: no rotor speeds" in printed and "--estimate-motors" in printed
+    # the fields a recording cannot test: est1's speeds come from its own lines (its
+    # blade count with them), log1's from a log (which tests the PRF and the blade count)
+    untested = {tuple(x.split()[:2]) for x in printed.splitlines() if "not testable from this recording" in x}
+    assert ("est1:", "n_blades") in untested, printed
+    assert not {("log1:", "n_blades"), ("log1:", "prf_hz")} & untested, printed
+    assert not any(u[0] == "bare1:" for u in untested)
 
 
 def test_show_refuses_a_store_shorter_than_one_cpi_and_writes_nothing(tmp_path, capsys):

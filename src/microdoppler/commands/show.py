@@ -5,7 +5,9 @@ span the pipeline's images keep (Doppler in Hz and radial velocity in m/s, time 
 and the rotor speeds per rotor over time with their ±2 sigma band and any alternative
 order where the store holds rotor speeds (estimated from the radar or logged). A table
 of the rotor speeds (one row per rotor of each store) is printed and written as
-``DIR/rotor_speeds.csv``.
+``DIR/rotor_speeds.csv``; a drone store's declared fields that its recording cannot
+test (a factor 2 off would pass every check: ``setup_not_testable`` of the diagnosis)
+are printed with the reason.
 """
 
 from __future__ import annotations
@@ -59,6 +61,17 @@ def _is_own(entry: Path) -> bool:
     return entry.is_file() and (entry.suffix == ".png" or entry.name == TABLE_NAME)
 
 
+def _untestable(flight) -> dict:
+    """The declared fields the store's recording cannot test, at its rotor speeds
+    (:func:`microdoppler.rotors.plausibility.setup_testability`; ``{}`` without them)."""
+    from ..rotors.plausibility import flight_rates, setup_testability
+
+    rates, source = flight_rates(flight)
+    if not rates:
+        return {}
+    return setup_testability(flight, rates[0], log_independent=source == "the motor log")
+
+
 def run(args) -> int:
     from ..io.flightzarr import read_flight
     from ..io.outputs import atomic_file, check_output
@@ -94,6 +107,8 @@ def run(args) -> int:
             )
         )
         print(f"wrote {png}{note}")
+        for field, why in _untestable(f).items():
+            print(f"{f.flight_id}: {field} not testable from this recording: {why}")
         rows += t
     with atomic_file(out / TABLE_NAME) as tmp:
         tmp.write_text(table_csv(rows))
