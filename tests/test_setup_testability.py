@@ -100,3 +100,20 @@ def test_no_rate_or_no_lines_tests_nothing_by_the_tips():
     bird = SimpleNamespace(**{**vars(flight), "attrs": {**flight.attrs, "target": "bird"}})
     assert setup_testability(bird, REV_S, log_independent=False) == {}
     assert math.isclose(tip_reach_hz(REV_S, L, CARRIER) / tip_reach_hz(REV_S / 2, L, CARRIER), 2.0)
+
+
+def test_an_ambiguous_radar_order_is_named_with_its_rates():
+    """Rotor speeds the radar's order check marked ambiguous: the diagnosis took one of
+    the rates the lines allow, and says which others it could have taken."""
+    flight, _ = comb(0.8)
+    order = {"ambiguous": True, "chosen_rev_s": REV_S}
+    flight.attrs.update(
+        motors_source="radar", motors_radar={"rotor_order": order, "rotor_order_alternatives_rev_s": [50.0, 33.3]}
+    )
+    out = setup_testability(flight, REV_S, log_independent=False)
+    assert "reads 100.0 rev/s or 50.0, 33.3 rev/s" in out["rotor_order"], out
+    order["ambiguous"] = False
+    assert "rotor_order" not in setup_testability(flight, REV_S, log_independent=False)
+    order["ambiguous"] = True
+    flight.attrs["motors_source"] = "log"
+    assert "rotor_order" not in setup_testability(flight, REV_S, log_independent=True)

@@ -368,6 +368,10 @@ def setup_testability(
       their reach (the rate, hence the tips, scales by 2/3 with 3 blades declared for 2).
     - ``blade_length_m``: by the tips only, as ``carrier_hz``'s.
 
+    Besides the declared fields, ``rotor_order`` where the rotor speeds come from the
+    radar and its order check marks the order ambiguous (``motors_radar``): the
+    diagnosis took one of the rates the lines allow.
+
     Parameters
     ----------
     flight : Flight
@@ -431,6 +435,16 @@ def setup_testability(
         out["n_blades"] = (
             f"the rotor rate is the lines' spacing over n_blades (this recording's own comb), and {tips_note}: "
             "2 and 3 blades explain them alike"
+        )
+    radar = a.get("motors_radar") if a.get("motors_source") == "radar" else None
+    order = (radar or {}).get("rotor_order") or {}
+    if order.get("ambiguous") and rev_s is not None:
+        alts = (radar or {}).get("rotor_order_alternatives_rev_s") or order.get("alternatives_rev_s") or []
+        out["rotor_order"] = (
+            f"the radar's rotor comb reads {rev_s:.1f} rev/s"
+            + (f" or {', '.join(f'{float(x):.1f}' for x in alts)} rev/s" if alts else "")
+            + f" (the order check marks it ambiguous): the diagnosis took {rev_s:.1f} rev/s; a motor log "
+            "(--motor-log) or lines that reach the tips would tell"
         )
     if not tips_see(TYPO_FACTOR):
         out["blade_length_m"] = (
