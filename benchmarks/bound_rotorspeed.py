@@ -165,24 +165,27 @@ def _white_flips(G, p_chosen, p_echo_chosen, q_echo, cost, n_draws: int, seed, t
     return flips / n_draws
 
 
+def fit_config(fit: dict) -> rf.FitConfig:
+    """The estimator's :class:`~microdoppler.rotors.fit.FitConfig` with ``fit``'s fields
+    set (``--fit``): a field's name, or its former module constant's upper-case name
+    (``KEEP``, ``MOVE_PASSES``: the fit's fixed settings are fields now)."""
+    known = list(rf.FitConfig.__dataclass_fields__)
+    fields = {}
+    for k, v in fit.items():
+        name = k.lower() if k.isupper() else k
+        if name not in known:
+            raise ValueError(f"--fit {k}=...: not a FitConfig field (one of: {', '.join(known)})")
+        fields[name] = tuple(v) if isinstance(v, list) else v
+    return replace(rf.FitConfig(), **fields)
+
+
 def evaluate(spec, margin: float, fit: dict, clean: bool = False, white: int = 0, parts: bool = False) -> dict:
     records: list = []
     _install_recorder(records)
     flight, _ = emulate_flight(spec)
     echo = _echo_only(spec) if clean else None
     without: dict = {}  # part -> the recording without it, emulated when first needed
-    # a FitConfig field (lower case) or one of rotors.fit's fixed settings (upper case,
-    # e.g. KEEP, MOVE_PASSES), set in this worker for this run
-    fields = {k: v for k, v in fit.items() if k in rf.FitConfig.__dataclass_fields__}
-    for k, v in fit.items():
-        if k not in fields:
-            if not (k.isupper() and hasattr(rf, k)):
-                raise ValueError(
-                    f"--fit {k}=...: not a FitConfig field ({list(rf.FitConfig.__dataclass_fields__)}) "
-                    f"nor a constant of microdoppler.rotors.fit"
-                )
-            setattr(rf, k, v)
-    cfg = replace(rf.FitConfig(), **fields)
+    cfg = fit_config(fit)
     est = rs.estimate_rotor_speeds(flight, config=rs.RotorSpeedConfig(fit=cfg))
     out = {"flight": spec.flight_id, "cpis": []}
     if not est.ok:
@@ -301,8 +304,9 @@ def main(argv=None) -> int:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="a FitConfig field or a fixed setting of microdoppler.rotors.fit for the estimator's fit "
-        "(repeatable), e.g. --fit KEEP=3, --fit MOVE_PASSES=0, --fit move_rel=0.2",
+        help="a field of microdoppler.rotors.fit.FitConfig for the estimator's fit (repeatable; the "
+        "former upper-case constants' names still work), e.g. --fit keep=3, --fit move_passes=0, "
+        "--fit move_rel=0.2",
     )
     ap.add_argument(
         "--from-json",
@@ -328,6 +332,7 @@ def main(argv=None) -> int:
         specs = ev.flight_specs(np.random.default_rng([args.seed, 4242]), args.per_model, args.duration)
         with Pool(args.workers) as pool:
             fit = {k: ast.literal_eval(v) for k, v in (a.split("=", 1) for a in args.fit)}
+            fit_config(fit)  # a wrong name or value fails here, before the workers start
             rows = pool.starmap(evaluate, [(s, args.margin, fit, args.clean, args.white, args.parts) for s in specs])
     rows = [r for r in rows if r["cpis"]]
     draws = draw_flights([r["flight"] for r in rows], seed=0)

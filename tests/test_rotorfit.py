@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from microdoppler.rotors.fit import refine_cpi
-from microdoppler.rotors.speed import estimate_rotor_speeds
+from microdoppler.rotors.speed import RotorSpeedConfig, estimate_rotor_speeds
 from any_radar import draw_case, make_recording, true_cpi_means
 from rotor_flights import LAM, N_FFT, PRF, cpi_truth, rel_errors, synthetic_flight
 
@@ -226,18 +226,17 @@ def test_the_fit_on_the_models_band_has_the_full_rate_cost_and_information():
 
 
 @pytest.mark.slow
-def test_the_decimated_fit_reports_what_the_full_rate_fit_reports(monkeypatch):
+def test_the_decimated_fit_reports_what_the_full_rate_fit_reports():
     """Every CPI of a 3 s recording (4 rotors, 10 kHz, flying): the mean speed and its
     sigma with the fit on the model's band against the fit on every sample
-    (``BAND_MARGIN = 0``): the same CPIs, the means within 0.1 % of a sigma, the
-    sigmas within 0.1 % (the searches take the same paths: the residual's comb is read
-    at the full-rate FFT's bins)."""
+    (``FitConfig(band_margin=0)``): the same CPIs, the means within 0.1 % of a sigma,
+    the sigmas within 0.1 % (the searches take the same paths: the residual's comb is
+    read at the full-rate FFT's bins)."""
     from microdoppler.rotors import fit
 
     flight, _ = _timing_like_recording(3.0)
     band = estimate_rotor_speeds(flight)
-    monkeypatch.setattr(fit, "BAND_MARGIN", 0.0)
-    full = estimate_rotor_speeds(flight)
+    full = estimate_rotor_speeds(flight, config=RotorSpeedConfig(fit=fit.FitConfig(band_margin=0.0)))
     assert band.ok and full.ok and band.info["n_cpi_refined"] == full.info["n_cpi_refined"] > 5
     np.testing.assert_array_equal(band.valid, full.valid)
     v = full.valid

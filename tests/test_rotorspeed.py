@@ -434,7 +434,9 @@ def test_recording_mean_sigma_is_the_cpis_with_overlap_scatter_and_the_methods_d
     sqrt(2) x the independent mean's sigma (overlap); the two methods' difference joins
     in quadrature; a comb misread on one side in a third of the CPIs pulls the mean
     from the median, and the sigma covers the truth where the naive one does not."""
-    from microdoppler.rotors.speed import OVERLAP_VARIANCE_FACTOR, recording_means
+    from microdoppler.rotors.speed import RotorSpeedConfig, recording_means
+
+    factor = RotorSpeedConfig().overlap_variance_factor
 
     rng = np.random.default_rng(3)
     n, sd = 40, 0.5
@@ -446,8 +448,8 @@ def test_recording_mean_sigma_is_the_cpis_with_overlap_scatter_and_the_methods_d
     naive = sd / np.sqrt(n)
     assert np.allclose(mean, speeds.mean(axis=0))
     # the CPIs scatter about as their sigma says: at most a little excess
-    assert np.all(std >= np.sqrt(OVERLAP_VARIANCE_FACTOR) * naive - 1e-12)
-    assert np.all(std <= 1.5 * np.sqrt(OVERLAP_VARIANCE_FACTOR) * naive)
+    assert np.all(std >= np.sqrt(factor) * naive - 1e-12)
+    assert np.all(std <= 1.5 * np.sqrt(factor) * naive)
     # the methods' difference joins in quadrature
     diff = [0.3, -0.2, 0.0, 0.1]
     _, std_d = recording_means(_estimate(speeds, sds, {"method_diff_rev_s": diff}))

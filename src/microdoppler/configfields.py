@@ -232,10 +232,12 @@ def range_text(f: dataclasses.Field) -> str:
     return ""
 
 
-def check_ranges(obj, source) -> None:
+def check_ranges(obj, source, *, all_fields: bool = False) -> None:
     """Raise :class:`~microdoppler.errors.ConfigError` for the first number of
     dataclass ``obj`` outside its knob's range (``<source>: <name>: <name>=<value>
     must be <range>``): a class's ``__post_init__`` checks what its schema says.
+    ``all_fields``: the ``config=False`` knobs' ranges too (fixed settings that no
+    configuration key sets).
 
     Examples
     --------
@@ -250,7 +252,7 @@ def check_ranges(obj, source) -> None:
     ...
     microdoppler.errors.ConfigError: demo: rate_hz: rate_hz=0.0 must be > 0
     """
-    for f in config_fields(type(obj)):
+    for f in dataclasses.fields(obj) if all_fields else config_fields(type(obj)):
         m = f.metadata.get(META, {})
         v = getattr(obj, f.name)
         if not isinstance(v, (int, float)) or isinstance(v, bool):

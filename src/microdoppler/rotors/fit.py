@@ -24,10 +24,10 @@ line, the periodogram's ambiguity, is not a choice here: each of the M rotors is
 
 Starts: the periodogram's lines (:mod:`microdoppler.rotors.speed`). With k < M distinct
 lines every composition of M rotors on them is tried (at two spreads around each shared
-line), first with ``harmonics[0]`` harmonics (a wide basin), the ``KEEP`` best carried on
+line), first with ``harmonics[0]`` harmonics (a wide basin), the ``keep`` best carried on
 to ``harmonics[-1]``. A fit whose weakest rotor has under ``min_power`` of the strongest
 rotor's power holds a spare rotor (its true lines coincide with another rotor's) and
-loses against one that does not; the weakest rotor is then re-seeded ``RESEED`` times at
+loses against one that does not; the weakest rotor is then re-seeded ``reseed`` times at
 the strongest harmonic comb of the residual, and a spare rotor left at the end is put on
 the strongest line (per rotor already there): the speed of a spare is not measured. At
 the end a weak rotor counts as a spare only if the fit also loses little without it
@@ -35,15 +35,15 @@ the end a weak rotor counts as a spare only if the fit also loses little without
 raises it): two rotors' models within a fraction of a bin trade large opposite
 amplitudes, and beside their inflated powers a rotor on lines of its own looked weak and
 was moved onto another line (1-5 % errors in the mean). A fit leaving the lines' range by
-more than ``BOUND_BINS`` is dropped (the periodogram's estimate stands).
+more than ``bound_bins`` is dropped (the periodogram's estimate stands).
 
 A rotor the periodogram's lines missed (its line smeared below the pair threshold, or
 shown as part of a split line) leaves every start with a rotor on a line that is not
 its own; where no spare results, or the rotor turns beyond the re-seeding window, the
 steps above stop there. Last, the residual's strongest harmonic comb within
 ``move_rel`` of the re-seeding window's centre (a quadcopter's rotors differ by up to ~15 % in a
-manoeuvre) is tried in place of each of the ``MOVE_TRIES`` weakest rotors, the best fit
-kept where it lowers the cost, ``MOVE_PASSES`` times (keep ``move_rel`` under 0.2: at
+manoeuvre) is tried in place of each of the ``move_tries`` weakest rotors, the best fit
+kept where it lowers the cost, ``move_passes`` times (keep ``move_rel`` under 0.2: at
 25 % a rotor settled at 4/5 of a true rotor's speed, its fifth harmonic on the true
 rotor's fourth, and fitted better than the truth). The moves recover part of the fits
 that a start at the true speeds would have bettered (``benchmarks/bound_rotorspeed.py``).
@@ -63,7 +63,7 @@ comb is read at the full-rate FFT's bins, so the searches take the same paths (D
 
 Uncertainty: the Gauss-Newton covariance (residual variance times the inverse of
 J^T J with the prior), plus the spread of the mean over the lines a spare rotor could
-share, plus a relative floor ``REL_FLOOR`` for what the quadratic phase does not
+share, plus a relative floor ``rel_floor`` for what the quadratic phase does not
 capture, plus the composition's ambiguity. That covariance holds only if every rotor
 sits on its own true lines; where it does not (two rotors within a fraction of a bin
 fitted as one line, and another rotor on a line of its own that is not a rotor's), the
@@ -71,10 +71,10 @@ error is a large part of a bin, not a small multiple of sigma. The rotors of one
 return about equal power, so the fit's balance (its weakest rotor's power over its
 strongest's, in [0, 1]) tells how far to trust the composition: a balanced fit is
 within a fraction of a bin, an unbalanced one may be off by about a bin. The ambiguity
-term is ``AMBIGUITY_BINS`` x exp(-balance / ``AMBIGUITY_SCALE``)
-bins of the first harmonic for the mean speed, at most ``AMBIGUITY_MAX_BINS`` (where a
+term is ``ambiguity_bins`` x exp(-balance / ``ambiguity_scale``)
+bins of the first harmonic for the mean speed, at most ``ambiguity_max_bins`` (where a
 spare is left, the spread over the lines it could share is already in sigma), and
-``AMBIGUITY_ROTOR_*`` for each ranked rotor; calibrated on emulated flights so that
+``ambiguity_rotor_*`` for each ranked rotor; calibrated on emulated flights so that
 95 % of the errors lie within 2 sigma at every balance (``benchmarks/eval_rotorspeed.py``).
 Sigma is then a scale, not a Gaussian one-sigma: the errors are a sharp core plus a
 tail, and most of them lie well within 1 sigma.
@@ -83,8 +83,8 @@ Where the periodogram showed one sideband pair only (``n_pairs=1``), the composi
 far less certain at every balance: the rotors' lines are read from one harmonic, and a
 rotor on another rotor's line or on a line that is none of theirs is off by one to
 several bins (one bin at n = 1 is ~1.2 % of the speed). Such a fit adds
-``ONE_PAIR_BINS`` x exp(-balance / ``ONE_PAIR_SCALE``) bins to the mean's sigma and
-``ONE_PAIR_ROTOR_*`` to each ranked rotor's, calibrated on the one-pair CPIs of
+``one_pair_bins`` x exp(-balance / ``one_pair_scale``) bins to the mean's sigma and
+``one_pair_rotor_*`` to each ranked rotor's, calibrated on the one-pair CPIs of
 emulated flights so that 95 % of their errors lie within 2 sigma. Such a sigma is wide
 (a few per cent of the speed for the mean) because the errors are.
 """
@@ -100,70 +100,19 @@ from scipy.linalg import cho_solve, cholesky
 from scipy.linalg.blas import zgemm, zgemv, zherk
 from threadpoolctl import threadpool_limits
 
+from ..configfields import check_ranges, knob
 from ..spectra.periodogram import window
-
-
-# Fixed settings of the fit (module constants: search effort and calibrated terms, not
-# physical knobs). How each was set: docs/experiments.md ("Where the code's settings come
-# from"); the benchmark that measures the fit with them is benchmarks/eval_rotorspeed.py.
-# ``benchmarks/bound_rotorspeed.py --fit NAME=VALUE`` overrides them for experiments.
-
-#: Gauss-Newton iterations per fit, and per screening fit of a start (with
-#: ``harmonics[0]``); a fit stops earlier once the cost falls by under TOLERANCE
-#: (relative).
-ITERATIONS = 10
-SCREEN_ITERATIONS = 4
-TOLERANCE = 1e-5
-#: screened starts carried on to the full harmonics (>= 1)
-KEEP = 2
-#: spreads [bins of the first harmonic] at which rotors sharing a line start
-SPREADS_BINS = (0.6, 1.5)
-#: a fit whose rotors leave the lines' range by more than this [bins] is dropped and the
-#: periodogram's estimate stands
-BOUND_BINS = 5.0
-#: times the weakest rotor is re-seeded at the residual's strongest comb
-RESEED = 3
-#: the residual's comb tried in place of each of the MOVE_TRIES weakest rotors, at most
-#: MOVE_PASSES times (0: no moves)
-MOVE_PASSES = 2
-MOVE_TRIES = 2
-#: a re-seeded or moved rotor's harmonic-order profile must match the other rotors'
-#: at least this well (Bhattacharyya coefficient), and spread over its orders at least
-#: COMB_SPREAD x the others' spread - COMB_SLACK (:func:`_comb_like`)
-COMB_SIMILARITY = 0.45
-COMB_SPREAD = 0.5
-COMB_SLACK = 0.1
-#: relative uncertainty floor for what the quadratic phase does not capture
-REL_FLOOR = 0.0004
-#: the composition's ambiguity by the fit's balance b (module docstring): the mean's sigma
-#: adds min(AMBIGUITY_BINS exp(-b / AMBIGUITY_SCALE), AMBIGUITY_MAX_BINS) bins, each ranked
-#: rotor's AMBIGUITY_ROTOR_BINS exp(-b / AMBIGUITY_ROTOR_SCALE); calibrated on emulated
-#: flights so that 95 % of errors lie within 2 sigma at every balance
-AMBIGUITY_BINS = 5.3
-AMBIGUITY_SCALE = 0.13
-AMBIGUITY_MAX_BINS = 2.0
-AMBIGUITY_ROTOR_BINS = 4.0
-AMBIGUITY_ROTOR_SCALE = 0.21
-#: the same for CPIs with one visible pair (in quadrature on top), calibrated on the
-#: one-pair CPIs of emulated flights to the same 95 % within 2 sigma
-ONE_PAIR_BINS = 4.25
-ONE_PAIR_SCALE = 0.8
-ONE_PAIR_ROTOR_BINS = 13.0
-ONE_PAIR_ROTOR_SCALE = 0.6
-#: the fit runs on the CPI's samples decimated to the model's band (:class:`_Model`): its
-#: half-width is the body's Doppler plus ``harmonics[-1]`` blade-passing orders of the
-#: fastest rotor a fit may reach, times BAND_MARGIN, plus BAND_BINS bins (the
-#: Blackman-Harris window's main lobe and the chirps); 0 fits every sample (this changes
-#: the cost, not the result)
-BAND_MARGIN = 1.0
-BAND_BINS = 16
 
 
 @dataclass(frozen=True)
 class FitConfig:
-    """Settings of :func:`refine_cpi` (see the module docstring); the search effort and
-    the calibrated uncertainty terms are module constants (``ITERATIONS``, ``KEEP``,
-    ``AMBIGUITY_*``, ...).
+    """Settings of :func:`refine_cpi` (see the module docstring).
+
+    The fields from ``iterations`` on are the fit's fixed settings, not physical knobs:
+    its search effort and its calibrated uncertainty terms, each described by its field
+    (how each was set: ``docs/experiments.md``, "Where the code's settings come from";
+    the benchmark that measures the fit with them: ``benchmarks/eval_rotorspeed.py``;
+    ``benchmarks/bound_rotorspeed.py --fit NAME=VALUE`` sets them for experiments).
 
     Parameters
     ----------
@@ -193,8 +142,90 @@ class FitConfig:
     min_power: float = 0.15
     reseed_rel: float = 0.12
     move_rel: float = 0.16
+    iterations: int = knob(
+        10,
+        "Gauss-Newton iterations per fit; a fit stops earlier once its cost falls by under ``tolerance`` (relative).",
+        minimum=0,
+        config=False,
+    )
+    screen_iterations: int = knob(
+        4, "Gauss-Newton iterations per screening fit of a start (with ``harmonics[0]``).", minimum=0, config=False
+    )
+    tolerance: float = knob(1e-5, "A fit stops once its cost falls by under this (relative).", minimum=0, config=False)
+    keep: int = knob(2, "Screened starts carried on to the full harmonics.", minimum=1, config=False)
+    spreads_bins: tuple = knob(
+        (0.6, 1.5), "Spreads [bins of the first harmonic] at which rotors sharing a line start.", config=False
+    )
+    bound_bins: float = knob(
+        5.0,
+        "A fit whose rotors leave the lines' range by more than this [bins] is dropped and the periodogram's "
+        "estimate stands.",
+        minimum=0,
+        config=False,
+    )
+    reseed: int = knob(
+        3, "Times the weakest rotor is re-seeded at the residual's strongest comb.", minimum=0, config=False
+    )
+    move_passes: int = knob(
+        2,
+        "The residual's comb is tried in place of each of the ``move_tries`` weakest rotors, at most "
+        "``move_passes`` times (0: no moves).",
+        minimum=0,
+        config=False,
+    )
+    move_tries: int = knob(2, "Weakest rotors tried per pass of the moves (``move_passes``).", minimum=0, config=False)
+    comb_similarity: float = knob(
+        0.45,
+        "A re-seeded or moved rotor's harmonic-order profile must match the other rotors' at least this well "
+        "(Bhattacharyya coefficient), and spread over its orders at least ``comb_spread`` x the others' spread - "
+        "``comb_slack`` (:func:`_comb_like`).",
+        minimum=0,
+        maximum=1,
+        config=False,
+    )
+    comb_spread: float = knob(0.5, "See ``comb_similarity``.", minimum=0, config=False)
+    comb_slack: float = knob(0.1, "See ``comb_similarity``.", minimum=0, config=False)
+    rel_floor: float = knob(
+        0.0004, "Relative uncertainty floor for what the quadratic phase does not capture.", minimum=0, config=False
+    )
+    ambiguity_bins: float = knob(
+        5.3,
+        "The composition's ambiguity by the fit's balance b (module docstring): the mean's sigma adds "
+        "min(``ambiguity_bins`` exp(-b / ``ambiguity_scale``), ``ambiguity_max_bins``) bins, each ranked rotor's "
+        "``ambiguity_rotor_bins`` exp(-b / ``ambiguity_rotor_scale``); calibrated on emulated flights so that "
+        "95 % of errors lie within 2 sigma at every balance.",
+        minimum=0,
+        config=False,
+    )
+    ambiguity_scale: float = knob(0.13, "See ``ambiguity_bins``.", exclusive_minimum=0, config=False)
+    ambiguity_max_bins: float = knob(2.0, "See ``ambiguity_bins``.", minimum=0, config=False)
+    ambiguity_rotor_bins: float = knob(4.0, "See ``ambiguity_bins``.", minimum=0, config=False)
+    ambiguity_rotor_scale: float = knob(0.21, "See ``ambiguity_bins``.", exclusive_minimum=0, config=False)
+    one_pair_bins: float = knob(
+        4.25,
+        "The same as ``ambiguity_*`` for CPIs with one visible pair (in quadrature on top), calibrated on the "
+        "one-pair CPIs of emulated flights to the same 95 % within 2 sigma.",
+        minimum=0,
+        config=False,
+    )
+    one_pair_scale: float = knob(0.8, "See ``one_pair_bins``.", exclusive_minimum=0, config=False)
+    one_pair_rotor_bins: float = knob(13.0, "See ``one_pair_bins``.", minimum=0, config=False)
+    one_pair_rotor_scale: float = knob(0.6, "See ``one_pair_bins``.", exclusive_minimum=0, config=False)
+    band_margin: float = knob(
+        1.0,
+        "The fit runs on the CPI's samples decimated to the model's band (:class:`_Model`): its half-width is the "
+        "body's Doppler plus ``harmonics[-1]`` blade-passing orders of the fastest rotor a fit may reach, times "
+        "``band_margin``, plus ``band_bins`` bins (the Blackman-Harris window's main lobe and the chirps); 0 fits "
+        "every sample (this changes the cost, not the result).",
+        minimum=0,
+        config=False,
+    )
+    band_bins: int = knob(16, "See ``band_margin``.", minimum=0, config=False)
 
     def __post_init__(self):
+        check_ranges(self, "rotors.fit", all_fields=True)  # every knob's range, config=False ones too
+        if not self.spreads_bins or any(not sp > 0 for sp in self.spreads_bins):
+            raise ValueError(f"spreads_bins={self.spreads_bins} must be a non-empty tuple of numbers > 0")
         h = tuple(self.harmonics)
         if not h or any(int(n) != n or n < 1 for n in h):
             raise ValueError(f"harmonics={self.harmonics} must be a non-empty tuple of integers >= 1")
@@ -316,7 +347,7 @@ class _Model:
         """Gauss-Newton from ``p`` with ``N`` harmonics: (p, cost). Leaves J^T J (with
         the prior), the amplitudes, residual and per-rotor power at the result."""
         cfg, M = self.cfg, self.M
-        iterations = ITERATIONS if iterations is None else iterations
+        iterations = cfg.iterations if iterations is None else iterations
         ns = np.r_[np.arange(-N, 0), np.arange(1, N + 1)].astype(float)
         K = len(ns)
         A = self.build(p, N)
@@ -346,7 +377,7 @@ class _Model:
                     accepted = True
                     break
                 lam *= 6
-            if not accepted or rel < TOLERANCE:
+            if not accepted or rel < cfg.tolerance:
                 break
         self.power = np.array([np.sum(np.abs(c[1 + q * K : 1 + (q + 1) * K]) ** 2) for q in range(M)])
         self.c, self.A, self.r, self._L, self._ns = c, A, r, L, ns
@@ -451,7 +482,7 @@ def _refine_cpi(
     Returns
     -------
     CpiFit or None
-        None where no start stays within ``BOUND_BINS`` of the lines.
+        None where no start stays within ``bound_bins`` of the lines.
     """
     cfg = config or FitConfig()
     B, M = int(n_blades), int(n_motors)
@@ -461,17 +492,17 @@ def _refine_cpi(
         return None
     bin_rev = prf / len(x) / B
     Ns = tuple(cfg.harmonics)
-    lo, hi = lines[0] - BOUND_BINS * bin_rev, lines[-1] + BOUND_BINS * bin_rev
+    lo, hi = lines[0] - cfg.bound_bins * bin_rev, lines[-1] + cfg.bound_bins * bin_rev
     mid = 0.5 * (lines[0] + lines[-1])
     # the fastest rotor a fit may reach: the bound, the re-seeding and the moves' windows
     f_top = max(hi, mid * (1 + max(cfg.reseed_rel, cfg.move_rel)))
     half_t = 0.5 * len(x) / prf
-    band = BAND_MARGIN * (
+    band = cfg.band_margin * (
         abs(body_hz)
         + abs(body_rate_hz_s) * half_t
         + max(Ns) * B * (f_top + (abs(rate_rev_s2) + 3 * cfg.chirp_sd_rev_s2) * half_t)
-    ) + BAND_BINS * prf / len(x)
-    F = _Model(x, prf, B, M, cfg, band if BAND_MARGIN > 0 else None)
+    ) + cfg.band_bins * prf / len(x)
+    F = _Model(x, prf, B, M, cfg, band if cfg.band_margin > 0 else None)
     p0 = np.r_[body_hz, body_rate_hz_s, np.resize(lines, M), np.full(M, rate_rev_s2)]
     F.g0 = float(rate_rev_s2)
     F.s2 = F.solve(F.build(p0, Ns[0]))[3] / len(x)
@@ -482,17 +513,17 @@ def _refine_cpi(
 
     starts = []
     for comp in _compositions(M, k) if k < M else [[1] * M]:
-        for sp in SPREADS_BINS if max(comp) > 1 else SPREADS_BINS[:1]:
+        for sp in cfg.spreads_bins if max(comp) > 1 else cfg.spreads_bins[:1]:
             f0 = np.concatenate([ln + (np.arange(m) - (m - 1) / 2) * sp * bin_rev for ln, m in zip(lines, comp)])
             starts.append((f0, "+".join(map(str, comp))))
     cands = []
     for f0, name in starts:
-        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0], SCREEN_ITERATIONS)
+        p, cost = F.fit(np.r_[body_hz, body_rate_hz_s, f0, np.full(M, rate_rev_s2)], Ns[0], cfg.screen_iterations)
         if inside(p):
             cands.append((cost, name, p))
     cands.sort(key=lambda c: c[0])
     best = None
-    for cost, name, p in cands[:KEEP]:
+    for cost, name, p in cands[: cfg.keep]:
         for N in Ns[1:]:
             p, cost = F.fit(p, N)
         if not inside(p):
@@ -508,7 +539,7 @@ def _refine_cpi(
     # re-seed the weakest rotor at the residual's strongest comb, searched over the
     # group's plausible spread (a rotor the periodogram missed lies outside the lines)
     wlo, whi = min(lo, mid * (1 - cfg.reseed_rel)), max(hi, mid * (1 + cfg.reseed_rel))
-    for k_seed in range(RESEED):
+    for k_seed in range(cfg.reseed):
         F.fit(p, N, iterations=0)
         if k_seed > 0 and not _spare(F.power, cfg).any():
             break
@@ -562,13 +593,13 @@ def _refine_cpi(
     a = np.zeros(len(p))
     a[2 : 2 + M] = weight / M
     # the composition's ambiguity, by the fit's balance (see the module docstring)
-    amb = min(AMBIGUITY_BINS * np.exp(-balance / AMBIGUITY_SCALE), AMBIGUITY_MAX_BINS) * bin_rev
-    amb_rotor = AMBIGUITY_ROTOR_BINS * bin_rev * np.exp(-balance / AMBIGUITY_ROTOR_SCALE)
+    amb = min(cfg.ambiguity_bins * np.exp(-balance / cfg.ambiguity_scale), cfg.ambiguity_max_bins) * bin_rev
+    amb_rotor = cfg.ambiguity_rotor_bins * bin_rev * np.exp(-balance / cfg.ambiguity_rotor_scale)
     if n_pairs == 1:
-        amb = np.hypot(amb, ONE_PAIR_BINS * bin_rev * np.exp(-balance / ONE_PAIR_SCALE))
-        amb_rotor = np.hypot(amb_rotor, ONE_PAIR_ROTOR_BINS * bin_rev * np.exp(-balance / ONE_PAIR_ROTOR_SCALE))
-    sd = np.sqrt(sd**2 + (REL_FLOOR * f) ** 2 + amb_rotor**2)
-    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (REL_FLOOR * f.mean()) ** 2 + amb**2))
+        amb = np.hypot(amb, cfg.one_pair_bins * bin_rev * np.exp(-balance / cfg.one_pair_scale))
+        amb_rotor = np.hypot(amb_rotor, cfg.one_pair_rotor_bins * bin_rev * np.exp(-balance / cfg.one_pair_rotor_scale))
+    sd = np.sqrt(sd**2 + (cfg.rel_floor * f) ** 2 + amb_rotor**2)
+    mean_sd = float(np.sqrt(max(a @ cov @ a, 0.0) + var_count + (cfg.rel_floor * f.mean()) ** 2 + amb**2))
     order = np.argsort(f)
     return CpiFit(f[order], sd[order], mean_sd, name, balance)
 
@@ -578,16 +609,16 @@ def _move_to_missed(
 ):
     """A rotor the periodogram's lines missed (module docstring): the residual's
     strongest harmonic comb within ``move_rel`` of the window's centre, tried in place
-    of each of the ``MOVE_TRIES`` weakest rotors; the best fit that lowers the cost is
-    kept, up to ``MOVE_PASSES`` times. Returns (p, cost, name)."""
+    of each of the ``move_tries`` weakest rotors; the best fit that lowers the cost is
+    kept, up to ``move_passes`` times. Returns (p, cost, name)."""
     M = F.M
     mid = 0.5 * (lo + hi)
     mlo, mhi = min(lo, mid * (1 - cfg.move_rel)), max(hi, mid * (1 + cfg.move_rel))
-    for _ in range(MOVE_PASSES):
+    for _ in range(cfg.move_passes):
         F.fit(p, N, iterations=0)
         peak = F.comb_peak(F.r, p, N, mlo, mhi, 0.1 * bin_rev)
         best = None
-        for q in np.argsort(F.power)[:MOVE_TRIES]:
+        for q in np.argsort(F.power)[: cfg.move_tries]:
             pm = p.copy()
             pm[2 + q], pm[2 + M + q] = peak, F.g0
             pn, cn = F.fit(pm, N)
@@ -605,9 +636,9 @@ def _comb_like(F: _Model, q: int) -> bool:
     """Whether rotor ``q`` of the last :meth:`_Model.fit` lights its harmonic orders as
     the other rotors do (one drone's blades light the same orders). Its order profile
     (power per order n = 1 .. ``N``, both signs, normalised) must match the other
-    rotors' mean profile (Bhattacharyya coefficient >= ``COMB_SIMILARITY``), and where
+    rotors' mean profile (Bhattacharyya coefficient >= ``comb_similarity``), and where
     the others spread their power over several orders it must too: its share outside
-    its strongest order >= ``COMB_SPREAD`` x the others' median share - ``COMB_SLACK``
+    its strongest order >= ``comb_spread`` x the others' median share - ``comb_slack``
     (the slack keeps rotors whose blades light one order, all near zero, out of the
     test). A comb placed on lines the model does not hold (the rotation-rate lines of
     unequal blades; the harmonics of a blade flash wider than ``harmonics[-1]`` orders,
@@ -623,8 +654,8 @@ def _comb_like(F: _Model, q: int) -> bool:
     prof = orders / np.maximum(orders.sum(axis=1, keepdims=True), 1e-300)
     share = 1.0 - prof.max(axis=1)
     others = np.delete(prof, q, axis=0)
-    similar = float(np.sqrt(prof[q] * others.mean(axis=0)).sum()) >= COMB_SIMILARITY
-    spread = share[q] >= COMB_SPREAD * float(np.median(np.delete(share, q))) - COMB_SLACK
+    similar = float(np.sqrt(prof[q] * others.mean(axis=0)).sum()) >= F.cfg.comb_similarity
+    spread = share[q] >= F.cfg.comb_spread * float(np.median(np.delete(share, q))) - F.cfg.comb_slack
     return similar and spread
 
 

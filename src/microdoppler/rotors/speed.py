@@ -16,7 +16,7 @@ Method (arrays per CPI):
 1. Spectrum in dB over the *local* noise floor (a low percentile over
    ``FLOOR_WINDOW_BINS``, robust to the lines around a drone's body); the clutter
    band ``|f| < clutter_guard_hz`` is masked ("unknown", neither evidence for nor
-   against a line). Lines are peaks with ``LINE_PROMINENCE_DB``.
+   against a line). Lines are peaks with ``line_prominence_db``.
 2. Centre of symmetry: HERM lines come in pairs f_c +- n B f_m, so the centre f_c is
    the half-bin near the track's Doppler (``body_search_hz``) where the mirrored line
    pattern best matches itself. Speeds below come from pair *differences*
@@ -29,13 +29,13 @@ Method (arrays per CPI):
    sub-harmonic or a ghost (where n = 1 falls in the clutter band, n = 2 and 3 stand
    in).
 4. Continuity prior: a Viterbi path over a 0.5 % log-speed grid (emission: the best
-   R in the cell; ``STEP_PENALTY_DB`` per step, at most ``max_step_rel`` per hop)
+   R in the cell; ``step_penalty_db`` per step, at most ``max_step_rel`` per hop)
    follows the rotor group from CPI to CPI; the rotors are searched within a factor
-   ``GROUP_RATIO`` of it.
+   ``group_ratio`` of it.
 5. Lines: peaks of the lowest examinable harmonic's pair spectrum form clusters
    (bounded by the minima between them). Each cluster's speed is the power-weighted
    centroid of its lines on both sides (noise subtracted; the outermost walk out
-   while above the noise), at n1 and up to ``N_MEASURE`` harmonics (while the
+   while above the noise), at n1 and up to ``n_measure`` harmonics (while the
    harmonic groups do not overlap), combined with inverse-variance weights. A
    centroid, unlike a peak, is unbiased by the speed changing within the CPI: a
    spectrogram line's first moment is the window^2-weighted mean of its
@@ -47,12 +47,12 @@ Method (arrays per CPI):
    per cluster are chosen from the clusters' power shares (averaged over every
    harmonic whose pair is visible anywhere in the group: close rotors interfere,
    differently at each harmonic) and the relative-speed pattern of neighbouring CPIs
-   (+-``PATTERN_CPIS``) whose every rotor had its own line; the mean speed is
+   (+-``pattern_cpis``) whose every rotor had its own line; the mean speed is
    averaged over the counts' posterior. The spread of the posterior under the
    measured share scatter (larger for lines that rotors share) adds to the
    uncertainty, so an ambiguous count shows as a larger sigma.
 8. Uncertainty: centroid noise (per-bin periodogram variance) plus a floor
-   ``REL_FLOOR`` per measurement, inflated by the scatter over harmonics (Birge
+   ``rel_floor`` per measurement, inflated by the scatter over harmonics (Birge
    ratio), plus the placement of lines that share a cluster.
 9. I/Q fit (``refine``, on by default): every CPI with an estimate is refitted by
    least squares on its samples (:mod:`microdoppler.rotors.fit`): each of the M rotors
@@ -121,6 +121,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 from scipy.signal import find_peaks
 
+from ..configfields import check_ranges, knob
 from ..io.flightzarr import Flight
 from ..io.motorlog import MotorLog
 from .fit import FitConfig, refine_cpi
@@ -134,55 +135,18 @@ from ..spectra.spectrogram import PAPER_WINDOW_S, SpectrogramConfig, nearest_pow
 #: lines alone, or refined by least squares on the I/Q (step 9)
 METHOD_LINES = "herm-pairs/1"
 METHOD = "herm-pairs+iq-fit/2"
-#: relative width of a cell of the Viterbi speed grid
-LOG_STEP = 0.005
-
-# Fixed settings of the method (module constants, not knobs: none has a physical value a
-# user would set per radar or drone; each is measured through the estimator's accuracy,
-# ``benchmarks/eval_rotorspeed.py``, and how it was set is in ``docs/experiments.md``).
-
-#: prominence of a spectral line [dB] (steps 1, 5-6)
-LINE_PROMINENCE_DB = 6.0
-#: rotors are searched within a factor 1.5 of the tracked group speed: under 2 so that a
-#: rotor's second harmonic stays outside the search (step 4)
-GROUP_RATIO = 1.5
-#: Viterbi penalty per 0.5 % speed step [dB of evidence] (step 4)
-STEP_PENALTY_DB = 0.5
-#: the outermost lines' regions end where the spectrum falls to 3 dB over the floor or
-#: 30 dB below the line's peak (step 5)
-NOISE_DB = 3.0
-LINE_RANGE_DB = 30.0
-#: the shortest default CPI [pulses]: the paper's STFT length (see ``n_fft`` of
-#: :func:`estimate_rotor_speeds`)
-N_FFT_MIN = 4096
-#: harmonics (from the lowest) at which each cluster's centroid is measured (step 5)
-N_MEASURE = 4
-#: a cluster with under this share of the group's power is merged away (step 5)
-MIN_SHARE = 0.06
-#: rotor counts (step 7): the spread of a power share used to pick the counts, the cost
-#: [in -2 log-likelihood] of a resolved line left without a rotor, the spread of the
-#: relative-speed pattern, and the CPIs on either side that give the pattern
-POWER_SHARE_SD = 0.06
-SPLIT_COST = 10.0
-PATTERN_SD = 0.02
-PATTERN_CPIS = 8
-#: the uncertainty of the mean speed from the rotor counts (step 7): the share of a line
-#: of k rotors has variance SPREAD_SHARE_SD^2 + SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2
-#: (measured scatter of the shares on emulated flights)
-SPREAD_SHARE_SD = 0.075
-SPREAD_INTERFERENCE_SD = 0.10
-#: relative uncertainty floor of one centroid measurement (step 8)
-REL_FLOOR = 0.008
-#: CPIs per STFT block (memory only: the result does not depend on it)
-BLOCK_CPIS = 64
 
 
 @dataclass(frozen=True)
 class RotorSpeedConfig:
     """Settings of :func:`estimate_rotor_speeds` (the module docstring's steps).
 
-    The method's other settings are module constants (``FLOOR_*``, ``LINE_PROMINENCE_DB``,
-    ``GROUP_RATIO``, ...; each says why its value). Derived: :attr:`smear_rel`.
+    The fields from ``log_step`` on are the method's fixed settings, not knobs: none has
+    a physical value a user would set per radar or drone; each is measured through the
+    estimator's accuracy (``benchmarks/eval_rotorspeed.py``), how it was set is in
+    ``docs/experiments.md``, and each field's description says what it is. The local
+    floor's settings are ``microdoppler.spectra.floor``'s (``FLOOR_*``). Derived:
+    :attr:`smear_rel`.
 
     Parameters
     ----------
@@ -255,8 +219,87 @@ class RotorSpeedConfig:
     fit: FitConfig = field(default_factory=FitConfig)
     lone_level: bool = True
     lone_p_min: float = 0.05
+    log_step: float = knob(
+        0.005, "Relative width of a cell of the Viterbi speed grid (step 4).", exclusive_minimum=0, config=False
+    )
+    line_prominence_db: float = knob(6.0, "Prominence of a spectral line [dB] (steps 1, 5-6).", minimum=0, config=False)
+    group_ratio: float = knob(
+        1.5,
+        "Rotors are searched within this factor of the tracked group speed: under 2 so that a rotor's second "
+        "harmonic stays outside the search (step 4).",
+        exclusive_minimum=1,
+        config=False,
+    )
+    step_penalty_db: float = knob(
+        0.5, "Viterbi penalty per ``log_step`` speed step [dB of evidence] (step 4).", minimum=0, config=False
+    )
+    noise_db: float = knob(
+        3.0,
+        "The outermost lines' regions end where the spectrum falls to ``noise_db`` over the floor or "
+        "``line_range_db`` below the line's peak [dB] (step 5).",
+        config=False,
+    )
+    line_range_db: float = knob(30.0, "See ``noise_db`` [dB].", exclusive_minimum=0, config=False)
+    n_fft_min: int = knob(
+        4096,
+        "The shortest default CPI [pulses]: the paper's STFT length (see ``n_fft`` of :func:`estimate_rotor_speeds`).",
+        minimum=64,
+        config=False,
+    )
+    n_measure: int = knob(
+        4, "Harmonics (from the lowest) at which each cluster's centroid is measured (step 5).", minimum=1, config=False
+    )
+    min_share: float = knob(
+        0.06,
+        "A cluster with under this share of the group's power is merged away (step 5).",
+        minimum=0,
+        maximum=1,
+        config=False,
+    )
+    power_share_sd: float = knob(
+        0.06,
+        "Rotor counts (step 7): the spread of a power share used to pick the counts.",
+        exclusive_minimum=0,
+        config=False,
+    )
+    split_cost: float = knob(
+        10.0,
+        "Rotor counts (step 7): the cost [in -2 log-likelihood] of a resolved line left without a rotor.",
+        minimum=0,
+        config=False,
+    )
+    pattern_sd: float = knob(
+        0.02, "Rotor counts (step 7): the spread of the relative-speed pattern.", exclusive_minimum=0, config=False
+    )
+    pattern_cpis: int = knob(
+        8, "Rotor counts (step 7): the CPIs on either side that give the pattern.", minimum=0, config=False
+    )
+    spread_share_sd: float = knob(
+        0.075,
+        "The uncertainty of the mean speed from the rotor counts (step 7): the share of a line of k rotors has "
+        "variance ``spread_share_sd``^2 + ``spread_interference_sd``^2 k (k - 1) / 2 (measured scatter of the "
+        "shares on emulated flights).",
+        exclusive_minimum=0,
+        config=False,
+    )
+    spread_interference_sd: float = knob(0.10, "See ``spread_share_sd``.", minimum=0, config=False)
+    rel_floor: float = knob(
+        0.008, "Relative uncertainty floor of one centroid measurement (step 8).", minimum=0, config=False
+    )
+    block_cpis: int = knob(
+        64, "CPIs per STFT block (memory only: the result does not depend on it).", minimum=1, config=False
+    )
+    overlap_variance_factor: float = knob(
+        2.0,
+        "Variance of the mean of 50 %-overlapping CPIs' errors over that of independent ones (neighbours share "
+        "half their pulses: correlation 0.5 with a flat window, less with Blackman-Harris; 1 + 2 x 0.5 bounds "
+        "it; :func:`recording_means`).",
+        exclusive_minimum=0,
+        config=False,
+    )
 
     def __post_init__(self):
+        check_ranges(self, "rotors.speed", all_fields=True)  # the fixed settings' ranges (config=False knobs)
         if not 0 < self.min_rev_s < self.max_rev_s:
             raise ValueError(f"min_rev_s={self.min_rev_s}, max_rev_s={self.max_rev_s} must satisfy 0 < min < max")
         if self.n_harmonics < 1:
@@ -574,7 +617,7 @@ def estimate_rotor_speeds(
     n_fft : int, optional
         CPI length [pulses], 50 % overlap. Default: the power of two nearest the
         paper's CPI in time (``PAPER_WINDOW_S``, 0.56 s) x PRF, as the spectrogram's
-        default, but at least ``N_FFT_MIN`` (4096, the paper's STFT): 8192 at 10.3-20.7
+        default, but at least ``n_fft_min`` (4096, the paper's STFT): 8192 at 10.3-20.7
         kHz. Shorter CPIs give coarser bins (4096 pulses at 14-19 kHz: 4 % of a 2-blade
         rotor's first line at 44 rev/s) and biased speeds (the trade-off measured:
         ``docs/experiments.md``). Where the longer default CPI gives no
@@ -632,19 +675,19 @@ def estimate_rotor_speeds(
     M = int(n_motors if n_motors is not None else attrs.get("n_motors", 4))
     B = n_blades if n_blades is not None else attrs.get("n_blades")
     if n_fft is None:
-        n_fft = max(N_FFT_MIN, nearest_power_of_two(PAPER_WINDOW_S * prf))
-        if n_fft > N_FFT_MIN:
+        n_fft = max(cfg.n_fft_min, nearest_power_of_two(PAPER_WINDOW_S * prf))
+        if n_fft > cfg.n_fft_min:
             # a longer CPI resolves slow rotors' lines; where their speeds change within
             # it the lines smear below the pair threshold: then the paper's 4096 pulses
             kw = dict(n_motors=n_motors, n_blades=n_blades, config=config, progress=progress, order=order)
             est = estimate_rotor_speeds(flight, n_fft=n_fft, **kw)
             if est.ok:
                 return est
-            short = estimate_rotor_speeds(flight, n_fft=N_FFT_MIN, **kw)
+            short = estimate_rotor_speeds(flight, n_fft=cfg.n_fft_min, **kw)
             if not short.ok:
                 return est
             short.info["cpi"] = (
-                f"{N_FFT_MIN} pulses: the default CPI of {n_fft} ({n_fft / prf:.2f} s) gave no estimate ({est.reason})"
+                f"{cfg.n_fft_min} pulses: the default CPI of {n_fft} ({n_fft / prf:.2f} s) gave no estimate ({est.reason})"
             )
             return short
     if n_fft < 64 or n_fft % 2:
@@ -679,17 +722,17 @@ def estimate_rotor_speeds(
     # fine speed grid: one step moves harmonic N by 1/4 bin
     step = 0.25 * bin_hz / (N * B)
     fgrid = np.arange(cfg.min_rev_s, cfg.max_rev_s + step, step)
-    # Viterbi grid: log cells of LOG_STEP; cell k covers fgrid[cell_start[k]:cell_start[k + 1]]
-    n_states = int(np.ceil(np.log(cfg.max_rev_s / cfg.min_rev_s) / LOG_STEP)) + 1
-    cell_lo = cfg.min_rev_s * np.exp((np.arange(n_states) - 0.5) * LOG_STEP)
+    # Viterbi grid: log cells of log_step; cell k covers fgrid[cell_start[k]:cell_start[k + 1]]
+    n_states = int(np.ceil(np.log(cfg.max_rev_s / cfg.min_rev_s) / cfg.log_step)) + 1
+    cell_lo = cfg.min_rev_s * np.exp((np.arange(n_states) - 0.5) * cfg.log_step)
     cell_start = np.maximum.accumulate(np.clip(np.searchsorted(fgrid, cell_lo), 0, len(fgrid) - 1))
     spec_cfg = SpectrogramConfig(n_fft=n_fft, overlap=0.5, highpass_hz=0.0, n_bins=0, tile_timesteps=1)
     f_track = body_doppler_hz(flight.track_time_s, flight.track_radial_velocity_mps, flight.wavelength_m, t)
     cpis: list[_Cpi] = []
     emis = np.zeros((n_cpi, n_states))
     f_hz = None
-    for i0 in range(0, n_cpi, BLOCK_CPIS):
-        i1 = min(n_cpi, i0 + BLOCK_CPIS)
+    for i0 in range(0, n_cpi, cfg.block_cpis):
+        i1 = min(n_cpi, i0 + cfg.block_cpis)
         seg = np.asarray(flight.iq[i0 * hop : (i1 - 1) * hop + n_fft])
         sp = spectrogram(seg, prf, spec_cfg)
         f_hz = sp.doppler_hz.astype(np.float64)
@@ -705,8 +748,8 @@ def estimate_rotor_speeds(
             emis[i0 + k] = np.maximum.reduceat(R, cell_start)
             cpis.append(_Cpi(zk.astype(np.float32), centre))
     # continuity prior: Viterbi over the log-speed cells
-    path = _viterbi(emis, int(np.ceil(cfg.max_step_rel / LOG_STEP)), STEP_PENALTY_DB)
-    f_path = cfg.min_rev_s * np.exp(path * LOG_STEP)
+    path = _viterbi(emis, int(np.ceil(cfg.max_step_rel / cfg.log_step)), cfg.step_penalty_db)
+    f_path = cfg.min_rev_s * np.exp(path * cfg.log_step)
 
     speeds = np.full((n_cpi, M), np.nan)
     sds = np.full((n_cpi, M), np.nan)
@@ -839,19 +882,13 @@ def estimate_rotor_speeds(
     return est
 
 
-#: variance of the mean of 50 %-overlapping CPIs' errors over that of independent ones
-#: (neighbours share half their pulses: correlation 0.5 with a flat window, less
-#: with Blackman-Harris; 1 + 2 x 0.5 bounds it)
-OVERLAP_VARIANCE_FACTOR = 2.0
-
-
-def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
+def recording_means(est: RotorEstimate, overlap_variance_factor: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Each rotor rank's mean speed over the recording and its one-sigma uncertainty.
 
     The variance of a rank's mean over its n CPIs joins (a) the larger of the CPIs' own
     (the sum of their squared sigma over n squared) and their scatter about the local
     trend (the mean square of their departures from the running median of five CPIs,
-    over n), each times ``OVERLAP_VARIANCE_FACTOR`` (overlapping CPIs' errors are
+    over n), each times ``overlap_variance_factor`` (overlapping CPIs' errors are
     correlated): ranks exchanged between CPIs scatter more than their sigma says; (b)
     the squared difference between the mean and the median of its CPIs (misread CPIs
     on one side pull the mean, not the median); and (c) the squared difference between
@@ -861,6 +898,9 @@ def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     est : RotorEstimate
+    overlap_variance_factor : float, optional
+        Default: the estimate's setting (``info["settings"]``), else
+        :class:`RotorSpeedConfig`'s.
 
     Returns
     -------
@@ -873,6 +913,10 @@ def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
     if not est.ok:
         return mean, std
     diff = est.info.get("method_diff_rev_s")
+    if overlap_variance_factor is None:
+        overlap_variance_factor = (est.info.get("settings") or {}).get(
+            "overlap_variance_factor", RotorSpeedConfig.overlap_variance_factor
+        )
     for r in range(M):
         ok = np.isfinite(sp[:, r]) & np.isfinite(sd[:, r]) & (sd[:, r] > 0)
         n = int(ok.sum())
@@ -884,7 +928,7 @@ def recording_means(est: RotorEstimate) -> tuple[np.ndarray, np.ndarray]:
         if n >= 5:
             trend = np.array([np.median(x[max(0, i - 2) : i + 3]) for i in range(n)])
             var = max(var, float(np.mean((x - trend) ** 2)) / n)
-        var = var * OVERLAP_VARIANCE_FACTOR + (mean[r] - float(np.median(x))) ** 2
+        var = var * overlap_variance_factor + (mean[r] - float(np.median(x))) ** 2
         if diff is not None and r < len(diff) and diff[r] is not None:
             var += float(diff[r]) ** 2
         std[r] = float(np.sqrt(var))
@@ -1140,7 +1184,7 @@ def _line_evidence(z: np.ndarray, cfg: RotorSpeedConfig) -> tuple[np.ndarray, np
     over ``pair_snr_db``, spread over +-1 and +-2 bins (-100 elsewhere, NaN near
     masked bins)."""
     n = len(z)
-    pk, _ = find_peaks(z, height=cfg.pair_snr_db, prominence=LINE_PROMINENCE_DB)
+    pk, _ = find_peaks(z, height=cfg.pair_snr_db, prominence=cfg.line_prominence_db)
     zpk = np.full(n, -100.0)
     zpk[pk] = z[pk]
     zpk1 = maximum_filter1d(zpk, 3)
@@ -1292,8 +1336,8 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     :class:`_Lines`, or None without a visible pair there."""
     T = cfg.pair_snr_db
     N = cfg.n_harmonics
-    lo = np.searchsorted(fgrid, f_path / GROUP_RATIO)
-    hi = np.searchsorted(fgrid, f_path * GROUP_RATIO)
+    lo = np.searchsorted(fgrid, f_path / cfg.group_ratio)
+    hi = np.searchsorted(fgrid, f_path * cfg.group_ratio)
     fw = fgrid[lo:hi]
     if len(fw) < 3:
         return None
@@ -1307,7 +1351,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
     if n1 is None:
         return None
     q1 = _pair_db(c, n1, fw, B, bin_hz)
-    pk = _peaks(q1, T, LINE_PROMINENCE_DB)
+    pk = _peaks(q1, T, cfg.line_prominence_db)
     if len(pk) == 0:
         return None
     # a line at ~twice a strong lower line's speed is that line's second harmonic
@@ -1330,7 +1374,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
         f_lo = min(ext[0][0], anchors[0] * (1 - 0.5 * cfg.smear_rel))
         f_hi = max(ext[-1][1], anchors[-1] * (1 + 0.5 * cfg.smear_rel))
         per_n = []
-        for nn in range(n1, min(N, n1 + N_MEASURE - 1) + 1):
+        for nn in range(n1, min(N, n1 + cfg.n_measure - 1) + 1):
             if nn * f_hi >= (nn + 1) * f_lo:
                 break
             if not examined[nn - 1, pk].all():
@@ -1348,12 +1392,12 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
         if not per_n:
             return None
         frac = np.mean([s[2] / s[2].sum() for s in per_n], axis=0)
-        weak = frac < MIN_SHARE
+        weak = frac < cfg.min_share
         if not weak.any() or len(pk) == 1:
             break
         pk = np.delete(pk, int(np.argmin(frac)))  # a smear shoulder or a ghost: merge it away
     sp_n = np.array([s[0] for s in per_n])  # [n_harm, n_clusters]
-    var_n = np.array([s[1] for s in per_n]) + (REL_FLOOR * sp_n) ** 2
+    var_n = np.array([s[1] for s in per_n]) + (cfg.rel_floor * sp_n) ** 2
     w = 1.0 / var_n
     cl_speed = (w * sp_n).sum(0) / w.sum(0)
     cl_var = 1.0 / w.sum(0)
@@ -1372,7 +1416,7 @@ def _rotors(c: _Cpi, f_path: float, fgrid, cfg: RotorSpeedConfig, B, M, bin_hz):
             if not examined[nn - 1, sel].all() or not (E[nn - 1, sel] > 0).any():
                 continue
             qn = _pair_db(c, nn, fw[sel], B, bin_hz)
-            p = _peaks(qn, T, LINE_PROMINENCE_DB)
+            p = _peaks(qn, T, cfg.line_prominence_db)
             if len(p):
                 found.append((len(p), nn, fw[sel][p]))
         counts = sorted((f[0] for f in found), reverse=True)
@@ -1477,12 +1521,12 @@ def _pattern(speeds: np.ndarray) -> np.ndarray:
     return speeds / speeds.mean() - 1
 
 
-def _share_cost(frac: np.ndarray, count: np.ndarray, M: int) -> float:
+def _share_cost(frac: np.ndarray, count: np.ndarray, M: int, cfg: RotorSpeedConfig) -> float:
     """-2 log-likelihood of the power shares ``frac`` [n_clusters] for the rotor counts
-    ``count``: a line of k rotors has share k / M with variance SPREAD_SHARE_SD^2 +
-    SPREAD_INTERFERENCE_SD^2 k (k - 1) / 2 (each pair of rotors on it interferes)."""
+    ``count``: a line of k rotors has share k / M with variance ``spread_share_sd``^2 +
+    ``spread_interference_sd``^2 k (k - 1) / 2 (each pair of rotors on it interferes)."""
     k = np.asarray(count, float)
-    var = SPREAD_SHARE_SD**2 + SPREAD_INTERFERENCE_SD**2 * k * (k - 1) / 2
+    var = cfg.spread_share_sd**2 + cfg.spread_interference_sd**2 * k * (k - 1) / 2
     return float(np.sum((frac - k / M) ** 2 / var + np.log(var)))
 
 
@@ -1493,7 +1537,7 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
     Close rotors merge into one line and interfere, so a line's power tells its
     rotor count poorly. The pattern of the rotors' relative speeds changes slowly:
     where a CPI has fewer lines than rotors, its counts are chosen to match both the
-    power shares and the median pattern of the CPIs within +-``PATTERN_CPIS`` whose
+    power shares and the median pattern of the CPIs within +-``pattern_cpis`` whose
     every rotor was seen as its own line.
     """
     n = len(lines)
@@ -1504,7 +1548,7 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
     pattern = [
         _pattern(L.rotors(np.array([len(m) for m in L.members]))[0]) if full[i] else None for i, L in enumerate(lines)
     ]
-    W = PATTERN_CPIS
+    W = cfg.pattern_cpis
     out = []
     for i, L in enumerate(lines):
         if L is None:
@@ -1512,14 +1556,14 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
             continue
         cost = np.array(
             [
-                float(np.sum((L.frac - cnt / M) ** 2)) / POWER_SHARE_SD**2 + SPLIT_COST * L.missing(cnt)
+                float(np.sum((L.frac - cnt / M) ** 2)) / cfg.power_share_sd**2 + cfg.split_cost * L.missing(cnt)
                 for cnt in opts[i]
             ]
         )
         refs = [pattern[j] for j in range(max(0, i - W), min(n, i + W + 1)) if j != i and full[j]]
         if refs and len(opts[i]) > 1:
             ref = np.median(np.array(refs), axis=0)
-            cost = cost + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD**2
+            cost = cost + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / cfg.pattern_sd**2
         # MAP counts for the rotors; the mean speed averages over the counts' posterior
         # (weights exp(-cost / 2)), its spread adds to the uncertainty
         w = np.exp(-0.5 * (cost - cost.min()))
@@ -1527,9 +1571,9 @@ def _allocate(lines: list, M: int, cfg: RotorSpeedConfig) -> list:
         means = np.array([L.rotors(cnt)[0].mean() for cnt in opts[i]])
         mu = float(np.sum(w * means))
         # the uncertainty: the posterior under the measured (count-dependent) share scatter
-        cv = np.array([_share_cost(L.frac, cnt, M) + SPLIT_COST * L.missing(cnt) for cnt in opts[i]])
+        cv = np.array([_share_cost(L.frac, cnt, M, cfg) + cfg.split_cost * L.missing(cnt) for cnt in opts[i]])
         if refs and len(opts[i]) > 1:
-            cv = cv + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / PATTERN_SD**2
+            cv = cv + np.array([float(np.sum((p - ref) ** 2)) for p in pats[i]]) / cfg.pattern_sd**2
         wv = np.exp(-0.5 * (cv - cv.min()))
         wv /= wv.sum()
         out.append((opts[i][int(np.argmin(cost))], mu, float(np.sum(wv * (means - mu) ** 2))))
@@ -1540,7 +1584,7 @@ def _cluster_stats(z, centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, ou
     """Per cluster at harmonic ``nn``: (speed [rev/s], noise variance [(rev/s)^2],
     power), arrays [n_clusters]; None when a region touches a masked bin. Inner
     bounds are the ``edges`` [rev/s]; the outer ones walk out of the outermost lines
-    while above ``NOISE_DB`` (at most ``smear_rel``, and halfway to the neighbouring
+    while above ``noise_db`` (at most ``smear_rel``, and halfway to the neighbouring
     harmonic groups or the body; ``outer`` [rev/s] bounds them too). The walks start
     at ``starts`` [rev/s] (default the outermost anchors)."""
     n = len(z)
@@ -1560,14 +1604,14 @@ def _cluster_stats(z, centre, nn, B, bin_hz, anchors, edges, f_lo, f_hi, cfg, ou
                 a0 = edges[ci - 1] * k_hz
             else:
                 j0 = int(np.round(centre + sign * d0))
-                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0) : j0 + 3])) - LINE_RANGE_DB)
+                stop = max(cfg.noise_db, float(np.max(z[max(j0 - 2, 0) : j0 + 3])) - cfg.line_range_db)
                 j = _walk(z, j0, -sign, stop, int(np.ceil(cfg.smear_rel * d0)) + 4)
                 a0 = max(sign * (j - centre), lim_lo)
             if ci < K - 1:
                 a1 = edges[ci] * k_hz
             else:
                 j0 = int(np.round(centre + sign * d1))
-                stop = max(NOISE_DB, float(np.max(z[max(j0 - 2, 0) : j0 + 3])) - LINE_RANGE_DB)
+                stop = max(cfg.noise_db, float(np.max(z[max(j0 - 2, 0) : j0 + 3])) - cfg.line_range_db)
                 j = _walk(z, j0, sign, stop, int(np.ceil(cfg.smear_rel * d1)) + 4)
                 a1 = min(sign * (j - centre), lim_hi)
             r = _centroid(z, _side_bins(centre, a0, a1, sign, n), centre, sign)

@@ -1,0 +1,413 @@
+"""Every module-level number of ``microdoppler`` is in a category (issue 57: knobs in
+one place; "module constants that are not physical constants become fields or go").
+
+The inventory: each module-level UPPER_CASE name (a leading underscore allowed) of
+``src/microdoppler/**/*.py`` bound to a number, a number expression (``1 / SCALE_MIN``,
+``1 << 16``) or a tuple of them, read with :mod:`ast` (inside a module-level ``if`` or
+``try`` too). Each must be in exactly one of three categories below, with a one-line
+reason:
+
+* :data:`PHYSICAL`: physical constants, the paper's stated conventions and other
+  fixed conventions (file formats, the 95 % level, a pretrained network's input
+  normalisation), which are not settings;
+* :data:`IDENTIFIERS`: identifiers and versions (random sub-stream numbers);
+* :data:`NOT_YET_FIELDS`: fixed method settings that are not yet fields of a
+  settings dataclass, by module: the debt, visible and counted.
+
+A new constant fails :func:`test_every_module_constant_is_in_one_category` until it is
+classified (or, better, made a field). ``rotors.fit`` and ``rotors.speed`` hold none
+any more: their fixed settings are fields of ``FitConfig`` and ``RotorSpeedConfig``
+(``config=False``: no pipeline key sets them).
+
+Counts (issue 57, at the conversion): 195 constants before; 42 converted to fields
+(``rotors.fit`` 24 -> ``FitConfig``, ``rotors.speed`` 18 -> ``RotorSpeedConfig``);
+153 remain: 22 physical/convention, 4 identifiers, 127 fixed method settings not yet
+fields (``importing.iqbalance``'s 11 among them: it has no settings dataclass).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "microdoppler"
+
+#: physical constants, the paper's and other stated conventions, file-format bounds
+PHYSICAL = {
+    "classifier.models:IMAGENET_MEAN": "the input normalisation the pretrained ImageNet weights expect",
+    "classifier.models:IMAGENET_STD": "the input normalisation the pretrained ImageNet weights expect",
+    "causes.blade_imbalance:INTERVAL_LEVEL": "the conventional 95 % interval level",
+    "commands.simulate:MAX_AMPLITUDE": "keeps every sample finite in complex64 (the store's I/Q format)",
+    "commands.simulate:MAX_MOTOR_HZ": "the flight format's bound on logged speeds (60000 rpm)",
+    "emulator.drone:GRAVITY_MPS2": "standard gravity",
+    "emulator.profiles:PRF_HZ": "the paper's radar's PRF (~7.3 kHz, 4096 pulses in 0.56 s)",
+    "examples:C_MPS": "speed of light",
+    "examples:N_FFT": "the paper's STFT length (4096)",
+    "examples:SOUND_MPS": "speed of sound in air",
+    "importing.flight:SPEED_OF_LIGHT_MPS": "speed of light",
+    "importing.fmcw:SPEED_OF_LIGHT_MPS": "speed of light",
+    "importing.plausibility:CARRIER_RANGE_HZ": "the radio bands a radar carrier can be in: VHF to the top of mm-wave",
+    "importing.plausibility:SPEED_OF_LIGHT_MPS": "speed of light",
+    "rotors.order:C_MPS": "speed of light",
+    "rotors.order:SOUND_MPS": "speed of sound in air",
+    "spectra.spectrogram:C_MPS": "speed of light",
+    "spectra.spectrogram:PAPER_DOPPLER_SPAN_MPS": "the paper's image width in radial velocity",
+    "spectra.spectrogram:PAPER_WINDOW_S": "the paper's CPI (0.56 s, section II)",
+    "stats.bootstrap:LEVEL": "the conventional 95 % interval level",
+    "synthesis.model:PHASE_ONE": "fixed-point phase: one revolution = 2**32 (uint32 wraps modulo a turn)",
+    "synthesis.radar:SPEED_OF_LIGHT_MPS": "speed of light",
+}
+
+#: identifiers and versions
+IDENTIFIERS = {
+    "causes.body_fluctuation:STREAM": "sub-seed number of the twins' body process",
+    "causes.phase_noise:STREAM": "sub-seed number of the twins' phase-noise process",
+    "causes.sideband_fading:STREAM": "sub-seed number of the twins' fading process",
+    "causes.twins:_BACKGROUND_STREAM": "offset of the background's phase-noise stream from the twin's seed",
+}
+
+#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 127
+#: in 31 modules; the most in causes.config 27, importing.iqbalance 11, emulator.world 9)
+NOT_YET_FIELDS = {
+    "causes.blade_imbalance": {
+        "N_BOOT": "bootstrap resamples of the imbalance's interval",
+    },
+    "causes.body_fluctuation": {
+        "BODY_TIMESCALE_S": "default correlation time of the body fluctuation [s]",
+        "BODY_FLUCTUATION_TAU_S": "correlation time of the emulator's knob [s] when not given",
+    },
+    "causes.config": {
+        "RAISED_FLOOR_DB": "a floor this far above the reference floor is no thermal noise [dB]",
+        "ROTATION_RAISED_FLOOR_DB": "the same guard for the rotation-rate lines [dB]",
+        "BODY_SEARCH_HZ": "the body line's search half-width about the tracker's Doppler [Hz]",
+        "SCALE_MIN": "smallest dilation of the HERM line spacing searched",
+        "SCALE_MAX": "largest dilation searched (1 / SCALE_MIN)",
+        "SCALE_STEP": "step of the dilation search",
+        "N_MATCH_HARMONICS": "harmonics of the HERM pattern matched",
+        "MIN_MATCH": "least normalised correlation of a CPI's spacing match",
+        "N_HARMONICS": "sideband pairs read per CPI",
+        "LINE_HALF_BINS": "least half width of a sideband's band [bins]",
+        "MIN_PAIR_SNR": "least median power over noise std of a harmonic pair used",
+        "LAG_STEP_S": "step of the motor-log lag grid [s]",
+        "PN_INNER_HZ": "inner edge of the phase-noise ordinates from the clutter line [Hz]",
+        "PN_OUTER_HZ": "outer edge of the phase-noise ordinates [Hz]",
+        "PN_PROFILE_OUTER_HZ": "outer edge of the wide-band phase-noise profile [Hz]",
+        "PN_PROFILE_AGREE_DB": "the profile's level must agree with the phase-noise fit within this [dB]",
+        "PN_PROFILE_BODY_GUARD_HZ": "the wide-band reading's guard about the body [Hz]",
+        "PN_PROFILE_FALL_DB": "least fall of the profile from inner to outer band [dB]",
+        "PN_BIN_STEP": "every n-th bin of the phase-noise band (Whittle independence)",
+        "PN_SMOOTH_CPIS": "baseline PSD smoothing over +-CPIs",
+        "PN_SMOOTH_BINS": "baseline PSD smoothing over +-bins",
+        "PN_CLUTTER_LINE_HZ": "the clutter line's power is summed within this of 0 Hz [Hz]",
+        "LINE_GUARD_FRAC": "the HERM lines are avoided by this fraction of their spacing",
+        "PN_BODY_GUARD_HZ": "the body's skirt is avoided by this beyond the body band [Hz]",
+        "PN_MODEL_GUARD_DB": "model blade power above this level relative to the floor is avoided [dB]",
+        "BODY_SMOOTH_CPIS": "moving average detrending the body-power statistic [CPIs]",
+        "PN_BODY_SKIRT_HZ": "width of a fluctuating body's Lorentzian skirt column [Hz]",
+    },
+    "causes.measure": {
+        "FINE_DIVISORS": "short analysis windows of the body power series (n_fft / d)",
+        "SIDE_FINE_DIVISOR": "short analysis window of the sideband power series (n_fft / d)",
+        "NON_MULTIPLE_VISIBLE_Z": "z above which non-multiple lines count as visible",
+        "ROTOR_WANDER_REL": "relative broadening of one rotor's line within a CPI",
+    },
+    "causes.motor_log": {
+        "LOG_OUTLIER_FRAC": "outlier fraction of the lag/scale tests' contaminated-normal likelihood",
+    },
+    "causes.phase_noise": {
+        "PHASE_NOISE_BANDWIDTH_HZ": "default bandwidth of the phase-noise process [Hz]",
+        "SKIRT_OFFSET_HZ": "offset at which the skirt level is read [Hz]",
+    },
+    "causes.sideband_fading": {
+        "DEFAULT_FADING_TIMESCALE_S": "default fading correlation time [s]",
+        "COMMON_GAIN_CORR": "correlation with the body above which a common gain is the whole target's",
+        "COMMON_GAIN_BODY_SHARE": "the body's share of a whole-target gain's excursions",
+    },
+    "classifier.training": {
+        "EVAL_FORWARD_BATCH": "evaluation's forward pass chunk (cache size; same bits)",
+    },
+    "commands.simulate": {
+        "PROGRESS_MIN_PULSES": "runs longer than this report progress",
+        "MAX_PULSES": "largest recording simulate writes (8 GiB of I/Q)",
+    },
+    "datasets.calibration": {
+        "HIGHPASS_MARGIN_PULSES": "pulses synthesised beyond each end of a calibration run (high-pass transients)",
+        "FIT_RUN_CPIS": "consecutive fit CPIs per run of the capped calibration subset",
+        "ALPHA_RECHECK": "alphas of a capped search tried again on every fit CPI",
+        "FINAL_TOL_FRACTION": "the final scale fit's tolerance divisor",
+        "_FFT_BATCH": "CPIs per FFT batch of the STFT (memory only)",
+    },
+    "datasets.fidelity": {
+        "DILATION_STEP": "dilation grid step of line_dilation",
+        "DILATION_SMOOTH_CPIS": "running median of the dilation [CPIs]",
+        "NONMULTIPLE_MIN_Z": "z of the blade-passing lines used as the non-multiple lines' reference",
+    },
+    "diagnosis.explain": {
+        "LINE_FALSE_ALARM": "the two-sided check's false-alarm probability per flight",
+        "MODEL_CLEAR_SNR_DB": "a model line clearly above the noise [dB]",
+    },
+    "emulator.background": {
+        "RANGE_CELL_M": "emulated clutter cell size in range [m]",
+        "AZ_CELL_DEG": "emulated clutter cell size in azimuth [deg]",
+        "CELL_FADE_S": "cross-fade between clutter cells [s]",
+    },
+    "emulator.bird": {
+        "CONTROL_HZ": "the emulated bird's control rate [Hz]",
+        "WING_BELOW_BODY_DB": "emulated wing return below the body's, drawn [dB]",
+        "TURN_RATE_SD_RAD_S": "emulated group manoeuvre: turn-rate std, drawn [rad/s]",
+        "SPEED_SURGE": "emulated speed surge over the flap-glide cycle, drawn",
+        "SCINT_DB": "emulated body scintillation std, drawn [dB]",
+        "GLIDE_SHARE": "emulated share of time gliding, drawn",
+        "GLIDE_TIME_S": "emulated flap-glide correlation time, drawn [s]",
+    },
+    "emulator.drone": {
+        "CONTROL_HZ": "the emulated drone's control rate [Hz]",
+        "MOTOR_TAU_S": "the emulated ESC's first-order lag [s]",
+        "PAD_S": "motor history generated beyond the flight's ends [s]",
+    },
+    "emulator.profiles": {
+        "SYSTEMATIC_RANGE_DB": "emulated per-model systematic asymmetry, drawn [dB]",
+        "SYSTEMATIC_JITTER_DB": "its per-flight jitter [dB]",
+        "AIRFRAMES_PER_MODEL": "airframes per drone model in an emulated world",
+        "IMBALANCED_SHARE": "share of a large model's airframes with an unequal blade",
+        "IMBALANCE_DB": "range of an unequal blade's imbalance, drawn [dB]",
+    },
+    "emulator.world": {
+        "TRACK_HZ": "the emulated tracker's update rate [Hz]",
+        "BLADE_TAPER": "the emulated blade's current taper (thin wires from the hub)",
+        "FALLOFF_DB": "large drones' further sideband fall-off per harmonic, drawn [dB]",
+        "STRADDLE_LOSS_DB": "largest range-straddle loss [dB]",
+        "WEAK_BLADE_SHARE": "share of large-drone flights whose blades echo weakly",
+        "WEAK_BLADE_DB": "their first sideband's level below the body, drawn [dB]",
+        "MINI_WANDER_M": "the Mini pilot's wander about the plan, drawn [m]",
+        "MINI_SCINT_DB": "the Mini's body scintillation std, drawn [dB]",
+        "MINI_SCINT_S": "its time scale [s]",
+    },
+    "examples": {
+        "CARRIERS_HZ": "the any-radar generator's carriers",
+        "N_SEGMENTS": "scatterer segments per blade of the generator",
+        "HUB_FRACTION": "the generator's blade starts at this fraction of its length",
+        "VISIBLE_DB": "the generator's visibility rule [dB]",
+        "PHASE_GRID": "points per revolution of the generator's Fourier series",
+    },
+    "importing.fmcw": {
+        "DEFAULT_CPI_S": "default CPI of an FMCW import [s]",
+        "VELOCITY_FIT_S": "span of the range-rate fit [s]",
+    },
+    "importing.iqbalance": {
+        "IMAGE_REJECTION_WARN_DB": "warning level of the image-rejection ratio [dB]",
+        "REAL_VALUED_DB": "below this the warning says real-valued [dB]",
+        "DOPPLER_SIGN_WARN_DB": "warning level of a mirrored Doppler [dB]",
+        "RESOLUTION_MARGIN_DB": "a measurement counts when it resolves this far below the warning [dB]",
+        "BODY_MIN_BINS": "the body line is used this many bins from 0 Hz or more",
+        "NOTCH_HZ": "clutter notch the body line must clear [Hz]",
+        "BODY_ACCEPT_DB": "a peak's mirror must be this much weaker to be the body [dB]",
+        "BODY_LINE_DB": "a body peak stands this far above the median bin [dB]",
+        "BODY_MIN_SEGMENTS": "segments needed for a body-line measurement",
+        "NOISE_MIN_SEGMENTS": "segments needed for a mirror measurement",
+        "NOTCH_EXCESS": "a background bin is in the clutter notch while its power exceeds the median this much",
+    },
+    "importing.plausibility": {
+        "PRF_RANGE_HZ": "plausible pulse repetition frequencies [Hz]",
+        "TIP_SPEED_RANGE_MPS": "plausible blade-tip speeds [m/s]",
+        "MAX_TIP_FOLDS": "folds past +-PRF/2 of the slowest tips' Doppler that still pass",
+    },
+    "io.inventory": {
+        "MIN_SPLIT_FLIGHTS": "flights of each class a flight-disjoint split needs",
+    },
+    "io.motorlog": {
+        "PLAUSIBLE_MEDIAN_REV_S": "plausible median flying speed of a rotor [rev/s]",
+        "MAX_REV_S": "absolute ceiling of a logged rotor speed [rev/s]",
+    },
+    "rotors.order": {
+        "RATIOS": "the standard ratios to the estimate's rate always examined",
+        "MAX_CPIS": "CPIs the order check reads at most (left OrderConfig: no effect at x0.5, x2)",
+        "SCREEN_CPIS": "CPIs of the screen",
+        "REPORT_AT": "alternatives below this relative likelihood are not listed",
+        "RERUN_MARGIN": "widening of a re-measurement's range",
+        "RESCUE_TRIES": "likeliest screen rates measured again where the lines found no comb",
+    },
+    "rotors.plausibility": {
+        "TRACK_SPEED_TOL_MPS": "how well a track's radial velocity is trusted [m/s]",
+        "SEGMENT_S": "segment length of the time-averaged spectrum [s]",
+        "MAX_SEGMENTS": "most segments of the time-averaged spectrum",
+    },
+    "rotors.sampling": {
+        "SUB_CPI_PAD": "edge padding against filter transients [decimated samples]",
+    },
+    "spectra.floor": {
+        "FLOOR_WINDOW_BINS": "window of the local noise floor [bins]",
+        "FLOOR_STEP_BINS": "step of the local noise floor [bins]",
+        "FLOOR_PERCENTILE": "percentile of the local noise floor",
+    },
+    "spectra.lines": {
+        "MAX_HALF_SPACING": "a HERM pair's search half-width, as a fraction of the line spacing",
+    },
+    "stats.bootstrap": {
+        "N_BOOT": "default number of bootstrap replicates",
+    },
+    "synthesis.model": {
+        "TABLE_SIZE": "entries of the synthesis lookup table",
+        "ENVELOPE_SPEED_STEP": "speed grid of the harmonic envelope tables [rev/s]",
+        "ENVELOPE_TABLE_SIZE": "angles per harmonic envelope table",
+        "ENVELOPE_MAX_BINS": "most speed bins of envelope tables kept at once (memory)",
+        "ENVELOPE_SPEED_STRIDE": "a motor's speed is read every this many pulses",
+        "SUB_BLOCK": "pulses per lookup sub-block (cache)",
+        "CARRIER_STEP": "the track range is evaluated every this many pulses",
+    },
+    "synthesis.processes": {
+        "GAIN_DT_S": "sampling interval of the slow gain processes [s]",
+    },
+}
+
+#: the fixed settings issue 57 turned into fields, with their former module constants'
+#: values: each field's default must be that value, of that type (bit-identical results)
+CONVERTED = {
+    "rotors.fit": {
+        "ITERATIONS": 10,
+        "SCREEN_ITERATIONS": 4,
+        "TOLERANCE": 1e-5,
+        "KEEP": 2,
+        "SPREADS_BINS": (0.6, 1.5),
+        "BOUND_BINS": 5.0,
+        "RESEED": 3,
+        "MOVE_PASSES": 2,
+        "MOVE_TRIES": 2,
+        "COMB_SIMILARITY": 0.45,
+        "COMB_SPREAD": 0.5,
+        "COMB_SLACK": 0.1,
+        "REL_FLOOR": 0.0004,
+        "AMBIGUITY_BINS": 5.3,
+        "AMBIGUITY_SCALE": 0.13,
+        "AMBIGUITY_MAX_BINS": 2.0,
+        "AMBIGUITY_ROTOR_BINS": 4.0,
+        "AMBIGUITY_ROTOR_SCALE": 0.21,
+        "ONE_PAIR_BINS": 4.25,
+        "ONE_PAIR_SCALE": 0.8,
+        "ONE_PAIR_ROTOR_BINS": 13.0,
+        "ONE_PAIR_ROTOR_SCALE": 0.6,
+        "BAND_MARGIN": 1.0,
+        "BAND_BINS": 16,
+    },
+    "rotors.speed": {
+        "LOG_STEP": 0.005,
+        "LINE_PROMINENCE_DB": 6.0,
+        "GROUP_RATIO": 1.5,
+        "STEP_PENALTY_DB": 0.5,
+        "NOISE_DB": 3.0,
+        "LINE_RANGE_DB": 30.0,
+        "N_FFT_MIN": 4096,
+        "N_MEASURE": 4,
+        "MIN_SHARE": 0.06,
+        "POWER_SHARE_SD": 0.06,
+        "SPLIT_COST": 10.0,
+        "PATTERN_SD": 0.02,
+        "PATTERN_CPIS": 8,
+        "SPREAD_SHARE_SD": 0.075,
+        "SPREAD_INTERFERENCE_SD": 0.10,
+        "REL_FLOOR": 0.008,
+        "BLOCK_CPIS": 64,
+        "OVERLAP_VARIANCE_FACTOR": 2.0,
+    },
+}
+
+_NAME = re.compile(r"^_?[A-Z][A-Z0-9_]*$")
+
+
+def _numeric(node: ast.AST, top: bool = True) -> bool:
+    """Whether ``node`` is a number, a number expression or a tuple of them (a bare
+    name or attribute counts only inside an expression: ``1 / SCALE_MIN``, ``2 * np.pi``)."""
+    if isinstance(node, ast.Constant):
+        return isinstance(node.value, (int, float, complex)) and not isinstance(node.value, bool)
+    if isinstance(node, ast.UnaryOp):
+        return _numeric(node.operand, top)
+    if isinstance(node, ast.BinOp):
+        return _numeric(node.left, False) and _numeric(node.right, False)
+    if isinstance(node, ast.Name):
+        return not top and bool(_NAME.match(node.id))
+    if isinstance(node, ast.Attribute):
+        return not top and node.attr in ("pi", "e", "inf")
+    if isinstance(node, ast.Tuple):
+        return bool(node.elts) and all(_numeric(e) for e in node.elts)
+    return False
+
+
+def inventory(root: Path = SRC) -> dict[str, str]:
+    """``module:NAME`` -> the value's source, for every module-level UPPER_CASE name
+    bound to a number, a number expression or a tuple of them (``module`` relative to
+    the package: ``rotors.fit``)."""
+    out = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = path.relative_to(root).with_suffix("").parts
+        module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        body = list(ast.parse(path.read_text(encoding="utf-8")).body)
+        while body:
+            st = body.pop(0)
+            if isinstance(st, (ast.If, ast.Try)):
+                body = [*st.body, *st.orelse, *getattr(st, "finalbody", []), *body]
+                continue
+            if isinstance(st, ast.Assign):
+                targets, value = st.targets, st.value
+            elif isinstance(st, ast.AnnAssign) and st.value is not None:
+                targets, value = [st.target], st.value
+            else:
+                continue
+            for t in targets:
+                if isinstance(t, ast.Name) and _NAME.match(t.id) and _numeric(value):
+                    out[f"{module}:{t.id}"] = ast.unparse(value)
+    return out
+
+
+def _not_yet() -> dict[str, str]:
+    return {f"{m}:{n}": why for m, names in NOT_YET_FIELDS.items() for n, why in names.items()}
+
+
+def test_every_module_constant_is_in_one_category():
+    """Each constant of the inventory is classified, once; no entry names a constant
+    that is gone (make it a field or classify it: the lists at the top of this file)."""
+    found = inventory()
+    assert len(found) > 100, "the inventory found almost nothing: is SRC right?"
+    cats = {"PHYSICAL": PHYSICAL, "IDENTIFIERS": IDENTIFIERS, "NOT_YET_FIELDS": _not_yet()}
+    both = [(k, a, b) for a in cats for b in cats if a < b for k in cats[a].keys() & cats[b].keys()]
+    assert not both, f"constants in two categories: {both}"
+    listed = set().union(*cats.values())
+    new = sorted(set(found) - listed)
+    assert not new, (
+        "module constants in no category (make each a field of its settings dataclass, or add it to "
+        f"PHYSICAL, IDENTIFIERS or NOT_YET_FIELDS of tests/test_module_constants.py with a reason): {new}"
+    )
+    gone = sorted(listed - set(found))
+    assert not gone, f"classified constants that are no longer module constants (remove their entries): {gone}"
+
+
+def test_every_entry_has_a_one_line_reason():
+    for key, why in {**PHYSICAL, **IDENTIFIERS, **_not_yet()}.items():
+        assert why.strip() and "\n" not in why, key
+
+
+def test_the_rotor_speed_estimator_and_fit_hold_no_fixed_settings():
+    """rotors.fit and rotors.speed: every fixed setting is a field (FitConfig,
+    RotorSpeedConfig); none is left in the not-yet list or the inventory."""
+    assert not {"rotors.fit", "rotors.speed"} & set(NOT_YET_FIELDS)
+    left = [k for k in inventory() if k.split(":")[0] in ("rotors.fit", "rotors.speed")]
+    assert not left, left
+
+
+@pytest.mark.parametrize("module", sorted(CONVERTED))
+def test_the_converted_constants_are_fields_with_their_former_values(module):
+    """Each former constant is a field (lower case) whose default is its value, of its
+    type, and no longer a module attribute: the results stay bit-identical."""
+    import importlib
+
+    from microdoppler.rotors.fit import FitConfig
+    from microdoppler.rotors.speed import RotorSpeedConfig
+
+    mod = importlib.import_module(f"microdoppler.{module}")
+    cfg = {"rotors.fit": FitConfig, "rotors.speed": RotorSpeedConfig}[module]()
+    for name, value in CONVERTED[module].items():
+        assert not hasattr(mod, name), f"{module}.{name} is still a module attribute"
+        got = getattr(cfg, name.lower())
+        assert got == value and type(got) is type(value), (name, got, value)
