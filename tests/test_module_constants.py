@@ -22,7 +22,9 @@ any more: their fixed settings are fields of ``FitConfig`` and ``RotorSpeedConfi
 Counts (issue 57, at the conversion): 195 constants before; 42 converted to fields
 (``rotors.fit`` 24 -> ``FitConfig``, ``rotors.speed`` 18 -> ``RotorSpeedConfig``);
 153 remain: 22 physical/convention, 4 identifiers, 127 fixed method settings not yet
-fields (``importing.iqbalance``'s 11 among them: it has no settings dataclass).
+fields (``importing.iqbalance``'s 11 among them: it has no settings dataclass). Since:
+two conventions of ``rotors.plausibility`` (the error sizes ``setup_testability`` asks
+about).
 """
 
 from __future__ import annotations
@@ -52,6 +54,8 @@ PHYSICAL = {
     "importing.plausibility:CARRIER_RANGE_HZ": "the radio bands a radar carrier can be in: VHF to the top of mm-wave",
     "importing.plausibility:SPEED_OF_LIGHT_MPS": "speed of light",
     "rotors.order:C_MPS": "speed of light",
+    "rotors.plausibility:BLADE_FACTOR": "the blade-count error asked about (2 <-> 3 blades: the rate x 2/3 or 3/2)",
+    "rotors.plausibility:TYPO_FACTOR": "the size of a declared field's typo asked about (x2, x0.5)",
     "rotors.order:SOUND_MPS": "speed of sound in air",
     "spectra.spectrogram:C_MPS": "speed of light",
     "spectra.spectrogram:PAPER_DOPPLER_SPAN_MPS": "the paper's image width in radial velocity",
