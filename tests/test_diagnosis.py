@@ -331,10 +331,11 @@ def test_emulated_fading_that_moves_the_body_line_is_a_fading():
     body's at r > 0.7, which read as a gain on the whole target (a range straddle,
     ``unexplained``) and the fading went unnamed (6 catalog-only flights of issue 34's
     two plans). The body moves by a fraction of the sidebands' dB only
-    (``body_share`` below ``COMMON_GAIN_BODY_SHARE``; a straddle moves both alike):
+    (``body_share`` below ``DiagnosisConfig.common_gain_body_share``; a straddle moves both alike):
     the fading is named, with its size, and nothing else."""
     ev = _strong_fading_entry(341)["causes"][0]["evidence"]
-    assert ev["body_correlation"] > C.COMMON_GAIN_CORR and ev["body_share"] < C.COMMON_GAIN_BODY_SHARE, ev
+    cfg = DiagnosisConfig()
+    assert ev["body_correlation"] > cfg.common_gain_corr and ev["body_share"] < cfg.common_gain_body_share, ev
 
 
 @pytest.mark.slow
@@ -887,8 +888,10 @@ def test_report_file_follows_the_format_and_figure(tmp_path):
         ({"margin_std_db": -1}, "diagnosis.margin_std_db", ">= 0"),
         ({"min_log_coverage": 0}, "diagnosis.min_log_coverage", "in (0, 1]"),
         ({"nfft": 4096}, "diagnosis.nfft", "unknown key"),
-        # fields fixed since issue 35 are unknown keys that name what replaced them
-        ({"lag_step_s": 0.02}, "diagnosis.lag_step_s", "microdoppler.diagnosis.config.LAG_STEP_S"),
+        # fields fixed since issue 35 are unknown keys that name the fixed field (issue 57)
+        ({"lag_step_s": 0.02}, "diagnosis.lag_step_s", "microdoppler.diagnosis.DiagnosisConfig.lag_step_s"),
+        ({"pn_line_guard_frac": 0.2}, "diagnosis.pn_line_guard_frac", "DiagnosisConfig.line_guard_frac"),
+        ({"n_boot": 10}, "diagnosis.n_boot", "DiagnosisConfig.n_boot"),
         ({"margin_body_std_db": 2.0}, "diagnosis.margin_body_std_db", "the field margin_std_db"),
     ],
 )
@@ -898,6 +901,26 @@ def test_config_rejects_bad_values_naming_the_field(d, field, words):
     msg = str(exc.value)
     assert msg.startswith(f"my.yaml: {field}: ") and words in msg, msg
     assert exc.value.field == field
+
+
+def test_the_fixed_settings_are_fields_but_no_config_keys():
+    """The diagnosis's fixed settings (issue 57) are config=False fields: a config that
+    sets one is an unknown key naming the field; their ranges hold on construction."""
+    from dataclasses import fields
+
+    from microdoppler.configfields import config_names
+
+    keys = set(config_names(DiagnosisConfig))
+    fixed = {f.name for f in fields(DiagnosisConfig)} - keys
+    assert {"raised_floor_db", "lag_step_s", "n_boot", "line_false_alarm", "common_gain_corr"} <= fixed
+    for name in sorted(fixed):
+        with pytest.raises(ConfigError, match=f"no longer a setting: .*DiagnosisConfig.{name}"):
+            DiagnosisConfig.from_dict({name: getattr(DiagnosisConfig(), name)})
+        with pytest.raises(ConfigError, match="no longer a setting"):
+            split_settings({name: getattr(DiagnosisConfig(), name)})
+    assert DiagnosisConfig(lag_step_s=0.02).lag_step_s == 0.02
+    with pytest.raises(ConfigError, match="min_pair_snr"):
+        DiagnosisConfig(min_pair_snr=-1.0)
 
 
 def test_config_direct_construction_and_split_settings():

@@ -17,14 +17,20 @@ reason:
 A new constant fails :func:`test_every_module_constant_is_in_one_category` until it is
 classified (or, better, made a field). ``rotors.fit`` and ``rotors.speed`` hold none
 any more: their fixed settings are fields of ``FitConfig`` and ``RotorSpeedConfig``
-(``config=False``: no pipeline key sets them).
+(``config=False``: no pipeline key sets them); nor do ``causes.config``,
+``causes.measure``, ``causes.motor_log`` and ``diagnosis.explain``: the diagnosis's fixed
+settings are fields of ``DiagnosisConfig`` (``config=False`` too).
 
 Counts (issue 57, at the conversion): 195 constants before; 42 converted to fields
 (``rotors.fit`` 24 -> ``FitConfig``, ``rotors.speed`` 18 -> ``RotorSpeedConfig``);
 153 remain: 22 physical/convention, 4 identifiers, 127 fixed method settings not yet
 fields (``importing.iqbalance``'s 11 among them: it has no settings dataclass). Since:
 two conventions of ``rotors.plausibility`` (the error sizes ``setup_testability`` asks
-about).
+about). The diagnosis: 37 converted to ``DiagnosisConfig`` fields (``causes.config`` 27,
+``causes.measure`` 4, ``causes.sideband_fading`` 2, ``diagnosis.explain`` 2,
+``causes.motor_log`` 1, ``causes.blade_imbalance`` 1); the twins' and the emulator's
+process defaults of ``causes.*`` stay, no diagnosis settings. 118 remain: 24
+physical/convention, 4 identifiers, 90 fixed method settings not yet fields.
 """
 
 from __future__ import annotations
@@ -73,62 +79,19 @@ IDENTIFIERS = {
     "causes.twins:_BACKGROUND_STREAM": "offset of the background's phase-noise stream from the twin's seed",
 }
 
-#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 127
-#: in 31 modules; the most in causes.config 27, importing.iqbalance 11, emulator.world 9)
+#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 90
+#: in 26 modules; the most in importing.iqbalance 11, emulator.world 9, emulator.bird 7)
 NOT_YET_FIELDS = {
-    "causes.blade_imbalance": {
-        "N_BOOT": "bootstrap resamples of the imbalance's interval",
-    },
     "causes.body_fluctuation": {
-        "BODY_TIMESCALE_S": "default correlation time of the body fluctuation [s]",
-        "BODY_FLUCTUATION_TAU_S": "correlation time of the emulator's knob [s] when not given",
-    },
-    "causes.config": {
-        "RAISED_FLOOR_DB": "a floor this far above the reference floor is no thermal noise [dB]",
-        "ROTATION_RAISED_FLOOR_DB": "the same guard for the rotation-rate lines [dB]",
-        "BODY_SEARCH_HZ": "the body line's search half-width about the tracker's Doppler [Hz]",
-        "SCALE_MIN": "smallest dilation of the HERM line spacing searched",
-        "SCALE_MAX": "largest dilation searched (1 / SCALE_MIN)",
-        "SCALE_STEP": "step of the dilation search",
-        "N_MATCH_HARMONICS": "harmonics of the HERM pattern matched",
-        "MIN_MATCH": "least normalised correlation of a CPI's spacing match",
-        "N_HARMONICS": "sideband pairs read per CPI",
-        "LINE_HALF_BINS": "least half width of a sideband's band [bins]",
-        "MIN_PAIR_SNR": "least median power over noise std of a harmonic pair used",
-        "LAG_STEP_S": "step of the motor-log lag grid [s]",
-        "PN_INNER_HZ": "inner edge of the phase-noise ordinates from the clutter line [Hz]",
-        "PN_OUTER_HZ": "outer edge of the phase-noise ordinates [Hz]",
-        "PN_PROFILE_OUTER_HZ": "outer edge of the wide-band phase-noise profile [Hz]",
-        "PN_PROFILE_AGREE_DB": "the profile's level must agree with the phase-noise fit within this [dB]",
-        "PN_PROFILE_BODY_GUARD_HZ": "the wide-band reading's guard about the body [Hz]",
-        "PN_PROFILE_FALL_DB": "least fall of the profile from inner to outer band [dB]",
-        "PN_BIN_STEP": "every n-th bin of the phase-noise band (Whittle independence)",
-        "PN_SMOOTH_CPIS": "baseline PSD smoothing over +-CPIs",
-        "PN_SMOOTH_BINS": "baseline PSD smoothing over +-bins",
-        "PN_CLUTTER_LINE_HZ": "the clutter line's power is summed within this of 0 Hz [Hz]",
-        "LINE_GUARD_FRAC": "the HERM lines are avoided by this fraction of their spacing",
-        "PN_BODY_GUARD_HZ": "the body's skirt is avoided by this beyond the body band [Hz]",
-        "PN_MODEL_GUARD_DB": "model blade power above this level relative to the floor is avoided [dB]",
-        "BODY_SMOOTH_CPIS": "moving average detrending the body-power statistic [CPIs]",
-        "PN_BODY_SKIRT_HZ": "width of a fluctuating body's Lorentzian skirt column [Hz]",
-    },
-    "causes.measure": {
-        "FINE_DIVISORS": "short analysis windows of the body power series (n_fft / d)",
-        "SIDE_FINE_DIVISOR": "short analysis window of the sideband power series (n_fft / d)",
-        "NON_MULTIPLE_VISIBLE_Z": "z above which non-multiple lines count as visible",
-        "ROTOR_WANDER_REL": "relative broadening of one rotor's line within a CPI",
-    },
-    "causes.motor_log": {
-        "LOG_OUTLIER_FRAC": "outlier fraction of the lag/scale tests' contaminated-normal likelihood",
+        "BODY_TIMESCALE_S": "the twins' body process's time where a file gives none [s]: no diagnosis setting",
+        "BODY_FLUCTUATION_TAU_S": "the emulator's body process's time when not given [s]: no diagnosis setting",
     },
     "causes.phase_noise": {
-        "PHASE_NOISE_BANDWIDTH_HZ": "default bandwidth of the phase-noise process [Hz]",
-        "SKIRT_OFFSET_HZ": "offset at which the skirt level is read [Hz]",
+        "PHASE_NOISE_BANDWIDTH_HZ": "the flat phase noise's bandwidth [Hz]: one for the test's model, twins, emulator",
+        "SKIRT_OFFSET_HZ": "the offset the reported skirt_dbc_hz is read at [Hz]: the catalog's unit",
     },
     "causes.sideband_fading": {
-        "DEFAULT_FADING_TIMESCALE_S": "default fading correlation time [s]",
-        "COMMON_GAIN_CORR": "correlation with the body above which a common gain is the whole target's",
-        "COMMON_GAIN_BODY_SHARE": "the body's share of a whole-target gain's excursions",
+        "DEFAULT_FADING_TIMESCALE_S": "the twins' fading time where a file gives none [s]: no diagnosis setting",
     },
     "classifier.training": {
         "EVAL_FORWARD_BATCH": "evaluation's forward pass chunk (cache size; same bits)",
@@ -148,10 +111,6 @@ NOT_YET_FIELDS = {
         "DILATION_STEP": "dilation grid step of line_dilation",
         "DILATION_SMOOTH_CPIS": "running median of the dilation [CPIs]",
         "NONMULTIPLE_MIN_Z": "z of the blade-passing lines used as the non-multiple lines' reference",
-    },
-    "diagnosis.explain": {
-        "LINE_FALSE_ALARM": "the two-sided check's false-alarm probability per flight",
-        "MODEL_CLEAR_SNR_DB": "a model line clearly above the noise [dB]",
     },
     "emulator.background": {
         "RANGE_CELL_M": "emulated clutter cell size in range [m]",
@@ -316,7 +275,51 @@ CONVERTED = {
         "BLOCK_CPIS": 64,
         "OVERLAP_VARIANCE_FACTOR": 2.0,
     },
+    # the diagnosis's fixed settings -> DiagnosisConfig (config=False fields)
+    "causes.config": {
+        "RAISED_FLOOR_DB": 3.0,
+        "ROTATION_RAISED_FLOOR_DB": 30.0,
+        "BODY_SEARCH_HZ": 10.0,
+        "SCALE_MIN": 0.8,
+        "SCALE_MAX": 1 / 0.8,
+        "SCALE_STEP": 0.0025,
+        "N_MATCH_HARMONICS": 3,
+        "MIN_MATCH": 0.2,
+        "N_HARMONICS": 5,
+        "LINE_HALF_BINS": 4,
+        "MIN_PAIR_SNR": 5.0,
+        "LAG_STEP_S": 0.01,
+        "PN_INNER_HZ": 35.0,
+        "PN_OUTER_HZ": 95.0,
+        "PN_PROFILE_OUTER_HZ": 1200.0,
+        "PN_PROFILE_AGREE_DB": 10.0,
+        "PN_PROFILE_BODY_GUARD_HZ": 100.0,
+        "PN_PROFILE_FALL_DB": 10.0,
+        "PN_BIN_STEP": 2,
+        "PN_SMOOTH_CPIS": 2,
+        "PN_SMOOTH_BINS": 2,
+        "PN_CLUTTER_LINE_HZ": 5.0,
+        "LINE_GUARD_FRAC": 0.3,
+        "PN_BODY_GUARD_HZ": 40.0,
+        "PN_MODEL_GUARD_DB": -10.0,
+        "BODY_SMOOTH_CPIS": 9,
+        "PN_BODY_SKIRT_HZ": 10.0,
+        "PN_CLUTTER_DECAYS_HZ": (),
+    },
+    "causes.measure": {
+        "FINE_DIVISORS": (8, 4, 2),
+        "SIDE_FINE_DIVISOR": 2,
+        "NON_MULTIPLE_VISIBLE_Z": 3.0,
+        "ROTOR_WANDER_REL": 0.025,
+    },
+    "causes.motor_log": {"LOG_OUTLIER_FRAC": 0.05},
+    "causes.sideband_fading": {"COMMON_GAIN_CORR": 0.7, "COMMON_GAIN_BODY_SHARE": 0.5},
+    "causes.blade_imbalance": {"N_BOOT": 400},
+    "diagnosis.explain": {"LINE_FALSE_ALARM": 0.01, "MODEL_CLEAR_SNR_DB": 10.0},
 }
+
+#: modules whose every fixed setting is a field (none left in the inventory)
+FIELDS_ONLY = ("rotors.fit", "rotors.speed", "causes.config", "causes.measure", "causes.motor_log", "diagnosis.explain")
 
 _NAME = re.compile(r"^_?[A-Z][A-Z0-9_]*$")
 
@@ -392,11 +395,12 @@ def test_every_entry_has_a_one_line_reason():
         assert why.strip() and "\n" not in why, key
 
 
-def test_the_rotor_speed_estimator_and_fit_hold_no_fixed_settings():
-    """rotors.fit and rotors.speed: every fixed setting is a field (FitConfig,
-    RotorSpeedConfig); none is left in the not-yet list or the inventory."""
-    assert not {"rotors.fit", "rotors.speed"} & set(NOT_YET_FIELDS)
-    left = [k for k in inventory() if k.split(":")[0] in ("rotors.fit", "rotors.speed")]
+def test_the_rotor_speed_estimator_fit_and_diagnosis_hold_no_fixed_settings():
+    """rotors.fit, rotors.speed and the diagnosis's settings, measurement, motor-log
+    test and explanation: every fixed setting is a field (FitConfig, RotorSpeedConfig,
+    DiagnosisConfig); none is left in the not-yet list or the inventory."""
+    assert not set(FIELDS_ONLY) & set(NOT_YET_FIELDS)
+    left = [k for k in inventory() if k.split(":")[0] in FIELDS_ONLY]
     assert not left, left
 
 
@@ -406,12 +410,16 @@ def test_the_converted_constants_are_fields_with_their_former_values(module):
     type, and no longer a module attribute: the results stay bit-identical."""
     import importlib
 
+    from microdoppler.causes.config import DiagnosisConfig
+    from microdoppler.configfields import config_names
     from microdoppler.rotors.fit import FitConfig
     from microdoppler.rotors.speed import RotorSpeedConfig
 
     mod = importlib.import_module(f"microdoppler.{module}")
-    cfg = {"rotors.fit": FitConfig, "rotors.speed": RotorSpeedConfig}[module]()
+    cls = {"rotors.fit": FitConfig, "rotors.speed": RotorSpeedConfig}.get(module, DiagnosisConfig)
+    cfg = cls()
     for name, value in CONVERTED[module].items():
         assert not hasattr(mod, name), f"{module}.{name} is still a module attribute"
         got = getattr(cfg, name.lower())
         assert got == value and type(got) is type(value), (name, got, value)
+        assert name.lower() not in config_names(cls), f"{name.lower()} must be config=False (no pipeline key)"

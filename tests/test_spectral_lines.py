@@ -85,7 +85,8 @@ def test_band_power_holds_a_tones_power_and_local_floor_the_noise_level():
 def _rotation_line_powers_line_by_line(st, f_body_hz, motor_rev_s, valid, k_max, floor, guard_hz, raised_db):
     """The rotation lines' powers the plain way (the implementation before the
     vectorised one, kept as the oracle): a bin mask marked for every line in turn."""
-    from microdoppler.causes.measure import DB, ROTOR_WANDER_REL, noise_power_factor
+    from microdoppler.causes.config import DiagnosisConfig
+    from microdoppler.causes.measure import DB, noise_power_factor
     from microdoppler.spectra.lines import band_spans, bins_near
 
     n_t = motor_rev_s.shape[0]
@@ -96,7 +97,7 @@ def _rotation_line_powers_line_by_line(st, f_body_hz, motor_rev_s, valid, k_max,
     for i in np.flatnonzero(valid):
         fr = motor_rev_s[i]
         for k in range(1, k_max + 1):
-            half = k * fr * ROTOR_WANDER_REL + 1.5 * df
+            half = k * fr * DiagnosisConfig().rotor_wander_rel + 1.5 * df
             for s, sg in enumerate((1.0, -1.0)):
                 cs = herm_line_hz(f_body_hz[i], fr, k, sg)
                 near_orders = [herm_line_hz(f_body_hz[i], fr, k2, sg) for k2 in range(max(0, k - 2), k + 3) if k2 != k]

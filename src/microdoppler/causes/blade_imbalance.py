@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import CauseSpec, Param
+from .config import DiagnosisConfig
 from .heldout import CauseTest, _crossfit, _gauss_ll, _ml_extra_var
 from .measure import DB, given_imbalance
 
@@ -38,17 +39,18 @@ def imbalance_from_ratio(r: float, n_blades: int) -> float:
     return float(-20 * np.log10(a)) if a > 0 else float("nan")
 
 
-#: bootstrap resamples of the imbalance's interval, and its level
-N_BOOT = 400
+#: the level of the imbalance's interval (its bootstrap resamples:
+#: ``DiagnosisConfig.n_boot``)
 INTERVAL_LEVEL = 0.95
 
 
-def imbalance_interval(z, idx, n_blades: int, block_cpis: int, seed: int) -> dict:
+def imbalance_interval(z, idx, n_blades: int, block_cpis: int, seed: int, n_boot: int | None = None) -> dict:
     """The interval of ``imbalance_db`` the flight's data allow: the median ratio of
     the non-multiple lines to the blade-passing lines (``z``, one per observation,
     ``idx`` its CPI) resampled by blocks of ``block_cpis`` CPIs (the CPIs of a block
     are correlated; the flight's blocks are the unit), through
-    :func:`imbalance_from_ratio`, which is monotonic in the ratio.
+    :func:`imbalance_from_ratio`, which is monotonic in the ratio; ``n_boot``
+    resamples (default ``DiagnosisConfig.n_boot``).
 
     Returns ``{"low": dB, "high": dB or None, "bound": "two-sided" | "lower" |
     "upper", "level": 0.95, "meaning": ...}``. Where the ratio's upper end reaches what
@@ -58,9 +60,10 @@ def imbalance_interval(z, idx, n_blades: int, block_cpis: int, seed: int) -> dic
     cpis = np.unique(idx)
     blocks = [cpis[i : i + block_cpis] for i in range(0, len(cpis), max(int(block_cpis), 1))]
     members = [np.flatnonzero(np.isin(idx, b)) for b in blocks]
+    n_boot = DiagnosisConfig().n_boot if n_boot is None else n_boot
     rng = np.random.default_rng(seed)
-    r = np.empty(N_BOOT)
-    for i in range(N_BOOT):
+    r = np.empty(n_boot)
+    for i in range(n_boot):
         pick = rng.integers(0, len(members), len(members))
         r[i] = max(float(np.median(z[np.concatenate([members[j] for j in pick])])), 0.0)
     q = (1 - INTERVAL_LEVEL) / 2
@@ -196,7 +199,7 @@ def test_imbalance(M, cfg, fold) -> CauseTest:
         "n_blades": int(B),
         "n_cpis": int(n_cpi),
         "n_lines": int(len(z)),
-        "intervals": {"imbalance_db": imbalance_interval(z, idx, B, cfg.block_cpis, cfg.seed)},
+        "intervals": {"imbalance_db": imbalance_interval(z, idx, B, cfg.block_cpis, cfg.seed, cfg.n_boot)},
     }
     if not np.isfinite(imb):
         res.evidence["reason"] = (

@@ -15,7 +15,6 @@ import numpy as np
 
 from ..synthesis.processes import GainHook, SlowGain
 from .base import CauseSpec, Param, draw_band_panel
-from .config import BODY_SMOOTH_CPIS
 from .heldout import CauseTest, _detrend, _power_fluct_test, fit_gain_process
 from .measure import DB
 
@@ -45,7 +44,7 @@ def body_estimate(M) -> dict:
 def test_body(M, cfg, fold) -> CauseTest:
     m = M.valid & (M.body_pow > 0)
     y = np.where(m, DB * np.log(np.maximum(M.body_pow, 1e-30)), 0.0)
-    res, s2 = _power_fluct_test(NAME, y, M.body_sd_db, m, M, cfg, fold, smooth=BODY_SMOOTH_CPIS)
+    res, s2 = _power_fluct_test(NAME, y, M.body_sd_db, m, M, cfg, fold, smooth=cfg.body_smooth_cpis)
     res.statistic = "body power [dB], detrended"
     if s2 is not None:
         est = (

@@ -1,13 +1,14 @@
-"""Settings of the diagnosis: :class:`DiagnosisConfig` (the ``diagnosis:`` config
-section's knobs, each with a physical meaning) and the fixed settings beside it.
+"""Settings of the diagnosis: :class:`DiagnosisConfig`, the ``diagnosis:`` config
+section's knobs (each with a physical meaning) and the fixed settings beside them.
 
-A setting is a field of :class:`DiagnosisConfig` when a user has a physical reason to
-change it (a site's clutter, a target's body line, how late a motor log may be, what
-size of a cause matters). Everything else the diagnosis reads is a module constant
-below; its comment says what the value means and names the field it replaced. How
-each value was chosen, and the runs that checked the diagnosis as a whole at these
-values, are in ``docs/experiments.md``. A config that still sets a replaced field gets
-an "unknown key" error naming its constant.
+A setting is a configuration key when a user has a physical reason to change it (a
+site's clutter, a target's body line, how late a motor log may be, what size of a
+cause matters). Every other setting the diagnosis reads is a fixed field of the same
+class (``config=False``: no configuration key sets it, the schema leaves it out); its
+description says what the value means and names the key it replaced. How each value
+was chosen, and the runs that checked the diagnosis as a whole at these values, are in
+``docs/experiments.md``. A config that sets a fixed setting, or a key that was replaced,
+gets an "unknown key" error naming the fixed field.
 """
 
 from __future__ import annotations
@@ -18,161 +19,28 @@ import numpy as np
 
 from ..errors import ConfigError, unknown_key
 from ..spectra.spectrogram import nearest_power_of_two
-from ..configfields import knob
+from ..configfields import check_ranges, config_fields, config_names, knob
 
-# ---------------------------------------------------------------- fixed settings
-# Measurement (measure.py)
-
-#: a floor more than this [dB] above the reference floor is no thermal noise: a CPI
-#: whose whole-spectrum floor is this far above the flight's median floor is an
-#: artifact CPI (not used), and a sideband whose local floor is this far above its
-#: CPI's floor (clutter, another line's skirt) is not read. Replaces two fields
-#: (``artifact_floor_db``, ``raised_floor_db``); 3 dB is twice the power.
-RAISED_FLOOR_DB = 3.0
-#: the same guard for the rotation-rate lines (the blade-imbalance test's observations,
-#: :func:`.measure.rotation_line_powers`): their local floor lies between lines of the
-#: target itself (a rotor's lines of neighbouring orders, the other rotors' lines of the
-#: same order, each smeared by the speed's change within a CPI), which lift it by 5-30 dB
-#: on emulated Matrice/Inspire flights while it is still the floor under the line (at
-#: 3 dB a weak-blade flight's orders would not be read). The floor is subtracted as
-#: measured, the noise variance taken from it; only a floor this far up (no line could
-#: be read over it) is refused.
-ROTATION_RAISED_FLOOR_DB = 30.0
-#: the body line is the strongest bin within this [Hz] of the tracker's Doppler
-#: (``body_search_hz``): a radial-speed error of the track up to 1.1 m/s at 1.35 GHz.
-BODY_SEARCH_HZ = 10.0
-#: the HERM line spacing measured against the model's is searched over dilations
-#: SCALE_MIN to SCALE_MAX in steps of SCALE_STEP (``scale_min``, ``scale_max``,
-#: ``scale_step``): a speed error of -20 % to +25 %, symmetric in log (SCALE_MAX =
-#: 1 / SCALE_MIN), four times the catalog's detectable scale error (|scale - 1| >=
-#: 0.05); the step is 1/10 of the relevance margin of a scale (``margin_scale``), and
-#: the best step is refined parabolically.
-SCALE_MIN = 0.8
-SCALE_MAX = 1 / SCALE_MIN
-SCALE_STEP = 0.0025
-#: harmonics of the HERM pattern matched (``n_match_harmonics``): world v2's
-#: fall-offs of up to 16 dB per harmonic leave sidebands that end after one or two
-#: pairs.
-N_MATCH_HARMONICS = 3
-#: a CPI's spacing match is used when the normalised correlation of measured and
-#: model patterns exceeds this (``min_match``): below it the pattern is noise.
-MIN_MATCH = 0.2
-#: sideband pairs read per CPI (``n_harmonics``): harmonics 1-5.
-N_HARMONICS = 5
-#: least half width of a sideband's band [bins] (``line_half_bins``): the
-#: Blackman-Harris main lobe (+-4 bins).
-LINE_HALF_BINS = 4
-#: a harmonic pair is used when the median over the CPIs of its weaker side's power
-#: over its noise std is at least this (``min_pair_snr``), in at least 6 CPIs; the
-#: weak-blade flights it leaves untestable say so.
-MIN_PAIR_SNR = 5.0
-#: step of the motor-log lag grid [s] (``lag_step_s``), refined parabolically: 1/15
-#: of the relevance margin of a lag (``margin_lag_s``).
-LAG_STEP_S = 0.01
-#: phase-noise ordinates: the floor PN_INNER_HZ to PN_OUTER_HZ from the clutter line
-#: (``pn_inner_hz``, ``pn_outer_hz``), inside the catalog's phase-noise band (|f| <
-#: 100 Hz) and beyond the clutter notch.
-PN_INNER_HZ = 35.0
-PN_OUTER_HZ = 95.0
-#: the measured skirt profile (:func:`.measure.skirt_profile`, the phase-noise
-#: extension's shape): bands of offset from PN_PROFILE_INNER_HZ, sqrt(2) apart, up to
-#: PN_PROFILE_OUTER_HZ (or 0.4 x PRF). A real skirt need not be flat to 100 Hz: a
-#: 1/f-like one reaches a few hundred Hz.
-PN_PROFILE_INNER_HZ = PN_INNER_HZ
-PN_PROFILE_OUTER_HZ = 1200.0
-#: a phase noise is relevant only where the profile's median-based level at 50 Hz is
-#: within this many dB below the phase-noise test's fit [dB]: a true skirt agrees to a
-#: few dB; where the target's own lines lifted the fit (a wrong blade count, a log lag)
-#: the medians find no skirt at all
-PN_PROFILE_AGREE_DB = 10.0
-#: the wide-band phase-noise reading (:func:`.phase_noise.profile_skirt_test`) uses
-#: ordinates at least this far from the body [Hz]: a fluctuating body beside the
-#: clutter line spreads on both sides of it
-PN_PROFILE_BODY_GUARD_HZ = 100.0
-#: ... and only where its levels fall by at least this much [dB] from the innermost
-#: band measured on both sides to the outermost: a skirt falls with offset (flat,
-#: Gaussian, 1/f-like), the target's own spread (a blade flash over the whole band)
-#: does not
-PN_PROFILE_FALL_DB = 10.0
-#: every PN_BIN_STEP-th bin of the band (``pn_bin_step``): the Whittle likelihood
-#: takes its ordinates as independent; the noise of neighbouring Blackman-Harris bins
-#: is correlated 0.82, of every second bin 0.44 (4096 pulses).
-PN_BIN_STEP = 2
-#: the background recording's periodogram, the baseline PSD, smoothed over
-#: +-PN_SMOOTH_CPIS CPIs and +-PN_SMOOTH_BINS bins (``pn_smooth_cpis``,
-#: ``pn_smooth_bins``): a 5 x 5 average.
-PN_SMOOTH_CPIS = 2
-PN_SMOOTH_BINS = 2
-#: the clutter line's power is summed within this [Hz] of 0 Hz
-#: (``pn_clutter_line_hz``): +-2.8 bins of 1.78 Hz (7.3 kHz, 4096 pulses), which hold
-#: 99.8-99.97 % of a Blackman-Harris line's power (on a bin, half a bin off).
-PN_CLUTTER_LINE_HZ = 5.0
-#: the target's HERM lines are avoided by this fraction of their spacing
-#: (``pn_line_guard_frac``), in the phase-noise ordinates and the body's floor
-#: (measure.body_floor_ratio) on either side of each of the first 15 lines, so the
-#: middle 40 % between two lines is read.
-LINE_GUARD_FRAC = 0.3
-#: ... and the body's own skirt by this [Hz] beyond the body band
-#: (``pn_body_guard_hz``): a fluctuating body spreads its line (4.5 dB at 0.08 s
-#: raises the bins next to the band ~15 dB at 44 dB SNR, measure.body_floor_ratio).
-PN_BODY_GUARD_HZ = 40.0
-#: ... and the blade power the calibrated model predicts above this level [dB]
-#: relative to the CPI's floor (``pn_model_guard_db``): smeared lines are no floor.
-PN_MODEL_GUARD_DB = -10.0
-
-# Tests (hypotheses.py)
-
-#: the body-power statistic is detrended by a moving average over this many CPIs
-#: (``body_smooth_cpis``, 2.5 s at 7.3 kHz): slow aspect changes are no
-#: fluctuation. The body's sizes and times are estimated on short windows without it
-#: (hypotheses.body_estimate).
-BODY_SMOOTH_CPIS = 9
-#: width [Hz] of the Lorentzian skirt of a fluctuating body, a nuisance column of the
-#: phase-noise likelihood in both models (``pn_body_skirt_hz``).
-PN_BODY_SKIRT_HZ = 10.0
-#: decay lengths [Hz] of extra exponential clutter columns of the phase-noise
-#: likelihood (``pn_nuisance_decay_hz``): none. The baseline is the background
-#: recording's own PSD, which holds the wind-blown clutter already.
-PN_CLUTTER_DECAYS_HZ: tuple = ()
-
-#: removed fields of DiagnosisConfig -> the constant that replaced them (named in
-#: the "unknown key" error of a config that still sets one)
+#: removed keys of the ``diagnosis:`` section -> the fixed field of DiagnosisConfig that
+#: replaced them (named in the "unknown key" error of a config that still sets one);
+#: a fixed field's own name is rejected the same way
 REMOVED_FIELDS = {
-    "artifact_floor_db": "RAISED_FLOOR_DB",
-    "raised_floor_db": "RAISED_FLOOR_DB",
-    "body_search_hz": "BODY_SEARCH_HZ",
-    "scale_min": "SCALE_MIN",
-    "scale_max": "SCALE_MAX",
-    "scale_step": "SCALE_STEP",
-    "n_match_harmonics": "N_MATCH_HARMONICS",
-    "min_match": "MIN_MATCH",
-    "n_harmonics": "N_HARMONICS",
-    "line_half_bins": "LINE_HALF_BINS",
-    "min_pair_snr": "MIN_PAIR_SNR",
-    "lag_step_s": "LAG_STEP_S",
-    "pn_inner_hz": "PN_INNER_HZ",
-    "pn_outer_hz": "PN_OUTER_HZ",
-    "pn_bin_step": "PN_BIN_STEP",
-    "pn_smooth_cpis": "PN_SMOOTH_CPIS",
-    "pn_smooth_bins": "PN_SMOOTH_BINS",
-    "pn_clutter_line_hz": "PN_CLUTTER_LINE_HZ",
-    "pn_line_guard_frac": "LINE_GUARD_FRAC",
-    "pn_body_guard_hz": "PN_BODY_GUARD_HZ",
-    "pn_model_guard_db": "PN_MODEL_GUARD_DB",
-    "body_smooth_cpis": "BODY_SMOOTH_CPIS",
-    "pn_body_skirt_hz": "PN_BODY_SKIRT_HZ",
-    "pn_nuisance_decay_hz": "PN_CLUTTER_DECAYS_HZ",
+    "artifact_floor_db": "raised_floor_db",
+    "pn_line_guard_frac": "line_guard_frac",
+    "pn_nuisance_decay_hz": "pn_clutter_decays_hz",
     "margin_body_std_db": "the field margin_std_db",
 }
 
 
 def unknown_key_error(source, key: str, names) -> ConfigError:
-    """The :class:`ConfigError` of an unknown ``diagnosis.<key>``; a key that was a
-    field before the fixed settings became constants names what replaced it."""
+    """The :class:`ConfigError` of an unknown ``diagnosis.<key>``; a key that names a
+    fixed setting (a ``config=False`` field of :class:`DiagnosisConfig`), or that was a
+    key before one replaced it, names that field."""
     note = ""
-    if key in REMOVED_FIELDS:
-        now = REMOVED_FIELDS[key]
-        now = now if now.startswith("the field") else f"the constant microdoppler.diagnosis.config.{now}"
+    fixed = {f.name for f in fields(DiagnosisConfig)} - set(config_names(DiagnosisConfig))
+    now = REMOVED_FIELDS.get(key, key if key in fixed else None)
+    if now is not None:
+        now = now if now.startswith("the field") else f"the fixed setting microdoppler.diagnosis.DiagnosisConfig.{now}"
         note = f"{key} is no longer a setting: {now}"
     return unknown_key(source, "diagnosis", key, names, note)
 
@@ -310,7 +178,8 @@ class DiagnosisConfig:
         Fraction of the flight's time span the motor log must cover; CPIs outside the
         log's span are not used.
 
-    The fixed settings beside these are this module's constants. Invalid values
+    The fields from ``raised_floor_db`` on are fixed settings, no configuration keys
+    (``config=False``): each field's description says what it is. Invalid values
     raise :class:`~microdoppler.errors.ConfigError` naming ``diagnosis.<field>``
     (:meth:`from_dict` names the config file).
 
@@ -363,7 +232,7 @@ class DiagnosisConfig:
     clutter_guard_hz: float = knob(15.0, minimum=0)
     body_half_hz: float = knob(9.0, exclusive_minimum=0)
     model_floor_db: float = knob(0.5, minimum=0)
-    max_lag_s: float = knob(2.0, minimum=LAG_STEP_S)
+    max_lag_s: float = knob(2.0, minimum=0.01)
     margin_asymmetry_db: float = knob(1.5, minimum=0)
     margin_std_db: float = knob(2.0, minimum=0)
     margin_lag_s: float = knob(0.15, minimum=0)
@@ -375,6 +244,267 @@ class DiagnosisConfig:
     min_blade_wavelengths: float = knob(0.5, minimum=0)
     min_log_coverage: float = knob(0.5, exclusive_minimum=0, maximum=1)
 
+    # ------------------------------------------------------------ fixed settings
+    # Not configuration keys (config=False: no pipeline key sets them, the schema and
+    # the docs' table leave them out, from_dict rejects them); how each value was
+    # chosen is in docs/experiments.md. Measurement (measure.py):
+    raised_floor_db: float = knob(
+        3.0,
+        "A floor more than this [dB] above the reference floor is no thermal noise: a CPI whose whole-spectrum "
+        "floor is this far above the flight's median floor is an artifact CPI (not used), and a sideband whose "
+        "local floor is this far above its CPI's floor (clutter, another line's skirt) is not read. Replaced two "
+        "keys (artifact_floor_db, raised_floor_db); 3 dB is twice the power.",
+        minimum=0,
+        config=False,
+    )
+    rotation_raised_floor_db: float = knob(
+        30.0,
+        "The same guard for the rotation-rate lines (the blade-imbalance test's observations, "
+        "measure.rotation_line_powers) [dB]: their local floor lies between lines of the target itself (a rotor's "
+        "lines of neighbouring orders, the other rotors' lines of the same order, each smeared by the speed's "
+        "change within a CPI), which lift it by 5-30 dB on emulated Matrice/Inspire flights while it is still the "
+        "floor under the line (at 3 dB a weak-blade flight's orders would not be read). The floor is subtracted "
+        "as measured, the noise variance taken from it; only a floor this far up (no line could be read over it) "
+        "is refused.",
+        minimum=0,
+        config=False,
+    )
+    body_search_hz: float = knob(
+        10.0,
+        "The body line is the strongest bin within this [Hz] of the tracker's Doppler: a radial-speed error of "
+        "the track up to 1.1 m/s at 1.35 GHz.",
+        exclusive_minimum=0,
+        config=False,
+    )
+    scale_min: float = knob(
+        0.8,
+        "The HERM line spacing measured against the model's is searched over dilations scale_min to scale_max in "
+        "steps of scale_step: a speed error of -20 % to +25 %, symmetric in log (scale_max = 1 / scale_min), four "
+        "times the catalog's detectable scale error (|scale - 1| >= 0.05); the step is 1/10 of the relevance "
+        "margin of a scale (margin_scale), and the best step is refined parabolically.",
+        exclusive_minimum=0,
+        exclusive_maximum=1,
+        config=False,
+    )
+    scale_max: float = knob(1 / 0.8, "See scale_min (1 / scale_min).", exclusive_minimum=1, config=False)
+    scale_step: float = knob(0.0025, "See scale_min.", exclusive_minimum=0, config=False)
+    n_match_harmonics: int = knob(
+        3,
+        "Harmonics of the HERM pattern matched: world v2's fall-offs of up to 16 dB per harmonic leave sidebands "
+        "that end after one or two pairs.",
+        minimum=1,
+        config=False,
+    )
+    min_match: float = knob(
+        0.2,
+        "A CPI's spacing match is used when the normalised correlation of measured and model patterns exceeds "
+        "this: below it the pattern is noise.",
+        minimum=-1,
+        maximum=1,
+        config=False,
+    )
+    n_harmonics: int = knob(5, "Sideband pairs read per CPI: harmonics 1-5.", minimum=1, config=False)
+    line_half_bins: int = knob(
+        4,
+        "Least half width of a sideband's band [bins]: the Blackman-Harris main lobe (+-4 bins).",
+        minimum=0,
+        config=False,
+    )
+    min_pair_snr: float = knob(
+        5.0,
+        "A harmonic pair is used when the median over the CPIs of its weaker side's power over its noise std is "
+        "at least this, in at least 6 CPIs; the weak-blade flights it leaves untestable say so.",
+        minimum=0,
+        config=False,
+    )
+    lag_step_s: float = knob(
+        0.01,
+        "Step of the motor-log lag grid [s], refined parabolically: 1/15 of the relevance margin of a lag "
+        "(margin_lag_s).",
+        exclusive_minimum=0,
+        config=False,
+    )
+    pn_inner_hz: float = knob(
+        35.0,
+        "Phase-noise ordinates: the floor pn_inner_hz to pn_outer_hz [Hz] from the clutter line, inside the "
+        "catalog's phase-noise band (|f| < 100 Hz) and beyond the clutter notch; the measured skirt profile's "
+        "bands start here too.",
+        minimum=0,
+        config=False,
+    )
+    pn_outer_hz: float = knob(95.0, "See pn_inner_hz [Hz].", exclusive_minimum=0, config=False)
+    pn_profile_outer_hz: float = knob(
+        1200.0,
+        "The measured skirt profile (measure.skirt_profile, the phase-noise extension's shape): bands of offset "
+        "from pn_inner_hz, sqrt(2) apart, up to this [Hz] (or 0.4 x PRF). A real skirt need not be flat to "
+        "100 Hz: a 1/f-like one reaches a few hundred Hz.",
+        exclusive_minimum=0,
+        config=False,
+    )
+    pn_profile_agree_db: float = knob(
+        10.0,
+        "A phase noise is relevant only where the profile's median-based level at 50 Hz is within this many dB "
+        "below the phase-noise test's fit [dB]: a true skirt agrees to a few dB; where the target's own lines "
+        "lifted the fit (a wrong blade count, a log lag) the medians find no skirt at all.",
+        minimum=0,
+        config=False,
+    )
+    pn_profile_body_guard_hz: float = knob(
+        100.0,
+        "The wide-band phase-noise reading (phase_noise.profile_skirt_test) uses ordinates at least this far "
+        "from the body [Hz]: a fluctuating body beside the clutter line spreads on both sides of it.",
+        minimum=0,
+        config=False,
+    )
+    pn_profile_fall_db: float = knob(
+        10.0,
+        "... and only where its levels fall by at least this much [dB] from the innermost band measured on both "
+        "sides to the outermost: a skirt falls with offset (flat, Gaussian, 1/f-like), the target's own spread "
+        "(a blade flash over the whole band) does not.",
+        config=False,
+    )
+    pn_bin_step: int = knob(
+        2,
+        "Every pn_bin_step-th bin of the phase-noise band: the Whittle likelihood takes its ordinates as "
+        "independent; the noise of neighbouring Blackman-Harris bins is correlated 0.82, of every second bin "
+        "0.44 (4096 pulses).",
+        minimum=1,
+        config=False,
+    )
+    pn_smooth_cpis: int = knob(
+        2,
+        "The background recording's periodogram, the baseline PSD, is smoothed over +-pn_smooth_cpis CPIs and "
+        "+-pn_smooth_bins bins: a 5 x 5 average.",
+        minimum=0,
+        config=False,
+    )
+    pn_smooth_bins: int = knob(2, "See pn_smooth_cpis.", minimum=0, config=False)
+    pn_clutter_line_hz: float = knob(
+        5.0,
+        "The clutter line's power is summed within this [Hz] of 0 Hz: +-2.8 bins of 1.78 Hz (7.3 kHz, 4096 "
+        "pulses), which hold 99.8-99.97 % of a Blackman-Harris line's power (on a bin, half a bin off).",
+        minimum=0,
+        config=False,
+    )
+    line_guard_frac: float = knob(
+        0.3,
+        "The target's HERM lines are avoided by this fraction of their spacing (replaced the key "
+        "pn_line_guard_frac), in the phase-noise ordinates and the body's floor (measure.body_floor_ratio) on "
+        "either side of each of the first 15 lines, so the middle 40 % between two lines is read.",
+        minimum=0,
+        maximum=0.5,
+        config=False,
+    )
+    pn_body_guard_hz: float = knob(
+        40.0,
+        "... and the body's own skirt by this [Hz] beyond the body band: a fluctuating body spreads its line "
+        "(4.5 dB at 0.08 s raises the bins next to the band ~15 dB at 44 dB SNR, measure.body_floor_ratio).",
+        minimum=0,
+        config=False,
+    )
+    pn_model_guard_db: float = knob(
+        -10.0,
+        "... and the blade power the calibrated model predicts above this level [dB] relative to the CPI's floor: "
+        "smeared lines are no floor.",
+        config=False,
+    )
+    fine_divisors: tuple = knob(
+        (8, 4, 2),
+        "Short analysis windows of the body power series tried [pulses] (n_fft / d) (measure.body_power_fine).",
+        config=False,
+    )
+    side_fine_divisor: int = knob(
+        2,
+        "Short analysis window of the sideband power series (n_fft / d pulses; measure.sideband_power_fine).",
+        minimum=1,
+        config=False,
+    )
+    non_multiple_visible_z: float = knob(
+        3.0,
+        "The lines at non-multiples of the blade count are visible when their median power stands this many "
+        "noise standard deviations above zero (then the phase-noise floor keeps off them as off the HERM lines).",
+        config=False,
+    )
+    rotor_wander_rel: float = knob(
+        0.025,
+        "Relative broadening of one rotor's line within a CPI (its speed wanders ~1 % over a CPI in logged "
+        "flights), times the line's order, plus 1.5 bins of window main lobe (measure.rotation_line_powers).",
+        minimum=0,
+        config=False,
+    )
+    # Tests (hypotheses.py, the causes' tests):
+    body_smooth_cpis: int = knob(
+        9,
+        "The body-power statistic is detrended by a moving average over this many CPIs (2.5 s at 7.3 kHz): slow "
+        "aspect changes are no fluctuation. The body's sizes and times are estimated on short windows without it "
+        "(hypotheses.body_estimate).",
+        minimum=1,
+        config=False,
+    )
+    pn_body_skirt_hz: float = knob(
+        10.0,
+        "Width [Hz] of the Lorentzian skirt of a fluctuating body, a nuisance column of the phase-noise "
+        "likelihood in both models.",
+        exclusive_minimum=0,
+        config=False,
+    )
+    pn_clutter_decays_hz: tuple = knob(
+        (),
+        "Decay lengths [Hz] of extra exponential clutter columns of the phase-noise likelihood (replaced the key "
+        "pn_nuisance_decay_hz): none. The baseline is the background recording's own PSD, which holds the "
+        "wind-blown clutter already.",
+        config=False,
+    )
+    log_outlier_frac: float = knob(
+        0.05,
+        "Outlier fraction of the lag/scale tests' contaminated-normal likelihood (motor_log.test_log): CPIs that "
+        "may be outliers of the spacing match (speed steps, a line lost for a CPI).",
+        exclusive_minimum=0,
+        exclusive_maximum=1,
+        config=False,
+    )
+    common_gain_corr: float = knob(
+        0.7,
+        "A common sideband gain that correlates more than this with the body power (and moves the body by at "
+        "least common_gain_body_share as many dB) is a gain on the whole target (range-cell straddle, aspect), "
+        "not a blade fading (sideband_fading.test_fading; the catalog's fading is independent of the body, the "
+        "independent generator's fading flights read |r| < 0.3).",
+        minimum=-1,
+        maximum=1,
+        config=False,
+    )
+    common_gain_body_share: float = knob(
+        0.5,
+        "The body's dB excursions over the sidebands' (std ratio) that a gain on the whole target gives: it moves "
+        "both alike (ratio ~1, the sidebands' noise lowering it). A blade fading moves the body line only by the "
+        "blades' share in it (their mean return lies on the body Doppler), well under 0.5 even where it "
+        "correlates strongly.",
+        minimum=0,
+        config=False,
+    )
+    n_boot: int = knob(
+        400,
+        "Bootstrap resamples of the blade imbalance's interval (blade_imbalance.imbalance_interval).",
+        minimum=1,
+        config=False,
+    )
+    # Explanation (explain.py):
+    line_false_alarm: float = knob(
+        0.01,
+        "The two-sided check's false-alarm probability per flight: a line's presence and its power bounds are "
+        "read at this level, Bonferroni over the lines read.",
+        exclusive_minimum=0,
+        exclusive_maximum=1,
+        config=False,
+    )
+    model_clear_snr_db: float = knob(
+        10.0,
+        "A model line clearly above the noise: its band's median power at least this far over the noise power "
+        "in the band [dB]. Below it, the thin-wire blade's tip edge (which tapered real blades lack) is not taken "
+        "for a line the recording should show.",
+        config=False,
+    )
+
     @classmethod
     def from_dict(cls, d: dict | None, source="config") -> "DiagnosisConfig":
         """The config of the mapping ``d`` (field -> value); ``source`` (the config
@@ -383,11 +513,11 @@ class DiagnosisConfig:
             d = {}
         if not isinstance(d, dict):
             raise ConfigError(source, "diagnosis", f"is a {type(d).__name__}", "a mapping of diagnosis settings")
-        names = [f.name for f in fields(cls)]
+        names = config_names(cls)  # the fixed settings (config=False) are no keys
         for k in d:
             if k not in names:
                 raise unknown_key_error(source, k, names)
-        values = {f.name: f.default for f in fields(cls)}
+        values = {f.name: f.default for f in config_fields(cls)}
         values.update(d)
         return cls(**_check_config(values, source))
 
@@ -410,16 +540,17 @@ class DiagnosisConfig:
         return max(float(self.min_duration_s), need / float(prf_hz))
 
     def __post_init__(self):
-        _check_config({f.name: getattr(self, f.name) for f in fields(self)}, "DiagnosisConfig")
+        _check_config({f.name: getattr(self, f.name) for f in config_fields(type(self))}, "DiagnosisConfig")
+        check_ranges(self, "DiagnosisConfig", all_fields=True)  # the fixed settings' ranges (config=False knobs)
 
 
 def _rules(cls) -> dict:
-    """field -> (kind, lo, hi, lo_open, hi_open): the type and range of each field of
-    ``cls``, from its annotation and its :func:`~microdoppler.configfields.knob` (the
-    schema's ranges are the same)."""
+    """field -> (kind, lo, hi, lo_open, hi_open): the type and range of each
+    configuration key of ``cls``, from its annotation and its
+    :func:`~microdoppler.configfields.knob` (the schema's ranges are the same)."""
     kinds = {"float": "float", "int": "int", "bool": "bool", "int | None": "int_or_null"}
     out = {}
-    for f in fields(cls):
+    for f in config_fields(cls):
         m = f.metadata["config"]
         lo = m["exclusive_minimum"] if m["exclusive_minimum"] is not None else m["minimum"]
         hi = m["exclusive_maximum"] if m["exclusive_maximum"] is not None else m["maximum"]
@@ -434,5 +565,5 @@ def _check_config(values: dict, source) -> dict:
     return {k: _check_value(source, k, v, *_RULES[k]) for k, v in values.items()}
 
 
-#: type and allowed range of every DiagnosisConfig field: (kind, lo, hi, lo_open, hi_open)
+#: type and allowed range of every DiagnosisConfig configuration key: (kind, lo, hi, lo_open, hi_open)
 _RULES = _rules(DiagnosisConfig)

@@ -49,32 +49,7 @@ from ..rotors import sampling as sampling
 from ..spectra.lines import band_power, band_spans, herm_line_hz, local_floor
 from ..spectra.periodogram import periodogram, window
 from ..synthesis.model import ModelExtensions, Scaling, SynthesisConfig, Track, synthesize
-from .config import (
-    BODY_SEARCH_HZ,
-    LAG_STEP_S,
-    LINE_GUARD_FRAC,
-    LINE_HALF_BINS,
-    MIN_MATCH,
-    MIN_PAIR_SNR,
-    N_HARMONICS,
-    N_MATCH_HARMONICS,
-    PN_BIN_STEP,
-    PN_BODY_GUARD_HZ,
-    PN_CLUTTER_LINE_HZ,
-    PN_INNER_HZ,
-    PN_MODEL_GUARD_DB,
-    PN_OUTER_HZ,
-    PN_PROFILE_INNER_HZ,
-    PN_PROFILE_OUTER_HZ,
-    PN_SMOOTH_BINS,
-    PN_SMOOTH_CPIS,
-    RAISED_FLOOR_DB,
-    ROTATION_RAISED_FLOOR_DB,
-    SCALE_MAX,
-    SCALE_MIN,
-    SCALE_STEP,
-    DiagnosisConfig,
-)
+from .config import DiagnosisConfig
 
 DB = 10.0 / np.log(10.0)
 
@@ -447,6 +422,14 @@ class Measurements:
     side_floor: np.ndarray | None = None  # [n_t, N, 2] local floor per bin at the upper/lower sideband
     side_f_hz: np.ndarray | None = None  # [n_t, N, 2] their Doppler [Hz]
     pair_ok_any_floor: np.ndarray | None = None  # [n_t, N] bool: pair_ok but for the raised-floor guard
+    cfg: DiagnosisConfig | None = None  # the settings it was measured with (None: the defaults)
+
+
+def settings_of(M: Measurements) -> DiagnosisConfig:
+    """The settings ``M`` was measured with (:func:`measure`'s ``cfg``), which the
+    floor models (:func:`given_imbalance`, :func:`given_skirt`) read again; the
+    defaults where ``M`` carries none."""
+    return M.cfg if M.cfg is not None else DiagnosisConfig()
 
 
 def _dilation(st: Stft, sim: Stft, f_body, h0, n_harm, s_grid, floor, clutter_hz):
@@ -493,8 +476,8 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
     """Floor at the body's distance from the clutter line relative to the far noise
     floor, per CPI (>= 1) [n_t]: the median / ln 2 of the bins whose |f| is within
     ``3 body_half_hz`` of |f_b| (both sides of the clutter line), off the target
-    (farther than ``body_half_hz +`` :data:`.config.PN_BODY_GUARD_HZ` from the body and
-    than :data:`.config.LINE_GUARD_FRAC` x the HERM spacing ``spacing_hz`` [n_t] from
+    (farther than ``body_half_hz + pn_body_guard_hz`` from the body and than
+    ``line_guard_frac`` x the HERM spacing ``spacing_hz`` [n_t] from
     its lines, as in the phase-noise ordinates) and off the clutter line
     (``clutter_guard_hz``), over the median / ln 2 of the whole spectrum; within
     ``6 body_half_hz`` when fewer than 4 bins qualify, 1 when still fewer; averaged
@@ -519,11 +502,11 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
     r = np.ones(n_t)
     for i in range(n_t):
         fb, sp = f_body_hz[i], spacing_hz[i]
-        keep = clear & (np.abs(f - fb) > half + PN_BODY_GUARD_HZ)
+        keep = clear & (np.abs(f - fb) > half + cfg.pn_body_guard_hz)
         if np.isfinite(sp) and sp > 0:
             for n in range(1, 16):
                 for sg in (1, -1):
-                    keep &= np.abs(f - herm_line_hz(fb, sp, n, sg)) > LINE_GUARD_FRAC * sp
+                    keep &= np.abs(f - herm_line_hz(fb, sp, n, sg)) > cfg.line_guard_frac * sp
         dist = np.abs(np.abs(f) - abs(fb))
         for width in (3 * half, 6 * half):
             sel = keep & (dist <= width)
@@ -534,10 +517,6 @@ def body_floor_ratio(st: Stft, f_body_hz: np.ndarray, spacing_hz: np.ndarray, cf
     k = np.ones(2 * smooth_cpis + 1)
     r = np.convolve(r, k, mode="same") / np.convolve(np.ones(n_t), k, mode="same")
     return np.maximum(r, 1.0)
-
-
-#: short analysis windows of the body power series tried [pulses] (``n_fft / d``)
-FINE_DIVISORS = (8, 4, 2)
 
 
 def body_power_fine(
@@ -551,12 +530,14 @@ def body_power_fine(
     range_m=None,
     min_fraction: float = 0.4,
     floor_ratio: np.ndarray | None = None,
+    divisors: tuple | None = None,
 ) -> dict:
     """Body power in short windows (Blackman-Harris, 50 % overlap): the body line is
     strong, so its power can be read far faster than the CPI and a fluctuation's
     correlation time resolved down to ~0.05 s.
 
-    The window is the shortest of ``n_fft / FINE_DIVISORS`` for which at least
+    The window is the shortest of ``n_fft / d``, d in ``divisors`` (default
+    ``DiagnosisConfig.fine_divisors``, 8, 4, 2), for which at least
     ``min_fraction`` of the valid CPIs' windows hold the body clear of the clutter
     line: the stationary clutter is first removed by subtracting the moving average
     over one window (a notch at 0 Hz), and a window's body band (its nearest bin
@@ -576,7 +557,7 @@ def body_power_fine(
 
     x0 = np.asarray(iq, np.complex128)
     out = None
-    for d in FINE_DIVISORS:
+    for d in DiagnosisConfig().fine_divisors if divisors is None else divisors:
         nw = max(64, n_fft // d)
         x = x0 - (uniform_filter1d(x0.real, nw, mode="nearest") + 1j * uniform_filter1d(x0.imag, nw, mode="nearest"))
         st = stft_power(x, prf_hz, nw)
@@ -611,10 +592,6 @@ def body_power_fine(
     return out
 
 
-#: short analysis window of the sideband power series [pulses] (``n_fft / 2``)
-SIDE_FINE_DIVISOR = 2
-
-
 def sideband_power_fine(
     iq,
     prf_hz: float,
@@ -626,11 +603,11 @@ def sideband_power_fine(
     n_fft: int,
     range_t_s=None,
     range_m=None,
-    divisor: int = SIDE_FINE_DIVISOR,
+    divisor: int | None = None,
 ) -> dict:
     """Each HERM harmonic cluster's sideband power in short windows (``n_fft /
-    divisor`` pulses, Blackman-Harris, 50 % overlap), for the fading's correlation
-    time: the CPI grid (a 0.6 s window every 0.3 s) leaves a 1-2 s fading's time
+    divisor`` pulses, default ``DiagnosisConfig.side_fine_divisor``, 2;
+    Blackman-Harris, 50 % overlap), for the fading's correlation time: the CPI grid (a 0.6 s window every 0.3 s) leaves a 1-2 s fading's time
     uncertain by ~20 % over 180 s even to its exact likelihood; on a grid twice as
     fine (0.3 s windows every 0.16 s) the short lags, which carry most of the
     information on T, are seen.
@@ -656,6 +633,7 @@ def sideband_power_fine(
     from scipy.ndimage import uniform_filter1d
 
     x0 = np.asarray(iq, np.complex128)
+    divisor = DiagnosisConfig().side_fine_divisor if divisor is None else divisor
     nw = max(64, n_fft // divisor)
     x = x0 - (uniform_filter1d(x0.real, nw, mode="nearest") + 1j * uniform_filter1d(x0.imag, nw, mode="nearest"))
     st = stft_power(x, prf_hz, nw)
@@ -704,12 +682,12 @@ def sideband_power_fine(
     return out
 
 
-def usable_pairs(up, lo, up_sd, lo_sd, pair_ok, *, summed: bool = False) -> np.ndarray:
+def usable_pairs(up, lo, up_sd, lo_sd, pair_ok, *, summed: bool = False, min_snr: float | None = None) -> np.ndarray:
     """Harmonic pairs [N] clearly above the noise in most CPIs: the median over the
     CPIs (where ``pair_ok``) of the weaker side's power over the larger noise std
     (``summed``: of the pair's summed power over its noise std, for a statistic
     that reads the sum, so that a pair with one side weakened by an asymmetry still
-    counts) is at least :data:`.config.MIN_PAIR_SNR`, in at least 6 CPIs.
+    counts) is at least ``min_snr`` (default ``DiagnosisConfig.min_pair_snr``), in at least 6 CPIs.
     ``up``, ``lo``, ``up_sd``, ``lo_sd``, ``pair_ok`` [n_t, N] as in
     :class:`Measurements`."""
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -719,7 +697,8 @@ def usable_pairs(up, lo, up_sd, lo_sd, pair_ok, *, summed: bool = False) -> np.n
             snr = np.minimum(up, lo) / np.maximum(np.maximum(up_sd, lo_sd), 1e-30)
     snr = np.where(pair_ok, snr, np.nan)
     med = np.array([np.nanmedian(c) if np.isfinite(c).any() else 0.0 for c in snr.T])
-    return (med >= MIN_PAIR_SNR) & (np.isfinite(snr).sum(axis=0) >= 6)
+    min_snr = DiagnosisConfig().min_pair_snr if min_snr is None else min_snr
+    return (med >= min_snr) & (np.isfinite(snr).sum(axis=0) >= 6)
 
 
 def calibrate(M: Measurements) -> Calibration:
@@ -784,41 +763,44 @@ def lag_curves(log: MotorLog, t_s: np.ndarray, window: np.ndarray, prf_hz: float
 
 def clutter_line_power(M: Measurements) -> np.ndarray:
     """The clutter line's power per CPI [n_t] (periodogram units): the bins within
-    :data:`.config.PN_CLUTTER_LINE_HZ` of 0 Hz, noise-subtracted, >= 0 (read by
+    ``pn_clutter_line_hz`` (of ``M``'s settings) of 0 Hz, noise-subtracted, >= 0 (read by
     :func:`floor_ordinates` and :func:`skirt_floor`)."""
     st = M.stft
-    clutter = np.abs(st.f_hz) <= PN_CLUTTER_LINE_HZ
+    clutter = np.abs(st.f_hz) <= settings_of(M).pn_clutter_line_hz
     return np.maximum(st.p[:, clutter].sum(axis=1) - clutter.sum() * M.floor, 0.0)
 
 
 def floor_ordinates(
-    M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float = PN_INNER_HZ, outer_hz: float = PN_OUTER_HZ
+    M: Measurements, cfg: DiagnosisConfig, *, inner_hz: float | None = None, outer_hz: float | None = None
 ) -> FloorOrdinates | None:
     """The phase-noise test's data (:class:`FloorOrdinates`; None without a background
     recording): on every second valid CPI (non-overlapping), the periodogram bins
-    ``inner_hz`` to ``outer_hz`` (default :data:`.config.PN_INNER_HZ` to
-    :data:`.config.PN_OUTER_HZ`) from the clutter line
-    (every :data:`.config.PN_BIN_STEP`-th), off the target: farther than
-    ``body_half_hz +`` :data:`.config.PN_BODY_GUARD_HZ` from the body, than
-    :data:`.config.LINE_GUARD_FRAC` x the HERM spacing from its first 15 lines, and
+    ``inner_hz`` to ``outer_hz`` (default ``cfg.pn_inner_hz`` to
+    ``cfg.pn_outer_hz``) from the clutter line
+    (every ``pn_bin_step``-th), off the target: farther than
+    ``body_half_hz + pn_body_guard_hz`` from the body, than
+    ``line_guard_frac`` x the HERM spacing from its first 15 lines, and
     where the calibrated model's blade power (``M.calib``, smeared lines too) is below
-    the floor + :data:`.config.PN_MODEL_GUARD_DB`; a CPI with fewer than 5 such bins
+    the floor + ``pn_model_guard_db``; a CPI with fewer than 5 such bins
     is left out. With each bin the background recording's PSD there (same CPI, the
-    periodogram smoothed over +-:data:`.config.PN_SMOOTH_CPIS` CPIs and
-    +-:data:`.config.PN_SMOOTH_BINS` bins), and per CPI the clutter line's power
-    (within :data:`.config.PN_CLUTTER_LINE_HZ` of 0 Hz, noise-subtracted)."""
+    periodogram smoothed over +-``pn_smooth_cpis`` CPIs and
+    +-``pn_smooth_bins`` bins), and per CPI the clutter line's power
+    (within ``pn_clutter_line_hz`` of 0 Hz, noise-subtracted); the settings are
+    ``cfg``'s."""
+    inner_hz = cfg.pn_inner_hz if inner_hz is None else inner_hz
+    outer_hz = cfg.pn_outer_hz if outer_hz is None else outer_hz
     if M.bg_stft is None:
         return None
     from scipy.ndimage import uniform_filter
 
     st, bg = M.stft, M.bg_stft
-    k = max(1, int(PN_SMOOTH_BINS))
+    k = max(1, int(cfg.pn_smooth_bins))
     # the background recording is the same cell sequence: smooth it over
-    # +-PN_SMOOTH_CPIS CPIs and +-k bins around each CPI (time-aligned)
-    s_bg_t = uniform_filter(bg.p, size=(2 * PN_SMOOTH_CPIS + 1, 2 * k + 1), mode="nearest")
+    # +-pn_smooth_cpis CPIs and +-k bins around each CPI (time-aligned)
+    s_bg_t = uniform_filter(bg.p, size=(2 * cfg.pn_smooth_cpis + 1, 2 * k + 1), mode="nearest")
     f = st.f_hz
     region = (np.abs(f) >= inner_hz) & (np.abs(f) <= outer_hz)
-    cols = np.flatnonzero(region)[::PN_BIN_STEP]
+    cols = np.flatnonzero(region)[:: cfg.pn_bin_step]
     rows = np.flatnonzero(M.valid)[::2]  # non-overlapping CPIs
     clutter_pow = clutter_line_power(M)
     calib = M.calib
@@ -827,11 +809,11 @@ def floor_ordinates(
         fb = M.f_body_hz[i]
         ff = f[cols]
         # off the target: its body skirt and its HERM lines (guard a fraction of the spacing)
-        keep = np.abs(ff - fb) > cfg.body_half_hz + PN_BODY_GUARD_HZ
+        keep = np.abs(ff - fb) > cfg.body_half_hz + cfg.pn_body_guard_hz
         spacing = M.f_log_hz[i] * (M.dil[i] if np.isfinite(M.dil[i]) else 1.0) * int(M.info.get("n_blades", 2))
         for n in range(1, 16):
             for sg in (1, -1):
-                keep &= np.abs(ff - herm_line_hz(fb, spacing, n, sg)) > LINE_GUARD_FRAC * spacing
+                keep &= np.abs(ff - herm_line_hz(fb, spacing, n, sg)) > cfg.line_guard_frac * spacing
         n_b = int(M.info.get("n_blades", 2))
         if M.info.get("non_multiple_lines_visible"):
             # a weak or strong blade's lines between the HERM lines (guard as theirs,
@@ -840,7 +822,7 @@ def floor_ordinates(
             for k in range(1, 16 * n_b):
                 if k % n_b:
                     for sg in (1, -1):
-                        keep &= np.abs(ff - herm_line_hz(fb, f_rot, k, sg)) > LINE_GUARD_FRAC * f_rot
+                        keep &= np.abs(ff - herm_line_hz(fb, f_rot, k, sg)) > cfg.line_guard_frac * f_rot
         if M.sim_stft is not None and calib is not None:
             # off the blade power the calibrated model predicts there (smeared lines too)
             d = ff - fb
@@ -849,7 +831,7 @@ def floor_ordinates(
                 * np.exp(-2 * calib.alpha_s * np.abs(d))
                 * np.interp(d, M.sim_stft.f_hz, M.sim_stft.p[i])
             )
-            keep &= pred < M.floor[i] * 10 ** (PN_MODEL_GUARD_DB / 10)
+            keep &= pred < M.floor[i] * 10 ** (cfg.pn_model_guard_db / 10)
         cc = cols[keep]
         if len(cc) < 5:
             continue
@@ -901,16 +883,16 @@ def skirt_floor(M: Measurements, q_flat: float, q_slope: float, bandwidth_hz: fl
 
 def skirt_ordinates(M: Measurements, cfg: DiagnosisConfig) -> dict | None:
     """The skirt profile's data (:func:`skirt_profile`): the floor ordinates over the
-    wide band (:func:`floor_ordinates`, edges :data:`.config.PN_PROFILE_INNER_HZ` x
-    sqrt(2)^k up to :data:`.config.PN_PROFILE_OUTER_HZ` or 0.4 x PRF). Per ordinate
+    wide band (:func:`floor_ordinates`, edges ``cfg.pn_inner_hz`` x
+    sqrt(2)^k up to ``cfg.pn_profile_outer_hz`` or 0.4 x PRF). Per ordinate
     its power ``P``, the background's ``S``, the bin width times the clutter and body
     lines' powers ``A`` [n, 2], their bands of offset ``jc``/``jb`` (``nb``
     outside), its CPI ``cpi``, side of the clutter line ``pos`` and offset from the
     body ``f_rel_body_hz`` (:data:`ORDINATE_KEYS`); ``edges``, ``nb`` and ``counts``
     (ordinates per clutter band). None without a background recording or with fewer
     than 2 bands of >= 20 ordinates."""
-    outer = min(PN_PROFILE_OUTER_HZ, 0.4 * float(M.info["prf_hz"]))
-    edges = [PN_PROFILE_INNER_HZ]
+    outer = min(cfg.pn_profile_outer_hz, 0.4 * float(M.info["prf_hz"]))
+    edges = [cfg.pn_inner_hz]
     while edges[-1] * np.sqrt(2) <= outer:
         edges.append(edges[-1] * np.sqrt(2))
     edges = np.asarray(edges)
@@ -1061,8 +1043,8 @@ def given_imbalance(M: Measurements) -> Measurements:
     between the blade-passing lines (for two blades, half a spacing from each, at the
     edge of a sideband's local floor) the floor is the target's own rotation lines,
     each smeared by the speed's change within a CPI. A sideband whose local floor is
-    raised over the far floor by up to :data:`.config.ROTATION_RAISED_FLOOR_DB` (the
-    rotation lines' own guard) is then kept: its power is read over that local floor
+    raised over the far floor by up to ``rotation_raised_floor_db`` of ``M``'s settings
+    (the rotation lines' own guard) is then kept: its power is read over that local floor
     and its noise std taken from it, as always. ``pair_ok``, ``usable_pairs``,
     ``usable_pair_sums`` and the calibration (:func:`calibrate`) follow.
 
@@ -1073,14 +1055,15 @@ def given_imbalance(M: Measurements) -> Measurements:
         return M
     with np.errstate(invalid="ignore", divide="ignore"):
         rise = DB * np.log(M.side_floor / M.floor[:, None, None])
-    ok = M.pair_ok | (M.pair_ok_any_floor & np.all(rise <= ROTATION_RAISED_FLOOR_DB, axis=2))
+    cfg = settings_of(M)
+    ok = M.pair_ok | (M.pair_ok_any_floor & np.all(rise <= cfg.rotation_raised_floor_db, axis=2))
     if np.array_equal(ok, M.pair_ok):
         return M
     M = replace(
         M,
         pair_ok=ok,
-        usable_pairs=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok),
-        usable_pair_sums=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok, summed=True),
+        usable_pairs=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok, min_snr=cfg.min_pair_snr),
+        usable_pair_sums=usable_pairs(M.up, M.lo, M.up_sd, M.lo_sd, ok, summed=True, min_snr=cfg.min_pair_snr),
     )
     return replace(M, calib=calibrate(M))
 
@@ -1091,7 +1074,7 @@ def given_skirt(
     """``M`` with a named phase-noise skirt in the model of the floor under the
     sidebands: a sideband whose local floor is raised over the far floor is kept when
     the far floor plus the skirt (:func:`skirt_floor`) accounts for it to within
-    :data:`.config.RAISED_FLOOR_DB` (its power is read over its local floor, its noise
+    ``raised_floor_db`` of ``M``'s settings (its power is read over its local floor, its noise
     std from that floor, as always); ``pair_ok``, ``usable_pairs`` and
     ``usable_pair_sums`` follow. A skirt of a radar's oscillator lifts the floor
     around the clutter line by up to ~20 dB over 35-400 Hz, where the sidebands of a
@@ -1106,9 +1089,10 @@ def given_skirt(
     where that side is clear, whatever the other's floor."""
     if M.side_floor is None or M.pair_ok_any_floor is None:
         return M
+    cfg = settings_of(M)
     expected = M.floor[:, None, None] + skirt_floor(M, q_flat, q_slope, bandwidth_hz, offset_hz)
     with np.errstate(invalid="ignore", divide="ignore"):
-        fits = np.all(M.side_floor <= expected * 10 ** (RAISED_FLOOR_DB / 10), axis=2)
+        fits = np.all(M.side_floor <= expected * 10 ** (cfg.raised_floor_db / 10), axis=2)
     ok = M.pair_ok | (M.pair_ok_any_floor & fits)
     up, lo, up_sd, lo_sd = M.up, M.lo, M.up_sd, M.lo_sd
     if clear_side:
@@ -1118,7 +1102,7 @@ def given_skirt(
         # cancels against the harmonic's median; a common gain moves both sides)
         with np.errstate(invalid="ignore", divide="ignore"):
             rise = DB * np.log(M.side_floor / M.floor[:, None, None])
-        hi = ~(rise <= RAISED_FLOOR_DB)  # raised (or no floor)
+        hi = ~(rise <= cfg.raised_floor_db)  # raised (or no floor)
         up, lo, up_sd, lo_sd = up.copy(), lo.copy(), up_sd.copy(), lo_sd.copy()
         ok = ok.copy()
         fine = dict(M.side_fine) if M.side_fine else None
@@ -1148,33 +1132,23 @@ def given_skirt(
         up_sd=up_sd,
         lo_sd=lo_sd,
         pair_ok=ok,
-        usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
-        usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True),
+        usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok, min_snr=cfg.min_pair_snr),
+        usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True, min_snr=cfg.min_pair_snr),
     )
 
 
 # ---------------------------------------------------------------- the measurement
 
-#: the lines at non-multiples of the blade count are "visible" when their median power
-#: stands this many noise standard deviations above zero (then the phase-noise floor
-#: keeps off them as off the HERM lines)
-NON_MULTIPLE_VISIBLE_Z = 3.0
 
-
-def non_multiple_visible(power: np.ndarray, noise_var: np.ndarray, n_blades: int) -> bool:
+def non_multiple_visible(power: np.ndarray, noise_var: np.ndarray, n_blades: int, min_z: float) -> bool:
     """Whether the rotation harmonics that are not multiples of ``n_blades`` (a weak or
     strong blade's lines) stand above the noise: median over (CPI, order, side) of
-    power / noise std > :data:`NON_MULTIPLE_VISIBLE_Z`."""
+    power / noise std > ``min_z`` (``DiagnosisConfig.non_multiple_visible_z``)."""
     k = np.arange(1, power.shape[1] + 1)
     sel = (k % n_blades) != 0
     z = power[:, sel] / np.sqrt(noise_var[:, sel])
     z = z[np.isfinite(z)]
-    return bool(len(z) >= 10 and np.median(z) > NON_MULTIPLE_VISIBLE_Z)
-
-
-#: relative broadening of one rotor's line within a CPI (its speed wanders ~1 % over a
-#: CPI in logged flights), times the line's order, plus 1.5 bins of window main lobe
-ROTOR_WANDER_REL = 0.025
+    return bool(len(z) >= 10 and np.median(z) > min_z)
 
 
 def thin_wire_line_power(blade_length_m: float, wavelength_m: float, k_max: int, n: int = 4096) -> np.ndarray:
@@ -1200,6 +1174,7 @@ def rotation_line_powers(
     *,
     clutter_guard_hz: float,
     raised_floor_db: float,
+    wander_rel: float | None = None,
 ):
     """Noise-subtracted power of every rotation harmonic k = 1..k_max on each side of
     the body, summed over the rotors whose line of order k is clear of every other
@@ -1208,7 +1183,10 @@ def rotation_line_powers(
     Returns ``(power, noise_var, cross, n_rotors)``: float [n_t, k_max, 2] (side 0
     upper, 1 lower; NaN where not measurable); the variance of ``power`` is
     ``noise_var + cross * power`` (kappa (n_b fl^2 + 2 P fl), :func:`noise_power_factor`);
-    int [n_t, k_max, 2], how many rotors' lines the sum holds."""
+    int [n_t, k_max, 2], how many rotors' lines the sum holds. A line's band is
+    ``wander_rel`` x its order x the rotation rate plus 1.5 bins on each side (default
+    ``DiagnosisConfig.rotor_wander_rel``: the speed's wander within a CPI)."""
+    wander_rel = DiagnosisConfig().rotor_wander_rel if wander_rel is None else wander_rel
     n_t, n_m = motor_rev_s.shape
     df, nyq = st.bin_hz, st.f_hz[-1]
     kappa = noise_power_factor(st.window)
@@ -1227,7 +1205,7 @@ def rotation_line_powers(
             continue
         p_row = st.p[i]
         # every order, side and rotor at once: [K, 2, n_m] (the others: [K, 2, 4, n_m])
-        half = ks[:, None] * fr * ROTOR_WANDER_REL + 1.5 * df  # [K, n_m]
+        half = ks[:, None] * fr * wander_rel + 1.5 * df  # [K, n_m]
         cs = herm_line_hz(f_body_hz[i], fr, ks[:, None, None], sides[None, :, None])
         lo, hi = (a.reshape(cs.shape) for a in band_spans(st, cs, np.broadcast_to(half[:, None, :], cs.shape)))
         co = herm_line_hz(f_body_hz[i], fr, k2[:, None, :, None], sides[None, :, None, None])
@@ -1294,10 +1272,10 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     df = st.bin_hz
     floor = np.median(st.p, axis=1) / np.log(2.0)
     # artifact CPIs: floor far above the flight's typical floor
-    art = DB * np.log(floor / np.median(floor)) > RAISED_FLOOR_DB
+    art = DB * np.log(floor / np.median(floor)) > cfg.raised_floor_db
     # body
     f_trk = body_doppler(flight, st.t_s)
-    f_body = refine_peak(st, f_trk, BODY_SEARCH_HZ)
+    f_body = refine_peak(st, f_trk, cfg.body_search_hz)
     body_valid = np.abs(f_body) > cfg.clutter_guard_hz + cfg.body_half_hz
     body_pow = np.empty(n_t)
     body_nb = np.empty(n_t)
@@ -1322,9 +1300,9 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     spread = float(np.clip(np.median(rev.std(axis=1) / np.maximum(rev.mean(axis=1), 1e-6)), 0, 0.1))
     B = int(a["n_blades"])
     h0 = B * f_log
-    s_grid = np.arange(SCALE_MIN, SCALE_MAX + 1e-9, SCALE_STEP)
-    dil, q = _dilation(st, sim, f_body, h0, N_MATCH_HARMONICS, s_grid, floor, cfg.clutter_guard_hz)
-    dil_ok = np.isfinite(dil) & (q > MIN_MATCH) & ~art
+    s_grid = np.arange(cfg.scale_min, cfg.scale_max + 1e-9, cfg.scale_step)
+    dil, q = _dilation(st, sim, f_body, h0, cfg.n_match_harmonics, s_grid, floor, cfg.clutter_guard_hz)
+    dil_ok = np.isfinite(dil) & (q > cfg.min_match) & ~art
     dil_f = np.where(np.isfinite(dil), dil, np.nanmedian(dil) if np.isfinite(dil).any() else 1.0)
     # the random part of the body band's power: the floor at the body's distance from
     # the clutter line, off the target (body_floor_ratio), through the window
@@ -1334,7 +1312,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     var = noise_power_factor(st.window) * (2 * np.maximum(body_pow, 0) * fl_body + body_nb * fl_body**2)
     body_sd = DB * np.sqrt(var) / np.maximum(body_pow, 1e-30)
     # sidebands
-    N = N_HARMONICS
+    N = cfg.n_harmonics
     harm = np.arange(1, N + 1)
     up = np.zeros((n_t, N))
     lo = np.zeros((n_t, N))
@@ -1352,7 +1330,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         h = h0[i] * dil_f[i]
         hs = h0[i]
         for k, n in enumerate(harm):
-            w = max(LINE_HALF_BINS * df, n * h * 2.5 * spread + 2 * df)
+            w = max(cfg.line_half_bins * df, n * h * 2.5 * spread + 2 * df)
             w = min(w, 0.4 * h)
             sides = []
             for sgn in (1, -1):
@@ -1373,7 +1351,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
             for j, (s, nb, fl, fc) in enumerate(sides):
                 if not np.isfinite(fl) or abs(fc) < cfg.clutter_guard_hz + w:
                     good = False
-                elif DB * np.log(fl / floor[i]) > RAISED_FLOOR_DB:
+                elif DB * np.log(fl / floor[i]) > cfg.raised_floor_db:
                     raised = True
                 side_fl[i, k, j], side_fc[i, k, j] = fl, fc
                 pw = s - nb * fl
@@ -1394,12 +1372,31 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
     body_in_notch = bool(np.median(np.abs(f_body)) <= cfg.clutter_guard_hz + cfg.body_half_hz)
     valid = (body_valid | body_in_notch) & ~art & in_log
     fine = body_power_fine(
-        iq, prf, st.t_s, f_body, valid, n_fft, flight.track_time_s, flight.track_range_m, floor_ratio=fl_ratio
+        iq,
+        prf,
+        st.t_s,
+        f_body,
+        valid,
+        n_fft,
+        flight.track_time_s,
+        flight.track_range_m,
+        floor_ratio=fl_ratio,
+        divisors=cfg.fine_divisors,
     )
     side_fine = sideband_power_fine(
-        iq, prf, st.t_s, f_body, h0 * dil_f, harm, spread, n_fft, flight.track_time_s, flight.track_range_m
+        iq,
+        prf,
+        st.t_s,
+        f_body,
+        h0 * dil_f,
+        harm,
+        spread,
+        n_fft,
+        flight.track_time_s,
+        flight.track_range_m,
+        divisor=cfg.side_fine_divisor,
     )
-    lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, LAG_STEP_S)
+    lags = np.arange(-cfg.max_lag_s, cfg.max_lag_s + 1e-9, cfg.lag_step_s)
     # every rotation harmonic, per rotor at its own logged speed (times the measured
     # dilation): the blade-passing lines and, between them, what unequal blades add
     rev_m = (
@@ -1408,7 +1405,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         )
         * dil_f[:, None]
     )
-    k_max = B * N_HARMONICS
+    k_max = B * cfg.n_harmonics
     rot = rotation_line_powers(
         st,
         f_body,
@@ -1418,7 +1415,8 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         k_max,
         floor,
         clutter_guard_hz=cfg.clutter_guard_hz,
-        raised_floor_db=ROTATION_RAISED_FLOOR_DB,
+        raised_floor_db=cfg.rotation_raised_floor_db,
+        wander_rel=cfg.rotor_wander_rel,
     )
     rot_wire = thin_wire_line_power(float(a["blade_length_m"]), flight.wavelength_m, k_max)
     M = Measurements(
@@ -1440,8 +1438,8 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         lo_sd,
         ok,
         model_h,
-        usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok),
-        usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True),
+        usable_pairs=usable_pairs(up, lo, up_sd, lo_sd, ok, min_snr=cfg.min_pair_snr),
+        usable_pair_sums=usable_pairs(up, lo, up_sd, lo_sd, ok, summed=True, min_snr=cfg.min_pair_snr),
         lag_s=lags,
         lag_curves=lag_curves(log, st.t_s, st.window, prf, lags),
         log=log,
@@ -1457,7 +1455,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
             "n_blades": B,
             "n_artifact_cpis": int(art.sum()),
             "match_q": float(np.nanmedian(q)),
-            "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B),
+            "non_multiple_lines_visible": non_multiple_visible(rot[0], rot[1], B, cfg.non_multiple_visible_z),
             "body_in_notch": body_in_notch,
         },
         rot_pow=rot[0],
@@ -1468,6 +1466,7 @@ def measure(flight, motor_log: MotorLog | None = None, cfg: DiagnosisConfig | No
         side_floor=side_fl,
         side_f_hz=side_fc,
         pair_ok_any_floor=ok_any_floor,
+        cfg=cfg,
     )
     # the model calibrated on the measurement, then the floor off the calibrated lines
     M = replace(M, calib=calibrate(M))

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import LAG_STEP_S
 from .heldout import CauseTest, _crossfit, _gauss_ll
 
 #: why a log estimated from the recording's own lines tests neither
@@ -14,10 +13,6 @@ FROM_RADAR = (
     "motors_source is radar: the motor log was estimated from this recording's HERM lines, so lag "
     "and scale are not testable"
 )
-
-
-#: outlier fraction of the lag/scale tests' contaminated-normal likelihood
-LOG_OUTLIER_FRAC = 0.05
 
 
 def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, CauseTest]:
@@ -40,6 +35,7 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
     G = M.lag_curves[:, m]
     with_scale = "motor_speed_scale" in given
     with_lag = "motor_log_lag" in given
+    out = cfg.log_outlier_frac
 
     def fit_joint(sel, use_lag: bool, use_scale: bool):
         """(lag index or None, mu, residual variance) fitted on ``sel``."""
@@ -58,7 +54,7 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
         return (G[j, sel] if j is not None else 0.0) + mu
 
     def crossfit(base_flags, ext_flags, res):
-        # both models are contaminated normals: a fraction LOG_OUTLIER_FRAC of the CPIs
+        # both models are contaminated normals: a fraction cfg.log_outlier_frac of the CPIs
         # may be outliers of the spacing match (speed steps, a line lost for a CPI),
         # N(0, 10 x the training fold's mean square); without it, a fold fitted on
         # smooth CPIs scores the other fold's few outliers at thousands of sigma
@@ -67,9 +63,7 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
             return fit_joint(sel, *base_flags), fit_joint(sel, *ext_flags), wide
 
         def ll(x, mu, var, wide):
-            return np.logaddexp(
-                np.log1p(-LOG_OUTLIER_FRAC) + _gauss_ll(x, mu, var), np.log(LOG_OUTLIER_FRAC) + _gauss_ll(x, 0.0, wide)
-            )
+            return np.logaddexp(np.log1p(-out) + _gauss_ll(x, mu, var), np.log(out) + _gauss_ll(x, 0.0, wide))
 
         def score(th, sel):
             tb, te, wide = th
@@ -90,7 +84,7 @@ def test_log(M, cfg, fold, given: frozenset = frozenset()) -> tuple[CauseTest, C
     if 0 < j < len(lags) - 1:  # parabolic refinement of the lag
         a, b, c = sse[j - 1], sse[j], sse[j + 1]
         if a - 2 * b + c > 0:
-            lag += float(np.clip(0.5 * (a - c) / (a - 2 * b + c), -0.5, 0.5)) * LAG_STEP_S
+            lag += float(np.clip(0.5 * (a - c) / (a - 2 * b + c), -0.5, 0.5)) * cfg.lag_step_s
     if with_lag:
         jl, _, _ = fit_joint(allm, True, True)
         scale = float(np.exp(np.median(y - G[jl])))

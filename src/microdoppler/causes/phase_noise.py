@@ -27,14 +27,7 @@ import scipy.fft as sfft
 
 from ..errors import InputError
 from .base import CauseSpec, Param, number
-from .config import (
-    PN_BODY_SKIRT_HZ,
-    PN_CLUTTER_DECAYS_HZ,
-    PN_OUTER_HZ,
-    PN_PROFILE_AGREE_DB,
-    PN_PROFILE_BODY_GUARD_HZ,
-    PN_PROFILE_FALL_DB,
-)
+from .config import DiagnosisConfig
 from .heldout import CauseTest, _crossfit
 from .measure import (
     DB,
@@ -82,7 +75,7 @@ def flat_rms_rad(
 
 
 def profile_skirt_test(
-    d: dict, fold, body_spread: float = 0.0, body_guard_hz: float = PN_PROFILE_BODY_GUARD_HZ
+    d: dict, fold, body_spread: float = 0.0, body_guard_hz: float | None = None, *, cfg: DiagnosisConfig | None = None
 ) -> dict:
     """The measured skirt as a held-out test (:func:`test_phase_noise`'s second
     reading): on each fold the band levels by medians, in the bands measured on both
@@ -90,7 +83,8 @@ def profile_skirt_test(
     Whittle likelihood against the background alone, each ordinate's power
     winsorised at ln(100) x the extended model's mean (a line among the ordinates
     then adds at most what a 1 % tail does); only ordinates at least
-    ``body_guard_hz`` from the body, and the body's Lorentzian spread of weight
+    ``body_guard_hz`` (default ``cfg.pn_profile_body_guard_hz``; ``cfg`` default
+    :class:`DiagnosisConfig`'s) from the body, and the body's Lorentzian spread of weight
     ``body_spread`` (the phase-noise test's nuisance column) in the background of
     both models (a fluctuating body's spread). Returns ``{"test": CauseTest, "rise_db":
     the floor rise, by medians on the whole flight, over the ordinates of the
@@ -106,8 +100,10 @@ def profile_skirt_test(
     # off the body's own spread: a fluctuating body beside the clutter line spreads on
     # both sides of it too; its Lorentzian tail (as the phase-noise test's model with
     # a skirt fits it) is part of the background in both models
+    cfg = DiagnosisConfig() if cfg is None else cfg
+    body_guard_hz = cfg.pn_profile_body_guard_hz if body_guard_hz is None else body_guard_hz
     if body_spread > 0:
-        g2 = PN_BODY_SKIRT_HZ**2
+        g2 = cfg.pn_body_skirt_hz**2
         line = d["A"][:, 1] / (2 * PHASE_NOISE_BANDWIDTH_HZ)  # that test's column unit: bin x body power / 2 B
         d = {**d, "S": d["S"] + body_spread * line * g2 / (d["f_rel_body_hz"] ** 2 + g2)}
     d = ordinate_subset(d, np.abs(d["f_rel_body_hz"]) >= body_guard_hz)
@@ -152,19 +148,19 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
         unit = df / (2 * bw) * C
         # columns: the phase-noise skirt (flat, |f| < 100 Hz) and nuisance shapes in both
         # models: wind-blown clutter (exponential decay from the clutter line, none by
-        # default: PN_CLUTTER_DECAYS_HZ) and a skirt around the body (a fluctuating
+        # default: pn_clutter_decays_hz) and a skirt around the body (a fluctuating
         # body spreads its own line)
         Bt = max(float(O.body_pow[j]), 0.0) * df / (2 * bw)
-        g2 = PN_BODY_SKIRT_HZ**2
+        g2 = cfg.pn_body_skirt_hz**2
         # the skirt: flat, and falling as (f0 / f)^2 (f0 = 50 Hz), around the clutter
         # line and the body both; a mix of the two follows a flat, a Gaussian or a
-        # 1/f-like phase-noise spectrum between PN_INNER_HZ and PN_OUTER_HZ
+        # 1/f-like phase-noise spectrum between pn_inner_hz and pn_outer_hz
         db_ = np.abs(fc - fb)
         flat_c, slope_c = skirt_shape(af, bw, SKIRT_OFFSET_HZ)
         flat_b, slope_b = skirt_shape(db_, bw, SKIRT_OFFSET_HZ)
         kern = np.column_stack(
             [unit * flat_c + Bt * flat_b, unit * slope_c + Bt * slope_b]
-            + [unit * np.exp(-af / d) for d in PN_CLUTTER_DECAYS_HZ]
+            + [unit * np.exp(-af / d) for d in cfg.pn_clutter_decays_hz]
             + [Bt * g2 / ((fc - fb) ** 2 + g2)]
         )
         P.append(O.power[j])
@@ -232,13 +228,13 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     # the profile is read by medians: the target's lines among the ordinates (where
     # the model misplaces them: a wrong blade count, a speed scale) lift this test's
     # mean-based fit, not the medians. A skirt the medians put more than
-    # PN_PROFILE_AGREE_DB below this fit is no skirt: not relevant.
+    # pn_profile_agree_db below this fit is no skirt: not relevant.
     at_offset = None
     if profile is not None:
         e = np.asarray(profile["band_edges_hz"])
         jb = int(np.clip(np.searchsorted(e, SKIRT_OFFSET_HZ, side="right") - 1, 0, len(profile["dbc_hz"]) - 1))
         at_offset = float(profile["dbc_hz"][jb])
-        res.relevant = res.relevant and at_offset >= skirt - PN_PROFILE_AGREE_DB
+        res.relevant = res.relevant and at_offset >= skirt - cfg.pn_profile_agree_db
     # the second reading: the measured profile, fitted by medians on one fold, scored
     # on the other over the whole band (35 Hz to 1.2 kHz). Where the body sits next
     # to the clutter line, this test's 35-95 Hz ordinates lie on one side only and
@@ -247,13 +243,13 @@ def test_phase_noise(M, cfg, fold) -> CauseTest:
     # floor rise it finds by medians in its innermost band passes the margin.
     # the body's spread as the model with a skirt fits it (its weight per unit line power)
     spread = float(xe[-1] / norm[-1]) if len(xe) > NQ else 0.0
-    prof = None if d is None or profile is None else profile_skirt_test(d, fold, spread)
+    prof = None if d is None or profile is None else profile_skirt_test(d, fold, spread, cfg=cfg)
     if prof is not None:
         use_prof = bool(
             prof["test"].held_out
             and prof["test"].log_e > res.log_e
             and prof["rise_db"] >= cfg.margin_floor_rise_db
-            and prof["fall_db"] >= PN_PROFILE_FALL_DB
+            and prof["fall_db"] >= cfg.pn_profile_fall_db
         )
         if use_prof:
             t = prof["test"]
@@ -482,8 +478,12 @@ class PhaseNoise(CauseSpec):
 
     def gof_guard(self, guard_hz):
         # its whole skirt band (the catalog's flat skirt need not have the measured
-        # shape), and the edge of the body's skirt, whose shape the flat process does not know
-        return max(guard_hz, 2 * PN_OUTER_HZ), (0.75 * PHASE_NOISE_BANDWIDTH_HZ, 4.5 * PHASE_NOISE_BANDWIDTH_HZ)
+        # shape), and the edge of the body's skirt, whose shape the flat process does not know;
+        # the hook has no settings: the phase-noise ordinates' default outer edge
+        return max(guard_hz, 2 * DiagnosisConfig().pn_outer_hz), (
+            0.75 * PHASE_NOISE_BANDWIDTH_HZ,
+            4.5 * PHASE_NOISE_BANDWIDTH_HZ,
+        )
 
 
 CAUSE = PhaseNoise()

@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 
 from .base import CauseSpec, Param
-from .config import MIN_PAIR_SNR
 from .heldout import CauseTest, _crossfit, _gauss_ll
 from .measure import DB
 
@@ -32,7 +31,7 @@ def test_asymmetry(M, cfg, fold) -> CauseTest:
     if m.sum() < 2 * cfg.block_cpis:
         res.testable = False
         res.evidence = {
-            "reason": f"usable sideband pairs (median >= {MIN_PAIR_SNR:g} dB over the floor) "
+            "reason": f"usable sideband pairs (median >= {cfg.min_pair_snr:g} dB over the floor) "
             f"in {int(m.sum())} CPIs (expected >= {2 * cfg.block_cpis}, two folds)"
         }
         return res

@@ -42,18 +42,6 @@ STREAM = 1
 DEFAULT_FADING_TIMESCALE_S = 1.5
 
 
-#: a common sideband gain that correlates this much with the body power, and moves
-#: the body by at least :data:`COMMON_GAIN_BODY_SHARE` as many dB, is the whole
-#: target's (range-cell straddle, aspect), not a blade fading (the catalog's fading is
-#: independent of the body; the independent generator's fading flights read |r| < 0.3)
-COMMON_GAIN_CORR = 0.7
-#: the body's dB excursions over the sidebands' (std ratio) that a gain on the whole
-#: target gives: it moves both alike (ratio ~1, the sidebands' noise lowering it). A
-#: blade fading moves the body line only by the blades' share in it (their mean return
-#: lies on the body Doppler), well under 0.5 even where it correlates strongly.
-COMMON_GAIN_BODY_SHARE = 0.5
-
-
 def common_gain_correlation(M, e: np.ndarray, m: np.ndarray) -> tuple[float, float] | None:
     """Correlation of the detrended common sideband power ``e`` (the fading test's
     series, on CPIs ``m``) with the detrended body power [dB] on the same CPIs, and
@@ -157,8 +145,8 @@ def test_fading(M, cfg, fold) -> CauseTest:
     body_corr, body_share = cg if cg is not None else (None, None)
     if (
         body_corr is not None
-        and body_corr > COMMON_GAIN_CORR
-        and body_share >= COMMON_GAIN_BODY_SHARE
+        and body_corr > cfg.common_gain_corr
+        and body_share >= cfg.common_gain_body_share
         and cpi_sd >= cfg.margin_common_gain_db
         and cpi_sd > 0
     ):
@@ -169,7 +157,7 @@ def test_fading(M, cfg, fold) -> CauseTest:
         res.evidence["common_gain_db"] = round(cpi_sd, 2)
         res.evidence["reason"] = (
             f"the common sideband power follows the body's (correlation {body_corr:.2f} > "
-            f"{COMMON_GAIN_CORR}, the body moving {body_share:.2f} as many dB): a gain on "
+            f"{cfg.common_gain_corr}, the body moving {body_share:.2f} as many dB): a gain on "
             f"the whole target, not a fading of the blades"
         )
     res.series = {"t_s": M.t_s[m], "stat": e, "base": np.sqrt(v0), "ext": np.sqrt(v0 + s2)}

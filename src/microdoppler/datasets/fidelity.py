@@ -71,7 +71,7 @@ from .injection import INJECTED_SCHEMA
 from .lines import body_doppler_hz, log_rate_at, measure_lines
 from .split import TWIN_MODELS, twin_model
 from .stores import flight_ids, open_store, put_array, writing_store
-from ..causes.config import RAISED_FLOOR_DB
+from ..causes.config import DiagnosisConfig
 from ..causes.blade_imbalance import non_multiple_observations
 from ..causes.heldout import folds
 from ..causes.measure import Stft, refine_peak, rotation_line_powers, thin_wire_line_power
@@ -473,7 +473,7 @@ def rotation_line_sums(
         cfg.rotation_orders,
         floor,
         clutter_guard_hz=highpass_hz,
-        raised_floor_db=RAISED_FLOOR_DB,
+        raised_floor_db=DiagnosisConfig().raised_floor_db,  # the diagnosis's sideband guard, as it fixes it
     )
     x, v0, w, ref, idx = non_multiple_observations(
         P, V, W, R, np.asarray(line_power, float), n_blades, n_m, min_z=NONMULTIPLE_MIN_Z

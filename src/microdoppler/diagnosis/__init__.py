@@ -9,7 +9,7 @@ One flight passes four steps, one module each, in this order (:mod:`.pipeline`'s
 3. :mod:`.decide`: the causes named (greedy, step-wise Bonferroni) and the report entry;
 4. :mod:`.explain`: the figure.
 
-:mod:`.config` holds the settings (:class:`DiagnosisConfig` and the fixed constants).
+:mod:`.config` holds the settings (:class:`DiagnosisConfig`: its keys and its fixed settings).
 ``diagnose_flight(flight, *, motor_log=None, config=None) -> dict`` returns one report
 entry (``shared/formats/flight-zarr.md``, ``diagnosis-report/2``) or raises
 :class:`Undiagnosable`; ``diagnose(paths, out_json)`` writes the report, every flight

@@ -1,4 +1,4 @@
-"""Settings of the diagnosis: :class:`DiagnosisConfig` and the fixed settings beside it.
+"""Settings of the diagnosis: :class:`DiagnosisConfig` (its keys and its fixed settings).
 
 They live in :mod:`microdoppler.causes.config` (the causes' tests read them); this
 module re-exports them under the diagnosis' name.

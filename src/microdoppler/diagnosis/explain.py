@@ -28,7 +28,7 @@ from ..causes.measure import thin_wire_line_power
 from ..spectra.lines import band_power as _band_power_row
 from ..synthesis.model import ModelExtensions, Track, add_noise
 
-from .config import BODY_SEARCH_HZ, DiagnosisConfig
+from .config import DiagnosisConfig
 from .decide import Decision
 from .hypotheses import folds
 from .measure import DB, Measurements, body_doppler, cpi_average, refine_peak, simulate_blades, stft_power
@@ -144,13 +144,6 @@ def band_power(
     return np.where(c >= 3, s / np.maximum(c, 1), np.nan)
 
 
-#: the two-sided check's false-alarm probability per flight: a line's presence and
-#: its power bounds are read at this level, Bonferroni over the lines read
-LINE_FALSE_ALARM = 0.01
-#: a model line "clearly above the noise": its band's median power at least this far
-#: over the noise power in the band [dB]. Below it, the thin-wire blade's tip edge
-#: (which tapered real blades lack) is not taken for a line the recording should show.
-MODEL_CLEAR_SNR_DB = 10.0
 #: the median of n draws has about sqrt(pi / 2) times the standard error of their mean
 _MEDIAN_EFF = float(np.sqrt(np.pi / 2))
 
@@ -192,6 +185,7 @@ def line_presence(
     body_half: float,
     margin_db: float,
     wire_power: np.ndarray | None = None,
+    cfg: DiagnosisConfig | None = None,
 ) -> dict:
     """The two-sided check: where does the model put a line the recording lacks, or
     the recording hold a line the model lacks, anywhere in the Doppler band?
@@ -204,12 +198,13 @@ def line_presence(
     flight's far floor ``M.floor``, at which the model's noise is drawn;
     :func:`line_band_snr`: a line, its skirt and whatever folds there); over the CPIs
     its median and that median's confidence bounds (the CPIs' robust scatter, at
-    :data:`LINE_FALSE_ALARM` two-sided, Bonferroni over the lines). A line is
+    ``cfg.line_false_alarm`` two-sided, Bonferroni over the lines; ``cfg`` default
+    :class:`DiagnosisConfig`'s). A line is
     *present* where its lower bound is above zero, *absent* where it is not.
 
     - ``model_only`` (where the calibration fitted the lines' fall-off, on at least
       two usable harmonics): the model's line is present, the recording's absent, and the
-      model's median stands at least :data:`MODEL_CLEAR_SNR_DB` over the noise and
+      model's median stands at least ``cfg.model_clear_snr_db`` over the noise and
       ``margin_db`` above the recording's upper bound, and the model's level holds
       (within ``margin_db``) at one of the two nearest lines on that side that both
       hold (the model puts a line where the recording has none).
@@ -258,7 +253,8 @@ def line_presence(
                 rows.append((n, side, snr[:, ok]))
     if not rows:
         return empty
-    z = float(norm.isf(LINE_FALSE_ALARM / (2 * 2 * len(rows))))
+    cfg = DiagnosisConfig() if cfg is None else cfg
+    z = float(norm.isf(cfg.line_false_alarm / (2 * 2 * len(rows))))
     med = np.array([np.median(r[2], axis=1) for r in rows])  # [n_rows, 2]: measured, model
     mad = np.array([np.median(np.abs(r[2] - np.median(r[2], axis=1, keepdims=True)), axis=1) for r in rows])
     n_c = np.array([r[2].shape[1] for r in rows])
@@ -266,7 +262,7 @@ def line_presence(
     lo, hi = med - z * se, med + z * se
     present = lo > 0
     gain = 10 ** (margin_db / 10)
-    clear = 10 ** (MODEL_CLEAR_SNR_DB / 10)
+    clear = 10 ** (cfg.model_clear_snr_db / 10)
     # the model's lines are a prediction only where the calibration fitted their fall-off
     # (the alpha envelope, on two usable harmonics or more); on one, alpha is taken as
     # 0 and every line out to the tips is an extrapolation, not a prediction
@@ -404,7 +400,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
     M = _calibration_measurement(M, named)
     n_fft = cfg.cpi_pulses(prf)
     sim = stft_power(simulate_flight(flight, M, ext, cfg.seed, n_fft), prf, n_fft)
-    f_sim = refine_peak(sim, body_doppler(flight, sim.t_s), BODY_SEARCH_HZ)
+    f_sim = refine_peak(sim, body_doppler(flight, sim.t_s), cfg.body_search_hz)
     B = int(flight.attrs["n_blades"])
     dil = np.where(np.isfinite(M.dil), M.dil, 1.0)
     f_rot = float(np.median(M.f_log_hz * dil))
@@ -478,6 +474,7 @@ def goodness_of_fit(flight, M: Measurements, D: Decision, cfg: DiagnosisConfig) 
         wire_power=thin_wire_line_power(
             float(flight.attrs["blade_length_m"]), flight.wavelength_m, int(prf / max(f_rot, 1e-6)) + 2 * B
         ),
+        cfg=cfg,
     )
     missing = presence["missing"]
     if worst is None and missing:

@@ -107,12 +107,10 @@ from ..causes.heldout import (
     variogram,
     window_offsets,
 )
-from ..causes.motor_log import LOG_OUTLIER_FRAC, test_log  # noqa: F401 (re-exported)
+from ..causes.motor_log import test_log  # noqa: F401 (re-exported)
 from ..causes.phase_noise import profile_skirt_test, test_phase_noise  # noqa: F401 (re-exported)
 from ..causes.sideband_asymmetry import test_asymmetry  # noqa: F401 (re-exported)
 from ..causes.sideband_fading import (
-    COMMON_GAIN_BODY_SHARE,
-    COMMON_GAIN_CORR,  # noqa: F401 (re-exported)
     common_gain_correlation,
     envelope_tilt,
     fading_estimate,

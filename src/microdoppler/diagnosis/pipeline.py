@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -434,7 +434,7 @@ def split_settings(settings: dict | None, *, source="config") -> tuple[dict, Dia
     if not isinstance(settings, dict):
         raise ConfigError(source, "diagnosis", f"is a {type(settings).__name__}", "a mapping of diagnosis settings")
     s = dict(settings)
-    names = [*PIPELINE_KEYS, *(f.name for f in fields(DiagnosisConfig))]
+    names = [*PIPELINE_KEYS, *config_names(DiagnosisConfig)]  # the fixed settings are no keys
     for k in s:
         if k not in names:
             raise unknown_key_error(source, k, names)
