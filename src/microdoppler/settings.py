@@ -266,7 +266,7 @@ SECTIONS = {
             "diagnosis",
             "Diagnosis settings: which flights are diagnosed and in how many jobs, then the fields of "
             "microdoppler.diagnosis.DiagnosisConfig (their physical meaning in its docstring); the fixed settings "
-            "are constants of microdoppler.diagnosis.config, and a key that names one is an error.",
+            "are its fields that are no configuration keys (config=False), and a key that names one is an error.",
             (DiagnosisRuns, DiagnosisConfig),
         ),
         Section(

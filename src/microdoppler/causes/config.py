@@ -140,7 +140,7 @@ class DiagnosisConfig:
         detectable fluctuation (3 dB).
     max_lag_s : float
         Longest motor-log lag searched [s], both signs (grid step
-        ``LAG_STEP_S``), >= 0.01: twice the largest lag
+        ``lag_step_s``), >= 0.01: twice the largest lag
         ``benchmarks/eval_diagnosis.py`` draws (+-0.3-1.0 s).
     margin_asymmetry_db, margin_std_db, margin_lag_s, margin_scale, margin_floor_rise_db : float
         Relevance margins: a significant cause is named only if its fitted effect
@@ -165,8 +165,8 @@ class DiagnosisConfig:
     margin_common_gain_db : float
         Goodness of fit: the smallest std [dB] of a significant sideband power
         fluctuation that follows the body's (correlation above
-        ``microdoppler.causes.sideband_fading.COMMON_GAIN_CORR``, the body moving at least
-        ``microdoppler.causes.sideband_fading.COMMON_GAIN_BODY_SHARE`` as many dB) for ``unexplained`` (a gain on the
+        ``common_gain_corr``, the body moving at least
+        ``common_gain_body_share`` as many dB) for ``unexplained`` (a gain on the
         whole target: a range-cell straddle, an aspect change; no catalog cause is
         one). 1 dB, half the fading's ``margin_std_db``: slow straddles of under 2 dB std
         are named (the runs that set it: ``docs/experiments.md``).
