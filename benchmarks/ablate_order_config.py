@@ -233,7 +233,7 @@ def main(argv=None):
         print(f"{name:14s} {base[name]}", flush=True)
     t_base = time.process_time() - t_start
     default = OrderConfig()
-    names = args.fields or [f.name for f in fields(OrderConfig)]
+    names = args.fields or [f.name for f in fields(OrderConfig) if f.name not in order_mod.NOT_STORED]
     rows = []
     record = {
         "script": "benchmarks/ablate_order_config.py",

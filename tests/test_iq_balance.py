@@ -22,10 +22,11 @@ import pandas as pd
 import pytest
 
 from conftest import one_line, run_cli
-from microdoppler.importing.iqbalance import IMAGE_REJECTION_WARN_DB, mirror_balance
+from microdoppler.importing.iqbalance import IQBalanceSettings, mirror_balance
 from microdoppler.io.flightzarr import read_flight
 
 C_MPS = 299792458.0
+IMAGE_REJECTION_WARN_DB = IQBalanceSettings().image_rejection_warn_db
 PRF_HZ, CARRIER_HZ, DURATION_S = 5000.0, 3.3e9, 8.0
 OPTS = [
     "--prf-hz",

@@ -19,7 +19,8 @@ classified (or, better, made a field). ``rotors.fit`` and ``rotors.speed`` hold 
 any more: their fixed settings are fields of ``FitConfig`` and ``RotorSpeedConfig``
 (``config=False``: no pipeline key sets them); nor do ``causes.config``,
 ``causes.measure``, ``causes.motor_log`` and ``diagnosis.explain``: the diagnosis's fixed
-settings are fields of ``DiagnosisConfig`` (``config=False`` too).
+settings are fields of ``DiagnosisConfig`` (``config=False`` too); nor does
+``importing.iqbalance`` (``IQBalanceSettings``).
 
 Counts (issue 57, at the conversion): 195 constants before; 42 converted to fields
 (``rotors.fit`` 24 -> ``FitConfig``, ``rotors.speed`` 18 -> ``RotorSpeedConfig``);
@@ -30,7 +31,9 @@ about). The diagnosis: 37 converted to ``DiagnosisConfig`` fields (``causes.conf
 ``causes.measure`` 4, ``causes.sideband_fading`` 2, ``diagnosis.explain`` 2,
 ``causes.motor_log`` 1, ``causes.blade_imbalance`` 1); the twins' and the emulator's
 process defaults of ``causes.*`` stay, no diagnosis settings. 118 remain: 24
-physical/convention, 4 identifiers, 90 fixed method settings not yet fields.
+physical/convention, 4 identifiers, 90 fixed method settings not yet fields. Then
+``importing.iqbalance``'s 11 became fields of a new ``IQBalanceSettings`` (config=False):
+107 remain, 79 fixed method settings not yet fields.
 """
 
 from __future__ import annotations
@@ -79,8 +82,8 @@ IDENTIFIERS = {
     "causes.twins:_BACKGROUND_STREAM": "offset of the background's phase-noise stream from the twin's seed",
 }
 
-#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 90
-#: in 26 modules; the most in importing.iqbalance 11, emulator.world 9, emulator.bird 7)
+#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 79
+#: in 25 modules; the most in emulator.world 9, emulator.bird 7, synthesis.model 7)
 NOT_YET_FIELDS = {
     "causes.body_fluctuation": {
         "BODY_TIMESCALE_S": "the twins' body process's time where a file gives none [s]: no diagnosis setting",
@@ -160,19 +163,6 @@ NOT_YET_FIELDS = {
         "DEFAULT_CPI_S": "default CPI of an FMCW import [s]",
         "VELOCITY_FIT_S": "span of the range-rate fit [s]",
     },
-    "importing.iqbalance": {
-        "IMAGE_REJECTION_WARN_DB": "warning level of the image-rejection ratio [dB]",
-        "REAL_VALUED_DB": "below this the warning says real-valued [dB]",
-        "DOPPLER_SIGN_WARN_DB": "warning level of a mirrored Doppler [dB]",
-        "RESOLUTION_MARGIN_DB": "a measurement counts when it resolves this far below the warning [dB]",
-        "BODY_MIN_BINS": "the body line is used this many bins from 0 Hz or more",
-        "NOTCH_HZ": "clutter notch the body line must clear [Hz]",
-        "BODY_ACCEPT_DB": "a peak's mirror must be this much weaker to be the body [dB]",
-        "BODY_LINE_DB": "a body peak stands this far above the median bin [dB]",
-        "BODY_MIN_SEGMENTS": "segments needed for a body-line measurement",
-        "NOISE_MIN_SEGMENTS": "segments needed for a mirror measurement",
-        "NOTCH_EXCESS": "a background bin is in the clutter notch while its power exceeds the median this much",
-    },
     "importing.plausibility": {
         "PRF_RANGE_HZ": "plausible pulse repetition frequencies [Hz]",
         "TIP_SPEED_RANGE_MPS": "plausible blade-tip speeds [m/s]",
@@ -184,22 +174,6 @@ NOT_YET_FIELDS = {
     "io.motorlog": {
         "PLAUSIBLE_MEDIAN_REV_S": "plausible median flying speed of a rotor [rev/s]",
         "MAX_REV_S": "absolute ceiling of a logged rotor speed [rev/s]",
-    },
-    "rotors.order": {
-        "RATIOS": "the standard ratios to the estimate's rate always examined",
-        "MAX_CPIS": "CPIs the order check reads at most (left OrderConfig: no effect at x0.5, x2)",
-        "SCREEN_CPIS": "CPIs of the screen",
-        "REPORT_AT": "alternatives below this relative likelihood are not listed",
-        "RERUN_MARGIN": "widening of a re-measurement's range",
-        "RESCUE_TRIES": "likeliest screen rates measured again where the lines found no comb",
-    },
-    "rotors.plausibility": {
-        "TRACK_SPEED_TOL_MPS": "how well a track's radial velocity is trusted [m/s]",
-        "SEGMENT_S": "segment length of the time-averaged spectrum [s]",
-        "MAX_SEGMENTS": "most segments of the time-averaged spectrum",
-    },
-    "rotors.sampling": {
-        "SUB_CPI_PAD": "edge padding against filter transients [decimated samples]",
     },
     "spectra.floor": {
         "FLOOR_WINDOW_BINS": "window of the local noise floor [bins]",
@@ -316,10 +290,47 @@ CONVERTED = {
     "causes.sideband_fading": {"COMMON_GAIN_CORR": 0.7, "COMMON_GAIN_BODY_SHARE": 0.5},
     "causes.blade_imbalance": {"N_BOOT": 400},
     "diagnosis.explain": {"LINE_FALSE_ALARM": 0.01, "MODEL_CLEAR_SNR_DB": 10.0},
+    # the I/Q balance's fixed settings -> IQBalanceSettings (a new dataclass, config=False fields)
+    "importing.iqbalance": {
+        "IMAGE_REJECTION_WARN_DB": 30.0,
+        "REAL_VALUED_DB": 3.0,
+        "DOPPLER_SIGN_WARN_DB": -3.0,
+        "RESOLUTION_MARGIN_DB": 6.0,
+        "BODY_MIN_BINS": 8,
+        "NOTCH_HZ": 20.0,
+        "BODY_ACCEPT_DB": 10.0,
+        "BODY_LINE_DB": 20.0,
+        "BODY_MIN_SEGMENTS": 8,
+        "NOISE_MIN_SEGMENTS": 2,
+        "NOTCH_EXCESS": 4.0,
+    },
+    # the order check's (and the set-up's plausibility checks') -> OrderConfig, sub_cpi's -> SamplingConfig
+    "rotors.order": {
+        "RATIOS": (1 / 3, 1 / 2, 2 / 3, 1.0, 3 / 2, 2.0, 3.0),
+        "MAX_CPIS": 64,
+        "SCREEN_CPIS": 24,
+        "REPORT_AT": 0.01,
+        "RERUN_MARGIN": 1.2,
+        "RESCUE_TRIES": 3,
+    },
+    "rotors.plausibility": {"TRACK_SPEED_TOL_MPS": 1.0, "SEGMENT_S": 0.1, "MAX_SEGMENTS": 64},
+    "rotors.sampling": {"SUB_CPI_PAD": 16},
 }
 
-#: modules whose every fixed setting is a field (none left in the inventory)
-FIELDS_ONLY = ("rotors.fit", "rotors.speed", "causes.config", "causes.measure", "causes.motor_log", "diagnosis.explain")
+#: modules whose every fixed setting is a field (none left in the inventory but physical
+#: constants and conventions)
+FIELDS_ONLY = (
+    "rotors.fit",
+    "rotors.speed",
+    "causes.config",
+    "causes.measure",
+    "causes.motor_log",
+    "diagnosis.explain",
+    "importing.iqbalance",
+    "rotors.order",
+    "rotors.plausibility",
+    "rotors.sampling",
+)
 
 _NAME = re.compile(r"^_?[A-Z][A-Z0-9_]*$")
 
@@ -376,7 +387,7 @@ def test_every_module_constant_is_in_one_category():
     """Each constant of the inventory is classified, once; no entry names a constant
     that is gone (make it a field or classify it: the lists at the top of this file)."""
     found = inventory()
-    assert len(found) > 100, "the inventory found almost nothing: is SRC right?"
+    assert len(found) > 50, "the inventory found almost nothing: is SRC right?"
     cats = {"PHYSICAL": PHYSICAL, "IDENTIFIERS": IDENTIFIERS, "NOT_YET_FIELDS": _not_yet()}
     both = [(k, a, b) for a in cats for b in cats if a < b for k in cats[a].keys() & cats[b].keys()]
     assert not both, f"constants in two categories: {both}"
@@ -400,7 +411,7 @@ def test_the_rotor_speed_estimator_fit_and_diagnosis_hold_no_fixed_settings():
     test and explanation: every fixed setting is a field (FitConfig, RotorSpeedConfig,
     DiagnosisConfig); none is left in the not-yet list or the inventory."""
     assert not set(FIELDS_ONLY) & set(NOT_YET_FIELDS)
-    left = [k for k in inventory() if k.split(":")[0] in FIELDS_ONLY]
+    left = [k for k in inventory() if k.split(":")[0] in FIELDS_ONLY and k not in PHYSICAL and k not in IDENTIFIERS]
     assert not left, left
 
 
@@ -412,11 +423,22 @@ def test_the_converted_constants_are_fields_with_their_former_values(module):
 
     from microdoppler.causes.config import DiagnosisConfig
     from microdoppler.configfields import config_names
+    from microdoppler.importing.iqbalance import IQBalanceSettings
     from microdoppler.rotors.fit import FitConfig
+    from microdoppler.rotors.order import OrderConfig
+    from microdoppler.rotors.sampling import SamplingConfig
     from microdoppler.rotors.speed import RotorSpeedConfig
 
     mod = importlib.import_module(f"microdoppler.{module}")
-    cls = {"rotors.fit": FitConfig, "rotors.speed": RotorSpeedConfig}.get(module, DiagnosisConfig)
+    classes = {
+        "rotors.fit": FitConfig,
+        "rotors.speed": RotorSpeedConfig,
+        "importing.iqbalance": IQBalanceSettings,
+        "rotors.order": OrderConfig,
+        "rotors.plausibility": OrderConfig,
+        "rotors.sampling": SamplingConfig,
+    }
+    cls = classes.get(module, DiagnosisConfig)
     cfg = cls()
     for name, value in CONVERTED[module].items():
         assert not hasattr(mod, name), f"{module}.{name} is still a module attribute"

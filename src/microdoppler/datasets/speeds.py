@@ -193,7 +193,7 @@ def resample_flight_compact(
     )
     motors = [0] if base == "single_motor" else range(log.n_motors)
     knots = np.column_stack([sampling.sub_cpi_knots(log, m, n_pulses, prf_hz, cfg) for m in motors])
-    params = {"up": n_fft // cfg.sub_cpi_per_cpi, "pad": sampling.SUB_CPI_PAD, "window_pulses": cfg.window_pulses}
+    params = {"up": n_fft // cfg.sub_cpi_per_cpi, "pad": cfg.sub_cpi_pad, "window_pulses": cfg.window_pulses}
     return CompactSpeeds("sub_cpi", knots, n_pulses, params), attrs
 
 

@@ -22,51 +22,83 @@ only where the target cannot imitate an image:
 3. ``noise segment``: a stretch of the recording that the user says holds no target,
    measured the same way;
 4. ``body line``: the body's line at ``f_b`` against its image at ``-f_b``, when the
-   body is well away from 0 Hz (at least :data:`BODY_MIN_BINS` Doppler bins and
-   outside the :data:`NOTCH_HZ` clutter notch, plus 3 bins). Its Doppler comes from
+   body is well away from 0 Hz (at least ``body_min_bins`` Doppler bins and outside
+   the ``notch_hz`` clutter notch, plus 3 bins; the fixed settings are the fields of
+   :class:`IQBalanceSettings`). Its Doppler comes from
    the track (``-2 v / lambda``) or, for a constant-range track, from the spectrum
    (the strongest line outside the notch, accepted only where its mirror is at least
-   :data:`BODY_ACCEPT_DB` weaker, which a mirror-symmetric rotor never is). The ratio
+   ``body_accept_db`` weaker, which a mirror-symmetric rotor never is). The ratio
    ``conj(Z(-f_b)) / Z(f_b)`` is averaged coherently over segments, so the target's
    own content at ``-f_b`` (blades, whose phase turns with the rotor) averages out.
 
 Otherwise the balance is "not measurable" and nothing is warned. Each measurement
 carries its standard error; it counts only when it resolves an IRR
-:data:`RESOLUTION_MARGIN_DB` above the warning level (so a balanced receiver reads no
+``resolution_margin_db`` above the warning level (so a balanced receiver reads no
 false warning), else the next source is tried.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..configfields import check_ranges, knob
 from ..spectra.periodogram import stft
 
-#: warn when the receiver's image-rejection ratio is below this [dB]; 1 dB of gain
-#: error alone reads 24.8 dB, 5 deg of phase error alone 27.2 dB
-IMAGE_REJECTION_WARN_DB = 30.0
-#: below this [dB] the warning says "as for a real-valued signal"
-REAL_VALUED_DB = 3.0
-#: warn when the target's Doppler is this much stronger on the mirrored side [dB]
-DOPPLER_SIGN_WARN_DB = -3.0
-#: a measurement counts when 2 standard errors of |nu/mu| lie this far below the warning level [dB]
-RESOLUTION_MARGIN_DB = 6.0
-#: the body line is used only this many Doppler bins or more away from 0 Hz ...
-BODY_MIN_BINS = 8
-#: ... and outside this clutter notch [Hz] by 3 bins
-NOTCH_HZ = 20.0
-#: a spectral peak (no track Doppler) is taken for the body only where its mirror is this much weaker [dB] ...
-BODY_ACCEPT_DB = 10.0
-#: ... and it stands this far above the segment's median bin [dB]
-BODY_LINE_DB = 20.0
-#: segments needed for a body-line measurement
-BODY_MIN_SEGMENTS = 8
-#: segments needed for a mirror (noise / background) measurement
-NOISE_MIN_SEGMENTS = 2
-#: a background bin next to 0 Hz belongs to the clutter notch while its mean power exceeds the median bin this much
-NOTCH_EXCESS = 4.0
+
+@dataclass(frozen=True)
+class IQBalanceSettings:
+    """The fixed settings of the I/Q balance measurement and its warnings (issue 57:
+    fields, not module constants). No configuration key sets them (``config=False``);
+    :func:`iq_sanity`, :func:`mirror_balance`, :func:`body_balance` and
+    :func:`sanity_warnings` take an instance as ``settings`` (default: these defaults).
+    """
+
+    image_rejection_warn_db: float = knob(
+        30.0,
+        "Warn when the receiver's image-rejection ratio is below this [dB]; 1 dB of gain error alone reads "
+        "24.8 dB, 5 deg of phase error alone 27.2 dB.",
+        config=False,
+    )
+    real_valued_db: float = knob(
+        3.0, "Below this image-rejection ratio [dB] the warning says 'as for a real-valued signal'.", config=False
+    )
+    doppler_sign_warn_db: float = knob(
+        -3.0, "Warn when the target's Doppler is this much stronger on the mirrored side [dB].", config=False
+    )
+    resolution_margin_db: float = knob(
+        6.0,
+        "A measurement counts when 2 standard errors of |nu/mu| lie this far below the warning level [dB].",
+        minimum=0,
+        config=False,
+    )
+    body_min_bins: int = knob(
+        8, "The body line is used only this many Doppler bins or more away from 0 Hz ...", minimum=0, config=False
+    )
+    notch_hz: float = knob(20.0, "... and outside this clutter notch [Hz] by 3 bins.", minimum=0, config=False)
+    body_accept_db: float = knob(
+        10.0,
+        "A spectral peak (no track Doppler) is taken for the body only where its mirror is this much weaker [dB] ...",
+        config=False,
+    )
+    body_line_db: float = knob(20.0, "... and it stands this far above the segment's median bin [dB].", config=False)
+    body_min_segments: int = knob(8, "Segments needed for a body-line measurement.", minimum=1, config=False)
+    noise_min_segments: int = knob(
+        2, "Segments needed for a mirror (noise / background) measurement.", minimum=1, config=False
+    )
+    notch_excess: float = knob(
+        4.0,
+        "A background bin next to 0 Hz belongs to the clutter notch while its mean power exceeds the median bin "
+        "this much.",
+        exclusive_minimum=0,
+        config=False,
+    )
+
+    def __post_init__(self):
+        check_ranges(self, "importing.iqbalance", all_fields=True)
+
 
 KEYS = (
     "image_rejection_db",
@@ -122,7 +154,7 @@ def _from_ratio(r: float) -> float:
     return 100.0 if r <= 1e-5 else max(0.0, -20 * math.log10(r))
 
 
-def _mirror_stat(Z: np.ndarray, keep: np.ndarray) -> dict | None:
+def _mirror_stat(Z: np.ndarray, keep: np.ndarray, settings: IQBalanceSettings | None = None) -> dict | None:
     """The mirror statistic of windowed spectra ``Z`` [n_seg, nfft] over the bins
     ``keep`` (bool [nfft], symmetric about 0 Hz).
 
@@ -135,14 +167,16 @@ def _mirror_stat(Z: np.ndarray, keep: np.ndarray) -> dict | None:
     or a target whose spectrum is not mirror-symmetric about 0 Hz). Returns
     ``r = |nu / mu|`` (from ``|rho| = 2 r / (1 + r^2)``), its standard error ``se_r``
     (from the scatter of the per-segment sums), and the amplitude [dB] and phase
-    [deg] imbalance; None when no bin pair is left.
+    [deg] imbalance; None when no bin pair is left (or fewer than ``settings``'s
+    ``noise_min_segments`` segments).
     """
+    s = settings or IQBalanceSettings()
     nfft = Z.shape[1]
     mirror = (-np.arange(nfft)) % nfft
     a, b = Z[:, keep], Z[:, mirror][:, keep]
     pa, pb = np.abs(a) ** 2, np.abs(b) ** 2
     pbar = pa.mean(axis=0) + pb.mean(axis=0)
-    if len(Z) < NOISE_MIN_SEGMENTS or not np.any(pbar > 0):
+    if len(Z) < s.noise_min_segments or not np.any(pbar > 0):
         return None
     w = np.where(pbar > 0, 1 / np.where(pbar > 0, pbar, 1.0), 0.0)
     c = (a * b) @ w
@@ -172,7 +206,9 @@ def _mirror_stat(Z: np.ndarray, keep: np.ndarray) -> dict | None:
     }
 
 
-def mirror_balance(iq: np.ndarray, nfft: int = 1024, guard_bins: int = 4) -> dict | None:
+def mirror_balance(
+    iq: np.ndarray, nfft: int = 1024, guard_bins: int = 4, *, settings: IQBalanceSettings | None = None
+) -> dict | None:
     """The receiver's balance from a target-free recording (noise and clutter).
 
     Parameters
@@ -183,8 +219,10 @@ def mirror_balance(iq: np.ndarray, nfft: int = 1024, guard_bins: int = 4) -> dic
         Segment length [samples] (shortened to a power of two <= n).
     guard_bins : int
         Bins next to 0 Hz always left out; the notch widens while the mean power of a
-        bin or its mirror exceeds :data:`NOTCH_EXCESS` times the median bin (clutter,
-        whose spread about 0 Hz may be mirror-symmetric).
+        bin or its mirror exceeds ``settings.notch_excess`` times the median bin
+        (clutter, whose spread about 0 Hz may be mirror-symmetric).
+    settings : IQBalanceSettings, optional
+        The fixed settings (default: :class:`IQBalanceSettings`'s defaults).
 
     Returns
     -------
@@ -194,23 +232,32 @@ def mirror_balance(iq: np.ndarray, nfft: int = 1024, guard_bins: int = 4) -> dic
         correlation), ``notch_bins``, ``n_segments`` (see :func:`_mirror_stat`); None
         when too short.
     """
+    s = settings or IQBalanceSettings()
     nfft = _nfft_for(len(iq), nfft)
-    if nfft < 64 or len(iq) // nfft < NOISE_MIN_SEGMENTS:
+    if nfft < 64 or len(iq) // nfft < s.noise_min_segments:
         return None
     Z, _ = _segments(iq, nfft)
     k = (np.fft.fftfreq(nfft) * nfft).astype(int)
     pw = np.mean(np.abs(Z) ** 2, axis=0)
     floor = float(np.median(pw))
     notch = guard_bins
-    while notch < nfft // 4 and max(pw[notch], pw[-notch]) > NOTCH_EXCESS * floor:
+    while notch < nfft // 4 and max(pw[notch], pw[-notch]) > s.notch_excess * floor:
         notch += 1
-    m = _mirror_stat(Z, (np.abs(k) >= notch) & (np.abs(k) < nfft // 2))
+    m = _mirror_stat(Z, (np.abs(k) >= notch) & (np.abs(k) < nfft // 2), s)
     if m is not None:
         m["notch_bins"] = int(notch)
     return m
 
 
-def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int = 1024, guard_bins: int = 4) -> dict:
+def body_balance(
+    iq: np.ndarray,
+    prf_hz: float,
+    body_doppler_hz=None,
+    nfft: int = 1024,
+    guard_bins: int = 4,
+    *,
+    settings: IQBalanceSettings | None = None,
+) -> dict:
     """The receiver's balance from the segments whose body line lies well away from 0 Hz.
 
     Parameters
@@ -220,18 +267,21 @@ def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int 
     body_doppler_hz : callable or None
         Body Doppler [Hz] at given times [s] (from the track: ``-2 v / lambda``); the
         peak within 3 bins of it is the body. None: the strongest line outside the
-        notch, where its mirror is :data:`BODY_ACCEPT_DB` weaker and it stands
-        :data:`BODY_LINE_DB` above the segment's median bin.
+        notch, where its mirror is ``settings.body_accept_db`` weaker and it stands
+        ``settings.body_line_db`` above the segment's median bin.
     nfft : int
         Segment length [samples].
+    settings : IQBalanceSettings, optional
+        The fixed settings (default: :class:`IQBalanceSettings`'s defaults).
 
     Returns
     -------
     dict
         As :func:`_mirror_stat` over the segments whose body is at least
-        :data:`BODY_MIN_BINS` bins and the :data:`NOTCH_HZ` notch plus 3 bins away
-        from 0 Hz (bins inside that notch left out), with ``body_from``; or ``reason``
-        (str) when fewer than :data:`BODY_MIN_SEGMENTS` such segments exist.
+        ``settings.body_min_bins`` bins and the ``settings.notch_hz`` notch plus 3 bins
+        away from 0 Hz (bins inside that notch left out), with ``body_from``; or
+        ``reason`` (str) when fewer than ``settings.body_min_segments`` such segments
+        exist.
 
     Notes
     -----
@@ -242,13 +292,14 @@ def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int 
     ``(f_b, -f_b)`` is the line and its image: ``Z(-f_b) = nu conj(A)`` for
     ``Z(f_b) = mu A``.
     """
+    s = settings or IQBalanceSettings()
     nfft = _nfft_for(len(iq), nfft)
     if nfft < 64:
         return {"reason": f"too short ({len(iq)} samples)"}
     Z, centres = _segments(iq, nfft)
     df = prf_hz / nfft
-    notch = max(guard_bins, int(math.ceil(NOTCH_HZ / df)))
-    kmin = max(BODY_MIN_BINS, notch + 3)
+    notch = max(guard_bins, int(math.ceil(s.notch_hz / df)))
+    kmin = max(s.body_min_bins, notch + 3)
     kmax = nfft // 2 - 3
     rows = np.arange(len(Z))
     pw = np.abs(Z) ** 2
@@ -261,21 +312,21 @@ def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int 
         ks = cand[rows, np.argmax(pw[rows[:, None], cand % nfft], axis=1)]
         ok = (np.abs(ks) >= kmin) & (np.abs(ks) <= kmax)
         how = "the track's body Doppler"
-        need = BODY_MIN_SEGMENTS
+        need = s.body_min_segments
     else:
         allowed = (np.abs(k) >= kmin) & (np.abs(k) <= kmax)
         ks = k[np.argmax(np.where(allowed[None, :], pw, -1.0), axis=1)]
         at, mir = pw[rows, ks % nfft], pw[rows, (-ks) % nfft]
         med = np.median(pw, axis=1)
-        ok = (at >= 10 ** (BODY_ACCEPT_DB / 10) * mir) & (at >= 10 ** (BODY_LINE_DB / 10) * med)
+        ok = (at >= 10 ** (s.body_accept_db / 10) * mir) & (at >= 10 ** (s.body_line_db / 10) * med)
         how = "the strongest line"
-        need = max(BODY_MIN_SEGMENTS, int(math.ceil(0.5 * len(Z))))
+        need = max(s.body_min_segments, int(math.ceil(0.5 * len(Z))))
         if ok.sum() < need:
             return {
                 "reason": (
                     f"no body line away from 0 Hz: in {int(ok.sum())} of {len(Z)} segments the strongest "
-                    f"line beyond {kmin * df:.0f} Hz stands {BODY_LINE_DB:g} dB above the floor with a "
-                    f"mirror image >= {BODY_ACCEPT_DB:g} dB weaker ({need} needed; a hovering or staring "
+                    f"line beyond {kmin * df:.0f} Hz stands {s.body_line_db:g} dB above the floor with a "
+                    f"mirror image >= {s.body_accept_db:g} dB weaker ({need} needed; a hovering or staring "
                     f"target's spectrum is mirror-symmetric about 0 Hz)"
                 )
             }
@@ -286,7 +337,7 @@ def body_balance(iq: np.ndarray, prf_hz: float, body_doppler_hz=None, nfft: int 
                 f"{len(Z)} segments ({int(ok.sum())} usable, {need} needed)"
             )
         }
-    m = _mirror_stat(Z[ok], (np.abs(k) >= notch) & (np.abs(k) < nfft // 2))
+    m = _mirror_stat(Z[ok], (np.abs(k) >= notch) & (np.abs(k) < nfft // 2), s)
     if m is None:
         return {"reason": "no bin pair outside the clutter notch"}
     m["body_from"] = how
@@ -331,6 +382,7 @@ def iq_sanity(
     noise_s: tuple[float, float] | None = None,
     nfft: int = 1024,
     guard_bins: int = 4,
+    settings: IQBalanceSettings | None = None,
 ) -> dict:
     """The receiver's I/Q balance and the Doppler sign of a recording.
 
@@ -347,6 +399,8 @@ def iq_sanity(
         A target-free recording of the same cells.
     noise_s : (float, float), optional
         ``[start, end)`` [s] of a stretch of ``iq`` that holds no target.
+    settings : IQBalanceSettings, optional
+        The fixed settings (default: :class:`IQBalanceSettings`'s defaults).
 
     Returns
     -------
@@ -361,13 +415,14 @@ def iq_sanity(
         the track's Doppler over that near its mirror [dB]; negative when I and Q are
         swapped). The module docstring says which source is used when.
     """
+    settings = settings or IQBalanceSettings()
     out = dict.fromkeys(KEYS)
     out["doppler_sign_db"] = _doppler_sign(iq, prf_hz, wavelength_m, track, nfft, guard_bins)
     how = real_valued(iq)
     if how is not None:
         out.update(image_rejection_db=0.0, image_rejection_from="samples", image_rejection_note=how)
         return {k: (_round(v) if isinstance(v, float) else v) for k, v in out.items()}
-    need_se = 10 ** (-(IMAGE_REJECTION_WARN_DB + RESOLUTION_MARGIN_DB) / 20) / 2
+    need_se = 10 ** (-(settings.image_rejection_warn_db + settings.resolution_margin_db) / 20) / 2
     tried = []
 
     def take(m, source):
@@ -392,7 +447,7 @@ def iq_sanity(
         if real_valued(x):
             out.update(image_rejection_db=0.0, image_rejection_from=source, image_rejection_note=real_valued(x))
             return {k: (_round(v) if isinstance(v, float) else v) for k, v in out.items()}
-        m = mirror_balance(x, nfft, guard_bins)
+        m = mirror_balance(x, nfft, guard_bins, settings=settings)
         if m is None:
             tried.append(f"{source} too short ({len(x)} samples)")
         elif m["se_r"] > need_se:
@@ -405,7 +460,7 @@ def iq_sanity(
         if track is not None and wavelength_m and np.any(np.asarray(track["radial_velocity_mps"]) != 0):
             t, v = np.asarray(track["time_s"]), np.asarray(track["radial_velocity_mps"])
             body = lambda ts: -2 * np.interp(ts, t, v) / wavelength_m  # noqa: E731
-        m = body_balance(iq, prf_hz, body, nfft, guard_bins)
+        m = body_balance(iq, prf_hz, body, nfft, guard_bins, settings=settings)
         if "reason" in m:
             tried.append(m["reason"])
         elif m["se_r"] > need_se:
@@ -417,12 +472,14 @@ def iq_sanity(
     return {k: (_round(v) if isinstance(v, float) else v) for k, v in out.items()}
 
 
-def sanity_warnings(s: dict) -> list[str]:
+def sanity_warnings(s: dict, settings: IQBalanceSettings | None = None) -> list[str]:
     """Warnings (one line each) for a doubtful balance or a mirrored Doppler in ``s``
-    (an :func:`iq_sanity` result)."""
+    (an :func:`iq_sanity` result), at ``settings``'s levels (default:
+    :class:`IQBalanceSettings`'s)."""
+    st = settings or IQBalanceSettings()
     w = []
     irr = s.get("image_rejection_db")
-    if irr is not None and irr < IMAGE_REJECTION_WARN_DB:
+    if irr is not None and irr < st.image_rejection_warn_db:
         amp, ph = s.get("amplitude_imbalance_db"), s.get("phase_imbalance_deg")
         src = s.get("image_rejection_from")
         detail = (
@@ -436,15 +493,15 @@ def sanity_warnings(s: dict) -> list[str]:
             "noise segment": ", measured on the noise segment",
             "body line": ", measured on the body line's mirror image",
         }.get(src, "")
-        head = f"I/Q image rejection is {irr:.1f} dB ({detail}{where}; expected > {IMAGE_REJECTION_WARN_DB:g} dB): "
-        if irr < REAL_VALUED_DB:
+        head = f"I/Q image rejection is {irr:.1f} dB ({detail}{where}; expected > {st.image_rejection_warn_db:g} dB): "
+        if irr < st.real_valued_db:
             w.append(head + "the spectrum is nearly mirror-symmetric, as for a real-valued signal (Q = 0 or I = Q)")
         else:
             w.append(
                 head + f"the receiver's I and Q are unbalanced; every line has a mirror image at -f, {irr:.0f} dB down"
             )
     d = s.get("doppler_sign_db")
-    if d is not None and d < DOPPLER_SIGN_WARN_DB:
+    if d is not None and d < st.doppler_sign_warn_db:
         w.append(
             f"the target's Doppler is {-d:.1f} dB stronger at the mirror of the track's -2 v / lambda: "
             "I and Q look swapped (or Q negated); expected an approaching target at positive Doppler"

@@ -24,7 +24,7 @@ rates remain plausible says so.
    lines within 15 % of it, widened by the spread of the peaks around the comb's
    first three blade-passing harmonics and by ``spread_margin``.
 2. Candidates: the comb's rate times 1/3, 1/2, 2/3, 1, 3/2, 2, 3 (and 1/B, B), plus
-   the ``screen_keep`` best local maxima of a coarse likelihood (:data:`SCREEN_CPIS` CPIs)
+   the ``screen_keep`` best local maxima of a coarse likelihood (``screen_cpis`` CPIs)
    over ``min_rev_s``-``max_rev_s`` in steps of ``screen_step``, away from the
    ratios (``snap_rel``), each with the lines' time profile and rotor spread.
 3. Physics excludes a candidate whose blade tips would pass ``max_tip_mach`` (2 pi f L
@@ -79,7 +79,7 @@ rates remain plausible says so.
    listed at relative likelihood 1 (ambiguous) and ``info["order"]["tip_prior"]`` says so.
 6. The speeds: where the chosen rate is the comb's, the estimate stands; else it is
    measured again with the search confined to the chosen rate's range (``rerun``,
-   widened by :data:`RERUN_MARGIN`) and, where that does not find it within 3 %, the
+   widened by ``rerun_margin``) and, where that does not find it within 3 %, the
    lines' estimate is scaled. Whatever the order, a rotor more than
    ``rotor_spread_max`` from the median rotor (of the CPI and its neighbours) sat on a
    line of another order or family; it goes to the median, the change into its sigma
@@ -94,7 +94,7 @@ rates remain plausible says so.
 Where another candidate's relative likelihood, or its posterior odds against the chosen
 one (the relative likelihood times the ratio of their tip speeds' priors), is
 ``ambiguous_at`` or more, the flight's order is ambiguous: ``RotorEstimate.info["order"]``
-lists the alternatives (down to :data:`REPORT_AT`, and those plausible by their posterior
+lists the alternatives (down to ``report_at``, and those plausible by their posterior
 odds; ``posterior_odds`` beside their relative likelihoods), the store's
 ``motors_radar`` attributes ``rotor_order_alternatives_rev_s`` and
 ``rotor_order_relative_likelihood`` carry them (:func:`order_attrs`), ``import`` prints
@@ -118,51 +118,27 @@ import numpy as np
 from scipy.signal import find_peaks
 from scipy.special import airy, log_ndtr
 
+from ..configfields import check_ranges, knob
 from ..spectra.floor import local_floor_db
 from ..spectra.periodogram import stft, window
 
 METHOD = "order/7"
 SOUND_MPS = 343.0
 C_MPS = 299_792_458.0
-#: the standard ratios to the estimate's rate that are always examined
-RATIOS = (1 / 3, 1 / 2, 2 / 3, 1.0, 3 / 2, 2.0, 3.0)
-
-# Settings that left OrderConfig (``order/7``'s values): perturbed x0.5 and x2 one at a
-# time on the 20 recordings of ``benchmarks/order_fingerprint.py``, none changed a
-# recording's chosen order, ambiguity mark or mean speed
-# (``benchmarks/records/ablate_order_config.json``). ``info["order"]["settings"]`` lists
-# them beside OrderConfig's fields (:data:`FIXED_SETTINGS`).
-#: CPIs used (evenly spread, preferring non-overlapping ones) for the likelihood (a
-#: bound on the cost; the ablation's recordings have 4-34 CPIs, so x0.5 bound one only)
-MAX_CPIS = 64
-#: CPIs of the screen (step 2; evenly spread, preferring non-overlapping ones)
-SCREEN_CPIS = 24
-#: alternatives below this relative likelihood (and below ``ambiguous_at`` in posterior
-#: odds) are not listed; they make no order ambiguous and widen no uncertainty
-REPORT_AT = 0.01
-#: a re-measurement at another order searches the chosen rate's range widened by this
-#: factor (step 6, :func:`_remeasure`)
-RERUN_MARGIN = 1.2
-#: where the lines found no comb, how many of the screen's likeliest rates are measured
-#: again (:func:`_rescue`)
-RESCUE_TRIES = 3
-#: the fixed settings by the names they had in OrderConfig
-FIXED_SETTINGS = {
-    "max_cpis": MAX_CPIS,
-    "screen_cpis": SCREEN_CPIS,
-    "report_at": REPORT_AT,
-    "rerun_margin": RERUN_MARGIN,
-    "rescue_tries": RESCUE_TRIES,
-}
 
 
 @dataclass(frozen=True)
 class OrderConfig:
     """Settings of :func:`resolve_order` (see the module docstring).
 
-    Those a change of which changed no recording's order, ambiguity mark or speed
-    (``benchmarks/ablate_order_config.py``) are module constants
-    (:data:`FIXED_SETTINGS`).
+    The fields from ``max_cpis`` on are fixed settings (``config=False`` knobs, each
+    described by its field): those from ``max_cpis`` to ``rescue_tries`` left the
+    settings once, as ``order/7``'s values: perturbed x0.5 and x2 one at a time on the
+    20 recordings of ``benchmarks/order_fingerprint.py``, none changed a recording's
+    chosen order, ambiguity mark or mean speed
+    (``benchmarks/records/ablate_order_config.json``). The last three are the fixed
+    settings of :mod:`~microdoppler.rotors.plausibility`'s checks. ``info["order"]["settings"]``
+    lists every field but :data:`NOT_STORED` (:func:`stored_settings`).
 
     Parameters
     ----------
@@ -201,7 +177,7 @@ class OrderConfig:
         ~beta^(1/3) harmonics beyond k = beta).
     rescue_spread, rescue_rel : float
         Where the lines found no comb: the rotors' assumed spread for the screen, and the
-        relative half-width of each confined search (of :data:`RESCUE_TRIES` rates).
+        relative half-width of each confined search (of ``rescue_tries`` rates).
     coverage_free, min_evidence : float
         Where two combs' windows cover more than ``coverage_free`` of the spectrum
         (folded, dense lines), the evidence between them is scaled by
@@ -303,8 +279,61 @@ class OrderConfig:
     rotation_level: bool = True
     tip_speed_mps: float = 80.0
     tip_speed_log_sd: float = 0.3
+    max_cpis: int = knob(
+        64,
+        "CPIs used (evenly spread, preferring non-overlapping ones) for the likelihood (a bound on the cost; the "
+        "ablation's recordings have 4-34 CPIs, so x0.5 bound one only).",
+        minimum=1,
+        config=False,
+    )
+    screen_cpis: int = knob(
+        24, "CPIs of the screen (step 2; evenly spread, preferring non-overlapping ones).", minimum=1, config=False
+    )
+    report_at: float = knob(
+        0.01,
+        "Alternatives below this relative likelihood (and below ``ambiguous_at`` in posterior odds) are not "
+        "listed; they make no order ambiguous and widen no uncertainty.",
+        minimum=0,
+        maximum=1,
+        config=False,
+    )
+    rerun_margin: float = knob(
+        1.2,
+        "A re-measurement at another order searches the chosen rate's range widened by this factor (step 6).",
+        minimum=1,
+        config=False,
+    )
+    rescue_tries: int = knob(
+        3,
+        "Where the lines found no comb, how many of the screen's likeliest rates are measured again.",
+        minimum=0,
+        config=False,
+    )
+    ratios: tuple = knob(
+        (1 / 3, 1 / 2, 2 / 3, 1.0, 3 / 2, 2.0, 3.0),
+        "The standard ratios to the estimate's rate that are always examined (with 1/B and B).",
+        config=False,
+    )
+    # the fixed settings of the set-up's plausibility checks that read the recording
+    # (rotors.plausibility; not the resolver's, not in info["order"]["settings"])
+    track_speed_tol_mps: float = knob(
+        1.0,
+        "Plausibility checks: how well a track's radial velocity is trusted [m/s] (a tracker's range rate): the "
+        "body line and the track's Doppler -2 v / lambda disagree only beyond it.",
+        minimum=0,
+        config=False,
+    )
+    segment_s: float = knob(
+        0.1,
+        "Plausibility checks: segments of the time-averaged spectrum are this long [s] (a power of two of "
+        "pulses, 256-4096) ...",
+        exclusive_minimum=0,
+        config=False,
+    )
+    max_segments: int = knob(64, "... at most this many, evenly spread over the recording.", minimum=1, config=False)
 
     def __post_init__(self):
+        check_ranges(self, "rotors.order", all_fields=True)  # the config=False knobs' ranges
         if not 0 < self.min_rev_s < self.max_rev_s:
             raise ValueError(f"min_rev_s={self.min_rev_s}, max_rev_s={self.max_rev_s} must satisfy 0 < min < max")
         lo, hi = self.extent_range
@@ -323,14 +352,29 @@ class OrderConfig:
                 raise ValueError(f"{name}={getattr(self, name)} must be > 0")
         if not 0 <= self.fade < 1:
             raise ValueError(f"fade={self.fade} must be in [0, 1)")
-        if not REPORT_AT <= self.ambiguous_at <= 1:
-            raise ValueError(f"ambiguous_at={self.ambiguous_at} must be in [{REPORT_AT} (REPORT_AT), 1]")
+        if not self.report_at <= self.ambiguous_at <= 1:
+            raise ValueError(f"ambiguous_at={self.ambiguous_at} must be in [{self.report_at} (report_at), 1]")
         if not self.tip_speed_mps > 0 or not self.tip_speed_log_sd >= 0:
             raise ValueError(
                 f"tip_speed_mps={self.tip_speed_mps} must be > 0 and tip_speed_log_sd={self.tip_speed_log_sd} >= 0"
             )
         if self.screen_keep < 0:
             raise ValueError(f"screen_keep={self.screen_keep} must be >= 0")
+        if not self.ratios or any(not r > 0 for r in self.ratios):
+            raise ValueError(f"ratios={self.ratios} must be a non-empty tuple of numbers > 0")
+
+
+#: OrderConfig's fields that ``info["order"]["settings"]`` does not list (never did:
+#: ``ratios`` was a module constant, the rest are the plausibility checks')
+NOT_STORED = ("ratios", "track_speed_tol_mps", "segment_s", "max_segments")
+
+
+def stored_settings(ocfg: OrderConfig) -> dict:
+    """``info["order"]["settings"]``: the fields of ``ocfg`` but :data:`NOT_STORED`, by
+    name (the fixed ones after the others, as when they were module constants: the
+    stored dict, and so ``benchmarks/order_fingerprint.py``'s full hash, stay as they
+    were)."""
+    return {k: v for k, v in asdict(ocfg).items() if k not in NOT_STORED}
 
 
 def rho_max(n_blades: int, weak_db: float) -> float:
@@ -944,7 +988,7 @@ def _comb(flight, lines, B: int, ocfg: OrderConfig, speed_config) -> _Comb:
     L = _blade_length(flight)
     lam = C_MPS / float(flight.carrier_hz)
     ref = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[lines.valid], axis=1)))
-    cpis = _choose_cpis(lines.valid, MAX_CPIS)
+    cpis = _choose_cpis(lines.valid, ocfg.max_cpis)
     data = _prepare(flight, lines, cpis, ref, ocfg, speed_config)
     beta = 4 * np.pi * L / lam if L is not None else None
     tail_h = ocfg.tail_harmonics * beta ** (1 / 3) if L is not None else 0.0
@@ -980,10 +1024,10 @@ def _physical(f: float, comb: _Comb, ocfg: OrderConfig) -> bool:
 
 
 def _screen(comb: _Comb, ocfg: OrderConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Step 2's screen: a coarse model on :data:`SCREEN_CPIS` CPIs over the physical rates of
+    """Step 2's screen: a coarse model on ``ocfg.screen_cpis`` CPIs over the physical rates of
     the whole range. Returns (rates, log-likelihoods)."""
     n = len(comb.cpis)
-    rows = np.unique(np.round(np.linspace(0, n - 1, min(SCREEN_CPIS, n))).astype(int))
+    rows = np.unique(np.round(np.linspace(0, n - 1, min(ocfg.screen_cpis, n))).astype(int))
     grid = _screen_grid(ocfg)
     grid = grid[[_physical(f, comb, ocfg) for f in grid]]
     kappas = (min(1.0, ocfg.extent_range[1]),) if comb.L is not None else (1.0,)
@@ -994,7 +1038,7 @@ def _candidates(comb: _Comb, ocfg: OrderConfig) -> list[tuple[float, str]]:
     """Step 2: the comb's rate times the simple ratios (and 1/B, B), then the screen's
     ``screen_keep`` best local maxima away from them; physical ones only (step 3).
     Returns [(rate [rev/s], origin)]."""
-    ratios = sorted(set(RATIOS) | {1.0 / comb.B, float(comb.B)}, key=lambda r: abs(np.log(r)))
+    ratios = sorted(set(ocfg.ratios) | {1.0 / comb.B, float(comb.B)}, key=lambda r: abs(np.log(r)))
     cand = [(r * comb.ref, f"x{r:.3g}") for r in ratios if _physical(r * comb.ref, comb, ocfg)]
     grid, sc = _screen(comb, ocfg)
     n_screen = 0
@@ -1085,7 +1129,7 @@ def _doubt(choice: _Choice, sp: _Speeds, ocfg: OrderConfig) -> _Doubt:
     against the chosen one's: a rate the lines like less but whose tips turn at a typical
     speed stays named) at ``ambiguous_at`` or more (under it an alternative lies outside
     the mixture's 95 % interval and would only widen sigma for nothing); the plausible
-    ones make the mixture's variance; those down to :data:`REPORT_AT` are listed."""
+    ones make the mixture's variance; those down to ``ocfg.report_at`` are listed."""
     kept, chosen, lp = choice.cands, choice.chosen, choice.log_prior
     odds = [c.relative_likelihood * float(np.exp(min(lp[i] - lp[0], 50.0))) for i, c in enumerate(kept)]
     plaus = [c for c, o in zip(kept, odds) if max(c.relative_likelihood, o) >= ocfg.ambiguous_at]
@@ -1094,7 +1138,7 @@ def _doubt(choice: _Choice, sp: _Speeds, ocfg: OrderConfig) -> _Doubt:
     if sp.split:  # the equal mixture of the chosen rate and the speeds as measured
         var_rel += 0.5 * (sp.as_measured / choice.rate - 1) ** 2
     listed = [
-        (c, o) for c, o in zip(kept[1:], odds[1:]) if c.relative_likelihood >= REPORT_AT or o >= ocfg.ambiguous_at
+        (c, o) for c, o in zip(kept[1:], odds[1:]) if c.relative_likelihood >= ocfg.report_at or o >= ocfg.ambiguous_at
     ]
     alts = [c for c, _ in listed]
     ambiguous = sp.split or any(max(c.relative_likelihood, o) >= ocfg.ambiguous_at for c, o in listed)
@@ -1161,7 +1205,7 @@ def _order_info(comb: _Comb, choice: _Choice, sp: _Speeds, doubt: _Doubt, ocfg: 
             }
             for c in choice.cands
         ],
-        "settings": {**asdict(ocfg), **FIXED_SETTINGS},
+        "settings": stored_settings(ocfg),
     }
 
 
@@ -1236,8 +1280,8 @@ def tip_log_prior(rev_s: np.ndarray, L, ocfg: OrderConfig) -> np.ndarray:
 
 def _rescue_rates(flight, est, scfg, ocfg: OrderConfig):
     """The screen's likeliest rates where the lines found no comb (the body from the
-    track, rotors within +-``rescue_spread``, every CPI of :data:`SCREEN_CPIS`), up to
-    :data:`RESCUE_TRIES` of them at least ``rescue_rel`` apart, likeliest first."""
+    track, rotors within +-``rescue_spread``, every CPI of ``ocfg.screen_cpis``), up to
+    ``ocfg.rescue_tries`` of them at least ``rescue_rel`` apart, likeliest first."""
     from types import SimpleNamespace
 
     from ..spectra.snr import body_doppler_hz
@@ -1249,7 +1293,7 @@ def _rescue_rates(flight, est, scfg, ocfg: OrderConfig):
     n = len(est.time_s)
     sp = np.tile(1 + np.linspace(-ocfg.rescue_spread, ocfg.rescue_spread, max(int(est.n_motors), 2)), (n, 1))
     pseudo = SimpleNamespace(n_fft=est.n_fft, body_hz=body, speeds_rev_s=sp, n_blades=B, n_motors=est.n_motors)
-    cpis = _choose_cpis(np.ones(n, bool), SCREEN_CPIS)
+    cpis = _choose_cpis(np.ones(n, bool), ocfg.screen_cpis)
     data = _prepare(flight, pseudo, cpis, 1.0, ocfg, scfg)
     rmax_db = 20 * np.log10(rho_max(B, ocfg.max_weak_blade_db))
     grid = _screen_grid(ocfg)
@@ -1258,7 +1302,7 @@ def _rescue_rates(flight, est, scfg, ocfg: OrderConfig):
     sc = _screen_scores(data, grid, B, L, lam, ocfg, rmax_db, (1.0,))
     tried = []
     for gi in np.argsort(sc)[::-1]:
-        if len(tried) >= RESCUE_TRIES or not np.isfinite(sc[gi]):
+        if len(tried) >= ocfg.rescue_tries or not np.isfinite(sc[gi]):
             return
         f = float(grid[gi])
         if any(abs(np.log(f / t)) <= ocfg.rescue_rel for t in tried):
@@ -1297,8 +1341,8 @@ def _remeasure(flight, est, lines, ratio: float, scfg, rerun, ocfg: OrderConfig)
     it) where that finds it, else the lines' estimate scaled. Returns (estimate, how)."""
     v = lines.valid
     want = float(np.nanmedian(np.nanmedian(lines.speeds_rev_s[v], axis=1))) * ratio
-    lo = float(np.nanmin(lines.common_rev_s[v])) * ratio / RERUN_MARGIN
-    hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * RERUN_MARGIN
+    lo = float(np.nanmin(lines.common_rev_s[v])) * ratio / ocfg.rerun_margin
+    hi = float(np.nanmax(lines.common_rev_s[v])) * ratio * ocfg.rerun_margin
     lo, hi = max(lo, 0.5 * ocfg.min_rev_s), min(hi, 1.5 * ocfg.max_rev_s)
     if rerun is not None and lo < hi:
         new = rerun(replace(scfg, min_rev_s=lo, max_rev_s=hi, lone_p_min=0.0), n_blades=int(est.n_blades))

@@ -5,7 +5,8 @@ numbers: :mod:`microdoppler.importing.plausibility`).
 A drone's blade tips turn at a tip speed v = 2 pi f L (rotation rate f [rev/s], blade
 length L [m]) and return Doppler up to 2 v / lambda about the body's. Every limit
 below is the rotor-order resolver's (:class:`~microdoppler.rotors.order.OrderConfig`),
-not a new setting:
+not a new setting (the checks' own fixed settings, ``track_speed_tol_mps``,
+``segment_s`` and ``max_segments``, are ``config=False`` fields of it too):
 
 - the spectrum's Doppler extent (:func:`doppler_extent`: how far from the body the
   time-averaged spectrum stands ``line_db`` over its floor; the whole ±PRF/2 where it
@@ -19,7 +20,7 @@ not a new setting:
   which the rotors' lines lie symmetric) against the track's Doppler -2 v / lambda
   (averaged over the recording), where the track moves: the centre or the strongest
   line (the body line, as a rule) must agree with it within the
-  track's own spread over the recording, :data:`TRACK_SPEED_TOL_MPS` and three bins
+  track's own spread over the recording, ``track_speed_tol_mps`` and three bins
   (the sign aside: a swapped I/Q is warned about separately). A body line at another
   Doppler means the PRF (the frequency axis) or the carrier (the wavelength) is off;
 - with rotor speeds (estimated from the radar, ``--estimate-motors``, or logged): the
@@ -47,14 +48,6 @@ from ..spectra.floor import FLOOR_PERCENTILE
 from ..spectra.periodogram import periodogram
 from .order import SOUND_MPS, OrderConfig
 
-#: how well a track's radial velocity is trusted [m/s] (a tracker's range rate): the
-#: body line and the track's Doppler -2 v / lambda disagree only beyond it
-TRACK_SPEED_TOL_MPS = 1.0
-#: segments of the time-averaged spectrum: this long [s] (a power of two of pulses,
-#: 256-4096), at most this many, evenly spread over the recording
-SEGMENT_S = 0.1
-MAX_SEGMENTS = 64
-
 
 def _limits(ocfg: OrderConfig | None = None) -> tuple[OrderConfig, float]:
     ocfg = ocfg or OrderConfig()
@@ -64,7 +57,8 @@ def _limits(ocfg: OrderConfig | None = None) -> tuple[OrderConfig, float]:
 def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = None) -> dict | None:
     """How far the recording's time-averaged spectrum reaches from its body line.
 
-    The mean Blackman-Harris periodogram of :data:`SEGMENT_S` segments; a bin is
+    The mean Blackman-Harris periodogram of ``ocfg.segment_s`` segments (at most
+    ``ocfg.max_segments``); a bin is
     occupied where it stands ``line_db`` over the floor (the spectrum's
     ``FLOOR_PERCENTILE``-th percentile), outside the clutter band (``clutter_guard_hz``
     about 0 Hz), and counts with its two neighbours each side. A rotor's lines lie
@@ -83,12 +77,12 @@ def doppler_extent(iq: np.ndarray, prf_hz: float, *, ocfg: OrderConfig | None = 
     ocfg = ocfg or OrderConfig()
     iq = np.asarray(iq)
     n = len(iq)
-    n_fft = int(min(4096, max(256, 2 ** round(math.log2(max(SEGMENT_S * prf_hz, 1.0))))))
+    n_fft = int(min(4096, max(256, 2 ** round(math.log2(max(ocfg.segment_s * prf_hz, 1.0))))))
     if n < n_fft:
         n_fft = 2 ** int(math.log2(max(n, 2)))
         if n_fft < 64:
             return None
-    starts = np.unique(np.linspace(0, n - n_fft, min(MAX_SEGMENTS, max(1, 2 * n // n_fft - 1))).astype(int))
+    starts = np.unique(np.linspace(0, n - n_fft, min(ocfg.max_segments, max(1, 2 * n // n_fft - 1))).astype(int))
     p = periodogram(iq, n_fft, starts=starts, demean=True, average=True)
     db = 10 * np.log10(p + 1e-30)
     floor = float(np.percentile(db, FLOOR_PERCENTILE))
@@ -152,7 +146,7 @@ def spectrum_problems(flight, *, ocfg: OrderConfig | None = None) -> list[tuple[
     ext = doppler_extent(flight.iq, prf, ocfg=ocfg)
     if ext is None:
         return []
-    out = body_problems(flight, ext)
+    out = body_problems(flight, ext, ocfg=ocfg)
     f_max = min(ocfg.max_rev_s, v_max / (2 * math.pi * L))
     reach = tip_reach_hz(f_max, L, carrier, ocfg)
     if ext["extent_hz"] <= reach:
@@ -174,9 +168,10 @@ def spectrum_problems(flight, *, ocfg: OrderConfig | None = None) -> list[tuple[
     ]
 
 
-def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
+def body_problems(flight, ext: dict | None, *, ocfg: OrderConfig | None = None) -> list[tuple[str, str, str]]:
     """The spectrum's body (``ext``, :func:`doppler_extent`) against the track's
     Doppler, where the track moves (module docstring)."""
+    ocfg = ocfg or OrderConfig()
     if ext is None or ext["filled"]:
         return []
     a = flight.attrs
@@ -186,7 +181,7 @@ def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
     if len(tt) == 0 or not np.all(np.isfinite(v)):
         return []
     pred = -2 * np.interp(t, tt, v) / lam
-    tol = 3 * prf / ext["n_fft"] + (pred.max() - pred.min()) / 2 + 2 * TRACK_SPEED_TOL_MPS / lam
+    tol = 3 * prf / ext["n_fft"] + (pred.max() - pred.min()) / 2 + 2 * ocfg.track_speed_tol_mps / lam
     mean = float(pred.mean())
 
     def wrap(x):
@@ -208,7 +203,7 @@ def body_problems(flight, ext: dict | None) -> list[tuple[str, str, str]]:
             f"{ext['peak_hz']:+.0f}, {ext['centre_hz']:+.0f} Hz), but the track's radial "
             f"velocity {v_mean:+.2f} m/s puts it at {wrap(mean):+.0f} Hz at carrier_hz {_unit(float(a['carrier_hz']))}"
             f" and prf_hz {prf:g} (they differ by {off:.0f} Hz, more than the {tol:.0f} Hz the track's spread and "
-            f"{TRACK_SPEED_TOL_MPS:g} m/s allow): check prf_hz, carrier_hz (or the track)",
+            f"{ocfg.track_speed_tol_mps:g} m/s allow): check prf_hz, carrier_hz (or the track)",
             "the body line at the track's Doppler -2 v / lambda",
         )
     ]
@@ -398,7 +393,7 @@ def setup_testability(
         t = np.linspace(0.0, len(flight.iq) / prf, 64)
         pred = -2 * np.interp(t, tt, v) / lam
         n_fft = ext["n_fft"] if ext is not None else 4096
-        tol = 3 * prf / n_fft + (pred.max() - pred.min()) / 2 + 2 * TRACK_SPEED_TOL_MPS / lam
+        tol = 3 * prf / n_fft + (pred.max() - pred.min()) / 2 + 2 * ocfg.track_speed_tol_mps / lam
         mean = abs(float(pred.mean()))
         moving = mean * (1 - 1 / TYPO_FACTOR) > tol
         body_note = (

@@ -27,6 +27,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.signal import decimate, resample_poly
 
+from ..configfields import check_ranges, knob
 from ..io.motorlog import MotorLog
 
 VARIANTS = ("sub_cpi", "per_cpi", "single_motor", "fixed_speeds")
@@ -46,14 +47,23 @@ class SamplingConfig:
         Rolling-average length for ``sub_cpi`` [pulses] (paper: 1000-3500).
     fixed_spread : float
         Relative half-width of the ``fixed_speeds`` draw around the typical speed.
+
+    ``sub_cpi_pad`` is a fixed setting (``config=False``, described by its field).
     """
 
     n_fft: int = 4096
     sub_cpi_per_cpi: int = 8
     window_pulses: int = 2500
     fixed_spread: float = 0.1
+    sub_cpi_pad: int = knob(
+        16,
+        "Decimated samples of edge padding against filter transients (``sub_cpi``).",
+        minimum=0,
+        config=False,
+    )
 
     def __post_init__(self):
+        check_ranges(self, "rotors.sampling", all_fields=True)  # the config=False knob's range
         if self.n_fft % self.sub_cpi_per_cpi:
             raise ValueError(f"n_fft={self.n_fft} must be a multiple of sub_cpi_per_cpi={self.sub_cpi_per_cpi}")
         if not 1 <= self.window_pulses <= 4 * self.n_fft:
@@ -105,24 +115,20 @@ def _moving_average(x: np.ndarray, w: int) -> np.ndarray:
     return (c[w : w + len(x)] - c[: len(x)]) / w
 
 
-#: decimated samples of edge padding against filter transients (``sub_cpi``)
-SUB_CPI_PAD = 16
-
-
 def sub_cpi_knots(
     log: MotorLog, motor: int, n_pulses: int, prf_hz: float, cfg: SamplingConfig = SamplingConfig()
 ) -> np.ndarray:
     """The decimated log of ``sub_cpi`` (before upsampling): float64 [n_knots] rev/s.
 
     ``sub_cpi_per_cpi`` samples per CPI, i.e. one every ``up = n_fft / sub_cpi_per_cpi``
-    pulses, with :data:`SUB_CPI_PAD` samples of padding at each end:
-    n_knots = ceil(n_pulses / up) + 2 * SUB_CPI_PAD. :func:`sub_cpi_from_knots` turns
+    pulses, with ``cfg.sub_cpi_pad`` samples of padding at each end:
+    n_knots = ceil(n_pulses / up) + 2 * sub_cpi_pad. :func:`sub_cpi_from_knots` turns
     them into the per-pulse speeds.
     """
     up = cfg.n_fft // cfg.sub_cpi_per_cpi
     fs_dec = prf_hz / up
     oversample = 8
-    pad = SUB_CPI_PAD
+    pad = cfg.sub_cpi_pad
     n_dec = -(-n_pulses // up) + 2 * pad
     t_fine = (np.arange(n_dec * oversample) - pad * oversample) / (fs_dec * oversample)
     fine = _spline(log, motor)(t_fine)
@@ -149,7 +155,7 @@ def sub_cpi_motor(
         sub_cpi_knots(log, motor, n_pulses, prf_hz, cfg),
         n_pulses,
         up=cfg.n_fft // cfg.sub_cpi_per_cpi,
-        pad=SUB_CPI_PAD,
+        pad=cfg.sub_cpi_pad,
         window_pulses=cfg.window_pulses,
     )
 
