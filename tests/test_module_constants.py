@@ -19,8 +19,10 @@ classified (or, better, made a field). ``rotors.fit`` and ``rotors.speed`` hold 
 any more: their fixed settings are fields of ``FitConfig`` and ``RotorSpeedConfig``
 (``config=False``: no pipeline key sets them); nor do ``causes.config``,
 ``causes.measure``, ``causes.motor_log`` and ``diagnosis.explain``: the diagnosis's fixed
-settings are fields of ``DiagnosisConfig`` (``config=False`` too); nor does
-``importing.iqbalance`` (``IQBalanceSettings``).
+settings are fields of ``DiagnosisConfig`` (``config=False`` too); nor do
+``importing.iqbalance`` (``IQBalanceSettings``), ``rotors.sampling`` and
+``datasets.fidelity``, nor, but for physical constants and conventions,
+``rotors.order`` and ``rotors.plausibility`` (``OrderConfig``).
 
 Counts (issue 57, at the conversion): 195 constants before; 42 converted to fields
 (``rotors.fit`` 24 -> ``FitConfig``, ``rotors.speed`` 18 -> ``RotorSpeedConfig``);
@@ -31,9 +33,15 @@ about). The diagnosis: 37 converted to ``DiagnosisConfig`` fields (``causes.conf
 ``causes.measure`` 4, ``causes.sideband_fading`` 2, ``diagnosis.explain`` 2,
 ``causes.motor_log`` 1, ``causes.blade_imbalance`` 1); the twins' and the emulator's
 process defaults of ``causes.*`` stay, no diagnosis settings. 118 remain: 24
-physical/convention, 4 identifiers, 90 fixed method settings not yet fields. Then
-``importing.iqbalance``'s 11 became fields of a new ``IQBalanceSettings`` (config=False):
-107 remain, 79 fixed method settings not yet fields.
+physical/convention, 4 identifiers, 90 fixed method settings not yet fields. Then 28
+more (config=False fields): ``importing.iqbalance`` 11 -> a new ``IQBalanceSettings``,
+``rotors.order`` 6 and ``rotors.plausibility`` 3 -> ``OrderConfig``, ``rotors.sampling``
+1 -> ``SamplingConfig``, ``datasets.calibration`` 4 -> ``CalibrationConfig``,
+``datasets.fidelity`` 3 -> ``FidelityConfig``; the shared helpers' defaults
+(``spectra.floor``, ``spectra.lines``, ``stats.bootstrap``, ``io.*``, ``importing.fmcw``,
+``importing.plausibility``: no settings class) and ``classifier.training``'s (its
+``TrainConfig.to_dict`` is stored in outputs) stay. 90 remain: 24 physical/convention,
+4 identifiers, 62 fixed method settings not yet fields.
 """
 
 from __future__ import annotations
@@ -82,8 +90,8 @@ IDENTIFIERS = {
     "causes.twins:_BACKGROUND_STREAM": "offset of the background's phase-noise stream from the twin's seed",
 }
 
-#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 79
-#: in 25 modules; the most in emulator.world 9, emulator.bird 7, synthesis.model 7)
+#: fixed method settings not yet fields of a settings dataclass, by module (the debt: 62
+#: in 21 modules; the most in emulator.world 9, emulator.bird 7, synthesis.model 7)
 NOT_YET_FIELDS = {
     "causes.body_fluctuation": {
         "BODY_TIMESCALE_S": "the twins' body process's time where a file gives none [s]: no diagnosis setting",
@@ -97,23 +105,14 @@ NOT_YET_FIELDS = {
         "DEFAULT_FADING_TIMESCALE_S": "the twins' fading time where a file gives none [s]: no diagnosis setting",
     },
     "classifier.training": {
-        "EVAL_FORWARD_BATCH": "evaluation's forward pass chunk (cache size; same bits)",
+        "EVAL_FORWARD_BATCH": "evaluation's forward chunk (cache; same bits): TrainConfig.to_dict is stored in outputs",
     },
     "commands.simulate": {
         "PROGRESS_MIN_PULSES": "runs longer than this report progress",
         "MAX_PULSES": "largest recording simulate writes (8 GiB of I/Q)",
     },
     "datasets.calibration": {
-        "HIGHPASS_MARGIN_PULSES": "pulses synthesised beyond each end of a calibration run (high-pass transients)",
-        "FIT_RUN_CPIS": "consecutive fit CPIs per run of the capped calibration subset",
-        "ALPHA_RECHECK": "alphas of a capped search tried again on every fit CPI",
-        "FINAL_TOL_FRACTION": "the final scale fit's tolerance divisor",
-        "_FFT_BATCH": "CPIs per FFT batch of the STFT (memory only)",
-    },
-    "datasets.fidelity": {
-        "DILATION_STEP": "dilation grid step of line_dilation",
-        "DILATION_SMOOTH_CPIS": "running median of the dilation [CPIs]",
-        "NONMULTIPLE_MIN_Z": "z of the blade-passing lines used as the non-multiple lines' reference",
+        "_FFT_BATCH": "CPIs per FFT batch of StftColumns (memory only): it reads a SpectrogramConfig, no own settings",
     },
     "emulator.background": {
         "RANGE_CELL_M": "emulated clutter cell size in range [m]",
@@ -160,31 +159,31 @@ NOT_YET_FIELDS = {
         "PHASE_GRID": "points per revolution of the generator's Fourier series",
     },
     "importing.fmcw": {
-        "DEFAULT_CPI_S": "default CPI of an FMCW import [s]",
-        "VELOCITY_FIT_S": "span of the range-rate fit [s]",
+        "DEFAULT_CPI_S": "default CPI of an FMCW import [s]: FmcwParameters is the declared radar, no method settings",
+        "VELOCITY_FIT_S": "span of the range-rate fit [s]: no settings class (FmcwParameters is the declared radar)",
     },
     "importing.plausibility": {
-        "PRF_RANGE_HZ": "plausible pulse repetition frequencies [Hz]",
-        "TIP_SPEED_RANGE_MPS": "plausible blade-tip speeds [m/s]",
-        "MAX_TIP_FOLDS": "folds past +-PRF/2 of the slowest tips' Doppler that still pass",
+        "PRF_RANGE_HZ": "plausible pulse repetition frequencies [Hz]: checks of declared numbers, no settings class",
+        "TIP_SPEED_RANGE_MPS": "plausible blade-tip speeds [m/s]: no settings class (rotors.plausibility reads it too)",
+        "MAX_TIP_FOLDS": "folds past +-PRF/2 of the slowest tips' Doppler that still pass: no settings class",
     },
     "io.inventory": {
-        "MIN_SPLIT_FLIGHTS": "flights of each class a flight-disjoint split needs",
+        "MIN_SPLIT_FLIGHTS": "flights of each class a flight-disjoint split needs: a function's default, no settings class",
     },
     "io.motorlog": {
-        "PLAUSIBLE_MEDIAN_REV_S": "plausible median flying speed of a rotor [rev/s]",
-        "MAX_REV_S": "absolute ceiling of a logged rotor speed [rev/s]",
+        "PLAUSIBLE_MEDIAN_REV_S": "plausible median flying speed of a rotor [rev/s]: MotorLog is data, no settings class",
+        "MAX_REV_S": "absolute ceiling of a logged rotor speed [rev/s]: no settings class",
     },
     "spectra.floor": {
-        "FLOOR_WINDOW_BINS": "window of the local noise floor [bins]",
-        "FLOOR_STEP_BINS": "step of the local noise floor [bins]",
-        "FLOOR_PERCENTILE": "percentile of the local noise floor",
+        "FLOOR_WINDOW_BINS": "window of the local noise floor [bins]: local_floor_db's default, shared, no settings class",
+        "FLOOR_STEP_BINS": "step of the local noise floor [bins]: local_floor_db's default, no settings class",
+        "FLOOR_PERCENTILE": "percentile of the local noise floor: local_floor_db's default, no settings class",
     },
     "spectra.lines": {
-        "MAX_HALF_SPACING": "a HERM pair's search half-width, as a fraction of the line spacing",
+        "MAX_HALF_SPACING": "a HERM pair's search half-width / line spacing: helpers of several callers, no settings class",
     },
     "stats.bootstrap": {
-        "N_BOOT": "default number of bootstrap replicates",
+        "N_BOOT": "default number of bootstrap replicates: helpers of several callers, no settings class",
     },
     "synthesis.model": {
         "TABLE_SIZE": "entries of the synthesis lookup table",
@@ -315,6 +314,14 @@ CONVERTED = {
     },
     "rotors.plausibility": {"TRACK_SPEED_TOL_MPS": 1.0, "SEGMENT_S": 0.1, "MAX_SEGMENTS": 64},
     "rotors.sampling": {"SUB_CPI_PAD": 16},
+    # the calibration's and the fidelity measurement's -> CalibrationConfig, FidelityConfig
+    "datasets.calibration": {
+        "HIGHPASS_MARGIN_PULSES": 2048,
+        "FIT_RUN_CPIS": 4,
+        "ALPHA_RECHECK": 3,
+        "FINAL_TOL_FRACTION": 4,
+    },
+    "datasets.fidelity": {"DILATION_STEP": 0.0025, "DILATION_SMOOTH_CPIS": 9, "NONMULTIPLE_MIN_Z": 3.0},
 }
 
 #: modules whose every fixed setting is a field (none left in the inventory but physical
@@ -330,6 +337,7 @@ FIELDS_ONLY = (
     "rotors.order",
     "rotors.plausibility",
     "rotors.sampling",
+    "datasets.fidelity",
 )
 
 _NAME = re.compile(r"^_?[A-Z][A-Z0-9_]*$")
@@ -407,9 +415,11 @@ def test_every_entry_has_a_one_line_reason():
 
 
 def test_the_rotor_speed_estimator_fit_and_diagnosis_hold_no_fixed_settings():
-    """rotors.fit, rotors.speed and the diagnosis's settings, measurement, motor-log
-    test and explanation: every fixed setting is a field (FitConfig, RotorSpeedConfig,
-    DiagnosisConfig); none is left in the not-yet list or the inventory."""
+    """rotors.fit, rotors.speed, the diagnosis's settings, measurement, motor-log test
+    and explanation, the I/Q balance, the order check, the plausibility checks, sub_cpi
+    and the fidelity measurement: every fixed setting is a field (FitConfig,
+    RotorSpeedConfig, DiagnosisConfig, IQBalanceSettings, OrderConfig, SamplingConfig,
+    FidelityConfig); none is left in the not-yet list or the inventory."""
     assert not set(FIELDS_ONLY) & set(NOT_YET_FIELDS)
     left = [k for k in inventory() if k.split(":")[0] in FIELDS_ONLY and k not in PHYSICAL and k not in IDENTIFIERS]
     assert not left, left
@@ -423,6 +433,8 @@ def test_the_converted_constants_are_fields_with_their_former_values(module):
 
     from microdoppler.causes.config import DiagnosisConfig
     from microdoppler.configfields import config_names
+    from microdoppler.datasets.calibration import CalibrationConfig
+    from microdoppler.datasets.fidelity import FidelityConfig
     from microdoppler.importing.iqbalance import IQBalanceSettings
     from microdoppler.rotors.fit import FitConfig
     from microdoppler.rotors.order import OrderConfig
@@ -437,6 +449,8 @@ def test_the_converted_constants_are_fields_with_their_former_values(module):
         "rotors.order": OrderConfig,
         "rotors.plausibility": OrderConfig,
         "rotors.sampling": SamplingConfig,
+        "datasets.calibration": CalibrationConfig,
+        "datasets.fidelity": FidelityConfig,
     }
     cls = classes.get(module, DiagnosisConfig)
     cfg = cls()

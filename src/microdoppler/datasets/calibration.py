@@ -20,7 +20,8 @@ measured with the same spectrogram chain and the one SNR measure (``lines``):
    of re-synthesising or re-transforming; each step is a multiplicative update by the
    dB error (fixed point), repeated until both errors are below a quarter of the
    tolerance or ``max_iter`` steps (at the chosen alpha: a sixteenth,
-   ``FINAL_TOL_FRACTION``).
+   ``final_tol_fraction``; the fixed settings are ``config=False`` fields of
+   :class:`CalibrationConfig`).
    The blade's mean over a revolution (its zero-Doppler term, which sits on the
    body line) is removed by default (``remove_blade_mean``), so S_body alone sets
    the body line.
@@ -32,11 +33,11 @@ measured with the same spectrogram chain and the one SNR measure (``lines``):
 Cost: the alpha search (steps 1-2 for every alpha) reads at most ``max_fit_cpis``
 of the fit CPIs (fold A), in short runs spread evenly over the flight; the body and
 blade components are synthesised and high-passed only around those CPIs
-(``HIGHPASS_MARGIN_PULSES`` either side), so the search costs the same for any flight
-duration. Its best ``ALPHA_RECHECK`` alphas are then ranked again with step 2 on
+(``highpass_margin_pulses`` either side), so the search costs the same for any flight
+duration. Its best ``alpha_recheck`` alphas are then ranked again with step 2 on
 every fit CPI (whole body and blade records), the final scale fit runs on every fit
 CPI, and step 3 checks the twin on every fit CPI: only these grow with the duration
-(ALPHA_RECHECK + 2 record syntheses and spectrograms).
+(``alpha_recheck`` + 2 record syntheses and spectrograms).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import butter, sosfilt, sosfilt_zi
 
-from ..configfields import check_keys, config_names, knob
+from ..configfields import check_keys, check_ranges, config_names, knob
 from ..causes.heldout import folds
 from ..io.flightzarr import Flight, read_flight
 from ..io.inventory import list_flights, read_ingested_log
@@ -73,18 +74,6 @@ from .speeds import BASE_SAMPLING, open_speeds, read_rev_s
 from .stores import flight_ids, put_array, stable_seed, writing_store
 from .tables import TABLE_IV_COLUMNS
 
-#: pulses synthesised and high-passed beyond each end of a run of calibration CPIs:
-#: the zero-phase 15 Hz Butterworth high-pass of a segment then matches the whole
-#: record's within ~1e-3 dB on every line and floor the fit reads (docs/experiments.md,
-#: "Calibration cost")
-HIGHPASS_MARGIN_PULSES = 2048
-#: consecutive fit CPIs per run of the capped calibration subset (runs cost
-#: (run - 1) hops + one CPI + 2 margins of synthesis; the runs are spread evenly)
-FIT_RUN_CPIS = 4
-#: alphas of a capped search (best first) tried again on every fit CPI, whole records
-ALPHA_RECHECK = 3
-#: the final scale fit stops below tolerance_db / (4 x this) (the search: / 4)
-FINAL_TOL_FRACTION = 4
 #: CPIs per FFT batch of the STFT (bounds its working memory to ~32 MiB)
 _FFT_BATCH = 1024
 
@@ -124,11 +113,14 @@ class CalibrationConfig:
         (``microdoppler.datasets.fidelity``). 0 fits on every CPI.
     max_fit_cpis : int
         Most fit CPIs (spectrogram timesteps of fold A) the alpha search (with its
-        scale fits) reads: runs of ``FIT_RUN_CPIS`` consecutive fold-A CPIs spread
+        scale fits) reads: runs of ``fit_run_cpis`` consecutive fold-A CPIs spread
         evenly over the flight (:meth:`search_cpis`), so its cost does not grow with
-        the flight's duration. Its best ``ALPHA_RECHECK`` alphas are ranked again,
+        the flight's duration. Its best ``alpha_recheck`` alphas are ranked again,
         and the final scale fit and the twin's check run, on every fold-A CPI.
         0 searches on every fold-A CPI.
+
+    The fields from ``highpass_margin_pulses`` on are fixed settings (``config=False``:
+    no key of ``datasets.calibration`` sets them), each described by its field.
     """
 
     tolerance_db: float = knob(
@@ -161,6 +153,33 @@ class CalibrationConfig:
         "of fold A at a fraction of its time (docs/experiments.md, 'Calibration cost').",
         minimum=0,
     )
+    highpass_margin_pulses: int = knob(
+        2048,
+        "Pulses synthesised and high-passed beyond each end of a run of calibration CPIs: the zero-phase 15 Hz "
+        "Butterworth high-pass of a segment then matches the whole record's within ~1e-3 dB on every line and "
+        "floor the fit reads (docs/experiments.md, 'Calibration cost').",
+        minimum=0,
+        config=False,
+    )
+    fit_run_cpis: int = knob(
+        4,
+        "Consecutive fit CPIs per run of the capped calibration subset (runs cost (run - 1) hops + one CPI + 2 "
+        "margins of synthesis; the runs are spread evenly).",
+        minimum=1,
+        config=False,
+    )
+    alpha_recheck: int = knob(
+        3,
+        "Alphas of a capped search (best first) tried again on every fit CPI, whole records.",
+        minimum=1,
+        config=False,
+    )
+    final_tol_fraction: int = knob(
+        4,
+        "The final scale fit stops below tolerance_db / (4 x this) (the search: / 4).",
+        exclusive_minimum=0,
+        config=False,
+    )
 
     def __post_init__(self):
         if not self.tolerance_db > 0:
@@ -179,6 +198,7 @@ class CalibrationConfig:
             raise ValueError(f"holdout_block_cpis={self.holdout_block_cpis} must be >= 0")
         if self.max_fit_cpis < 0:
             raise ValueError(f"max_fit_cpis={self.max_fit_cpis} must be >= 0 (0: every fit CPI)")
+        check_ranges(self, "datasets.calibration", all_fields=True)  # the config=False knobs' ranges too
 
     @classmethod
     def from_config(cls, calibration: dict | None, search_hz: float, source="config") -> "CalibrationConfig":
@@ -199,8 +219,8 @@ class CalibrationConfig:
         subset of ``fit_mask`` (bool [n_timesteps]).
 
         Every fit CPI when ``max_fit_cpis`` is 0 or not smaller than their number;
-        else the fit CPIs cut into runs of at most ``FIT_RUN_CPIS`` consecutive CPIs
-        and ``ceil(max_fit_cpis / FIT_RUN_CPIS)`` of those runs evenly spaced (first
+        else the fit CPIs cut into runs of at most ``fit_run_cpis`` consecutive CPIs
+        and ``ceil(max_fit_cpis / fit_run_cpis)`` of those runs evenly spaced (first
         and last included), truncated to ``max_fit_cpis`` CPIs. Deterministic.
         """
         idx = np.flatnonzero(np.asarray(fit_mask, bool))
@@ -208,8 +228,9 @@ class CalibrationConfig:
         if cap == 0 or len(idx) <= cap:
             return idx
         breaks = np.flatnonzero(np.diff(idx) != 1) + 1
-        runs = [p[i : i + FIT_RUN_CPIS] for p in np.split(idx, breaks) for i in range(0, len(p), FIT_RUN_CPIS)]
-        n_runs = min(len(runs), -(-cap // FIT_RUN_CPIS))
+        run = self.fit_run_cpis
+        runs = [p[i : i + run] for p in np.split(idx, breaks) for i in range(0, len(p), run)]
+        n_runs = min(len(runs), -(-cap // run))
         pick = np.unique(np.round(np.linspace(0, len(runs) - 1, n_runs)).astype(int))
         return np.sort(np.concatenate([runs[i] for i in pick]))[:cap]
 
@@ -611,7 +632,7 @@ def fit_twin(
     n_motors = rev_s.shape[1]
     blade_mean = complex(blades.table().mean())
     whole = extensions is not None or post is not None
-    segs = _segments(stft, cpis, HIGHPASS_MARGIN_PULSES)  # whole: synthesised whole, high-passed in segments
+    segs = _segments(stft, cpis, cfg.highpass_margin_pulses)  # whole: synthesised whole, high-passed in segments
     # segment synthesis starts each segment at the whole record's rotor angles: the
     # seed's initial angles (as synthesize draws them) plus the turns up to the segment
     start_cycles = np.random.default_rng(seed).uniform(0, 1, n_motors)
@@ -709,7 +730,7 @@ def fit_twin(
     # swamps the body line cannot be fitted), then the count, then the harmonic profile
     trials.sort(key=lambda r: r[:3])
     if len(cpis) < len(fit_cpis):
-        # a capped search: its best ALPHA_RECHECK alphas are tried again on every fit
+        # a capped search: its best cfg.alpha_recheck alphas are tried again on every fit
         # CPI (whole body and blade records), starting from the scales it found
         targets = LineTargets.of(
             meter.windows(fit_cpis, m_rate, m_spread_flight).measure(meas_db[fit_cpis])[0], cfg.visible_db
@@ -717,7 +738,7 @@ def fit_twin(
         win = meter.windows(fit_cpis, t_rate, t_spread_flight)
         body_cols = stft.columns(stft.highpass(synth(Scaling(1.0, 0.0, 0.0))), fit_cpis)
         bg_cols = stft.columns(bg_hp, fit_cpis)
-        best = [r[3:6] for r in trials[:ALPHA_RECHECK]]  # (alpha, s_body, s_blade)
+        best = [r[3:6] for r in trials[: cfg.alpha_recheck]]  # (alpha, s_body, s_blade)
         trials = sorted(
             (
                 trial(
@@ -748,7 +769,7 @@ def fit_twin(
         s_body0=s_b,
         s_blade0=s_m,
         max_iter=cfg.max_iter,
-        tol_db=tol / FINAL_TOL_FRACTION,
+        tol_db=tol / cfg.final_tol_fraction,
     )
     del body_cols, blade_cols, bg_cols, bg_hp
     # check: synthesise the whole twin from scratch with the fitted values, inject and

@@ -64,7 +64,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..configfields import check_keys, config_names, knob
+from ..configfields import check_keys, check_ranges, config_names, knob
 from ..stats.bootstrap import N_BOOT, draw_flights, interval, ratio_replicates, resolved
 from .calibration import CalibrationConfig
 from .injection import INJECTED_SCHEMA
@@ -151,6 +151,13 @@ class FidelityConfig:
     nonmultiple_min_cpis : int
         ``nonmultiple_db`` needs the blade-passing reference in at least this many
         scored CPIs (else NaN: not measured).
+    dilation_step : float
+        Grid step of the line dilation's search (:func:`line_dilation`).
+    dilation_smooth_cpis : int
+        CPIs of the line dilation's running median.
+    nonmultiple_min_z : float
+        The blade-passing lines used as the non-multiple lines' reference stand this
+        many noise standard deviations above the floor.
     """
 
     visible_db: float = knob(10.0, config=False)
@@ -173,6 +180,9 @@ class FidelityConfig:
     dilation_range: float = knob(0.15, config=False)
     nonmultiple_z: float = knob(3.0, config=False)
     nonmultiple_min_cpis: int = knob(10, config=False)
+    dilation_step: float = knob(0.0025, exclusive_minimum=0, config=False)
+    dilation_smooth_cpis: int = knob(9, minimum=1, config=False)
+    nonmultiple_min_z: float = knob(3.0, config=False)
 
     def __post_init__(self):
         if not self.search_hz > 0:
@@ -187,6 +197,7 @@ class FidelityConfig:
             raise ValueError(f"rotation_orders={self.rotation_orders} must be >= 1")
         if not 0 <= self.dilation_range < 1:
             raise ValueError(f"dilation_range={self.dilation_range} must be in [0, 1)")
+        check_ranges(self, "fidelity", all_fields=True)  # the config=False knobs' ranges too
 
     @classmethod
     def from_config(cls, fidelity: dict, calibration: dict, search_hz: float, source="config") -> "FidelityConfig":
@@ -363,25 +374,32 @@ def cpi_features(
     )
 
 
-#: dilation grid step of :func:`line_dilation` and the CPIs of its running median
-DILATION_STEP = 0.0025
-DILATION_SMOOTH_CPIS = 9
-
-
 def line_dilation(
-    st: Stft, f_body_hz, motor_rev_s, valid, *, n_blades: int, max_rel: float, smooth_cpis: int = DILATION_SMOOTH_CPIS
+    st: Stft,
+    f_body_hz,
+    motor_rev_s,
+    valid,
+    *,
+    n_blades: int,
+    max_rel: float,
+    smooth_cpis: int | None = None,
+    step: float | None = None,
 ) -> np.ndarray:
-    """Per CPI the factor s (within 1 +- ``max_rel``) by which the rotors' lines sit
-    off their given rates: the s whose blade-passing lines (orders B and 2B of every
-    rotor, both sides, +-1 bin) hold the most power, then a running median over
-    ``smooth_cpis`` CPIs of those where the lines stand above the floor (others get
-    the median of the flight; 1 when there is none). A log's scale error or lag moves
-    every rotor's lines by about the same factor."""
+    """Per CPI the factor s (within 1 +- ``max_rel``, on a grid of ``step``) by which
+    the rotors' lines sit off their given rates: the s whose blade-passing lines
+    (orders B and 2B of every rotor, both sides, +-1 bin) hold the most power, then a
+    running median over ``smooth_cpis`` CPIs of those where the lines stand above the
+    floor (others get the median of the flight; 1 when there is none). A log's scale
+    error or lag moves every rotor's lines by about the same factor. ``smooth_cpis``
+    and ``step`` default to :class:`FidelityConfig`'s ``dilation_smooth_cpis`` and
+    ``dilation_step``."""
+    smooth_cpis = FidelityConfig().dilation_smooth_cpis if smooth_cpis is None else smooth_cpis
+    step = FidelityConfig().dilation_step if step is None else step
     n_t = len(st.t_s)
     out = np.full(n_t, np.nan)
     if max_rel <= 0:
         return np.ones(n_t)
-    grid = np.arange(1 - max_rel, 1 + max_rel + DILATION_STEP / 2, DILATION_STEP)
+    grid = np.arange(1 - max_rel, 1 + max_rel + step / 2, step)
     orders = n_blades * np.array([1.0, 2.0])
     n_bins = st.p.shape[1]
     for i in np.flatnonzero(valid):
@@ -463,7 +481,16 @@ def rotation_line_sums(
         & (~beyond if notched else beyond)
     )
     floor = np.median(st.p, axis=1) / np.log(2.0)
-    s = line_dilation(st, f_body_hz, rev, valid, n_blades=n_blades, max_rel=cfg.dilation_range)
+    s = line_dilation(
+        st,
+        f_body_hz,
+        rev,
+        valid,
+        n_blades=n_blades,
+        max_rel=cfg.dilation_range,
+        smooth_cpis=cfg.dilation_smooth_cpis,
+        step=cfg.dilation_step,
+    )
     P, V, W, R = rotation_line_powers(
         st,
         f_body_hz,
@@ -476,7 +503,7 @@ def rotation_line_sums(
         raised_floor_db=DiagnosisConfig().raised_floor_db,  # the diagnosis's sideband guard, as it fixes it
     )
     x, v0, w, ref, idx = non_multiple_observations(
-        P, V, W, R, np.asarray(line_power, float), n_blades, n_m, min_z=NONMULTIPLE_MIN_Z
+        P, V, W, R, np.asarray(line_power, float), n_blades, n_m, min_z=cfg.nonmultiple_min_z
     )
     var = v0 + w * np.clip(x, 0, None)
     return (
@@ -484,11 +511,6 @@ def rotation_line_sums(
         np.bincount(idx, ref, minlength=n_t),
         np.bincount(idx, var, minlength=n_t),
     )
-
-
-#: blade-passing lines used as the reference of the non-multiple lines stand this many
-#: noise standard deviations above the floor
-NONMULTIPLE_MIN_Z = 3.0
 
 
 def nonmultiple_db(f: CpiFeatures, mask, cfg: FidelityConfig = FidelityConfig()) -> float:
