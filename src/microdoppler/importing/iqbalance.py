@@ -50,8 +50,8 @@ from ..spectra.periodogram import stft
 
 @dataclass(frozen=True)
 class IQBalanceSettings:
-    """The fixed settings of the I/Q balance measurement and its warnings (issue 57:
-    fields, not module constants). No configuration key sets them (``config=False``);
+    """The fixed settings of the I/Q balance measurement and its warnings, each
+    described by its field. No configuration key sets them (``config=False``);
     :func:`iq_sanity`, :func:`mirror_balance`, :func:`body_balance` and
     :func:`sanity_warnings` take an instance as ``settings`` (default: these defaults).
     """
