@@ -117,3 +117,31 @@ def test_an_ambiguous_radar_order_is_named_with_its_rates():
     order["ambiguous"] = True
     flight.attrs["motors_source"] = "log"
     assert "rotor_order" not in setup_testability(flight, REV_S, log_independent=True)
+
+
+def test_enough_cpis_but_nothing_testable_says_why_each_test_declined():
+    """A flight whose CPIs suffice but whose every test declined is skipped with each
+    test's reason, not with "too few usable CPIs" (any56207 of eval_orders read "has 17
+    of 22 CPIs usable ... expected >= 16"); too few CPIs still reads as before."""
+    from microdoppler.diagnosis import DiagnosisConfig
+    from microdoppler.diagnosis.hypotheses import check_testable
+    from microdoppler.diagnosis.measure import Undiagnosable
+
+    cfg = DiagnosisConfig()
+    valid = np.zeros(22, bool)
+    valid[: 2 * cfg.block_cpis + 1] = True
+    M = SimpleNamespace(flight_id="f", valid=valid, t_s=np.arange(22.0))
+    tests = {
+        "motor_log_lag": SimpleNamespace(testable=False, evidence={"reason": "log from the radar"}),
+        "phase_noise": SimpleNamespace(testable=False, evidence={"reason": "body in the clutter notch"}),
+    }
+    with pytest.raises(Undiagnosable) as e:
+        check_testable(M, tests, cfg)
+    assert e.value.reason.startswith("no cause testable") and "too few" not in e.value.reason
+    assert (
+        "motor_log_lag: log from the radar" in e.value.reason and "phase_noise: body in the clutter" in e.value.reason
+    )
+    M.valid = valid & (np.arange(22) < 2 * cfg.block_cpis - 1)
+    with pytest.raises(Undiagnosable) as e:
+        check_testable(M, tests, cfg)
+    assert e.value.reason.startswith("too few usable CPIs")

@@ -208,10 +208,11 @@ class TestResults:
 
 def check_testable(M: Measurements, tests: dict, cfg: DiagnosisConfig) -> None:
     """:class:`~.measure.Undiagnosable` when the measurement leaves nothing to test:
-    too few usable CPIs, or no test of the rotors' lines possible (none visible)."""
+    too few usable CPIs, no cause testable (each test's reason named), or no test of the
+    rotors' lines possible (none visible)."""
     fid = M.flight_id
     nv = int(M.valid.sum())
-    if nv < 2 * cfg.block_cpis or not any(t.testable for t in tests.values()):
+    if nv < 2 * cfg.block_cpis:
         problem = (
             f"has {nv} of {len(M.t_s)} CPIs usable (body Doppler outside the clutter notch, "
             f"no floor artifact, within the motor log's span)"
@@ -219,6 +220,13 @@ def check_testable(M: Measurements, tests: dict, cfg: DiagnosisConfig) -> None:
         expected = f">= {2 * cfg.block_cpis} usable CPIs"
         raise Undiagnosable(
             fid, "iq", problem, expected, reason=f"too few usable CPIs: iq: {problem} (expected {expected})"
+        )
+    if not any(t.testable for t in tests.values()):
+        # enough CPIs, but every test declined: say why each did, not that CPIs lack
+        why = "; ".join(f"{c}: {t.evidence.get('reason', 'not testable')}" for c, t in tests.items())
+        problem = f"has {nv} usable CPIs but no cause is testable ({why})"
+        raise Undiagnosable(
+            fid, "iq", problem, "a cause the flight's data can test", reason=f"no cause testable: iq: {problem}"
         )
     if not any(tests[c].testable for c in rotor_causes()):
         problem = (
