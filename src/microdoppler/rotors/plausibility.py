@@ -168,6 +168,22 @@ def spectrum_problems(flight, *, ocfg: OrderConfig | None = None) -> list[tuple[
     ]
 
 
+def _track_doppler(flight, n_fft: int, ocfg: OrderConfig):
+    """The track's Doppler -2 v / lambda over the recording, as :func:`body_problems`
+    reads it: (its mean [Hz], the tolerance a body line may depart from it [Hz]: three
+    bins of ``n_fft``, half the track's spread and ``track_speed_tol_mps``, the 64 times
+    [s], the track's times and radial velocities); None without a usable track."""
+    a = flight.attrs
+    prf, lam = float(a["prf_hz"]), SPEED_OF_LIGHT_MPS / float(a["carrier_hz"])
+    tt, v = np.asarray(flight.track_time_s, float), np.asarray(flight.track_radial_velocity_mps, float)
+    if len(tt) == 0 or not np.all(np.isfinite(v)):
+        return None
+    t = np.linspace(0.0, len(flight.iq) / prf, 64)
+    pred = -2 * np.interp(t, tt, v) / lam
+    tol = 3 * prf / n_fft + (pred.max() - pred.min()) / 2 + 2 * ocfg.track_speed_tol_mps / lam
+    return float(pred.mean()), float(tol), t, tt, v
+
+
 def body_problems(flight, ext: dict | None, *, ocfg: OrderConfig | None = None) -> list[tuple[str, str, str]]:
     """The spectrum's body (``ext``, :func:`doppler_extent`) against the track's
     Doppler, where the track moves (module docstring)."""
@@ -175,14 +191,11 @@ def body_problems(flight, ext: dict | None, *, ocfg: OrderConfig | None = None) 
     if ext is None or ext["filled"]:
         return []
     a = flight.attrs
-    prf, lam = float(a["prf_hz"]), SPEED_OF_LIGHT_MPS / float(a["carrier_hz"])
-    tt, v = np.asarray(flight.track_time_s, float), np.asarray(flight.track_radial_velocity_mps, float)
-    t = np.linspace(0.0, len(flight.iq) / prf, 64)
-    if len(tt) == 0 or not np.all(np.isfinite(v)):
+    prf = float(a["prf_hz"])
+    track = _track_doppler(flight, ext["n_fft"], ocfg)
+    if track is None:
         return []
-    pred = -2 * np.interp(t, tt, v) / lam
-    tol = 3 * prf / ext["n_fft"] + (pred.max() - pred.min()) / 2 + 2 * ocfg.track_speed_tol_mps / lam
-    mean = float(pred.mean())
+    mean, tol, t, tt, v = track
 
     def wrap(x):
         return (x + prf / 2) % prf - prf / 2
@@ -383,18 +396,13 @@ def setup_testability(
         return {}
     ocfg = ocfg or OrderConfig()
     prf, carrier, L = float(a["prf_hz"]), float(a["carrier_hz"]), float(L)
-    lam = SPEED_OF_LIGHT_MPS / carrier
     ext = doppler_extent(flight.iq, prf, ocfg=ocfg)
     # the body against the track: how far the track's mean Doppler lies from 0 Hz, in
     # units of the check's tolerance (as body_problems reads it)
     moving, body_note = False, "no track"
-    tt, v = np.asarray(flight.track_time_s, float), np.asarray(flight.track_radial_velocity_mps, float)
-    if len(tt) and np.all(np.isfinite(v)):
-        t = np.linspace(0.0, len(flight.iq) / prf, 64)
-        pred = -2 * np.interp(t, tt, v) / lam
-        n_fft = ext["n_fft"] if ext is not None else 4096
-        tol = 3 * prf / n_fft + (pred.max() - pred.min()) / 2 + 2 * ocfg.track_speed_tol_mps / lam
-        mean = abs(float(pred.mean()))
+    track = _track_doppler(flight, ext["n_fft"] if ext is not None else 4096, ocfg)
+    if track is not None:
+        mean, tol = abs(track[0]), track[1]
         moving = mean * (1 - 1 / TYPO_FACTOR) > tol
         body_note = (
             f"a frequency axis or wavelength {TYPO_FACTOR:g}x off moves the body line by "
